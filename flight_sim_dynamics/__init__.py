@@ -1,0 +1,22 @@
+"""flight_sim_dynamics: inverse kinematics and dynamics of the 3-DOF parallel
+flight simulator of Staicu, Ocnarescu and Ungureanu (2013), by the paper's
+recursive matrix method, with a ROS 2 node around it.
+
+Python API (model/data style)::
+
+    import flight_sim_dynamics as fsd
+    model = fsd.load_model()                 # packaged defaults, or a YAML path
+    sol = fsd.solve(model, q, qd, qdd)       # one cycle: sol.length, .force, ...
+    batch = fsd.solve_batch(model, Q, Qd, Qdd)   # N x 3 arrays
+
+The numerical core imports numpy only; rclpy is needed by the node alone.
+"""
+from . import trajectories
+from .kinematics import UnreachablePoseError
+from .model import JOINT_NAMES, LEG_NAMES, Model
+from .parameters import ParameterError, load_model
+from .solver import Solution, solve, solve_batch
+
+__all__ = ['load_model', 'solve', 'solve_batch', 'Model', 'Solution', 'ParameterError',
+           'UnreachablePoseError', 'JOINT_NAMES', 'LEG_NAMES', 'trajectories']
+__version__ = '0.1.0'

@@ -1,0 +1,116 @@
+"""Kinematics against geometry and finite differences (eq. 5-17)."""
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import flight_sim_dynamics as fsd
+from flight_sim_dynamics import kinematics
+from flight_sim_dynamics.trajectories import paper_example
+
+MODEL = fsd.load_model()
+
+
+def test_central_configuration_matches_mechanism_md():
+    c = MODEL.central
+    assert c.beta0 == pytest.approx(0.037670, abs=5e-7)
+    assert c.s == pytest.approx(0.611555, abs=5e-7)
+    np.testing.assert_allclose(c.length, [1.140254, 1.331353, 1.331353], atol=5e-7)
+    sol = fsd.solve(MODEL, [0, 0, 0], [0, 0, 0], [0, 0, 0])
+    np.testing.assert_allclose(sol.stroke, [0.000254, 0.001353, 0.001353], atol=5e-7)
+    np.testing.assert_allclose(sol.joints[[0, 2, 3, 4, 6, 7, 9, 10, 11]], 0.0, atol=1e-15)
+
+
+def test_points_close_every_loop():
+    """The positions returned by the inverse geometry satisfy eq. (7)."""
+    q = np.array([[0.03, -0.05, 0.2], [-0.04, 0.08, -0.25]])
+    g = kinematics.inverse_geometry(MODEL, q)
+    geom = MODEL.geometry
+    np.testing.assert_allclose(np.linalg.norm(g.D2 - geom.D1, axis=1), geom.l5, rtol=1e-14)
+    np.testing.assert_allclose(np.linalg.norm(g.E2 - geom.E1, axis=1), geom.l6, rtol=1e-14)
+    np.testing.assert_allclose(np.linalg.norm(g.G - g.A3, axis=1), geom.h, rtol=1e-14)
+    np.testing.assert_allclose(g.A3 + geom.h * g.l, g.G, atol=1e-15)
+    np.testing.assert_allclose(np.linalg.norm(g.B4 - g.C4, axis=1), geom.b, rtol=1e-14)
+    # platform axes orthonormal and l stays in the median plane
+    for a, b in ((g.l, g.t), (g.t, g.n), (g.n, g.l)):
+        np.testing.assert_allclose(np.einsum('ni,ni->n', a, b), 0.0, atol=1e-15)
+    np.testing.assert_allclose(g.l[:, 2], 0.0)
+    # positive roll lowers the right (B) corner
+    assert g.B4[0, 1] < g.C4[0, 1] and g.B4[1, 1] > g.C4[1, 1]
+
+
+def _smooth_trajectory(coeffs, t):
+    """q(t) = sum a_k sin(w_k t + p_k) per coordinate, with exact derivatives."""
+    q = np.zeros((t.size, 3))
+    qd = np.zeros_like(q)
+    qdd = np.zeros_like(q)
+    for axis, terms in enumerate(coeffs):
+        for a, w, p in terms:
+            q[:, axis] += a * np.sin(w * t + p)
+            qd[:, axis] += a * w * np.cos(w * t + p)
+            qdd[:, axis] -= a * w * w * np.sin(w * t + p)
+    return q, qd, qdd
+
+
+term = st.tuples(st.floats(-0.03, 0.03), st.floats(0.2, 6.0), st.floats(0, 2 * math.pi))
+roll_term = st.tuples(st.floats(-0.12, 0.12), st.floats(0.2, 6.0), st.floats(0, 2 * math.pi))
+trajectories = st.tuples(st.lists(term, min_size=1, max_size=3),
+                         st.lists(term, min_size=1, max_size=3),
+                         st.lists(roll_term, min_size=1, max_size=3))
+
+
+@settings(max_examples=40, deadline=None)
+@given(trajectories, st.floats(0.0, 10.0))
+def test_rates_and_accelerations_match_finite_differences(coeffs, t0):
+    """V = Q^-1 P (eq. 11) and Gamma = Q^-1 S (eq. 16) are the time derivatives
+    of the 12 joint variables, and of V: central differences, h = 1e-5 s."""
+    h = 1e-5
+    t = np.array([t0 - h, t0, t0 + h])
+    q, qd, qdd = _smooth_trajectory(coeffs, t)
+    sol = fsd.solve_batch(MODEL, q, qd, qdd)
+    fd_rate = (sol.joints[2] - sol.joints[0]) / (2 * h)
+    fd_acc = (sol.joint_rates[2] - sol.joint_rates[0]) / (2 * h)
+    scale_v = 1.0 + np.abs(sol.joint_rates[1]).max()
+    scale_a = 1.0 + np.abs(sol.joint_accelerations[1]).max()
+    np.testing.assert_allclose(fd_rate, sol.joint_rates[1], atol=1e-7 * scale_v)
+    np.testing.assert_allclose(fd_acc, sol.joint_accelerations[1], atol=1e-6 * scale_a)
+    fd_len = (sol.length[2] - sol.length[0]) / (2 * h)
+    np.testing.assert_allclose(fd_len, sol.rate[1], atol=1e-7 * scale_v)
+
+
+def test_velocity_satisfies_connectivity_relations():
+    q, qd, qdd = paper_example('general', np.linspace(0, 3, 7))
+    g = kinematics.inverse_geometry(MODEL, q)
+    Q, Pq = kinematics.connectivity_matrix(MODEL, g)
+    sol = fsd.solve_batch(MODEL, q, qd, qdd)
+    residual = np.einsum('nij,nj->ni', Q, sol.joint_rates) - np.einsum('nij,nj->ni', Pq, qd)
+    assert np.abs(residual).max() < 1e-14
+    S = kinematics.acceleration_column(MODEL, g, sol.joint_rates, qd, qdd)
+    residual = np.einsum('nij,nj->ni', Q, sol.joint_accelerations) - S
+    assert np.abs(residual).max() < 1e-13
+
+
+def test_jacobian_maps_pose_rates_to_leg_rates():
+    q, qd, qdd = paper_example('general', np.linspace(0.1, 2.9, 5))
+    sol = fsd.solve_batch(MODEL, q, qd, qdd)
+    np.testing.assert_allclose(np.einsum('nij,nj->ni', sol.jacobian, qd), sol.rate, atol=1e-15)
+
+
+@pytest.mark.parametrize('q, loop', [
+    ([0.0, 2.0, 0.0], 'D'),              # G far above: crank D cannot reach
+    ([3.0, 0.0, 0.0], 'D'),
+])
+def test_unreachable_pose_names_the_loop(q, loop):
+    with pytest.raises(fsd.UnreachablePoseError) as info:
+        fsd.solve(MODEL, q, [0, 0, 0], [0, 0, 0])
+    assert info.value.loop == loop
+    assert 'loop ' + loop in str(info.value)
+
+
+def test_unreachable_sample_in_batch_is_located():
+    q = np.zeros((4, 3))
+    q[2, 1] = 2.0
+    with pytest.raises(fsd.UnreachablePoseError) as info:
+        fsd.solve_batch(MODEL, q, np.zeros((4, 3)), np.zeros((4, 3)))
+    assert info.value.index == 2

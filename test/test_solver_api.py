@@ -1,0 +1,60 @@
+"""The public Python API: shapes, batch vs single, input checking, statics."""
+import numpy as np
+import pytest
+
+import flight_sim_dynamics as fsd
+from flight_sim_dynamics.trajectories import paper_example
+
+MODEL = fsd.load_model()
+
+
+def test_check_values_at_rest():
+    sol = fsd.solve(MODEL, [0, 0, 0], [0, 0, 0], [0, 0, 0])
+    np.testing.assert_allclose(sol.force, [38.6066, 33.2041, 33.2041], atol=5e-5)
+    assert np.all(sol.power == 0.0) and np.all(sol.rate == 0.0)
+    assert isinstance(sol.cond, float) and sol.cond > 1
+    assert sol.length.shape == sol.stroke.shape == sol.force.shape == (3,)
+    assert sol.joints.shape == sol.joint_rates.shape == (12,)
+
+
+def test_single_equals_batch():
+    q, qd, qdd = paper_example('general', np.linspace(0, 3, 13))
+    batch = fsd.solve_batch(MODEL, q, qd, qdd)
+    for i in range(len(q)):
+        one = fsd.solve(MODEL, q[i], qd[i], qdd[i])
+        for field in ('length', 'stroke', 'rate', 'acceleration', 'force', 'power', 'joints'):
+            np.testing.assert_allclose(getattr(one, field), getattr(batch, field)[i],
+                                       rtol=1e-13, atol=1e-13)
+
+
+def test_vertical_example_b_equals_c():
+    q, qd, qdd = paper_example('vertical', np.linspace(0, 3, 31))
+    sol = fsd.solve_batch(MODEL, q, qd, qdd)
+    np.testing.assert_allclose(sol.force[:, 1], sol.force[:, 2], rtol=1e-12)
+    np.testing.assert_allclose(sol.power[:, 1], sol.power[:, 2], rtol=1e-12, atol=1e-12)
+
+
+def test_heave_up_needs_more_force_than_down():
+    up = fsd.solve(MODEL, [0, 0, 0], [0, 0, 0], [0, 2.0, 0]).force
+    down = fsd.solve(MODEL, [0, 0, 0], [0, 0, 0], [0, -2.0, 0]).force
+    assert np.all(up > down)
+
+
+@pytest.mark.parametrize('args, words', [
+    (([0, 0], [0, 0, 0], [0, 0, 0]), 'q must be 3 numbers'),
+    (([0, 0, 0], [0, 0, 0, 0], [0, 0, 0]), 'qd must be 3 numbers'),
+    (([0, 0, 0], [0, 0, 0], 'abc'), 'qdd must be 3 numbers'),
+    (([0, float('nan'), 0], [0, 0, 0], [0, 0, 0]), 'not finite'),
+    (([0, 0, 0], [0, 0, float('inf')], [0, 0, 0]), 'not finite'),
+    (([0, 'x', 0], [0, 0, 0], [0, 0, 0]), 'must be numbers'),
+])
+def test_bad_input_is_a_clear_error(args, words):
+    with pytest.raises(ValueError, match=words):
+        fsd.solve(MODEL, *args)
+
+
+def test_batch_shape_mismatch():
+    with pytest.raises(ValueError, match='rows'):
+        fsd.solve_batch(MODEL, np.zeros((3, 3)), np.zeros((2, 3)), np.zeros((3, 3)))
+    with pytest.raises(ValueError, match=r'shape \(N, 3\)'):
+        fsd.solve_batch(MODEL, np.zeros((3, 4)), np.zeros((3, 4)), np.zeros((3, 4)))
