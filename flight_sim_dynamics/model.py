@@ -104,6 +104,13 @@ class Body:
     mass: float
     com: np.ndarray       # (3,) centre of mass in the body frame, m
     inertia: np.ndarray   # (3, 3) about the centre of mass, body frame, kg m^2
+    com_t: tuple = field(init=False, repr=False, compare=False)      # plain-float copies
+    inertia_t: tuple = field(init=False, repr=False, compare=False)  # for the solver
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, 'com_t', tuple(float(x) for x in self.com))
+        object.__setattr__(self, 'inertia_t',
+                           tuple(tuple(float(x) for x in row) for row in self.inertia))
 
 
 @dataclass(frozen=True)

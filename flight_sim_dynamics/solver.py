@@ -1,6 +1,10 @@
 """The recursive matrix solver: one call = inverse geometry, velocities,
 accelerations and inverse dynamics (paper eq. 5-23) for one pose or a batch.
 
+:func:`solve` runs on plain Python floats (one control cycle, no numpy call
+overhead); :func:`solve_batch` runs the same code on numpy columns of N
+samples. Both return a :class:`Solution`.
+
 >>> import flight_sim_dynamics as fsd
 >>> model = fsd.load_model()
 >>> sol = fsd.solve(model, [0, 0, 0], [0, 0, 0], [0, 0, 0])
@@ -9,14 +13,21 @@ accelerations and inverse dynamics (paper eq. 5-23) for one pose or a batch.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Sequence
 
 import numpy as np
 
-from .dynamics import actuator_forces, body_motions, joint_forces, virtual_velocities
-from .kinematics import acceleration_column, connectivity_matrix, inverse_geometry
+from .dynamics import (actuator_forces, actuator_jacobian, body_motions, joint_forces,
+                       virtual_velocities)
+from .kinematics import (Geometric, acceleration_column, connectivity_matrix, factorize,
+                         inverse_geometry, pose_rate_columns, solve_connectivity)
 from .model import ACTUATED_JOINTS, Model
+from .vectors import backend
+
+_A, _B, _C = ACTUATED_JOINTS
 
 
 @dataclass(frozen=True)
@@ -34,11 +45,93 @@ class Solution:
     joint_rates: np.ndarray           # V of eq. (13)
     joint_accelerations: np.ndarray   # Gamma of eq. (15)
     beta: np.ndarray | float          # parasitic pitch (rod angle about z0), rad
-    cond: np.ndarray | float          # 2-norm condition number of Q
-    jacobian: np.ndarray              # d(L)/d(q), (3, 3): actuator rates = jacobian @ qd
+    jacobian: np.ndarray              # dL/dq (3, 3): leg rates = jacobian @ qd
+    model: Model = field(repr=False, compare=False)
+    geometric: Geometric = field(repr=False, compare=False)
+
+    @cached_property
+    def Q(self) -> np.ndarray:
+        """The connectivity matrix of eq. (11)-(12), (12, 12) or (N, 12, 12); the
+        solver itself never forms it (see kinematics.Connectivity)."""
+        Q = connectivity_matrix(self.model, self.geometric)[0]
+        return Q if self.geometric.xp.batch else Q[0]
+
+    @cached_property
+    def cond(self) -> np.ndarray | float:
+        """2-norm condition number of Q (SVD), computed on first access only: it
+        is a diagnostic and costs more than the whole solve."""
+        value = np.linalg.cond(self.Q)
+        return value if self.geometric.xp.batch else float(value)
 
 
-def _as_batch(name: str, value: object, n: int | None) -> np.ndarray:
+def _solve(model: Model, q: tuple, qd: tuple, qdd: tuple, batch: bool) -> Solution:
+    xp = backend(batch)
+    g = inverse_geometry(model, q, xp)                                   # eq. (5)-(8)
+    f = factorize(model, g)                                              # Q, eq. (12)
+    K = tuple(solve_connectivity(g, f, P) for P in pose_rate_columns(g))  # Q^-1 P per unit rate
+    V = [K[0][j] * qd[0] + K[1][j] * qd[1] + K[2][j] * qd[2] for j in range(12)]  # eq. (11)
+    S = acceleration_column(model, g, V, qd, qdd)                        # eq. (17)
+    Gamma = solve_connectivity(g, f, S)                                  # eq. (16)
+    motions = body_motions(model, g, V, Gamma, qd, qdd)
+    tau, tau_43 = joint_forces(model, g, motions)                        # eq. (18)-(22)
+    J = actuator_jacobian(K)
+    Vv, roll_v = virtual_velocities(K, J)                                # eq. (14)
+    force = actuator_forces(tau, tau_43, Vv, roll_v)                     # eq. (23)
+    rate = (V[_A], V[_B], V[_C])
+    pack = _pack_batch if batch else _pack_single
+    return Solution(
+        length=pack(g.length), stroke=pack((g.raw[_A], g.raw[_B], g.raw[_C])),
+        rate=pack(rate), acceleration=pack((Gamma[_A], Gamma[_B], Gamma[_C])),
+        force=pack(force), power=pack([fi * ri for fi, ri in zip(force, rate)]),
+        joints=pack(g.raw), joint_rates=pack(V), joint_accelerations=pack(Gamma),
+        beta=g.beta, jacobian=np.stack([pack(row) for row in J], axis=-2),
+        model=model, geometric=g)
+
+
+def _pack_single(values: Sequence[float]) -> np.ndarray:
+    return np.array(values, dtype=float)
+
+
+def _pack_batch(values: Sequence[np.ndarray | float]) -> np.ndarray:
+    return np.stack(np.broadcast_arrays(*values), axis=-1).astype(float, copy=False)
+
+
+def solve(model: Model, q: Sequence[float], qd: Sequence[float],
+          qdd: Sequence[float]) -> Solution:
+    """Solve one control cycle: q, qd, qdd are 3 floats each (surge m, heave m,
+    roll rad, and their derivatives). Leg fields are arrays of 3 (A, B, C), joint
+    fields arrays of 12; ``beta`` and ``cond`` are floats. Raises
+    :class:`UnreachablePoseError` for a pose whose loops cannot close and
+    ValueError for malformed or non-finite input."""
+    return _solve(model, _three('q', q), _three('qd', qd), _three('qdd', qdd), batch=False)
+
+
+def solve_batch(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> Solution:
+    """Inverse kinematics and dynamics for N samples at once, vectorised.
+
+    q, qd, qdd: (N, 3) arrays of (surge m, heave m, roll rad) and their first and
+    second time derivatives. Fields of the result have a leading N axis.
+    """
+    q = _as_batch('q', q, None)
+    qd = _as_batch('qd', qd, len(q[0]))
+    qdd = _as_batch('qdd', qdd, len(q[0]))
+    return _solve(model, q, qd, qdd, batch=True)
+
+
+def _three(name: str, value: Sequence[float]) -> tuple[float, float, float]:
+    if isinstance(value, (str, bytes)) or np.ndim(value) != 1 or len(value) != 3:
+        raise ValueError(f'{name} must be 3 numbers (surge, heave, roll), got {value!r}')
+    try:
+        out = tuple(float(v) for v in value)
+    except (TypeError, ValueError):
+        raise ValueError(f'{name} must be numbers (surge, heave, roll), got {value!r}') from None
+    for i, v in enumerate(out):
+        if not math.isfinite(v):
+            raise ValueError(f'{name}[{i}] is not finite ({v})')
+    return out  # type: ignore[return-value]
+
+
+def _as_batch(name: str, value: object, n: int | None) -> tuple[np.ndarray, ...]:
     try:
         arr = np.array(value, dtype=float)
     except (TypeError, ValueError):
@@ -51,48 +144,5 @@ def _as_batch(name: str, value: object, n: int | None) -> np.ndarray:
     if bad.any():
         row, col = np.argwhere(bad)[0]
         raise ValueError(f'{name}[{row}, {col}] is not finite ({arr[row, col]})')
-    return arr
-
-
-def solve_batch(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> Solution:
-    """Inverse kinematics and dynamics for N samples at once.
-
-    q, qd, qdd: (N, 3) arrays of (surge m, heave m, roll rad) and their first and
-    second time derivatives. Raises :class:`UnreachablePoseError` for a pose whose
-    loops cannot close and ValueError for malformed or non-finite input.
-    """
-    q = _as_batch('q', q, None)
-    qd = _as_batch('qd', qd, q.shape[0])
-    qdd = _as_batch('qdd', qdd, q.shape[0])
-    g = inverse_geometry(model, q)                           # eq. (5)-(8)
-    Q, Pq = connectivity_matrix(model, g)                    # eq. (11)-(12)
-    K = np.linalg.solve(Q, Pq)                               # V = Q^-1 P, per unit pose rate
-    V = np.einsum('nij,nj->ni', K, qd)                       # eq. (11), (13)
-    S = acceleration_column(model, g, V, qd, qdd)            # eq. (17)
-    Gamma = np.linalg.solve(Q, S[..., None])[..., 0]         # eq. (16)
-    motions = body_motions(model, g, V, Gamma, qd, qdd)
-    tau, tau_43 = joint_forces(model, g, motions)            # eq. (18)-(22)
-    J, V_virtual, roll_virtual = virtual_velocities(K)       # eq. (14)
-    force = actuator_forces(tau, tau_43, V_virtual, roll_virtual)   # eq. (23)
-    idx = list(ACTUATED_JOINTS)
-    rate = V[:, idx]
-    return Solution(length=g.length, stroke=g.raw[:, idx], rate=rate,
-                    acceleration=Gamma[:, idx], force=force, power=force * rate,
-                    joints=g.raw, joint_rates=V, joint_accelerations=Gamma,
-                    beta=g.beta, cond=np.linalg.cond(Q), jacobian=J)
-
-
-def solve(model: Model, q: Sequence[float], qd: Sequence[float],
-          qdd: Sequence[float]) -> Solution:
-    """Solve one control cycle: q, qd, qdd are 3 floats each (surge m, heave m,
-    roll rad, and their derivatives). Fields are arrays of 3 (legs A, B, C) or
-    12 (joints); ``beta`` and ``cond`` are floats."""
-    batch = solve_batch(model, [_three('q', q)], [_three('qd', qd)], [_three('qdd', qdd)])
-    return Solution(**{name: (float(value[0]) if name in ('beta', 'cond') else value[0])
-                       for name, value in batch.__dict__.items()})
-
-
-def _three(name: str, value: Sequence[float]) -> Sequence[float]:
-    if isinstance(value, (str, bytes)) or np.ndim(value) != 1 or len(value) != 3:
-        raise ValueError(f'{name} must be 3 numbers (surge, heave, roll), got {value!r}')
-    return value
+    columns = np.ascontiguousarray(arr.T)
+    return columns[0], columns[1], columns[2]

@@ -8,8 +8,15 @@ from hypothesis import given, settings, strategies as st
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics import kinematics
 from flight_sim_dynamics.trajectories import paper_example
+from flight_sim_dynamics.vectors import backend
 
 MODEL = fsd.load_model()
+
+
+def _geometric(q):
+    """Inverse geometry of a batch with every vector as an (N, 3) array."""
+    g = kinematics.inverse_geometry(MODEL, tuple(np.asarray(q, float).T), backend(True))
+    return g, lambda v: np.stack(np.broadcast_arrays(*v), axis=-1)
 
 
 def test_central_configuration_matches_mechanism_md():
@@ -25,19 +32,26 @@ def test_central_configuration_matches_mechanism_md():
 def test_points_close_every_loop():
     """The positions returned by the inverse geometry satisfy eq. (7)."""
     q = np.array([[0.03, -0.05, 0.2], [-0.04, 0.08, -0.25]])
-    g = kinematics.inverse_geometry(MODEL, q)
+    g, arr = _geometric(q)
     geom = MODEL.geometry
-    np.testing.assert_allclose(np.linalg.norm(g.D2 - geom.D1, axis=1), geom.l5, rtol=1e-14)
-    np.testing.assert_allclose(np.linalg.norm(g.E2 - geom.E1, axis=1), geom.l6, rtol=1e-14)
-    np.testing.assert_allclose(np.linalg.norm(g.G - g.A3, axis=1), geom.h, rtol=1e-14)
-    np.testing.assert_allclose(g.A3 + geom.h * g.l, g.G, atol=1e-15)
-    np.testing.assert_allclose(np.linalg.norm(g.B4 - g.C4, axis=1), geom.b, rtol=1e-14)
+    G, A3, D2, E2, B4, C4 = (arr(v) for v in (g.G, g.A3, g.D2, g.E2, g.B4, g.C4))
+    l, t, n = arr(g.l), arr(g.t), arr(g.n)
+    np.testing.assert_allclose(np.linalg.norm(D2 - geom.D1, axis=1), geom.l5, rtol=1e-14)
+    np.testing.assert_allclose(np.linalg.norm(E2 - geom.E1, axis=1), geom.l6, rtol=1e-14)
+    np.testing.assert_allclose(np.linalg.norm(G - A3, axis=1), geom.h, rtol=1e-14)
+    np.testing.assert_allclose(A3 + geom.h * l, G, atol=1e-15)
+    np.testing.assert_allclose(np.linalg.norm(B4 - C4, axis=1), geom.b, rtol=1e-14)
+    np.testing.assert_allclose(np.linalg.norm(B4 - geom.B1, axis=1), arr(g.length)[:, 1])
+    # E2 on the rod line, between A3 and G
+    np.testing.assert_allclose(np.cross(E2 - A3, l)[:, 2], 0.0, atol=1e-15)
+    assert np.all((g.u > 0) & (g.u < geom.h))
     # platform axes orthonormal and l stays in the median plane
-    for a, b in ((g.l, g.t), (g.t, g.n), (g.n, g.l)):
+    for a, b in ((l, t), (t, n), (n, l)):
         np.testing.assert_allclose(np.einsum('ni,ni->n', a, b), 0.0, atol=1e-15)
-    np.testing.assert_allclose(g.l[:, 2], 0.0)
+    np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, rtol=1e-15)
+    np.testing.assert_allclose(l[:, 2], 0.0)
     # positive roll lowers the right (B) corner
-    assert g.B4[0, 1] < g.C4[0, 1] and g.B4[1, 1] > g.C4[1, 1]
+    assert B4[0, 1] < C4[0, 1] and B4[1, 1] > C4[1, 1]
 
 
 def _smooth_trajectory(coeffs, t):
@@ -81,12 +95,13 @@ def test_rates_and_accelerations_match_finite_differences(coeffs, t0):
 
 def test_velocity_satisfies_connectivity_relations():
     q, qd, qdd = paper_example('general', np.linspace(0, 3, 7))
-    g = kinematics.inverse_geometry(MODEL, q)
+    g, arr = _geometric(q)
     Q, Pq = kinematics.connectivity_matrix(MODEL, g)
     sol = fsd.solve_batch(MODEL, q, qd, qdd)
     residual = np.einsum('nij,nj->ni', Q, sol.joint_rates) - np.einsum('nij,nj->ni', Pq, qd)
     assert np.abs(residual).max() < 1e-14
-    S = kinematics.acceleration_column(MODEL, g, sol.joint_rates, qd, qdd)
+    S = arr(kinematics.acceleration_column(MODEL, g, list(sol.joint_rates.T), tuple(qd.T),
+                                           tuple(qdd.T)))
     residual = np.einsum('nij,nj->ni', Q, sol.joint_accelerations) - S
     assert np.abs(residual).max() < 1e-13
 
@@ -108,9 +123,35 @@ def test_unreachable_pose_names_the_loop(q, loop):
     assert 'loop ' + loop in str(info.value)
 
 
+def test_q_of_single_solve_is_the_dense_matrix():
+    sol = fsd.solve(MODEL, [0.01, 0.02, 0.1], [0.1, 0.1, 0.2], [0, 0, 0])
+    assert sol.Q.shape == (12, 12)
+    assert sol.cond == pytest.approx(np.linalg.cond(sol.Q))
+    batch = fsd.solve_batch(MODEL, [[0.01, 0.02, 0.1]], [[0.1, 0.1, 0.2]], [[0, 0, 0]])
+    np.testing.assert_allclose(batch.Q[0], sol.Q, rtol=1e-13, atol=1e-15)
+    np.testing.assert_allclose(sol.Q @ sol.joint_rates,
+                               kinematics.connectivity_matrix(MODEL, sol.geometric)[1][0]
+                               @ np.array([0.1, 0.1, 0.2]), atol=1e-15)
+    assert np.linalg.matrix_rank(sol.Q) == 12
+
+
 def test_unreachable_sample_in_batch_is_located():
     q = np.zeros((4, 3))
     q[2, 1] = 2.0
     with pytest.raises(fsd.UnreachablePoseError) as info:
         fsd.solve_batch(MODEL, q, np.zeros((4, 3)), np.zeros((4, 3)))
     assert info.value.index == 2
+
+
+def test_block_solution_of_q_equals_dense_solution():
+    """solve_connectivity (block substitution) solves the same system as a dense
+    LU of the 12x12 Q of eq. (11)-(12)."""
+    q, qd, qdd = paper_example('general', np.linspace(0, 3, 9))
+    q = q + np.array([0.02, -0.03, 0.1])
+    g, arr = _geometric(q)
+    Q, _ = kinematics.connectivity_matrix(MODEL, g)
+    rhs = np.random.default_rng(1).normal(size=(len(q), 12))
+    X = arr(kinematics.solve_connectivity(g, kinematics.factorize(MODEL, g), list(rhs.T)))
+    np.testing.assert_allclose(X, np.linalg.solve(Q, rhs[..., None])[..., 0], rtol=1e-11,
+                               atol=1e-12)
+    np.testing.assert_allclose(np.einsum('nij,nj->ni', Q, X), rhs, atol=1e-13)

@@ -1,0 +1,735 @@
+"""Setpoint handling for the ROS 2 node, without ROS.
+
+Everything the node does between "a message arrived" and "call the solver"
+that is plain Python lives here, so that it can be unit-tested without rclpy:
+
+* :func:`quaternion_to_rpy` -- roll, pitch, yaw of a quaternion (ZYX, REP-103),
+  with the checks for non-finite, zero and non-unit quaternions;
+* :func:`pose_input`, :func:`rate_input` -- the three commanded coordinates
+  (surge, heave, roll) and the components the mechanism cannot follow;
+* :class:`StampSynchroniser` -- joins pose, twist and acceleration messages
+  that carry the same header stamp (exact match, bounded wait);
+* :class:`DerivativeEstimator` -- causal finite differences that fill in the
+  rates and accelerations a planner does not send;
+* :class:`NodeConfig`, :func:`check_limits` -- actuator limits and tolerances;
+* :class:`CycleStats`, :class:`LogThrottle` -- diagnostics bookkeeping.
+
+Units: SI throughout (m, rad, s); stamps are integer nanoseconds.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Generic, Iterable, Mapping, TypeVar
+
+from .parameters import NODE_PARAMETERS, SPECS, ParameterError, check_value
+
+# ----------------------------------------------------------------------------
+# Rejection reasons (diagnostics counters). A *rejected* setpoint is not
+# solved and nothing is published for it.
+# ----------------------------------------------------------------------------
+NON_FINITE = 'non_finite'                  # NaN or infinity in a field
+BAD_QUATERNION = 'bad_quaternion'          # zero-length or non-unit quaternion
+STAMP_REPEATED = 'stamp_repeated'          # stamp equal to the last answered one
+STAMP_BACKWARDS = 'stamp_backwards'        # stamp older than the last answered one
+DUPLICATE = 'duplicate'                    # second message of one kind for a pending stamp
+NO_POSE = 'no_pose'                        # twist/accel whose pose never arrived
+LATE = 'late'                              # twist/accel after its setpoint was answered
+OVERFLOW = 'overflow'                      # too many incomplete stamps pending
+ABSURD_ACCELERATION = 'absurd_acceleration'  # |acceleration| beyond input.max_*_acceleration
+UNREACHABLE = 'unreachable'                # the loops cannot close at this pose
+SOLVER_ERROR = 'solver_error'              # any other solver failure
+NON_FINITE_OUTPUT = 'non_finite_output'    # the solver returned NaN/inf (never published)
+
+REJECTION_REASONS = (NON_FINITE, BAD_QUATERNION, STAMP_REPEATED, STAMP_BACKWARDS,
+                     DUPLICATE, NO_POSE, LATE, OVERFLOW, ABSURD_ACCELERATION,
+                     UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT)
+
+#: Reasons that make the diagnostics level ERROR (the rest of the rejections
+#: are stream hygiene problems and make it WARN).
+ERROR_REASONS = frozenset({NON_FINITE, BAD_QUATERNION, ABSURD_ACCELERATION,
+                           UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT})
+
+# Motion the mechanism cannot follow: reported, ignored, the setpoint is solved.
+SWAY = 'sway'
+YAW = 'yaw'
+PITCH = 'pitch'
+UNFOLLOWABLE_COMPONENTS = (SWAY, YAW, PITCH)
+
+# Diagnostic levels (same numbers as diagnostic_msgs/DiagnosticStatus).
+OK, WARN, ERROR = 0, 1, 2
+LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR'}
+
+Vec3 = tuple[float, float, float]
+
+
+class SetpointError(ValueError):
+    """A setpoint message is rejected; ``reason`` is one of REJECTION_REASONS."""
+
+    def __init__(self, reason: str, message: str) -> None:
+        self.reason = reason
+        super().__init__(message)
+
+
+# ----------------------------------------------------------------------------
+# Conversions
+# ----------------------------------------------------------------------------
+def wrap_angle(angle: float) -> float:
+    """``angle`` wrapped to [-pi, pi)."""
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def quaternion_to_rpy(x: float, y: float, z: float, w: float,
+                      tolerance: float = 1e-3) -> Vec3:
+    """Roll, pitch, yaw (rad) of the ZYX (yaw-pitch-roll) decomposition
+    ``R = Rz(yaw) Ry(pitch) Rx(roll)`` of a quaternion.
+
+    The quaternion must be finite and of unit length within ``tolerance``
+    (``| |q| - 1 | <= tolerance``); it is normalised before use. Raises
+    :class:`SetpointError` otherwise. Pitch is in [-pi/2, pi/2]; roll and
+    yaw in (-pi, pi]. A quaternion carrying a pitch (such as the platform's
+    parasitic pitch) gives the same roll as the roll-only quaternion.
+    """
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z) and math.isfinite(w)):
+        raise SetpointError(NON_FINITE, f'orientation has a non-finite component '
+                                        f'({x!r}, {y!r}, {z!r}, {w!r})')
+    norm = math.sqrt(x * x + y * y + z * z + w * w)
+    if norm == 0.0:
+        raise SetpointError(BAD_QUATERNION, 'orientation quaternion is zero')
+    if abs(norm - 1.0) > tolerance:
+        raise SetpointError(BAD_QUATERNION, f'orientation quaternion is not a unit '
+                                             f'quaternion (|q| = {norm:.6g})')
+    x, y, z, w = x / norm, y / norm, z / norm, w / norm
+    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    sin_pitch = max(-1.0, min(1.0, 2.0 * (w * y - z * x)))
+    pitch = math.asin(sin_pitch)
+    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return roll, pitch, yaw
+
+
+def rpy_to_quaternion(roll: float, pitch: float = 0.0, yaw: float = 0.0
+                      ) -> tuple[float, float, float, float]:
+    """Quaternion (x, y, z, w) of ``Rz(yaw) Ry(pitch) Rx(roll)``."""
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    return (sr * cp * cy - cr * sp * sy,
+            cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy,
+            cr * cp * cy + sr * sp * sy)
+
+
+@dataclass(frozen=True, slots=True)
+class PoseInput:
+    """A pose setpoint in the mechanism's coordinates.
+
+    ``q`` = (surge m, heave m, roll rad); ``sway`` (m), ``pitch`` and ``yaw``
+    (rad) are what the message asked for beyond them."""
+
+    q: Vec3
+    sway: float
+    pitch: float
+    yaw: float
+
+
+@dataclass(frozen=True, slots=True)
+class RateInput:
+    """A twist or acceleration setpoint: the derivatives of (surge, heave, roll)
+    (``q``) and the sway, pitch and yaw components (``sway``, ``pitch``,
+    ``yaw``: linear.y, angular.y, angular.z)."""
+
+    q: Vec3
+    sway: float
+    pitch: float
+    yaw: float
+
+
+def pose_input(px: float, py: float, pz: float,
+               qx: float, qy: float, qz: float, qw: float,
+               quaternion_tolerance: float = 1e-3) -> PoseInput:
+    """Convert the fields of a geometry_msgs/Pose (REP-103 simulator base,
+    origin at G's central position) into a :class:`PoseInput`: surge =
+    position.x, heave = position.z, roll = ZYX roll of the orientation."""
+    if not (math.isfinite(px) and math.isfinite(py) and math.isfinite(pz)):
+        raise SetpointError(NON_FINITE, f'position has a non-finite component '
+                                        f'({px!r}, {py!r}, {pz!r})')
+    roll, pitch, yaw = quaternion_to_rpy(qx, qy, qz, qw, quaternion_tolerance)
+    return PoseInput((px, pz, roll), py, pitch, yaw)
+
+
+def rate_input(lx: float, ly: float, lz: float, ax: float, ay: float, az: float,
+               what: str = 'twist') -> RateInput:
+    """Convert the linear/angular fields of a Twist or Accel into a
+    :class:`RateInput`: d/dt of (surge, heave, roll) = (linear.x, linear.z,
+    angular.x)."""
+    if not all(math.isfinite(v) for v in (lx, ly, lz, ax, ay, az)):
+        raise SetpointError(NON_FINITE, f'{what} has a non-finite component')
+    return RateInput((lx, lz, ax), ly, ay, az)
+
+
+def check_acceleration(qdd: Iterable[float], max_linear: float, max_angular: float,
+                       source: str = 'acceleration') -> None:
+    """Reject absurd accelerations: |d2 surge|, |d2 heave| > ``max_linear``
+    (m/s^2) or |d2 roll| > ``max_angular`` (rad/s^2)."""
+    a_surge, a_heave, a_roll = qdd
+    if abs(a_surge) > max_linear or abs(a_heave) > max_linear:
+        raise SetpointError(ABSURD_ACCELERATION,
+                            f'{source} ({a_surge:.4g}, {a_heave:.4g}) m/s^2 exceeds '
+                            f'input.max_linear_acceleration = {max_linear:g} m/s^2')
+    if abs(a_roll) > max_angular:
+        raise SetpointError(ABSURD_ACCELERATION,
+                            f'{source} roll {a_roll:.4g} rad/s^2 exceeds '
+                            f'input.max_angular_acceleration = {max_angular:g} rad/s^2')
+
+
+def unfollowable(pose: PoseInput, twist: RateInput | None, accel: RateInput | None,
+                 parasitic_pitch: float, position_tolerance: float,
+                 angle_tolerance: float) -> tuple[str, ...]:
+    """Components of a setpoint the mechanism cannot follow.
+
+    Sway (position.y, twist/accel linear.y) and yaw (orientation yaw,
+    angular.z) must be zero within the tolerances; the orientation's pitch
+    must be either zero (a roll-only quaternion) or the parasitic pitch
+    ``parasitic_pitch`` (REP-103, = -beta) within ``angle_tolerance``. The
+    pitch rate and acceleration (angular.y) are the parasitic pitch's own
+    derivatives, which the planner cannot choose; they are not checked.
+    Rates are compared against the same tolerances per second (per s^2).
+    """
+    found = []
+    sway = abs(pose.sway) > position_tolerance
+    yaw = abs(pose.yaw) > angle_tolerance
+    for rates in (twist, accel):
+        if rates is not None:
+            sway = sway or abs(rates.sway) > position_tolerance
+            yaw = yaw or abs(rates.yaw) > angle_tolerance
+    if sway:
+        found.append(SWAY)
+    if yaw:
+        found.append(YAW)
+    if abs(pose.pitch) > angle_tolerance and abs(pose.pitch - parasitic_pitch) > angle_tolerance:
+        found.append(PITCH)
+    return tuple(found)
+
+
+# ----------------------------------------------------------------------------
+# Exact-stamp synchroniser
+# ----------------------------------------------------------------------------
+P = TypeVar('P')
+R = TypeVar('R')
+
+POSE, TWIST, ACCEL = 'pose', 'twist', 'accel'
+KINDS = (POSE, TWIST, ACCEL)
+
+
+@dataclass(slots=True)
+class Setpoint(Generic[P, R]):
+    """One setpoint: the pose, twist and acceleration carrying ``stamp_ns``.
+    ``twist``/``accel`` are None when their stream did not deliver them in
+    time (they are then estimated). ``header`` is whatever the caller passed
+    with the pose (the node keeps the ROS stamp message there)."""
+
+    stamp_ns: int
+    pose: P | None = None
+    twist: R | None = None
+    accel: R | None = None
+    header: Any = None
+    first_arrival: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class Rejected:
+    """A message the synchroniser dropped: ``reason`` in REJECTION_REASONS."""
+
+    reason: str
+    kind: str
+    stamp_ns: int
+    message: str
+
+
+class StampSynchroniser(Generic[P, R]):
+    """Join pose, twist and acceleration messages with the same header stamp.
+
+    * A setpoint is *complete* when its pose and the message of every *active*
+      optional stream (twist, accel) are there; it is then released at once,
+      whatever order the three arrived in.
+    * An optional stream is active until a setpoint waited ``wait`` seconds for
+      it in vain; it becomes active again as soon as it delivers a message.
+      So a pose-only or pose+twist stream costs one bounded wait at start-up
+      and none afterwards, and a full stream is never answered without its
+      twist/accel unless one is more than ``wait`` late.
+    * Setpoints are released in stamp order: when a setpoint is complete,
+      older incomplete ones are released first (with what they have; those
+      without a pose are rejected as ``no_pose``).
+    * Stamps must increase: a pose whose stamp equals or precedes the last
+      released one is rejected (``stamp_repeated`` / ``stamp_backwards``), a
+      twist/accel for a released stamp is ``late``. A stamp the caller
+      rejected (:meth:`discard`) drops the other messages with that stamp
+      silently.
+    * At most ``max_pending`` stamps wait at once (the oldest is released or
+      rejected as ``overflow``).
+
+    :meth:`add` and :meth:`poll` return ``(released, rejected)`` lists; the
+    caller passes the time ``now`` (monotonic seconds), so the class has no
+    clock and no thread of its own: call :meth:`poll` periodically (faster
+    than ``wait``).
+    """
+
+    def __init__(self, wait: float = 0.02, max_pending: int = 64) -> None:
+        self.wait = float(wait)
+        self.max_pending = int(max_pending)
+        self._pending: dict[int, Setpoint[P, R]] = {}
+        self._last_released: int | None = None
+        self.active = {TWIST: True, ACCEL: True}
+        self._discarded: dict[int, None] = {}   # insertion-ordered set, bounded
+
+    # -- public --------------------------------------------------------------
+    @property
+    def last_released(self) -> int | None:
+        """Stamp (ns) of the last released setpoint, None before the first."""
+        return self._last_released
+
+    @property
+    def pending(self) -> int:
+        return len(self._pending)
+
+    def reset(self) -> None:
+        """Forget pending setpoints and stamp history (streams stay as they are)."""
+        self._pending.clear()
+        self._last_released = None
+        self._discarded.clear()
+
+    def discard(self, stamp_ns: int) -> None:
+        """The caller rejected a message with this stamp: drop the pending
+        setpoint and ignore the other messages that carry the stamp."""
+        self._pending.pop(stamp_ns, None)
+        self._discarded[stamp_ns] = None
+        while len(self._discarded) > 4 * max(self.max_pending, 1):
+            del self._discarded[next(iter(self._discarded))]
+
+    def add(self, kind: str, stamp_ns: int, data: Any, now: float, header: Any = None
+            ) -> tuple[list[Setpoint[P, R]], list[Rejected]]:
+        """Add one message of ``kind`` (``pose``, ``twist`` or ``accel``)."""
+        released: list[Setpoint[P, R]] = []
+        rejected: list[Rejected] = []
+        if stamp_ns in self._discarded:
+            return released, rejected
+        if kind != POSE:
+            self.active[kind] = True
+        last = self._last_released
+        if last is not None and stamp_ns <= last:
+            if kind == POSE:
+                reason = STAMP_REPEATED if stamp_ns == last else STAMP_BACKWARDS
+                rejected.append(Rejected(reason, kind, stamp_ns,
+                                         f'pose stamp {_fmt_stamp(stamp_ns)} '
+                                         f'{"repeats" if stamp_ns == last else "precedes"} '
+                                         f'the last answered stamp {_fmt_stamp(last)}'))
+            else:
+                rejected.append(Rejected(LATE, kind, stamp_ns,
+                                         f'{kind} stamped {_fmt_stamp(stamp_ns)} arrived after '
+                                         'its setpoint was answered (or after a newer one)'))
+            return released, rejected
+        entry = self._pending.get(stamp_ns)
+        if entry is None:
+            if len(self._pending) >= self.max_pending:
+                self._evict_oldest(released, rejected)
+            entry = Setpoint(stamp_ns, first_arrival=now)
+            self._pending[stamp_ns] = entry
+        if getattr(entry, kind) is not None:
+            rejected.append(Rejected(DUPLICATE, kind, stamp_ns,
+                                     f'second {kind} for stamp {_fmt_stamp(stamp_ns)} (ignored)'))
+            return released, rejected
+        setattr(entry, kind, data)
+        if kind == POSE:
+            entry.header = header
+        if self._complete(entry):
+            self._release_through(stamp_ns, released, rejected)
+        return released, rejected
+
+    def poll(self, now: float) -> tuple[list[Setpoint[P, R]], list[Rejected]]:
+        """Release or reject the setpoints that waited ``wait`` seconds."""
+        released: list[Setpoint[P, R]] = []
+        rejected: list[Rejected] = []
+        if not self._pending:
+            return released, rejected
+        expired = [s for s, e in self._pending.items() if now - e.first_arrival >= self.wait]
+        if expired:
+            newest = max(expired)
+            for stamp in sorted(s for s in self._pending if s <= newest):
+                entry = self._pending[stamp]
+                if entry.pose is not None:
+                    for kind in (TWIST, ACCEL):
+                        if getattr(entry, kind) is None:
+                            self.active[kind] = False
+            self._release_through(newest, released, rejected)
+        return released, rejected
+
+    # -- internals -----------------------------------------------------------
+    def _complete(self, entry: Setpoint[P, R]) -> bool:
+        return (entry.pose is not None
+                and (entry.twist is not None or not self.active[TWIST])
+                and (entry.accel is not None or not self.active[ACCEL]))
+
+    def _release_through(self, stamp_ns: int, released: list, rejected: list) -> None:
+        for stamp in sorted(s for s in self._pending if s <= stamp_ns):
+            entry = self._pending.pop(stamp)
+            self._release(entry, released, rejected)
+
+    def _release(self, entry: Setpoint[P, R], released: list, rejected: list) -> None:
+        if entry.pose is None:
+            kinds = '+'.join(k for k in (TWIST, ACCEL) if getattr(entry, k) is not None)
+            rejected.append(Rejected(NO_POSE, kinds, entry.stamp_ns,
+                                     f'{kinds} stamped {_fmt_stamp(entry.stamp_ns)} '
+                                     'has no pose with the same stamp'))
+            return
+        self._last_released = entry.stamp_ns
+        released.append(entry)
+
+    def _evict_oldest(self, released: list, rejected: list) -> None:
+        oldest = min(self._pending)
+        entry = self._pending.pop(oldest)
+        if entry.pose is None:
+            rejected.append(Rejected(OVERFLOW, 'twist/accel', oldest,
+                                     f'more than {self.max_pending} incomplete stamps pending; '
+                                     f'dropped stamp {_fmt_stamp(oldest)}'))
+        else:
+            self._release_through(oldest, released, rejected)
+            self._release(entry, released, rejected)
+
+
+def _fmt_stamp(stamp_ns: int) -> str:
+    return f'{stamp_ns // 1_000_000_000}.{stamp_ns % 1_000_000_000:09d}'
+
+
+# ----------------------------------------------------------------------------
+# Estimation of missing rates and accelerations
+# ----------------------------------------------------------------------------
+ESTIMATORS = ('backward', 'backward2')
+
+
+def backward_derivative(times: list[float], values: list[Vec3], order: int) -> Vec3:
+    """Derivative at ``times[-1]`` from the last samples (causal).
+
+    ``order`` 1: two-point backward difference ``(f_k - f_k-1) / h`` (error
+    ``h f''/2``). ``order`` 2: derivative at ``t_k`` of the parabola through
+    the last three samples (BDF2, error ``h^2 f'''/3`` on a uniform grid);
+    the steps may be unequal. Falls back to order 1 with two samples and to
+    zero with one.
+    """
+    n = len(times)
+    if n < 2:
+        return (0.0, 0.0, 0.0)
+    if order == 1 or n < 3:
+        h = times[-1] - times[-2]
+        f1, f0 = values[-1], values[-2]
+        return ((f1[0] - f0[0]) / h, (f1[1] - f0[1]) / h, (f1[2] - f0[2]) / h)
+    h1 = times[-1] - times[-2]
+    h2 = times[-2] - times[-3]
+    c0 = (2.0 * h1 + h2) / (h1 * (h1 + h2))
+    c1 = -(h1 + h2) / (h1 * h2)
+    c2 = h1 / (h2 * (h1 + h2))
+    f0, f1, f2 = values[-1], values[-2], values[-3]
+    return (c0 * f0[0] + c1 * f1[0] + c2 * f2[0],
+            c0 * f0[1] + c1 * f1[1] + c2 * f2[1],
+            c0 * f0[2] + c1 * f1[2] + c2 * f2[2])
+
+
+class DerivativeEstimator:
+    """Fill in missing rates and accelerations from the stream itself.
+
+    Each :meth:`update` takes the pose of one setpoint (stamp in seconds) and
+    the measured twist/acceleration when the planner sent them (None
+    otherwise). Missing rates are the backward derivative of the last poses;
+    missing accelerations the backward derivative of the last rates (the
+    measured ones when they came, else the estimated ones), so a pose-only
+    stream gets its accelerations from a second difference of poses.
+    Roll is unwrapped across +-pi before differencing.
+
+    The history restarts (rates and accelerations estimated as zero, i.e. the
+    motion is assumed to start from rest) on the first setpoint, after a gap
+    longer than ``max_gap`` seconds, and on :meth:`reset`.
+    """
+
+    def __init__(self, method: str = 'backward2', max_gap: float = 0.5) -> None:
+        if method not in ESTIMATORS:
+            raise ValueError(f'unknown estimator {method!r}; choose one of {ESTIMATORS}')
+        self.order = 1 if method == 'backward' else 2
+        self.method = method
+        self.max_gap = float(max_gap)
+        self._t: list[float] = []
+        self._q: list[Vec3] = []
+        self._qd: list[Vec3] = []
+
+    def reset(self) -> None:
+        self._t.clear()
+        self._q.clear()
+        self._qd.clear()
+
+    def update(self, t: float, q: Vec3, qd: Vec3 | None, qdd: Vec3 | None
+               ) -> tuple[Vec3, Vec3]:
+        """Record a setpoint and return its (rates, accelerations): the given
+        ones where present, estimates otherwise."""
+        if self._t and not (0.0 < t - self._t[-1] <= self.max_gap):
+            self.reset()
+        if self._q:
+            prev = self._q[-1]
+            q = (q[0], q[1], prev[2] + wrap_angle(q[2] - prev[2]))
+        self._t.append(t)
+        self._q.append(q)
+        if qd is None:
+            qd = backward_derivative(self._t, self._q, self.order)
+        self._qd.append(qd)
+        if qdd is None:
+            qdd = backward_derivative(self._t, self._qd, self.order)
+        if len(self._t) > 3:
+            del self._t[0], self._q[0], self._qd[0]
+        return qd, qdd
+
+
+# ----------------------------------------------------------------------------
+# Node configuration (the node parameters of parameters.NODE_PARAMETERS)
+# ----------------------------------------------------------------------------
+NODE_PARAMETER_NAMES = tuple(spec.name for spec in NODE_PARAMETERS)
+
+
+@dataclass(frozen=True)
+class NodeConfig:
+    """The validated node parameters (see ``NODE_PARAMETERS``)."""
+
+    stroke_min: float
+    stroke_max: float
+    max_speed: float
+    max_force: float
+    warn_fraction: float
+    cond_warn: float
+    max_linear_acceleration: float
+    max_angular_acceleration: float
+    quaternion_tolerance: float
+    position_tolerance: float
+    angle_tolerance: float
+    sync_wait: float
+    sync_max_pending: int
+    estimator: str
+    estimator_max_gap: float
+    qos_depth: int
+    qos_reliability: str
+    diagnostics_period: float
+    log_throttle: float
+    frame_id: str
+    joint_states_frame_id: str
+
+    _FIELDS = {
+        'limits.stroke_min': 'stroke_min',
+        'limits.stroke_max': 'stroke_max',
+        'limits.max_speed': 'max_speed',
+        'limits.max_force': 'max_force',
+        'limits.warn_fraction': 'warn_fraction',
+        'limits.cond_warn': 'cond_warn',
+        'input.max_linear_acceleration': 'max_linear_acceleration',
+        'input.max_angular_acceleration': 'max_angular_acceleration',
+        'input.quaternion_tolerance': 'quaternion_tolerance',
+        'input.position_tolerance': 'position_tolerance',
+        'input.angle_tolerance': 'angle_tolerance',
+        'sync.wait': 'sync_wait',
+        'sync.max_pending': 'sync_max_pending',
+        'estimator.method': 'estimator',
+        'estimator.max_gap': 'estimator_max_gap',
+        'qos.depth': 'qos_depth',
+        'qos.reliability': 'qos_reliability',
+        'diagnostics.period': 'diagnostics_period',
+        'diagnostics.log_throttle': 'log_throttle',
+        'output.frame_id': 'frame_id',
+        'output.joint_states_frame_id': 'joint_states_frame_id',
+    }
+
+    @classmethod
+    def from_values(cls, values: Mapping[str, Any]) -> 'NodeConfig':
+        """Check every node parameter in ``values`` (defaults for the absent
+        ones) and the relations between them; raises ParameterError."""
+        kwargs = {}
+        for name, field in cls._FIELDS.items():
+            spec = SPECS[name]
+            kwargs[field] = check_value(spec, values[name] if name in values else spec.default)
+        if not kwargs['stroke_min'] < kwargs['stroke_max']:
+            raise ParameterError('limits.stroke_min', kwargs['stroke_min'],
+                                 f"must be < limits.stroke_max = {kwargs['stroke_max']:g} m")
+        return cls(**kwargs)
+
+
+def _check_fields_match() -> None:
+    missing = set(NodeConfig._FIELDS) ^ set(NODE_PARAMETER_NAMES)
+    if missing:  # pragma: no cover - a programming error caught at import
+        raise AssertionError(f'NodeConfig and NODE_PARAMETERS disagree on {sorted(missing)}')
+
+
+_check_fields_match()
+
+
+# ----------------------------------------------------------------------------
+# Limits
+# ----------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class LimitReport:
+    """Outcome of :func:`check_limits`: the level and what caused it.
+
+    ``usage`` is the largest ratio value/limit over stroke, speed and force
+    (1.0 = at a limit)."""
+
+    level: int
+    exceeded: tuple[str, ...]
+    near: tuple[str, ...]
+    usage: float
+
+
+def check_limits(stroke: Iterable[float], rate: Iterable[float], force: Iterable[float],
+                 cond: float, config: NodeConfig) -> LimitReport:
+    """Compare one solution with the actuator limits and the near-singular
+    threshold. Beyond a limit is ERROR, within ``warn_fraction`` of it (or
+    ``cond >= cond_warn``) WARN. The solution is still published: the numbers
+    are what the commanded motion requires; the status says it is unsafe."""
+    exceeded: list[str] = []
+    near: list[str] = []
+    frac = config.warn_fraction
+    usage = 0.0
+    mid = 0.5 * (config.stroke_max + config.stroke_min)
+    half = 0.5 * (config.stroke_max - config.stroke_min)
+    for leg, (s, v, f) in zip('ABC', zip(stroke, rate, force)):
+        for name, u in ((f'stroke {leg}', abs(s - mid) / half),
+                        (f'speed {leg}', abs(v) / config.max_speed),
+                        (f'force {leg}', abs(f) / config.max_force)):
+            usage = max(usage, u)
+            if u > 1.0:
+                exceeded.append(name)
+            elif u >= frac:
+                near.append(name)
+    if not math.isfinite(cond) or cond >= config.cond_warn:
+        near.append('near singular')
+    level = ERROR if exceeded else WARN if near else OK
+    return LimitReport(level, tuple(exceeded), tuple(near), usage)
+
+
+# ----------------------------------------------------------------------------
+# Diagnostics bookkeeping
+# ----------------------------------------------------------------------------
+class CycleStats:
+    """Counters and per-period statistics for the diagnostics message.
+
+    Totals (received, answered, rejections by reason, ignored components,
+    limit events) accumulate from start-up; solve times, cond(Q) extremes
+    and the worst level are per reporting period and reset by :meth:`report`.
+    """
+
+    def __init__(self) -> None:
+        self.received = {POSE: 0, TWIST: 0, ACCEL: 0}
+        self.answered = 0
+        self.estimated_twist = 0
+        self.estimated_accel = 0
+        self.rejected = {reason: 0 for reason in REJECTION_REASONS}
+        self.ignored = {c: 0 for c in UNFOLLOWABLE_COMPONENTS}
+        self.limit_exceeded = 0
+        self.near_limit = 0
+        self.near_singular = 0
+        self.parameter_changes = 0
+        self.parameter_rejections = 0
+        self.last_message = ''
+        self.last_cond = math.nan
+        self.last_force: tuple[float, float, float] | None = None
+        self._period_reset(None)
+
+    def _period_reset(self, now: float | None) -> None:
+        self._times: list[float] = []
+        self._cond_max = 0.0
+        self._level = OK
+        self._messages: list[str] = []
+        self._answered_at_start = self.answered
+        self._period_start = now
+
+    def note(self, level: int, message: str) -> None:
+        """Raise this period's level to ``level`` and remember why."""
+        if level > self._level:
+            self._level = level
+        if level > OK and message not in self._messages and len(self._messages) < 5:
+            self._messages.append(message)
+
+    def reject(self, reason: str, message: str) -> None:
+        self.rejected[reason] += 1
+        self.last_message = message
+        self.note(ERROR if reason in ERROR_REASONS else WARN, f'rejected ({reason})')
+
+    def solved(self, seconds: float, cond: float, force: tuple[float, float, float]) -> None:
+        self.answered += 1
+        self._times.append(seconds)
+        self.last_cond = cond
+        self.last_force = force
+        if cond > self._cond_max or not math.isfinite(cond):
+            self._cond_max = cond
+
+    def report(self, now: float) -> tuple[int, str, list[tuple[str, str]]]:
+        """(level, message, [(key, value), ...]) for this period; starts a new one."""
+        times = sorted(self._times)
+        n = len(times)
+        period = (now - self._period_start) if self._period_start is not None else math.nan
+        rate = (self.answered - self._answered_at_start) / period if period and period > 0 else 0.0
+        total_rejected = sum(self.rejected.values())
+        if n:
+            mean_us = 1e6 * sum(times) / n
+            p99_us = 1e6 * times[min(n - 1, int(math.ceil(0.99 * n)) - 1)]
+            max_us = 1e6 * times[-1]
+        else:
+            mean_us = p99_us = max_us = math.nan
+        level = self._level
+        if self._messages:
+            message = '; '.join(self._messages)
+        elif self.answered == 0:
+            message = 'waiting for setpoints'
+        elif n == 0:
+            message = 'idle (no setpoint this period)'
+        else:
+            message = 'OK'
+        values = [
+            ('status', LEVEL_NAMES[level]),
+            ('rate (Hz)', f'{rate:.1f}'),
+            ('setpoints answered', str(self.answered)),
+            ('solve time mean (us)', f'{mean_us:.1f}'),
+            ('solve time p99 (us)', f'{p99_us:.1f}'),
+            ('solve time max (us)', f'{max_us:.1f}'),
+            ('solves this period', str(n)),
+            ('cond(Q) last', f'{self.last_cond:.4g}'),
+            ('cond(Q) max this period', f'{self._cond_max:.4g}' if n else 'nan'),
+            ('rejected total', str(total_rejected)),
+        ]
+        values += [(f'rejected {reason}', str(count)) for reason, count in self.rejected.items()]
+        values += [(f'ignored {c}', str(count)) for c, count in self.ignored.items()]
+        values += [
+            ('limit exceeded', str(self.limit_exceeded)),
+            ('near limit', str(self.near_limit)),
+            ('near singular', str(self.near_singular)),
+            ('received pose', str(self.received[POSE])),
+            ('received twist', str(self.received[TWIST])),
+            ('received accel', str(self.received[ACCEL])),
+            ('estimated twist', str(self.estimated_twist)),
+            ('estimated accel', str(self.estimated_accel)),
+            ('parameter changes accepted', str(self.parameter_changes)),
+            ('parameter changes rejected', str(self.parameter_rejections)),
+            ('last rejection', self.last_message),
+        ]
+        self._period_reset(now)
+        return level, message, values
+
+
+class LogThrottle:
+    """At most one log line per ``key`` per ``period`` seconds; counts the
+    suppressed ones so the next line can say how many were skipped."""
+
+    def __init__(self, period: float = 1.0) -> None:
+        self.period = float(period)
+        self._last: dict[str, float] = {}
+        self._suppressed: dict[str, int] = {}
+
+    def __call__(self, key: str, now: float) -> int | None:
+        """None: do not log now. Else the number suppressed since the last line."""
+        last = self._last.get(key)
+        if last is not None and now - last < self.period:
+            self._suppressed[key] = self._suppressed.get(key, 0) + 1
+            return None
+        self._last[key] = now
+        return self._suppressed.pop(key, 0)

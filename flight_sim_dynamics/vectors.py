@@ -1,0 +1,93 @@
+"""Plain-vector arithmetic on 3-tuples of components.
+
+A vector is a tuple ``(x, y, z)`` whose components are either Python floats
+(one control cycle: no numpy call overhead at all) or 1-D numpy arrays of N
+samples (a whole trajectory, vectorised). The same solver code serves both;
+:func:`backend` picks the matching elementary functions.
+
+``zx(v)`` is the paper's skew-symmetric ``u3~`` applied to v (eq. 10), i.e.
+``z0 x v``.
+"""
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+from typing import Tuple, Union
+
+import numpy as np
+
+Scalar = Union[float, np.ndarray]
+Vec = Tuple[Scalar, Scalar, Scalar]
+
+
+def add(a: Vec, b: Vec) -> Vec:
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+def sub(a: Vec, b: Vec) -> Vec:
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+def scale(s: Scalar, a: Vec) -> Vec:
+    return (s * a[0], s * a[1], s * a[2])
+
+
+def axpy(s: Scalar, a: Vec, b: Vec) -> Vec:
+    """s a + b."""
+    return (s * a[0] + b[0], s * a[1] + b[1], s * a[2] + b[2])
+
+
+def dot(a: Vec, b: Vec) -> Scalar:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def cross(a: Vec, b: Vec) -> Vec:
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def zx(a: Vec) -> Vec:
+    """z0 x a (the paper's u3~ a)."""
+    return (-a[1], a[0], 0.0)
+
+
+def to_frame(axes: tuple[Vec, Vec, Vec], v: Vec) -> Vec:
+    """Components of v on the orthonormal axes (R^T v)."""
+    return (dot(axes[0], v), dot(axes[1], v), dot(axes[2], v))
+
+
+def from_frame(axes: tuple[Vec, Vec, Vec], c: Vec) -> Vec:
+    """R c: the vector whose components on the axes are c."""
+    x, y, z = axes
+    return (c[0] * x[0] + c[1] * y[0] + c[2] * z[0],
+            c[0] * x[1] + c[1] * y[1] + c[2] * z[1],
+            c[0] * x[2] + c[1] * y[2] + c[2] * z[2])
+
+
+def mat_vec(m: np.ndarray, c: Vec) -> Vec:
+    """m c for a constant 3x3 matrix (nested tuple of floats) and components c."""
+    return (m[0][0] * c[0] + m[0][1] * c[1] + m[0][2] * c[2],
+            m[1][0] * c[0] + m[1][1] * c[1] + m[1][2] * c[2],
+            m[2][0] * c[0] + m[2][1] * c[1] + m[2][2] * c[2])
+
+
+_SCALAR = SimpleNamespace(
+    sqrt=math.sqrt, sin=math.sin, cos=math.cos, atan2=math.atan2, hypot=math.hypot,
+    clip0=lambda x: x if x > 0.0 else 0.0,
+    where=lambda cond, a, b: a if cond else b,
+    all=bool, first_false=lambda ok: None, batch=False)
+
+
+def _first_false(ok: np.ndarray) -> int | None:
+    bad = np.flatnonzero(~ok)
+    return int(bad[0]) if bad.size else None
+
+
+_ARRAY = SimpleNamespace(
+    sqrt=np.sqrt, sin=np.sin, cos=np.cos, atan2=np.arctan2, hypot=np.hypot,
+    clip0=lambda x: np.maximum(x, 0.0),
+    where=np.where, all=np.all, first_false=_first_false, batch=True)
+
+
+def backend(batch: bool) -> SimpleNamespace:
+    """Elementary functions for float components (False) or array components (True)."""
+    return _ARRAY if batch else _SCALAR
