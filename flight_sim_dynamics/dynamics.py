@@ -8,133 +8,215 @@ the principle of virtual work with the three virtual motions of eq. (14),
 whose virtual joint velocities come from the connectivity relations (11)
 (eq. 23). Vectors are 3-tuples of components in the fixed frame
 (:mod:`.vectors`, :mod:`.kinematics`).
+
+Only the effects of the model's scene are computed (:mod:`.effects`): a body
+without inertia gets no motion computed at all, a scene without gravity no
+weights, a scene without velocity products none of the centrifugal and
+Coriolis terms.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .effects import Effects
 from .kinematics import Z0, Geometric
 from .model import ACTUATED_JOINTS, Body, Model
 from .vectors import (Scalar, Vec, add, axpy, cross, dot, from_frame, mat_vec, scale, sub,
                       to_frame, zx)
 
+LEG_BODIES = ('cylinder_a', 'piston_a', 'rod', 'cylinder_b', 'piston_b', 'cylinder_c',
+              'piston_c')
+CRANK_BODIES = ('crank_d', 'crank_e')
+PLATFORM_BODIES = ('platform', 'payload')
+
+
+def inertial_bodies(effects: Effects) -> frozenset[str]:
+    """The bodies whose inertia wrench the effects call for."""
+    names: set[str] = set()
+    if effects.platform_inertia:
+        names.add('platform')
+    if effects.payload:
+        names.add('payload')
+    if effects.leg_inertia:
+        names.update(LEG_BODIES)
+    if effects.crank_inertia:
+        names.update(CRANK_BODIES)
+    return frozenset(names)
+
 
 @dataclass
-class BodyMotion:
-    """Kinematic state of one body: what eq. (18) needs."""
+class BodyState:
+    """Frame of one body and, if its inertia is simulated, its motion (eq. 18)."""
 
+    body: Body
     axes: tuple[Vec, Vec, Vec]   # body axes x, y, z in the fixed frame (columns of a_k0^T)
-    omega: Vec                   # absolute angular velocity omega_k0
-    eps: Vec                     # absolute angular acceleration epsilon_k0
     com: Vec                     # centre of mass, fixed frame
-    acc: Vec                     # acceleration of the centre of mass
+    omega: Vec | None = None     # absolute angular velocity omega_k0
+    eps: Vec | None = None       # absolute angular acceleration epsilon_k0
+    acc: Vec | None = None       # acceleration of the centre of mass
 
 
-def _rigid(body: Body, axes: tuple[Vec, Vec, Vec], origin: Vec, omega: Vec, eps: Vec,
-           ref: Vec, acc_ref: Vec) -> BodyMotion:
-    """Centre-of-mass acceleration from a point ``ref`` of the same body with
-    known acceleration: a_C = a_ref + eps x rho + omega x (omega x rho)."""
-    com = add(origin, from_frame(axes, body.com_t))
-    rho = sub(com, ref)
-    acc = add(add(acc_ref, cross(eps, rho)), cross(omega, cross(omega, rho)))
-    return BodyMotion(axes=axes, omega=omega, eps=eps, com=com, acc=acc)
-
-
-def body_motions(model: Model, g: Geometric, V: list, Gamma: list,
-                 qd: tuple, qdd: tuple) -> dict[str, BodyMotion]:
-    """Absolute angular velocities/accelerations and centre-of-mass accelerations
-    of every body with mass, from the relative joint rates V (eq. 13) and
-    accelerations Gamma (eq. 15), composed along each chain."""
+def body_states(model: Model, g: Geometric, V: list | None, Gamma: list | None,
+                qd: tuple, qdd: tuple) -> dict[str, BodyState]:
+    """Frames of the bodies with mass and, for those whose inertia the scene
+    simulates, their absolute angular velocity, angular acceleration and
+    centre-of-mass acceleration, composed along each chain from the relative
+    joint rates V (eq. 13) and accelerations Gamma (eq. 15). A body that has
+    neither weight nor inertia in the scene is left out."""
+    effects = model.effects
     geom = model.geometry
     bodies = model.bodies
+    moving = inertial_bodies(effects)
+    vp = effects.velocity_products
+    present = set(moving) | (set(bodies) if effects.gravity else set())
+    if effects.payload:
+        present.add('payload')
     zero: Vec = (0.0, 0.0, 0.0)
-    out: dict[str, BodyMotion] = {}
+    out: dict[str, BodyState] = {}
+
+    def add_body(name: str, body: Body, axes: tuple[Vec, Vec, Vec], origin: Vec,
+                 kinematics) -> None:
+        """kinematics() -> (omega, eps, ref, acc_ref); evaluated only if inertial.
+        a_C = a_ref + eps x rho + omega x (omega x rho), rho = C - ref."""
+        if name not in present:
+            return
+        com = add(origin, from_frame(axes, body.com_t))
+        state = BodyState(body=body, axes=axes, com=com)
+        if name in moving:
+            omega, eps, ref, acc_ref = kinematics()
+            rho = sub(com, ref)
+            acc = add(acc_ref, cross(eps, rho))
+            if vp:
+                acc = add(acc, cross(omega, cross(omega, rho)))
+            state.omega, state.eps, state.acc = omega, eps, acc
+        out[name] = state
+
     # chain A: cylinder (omega_10), piston (+ v_21), rod (+ omega_32), platform (+ omega_43)
-    thd, thdd, Ld, Ldd = V[0], Gamma[0], V[1], Gamma[1]
     zdA = zx(g.dA)
     axes_A = (g.dA, zdA, Z0)
-    omega_A, eps_A = (0.0, 0.0, thd), (0.0, 0.0, thdd)
-    out['cylinder_a'] = _rigid(bodies['cylinder_a'], axes_A, zero, omega_A, eps_A, zero, zero)
-    acc_slide = axpy(Ldd, g.dA, scale(2.0 * Ld * thd, zdA))     # relative + Coriolis
-    out['piston_a'] = _rigid(bodies['piston_a'], axes_A, g.A3, omega_A, eps_A, zero, acc_slide)
-    beta_d, beta_dd = V[0] + V[2], Gamma[0] + Gamma[2]
+
+    def leg_a(slide: bool):
+        def motion():
+            omega, eps = (0.0, 0.0, V[0]), (0.0, 0.0, Gamma[0])
+            if not slide:
+                return omega, eps, zero, zero
+            acc_slide = scale(Gamma[1], g.dA)                       # relative acceleration
+            if vp:
+                acc_slide = axpy(2.0 * V[1] * V[0], zdA, acc_slide)  # + Coriolis
+            return omega, eps, zero, acc_slide
+        return motion
+
+    add_body('cylinder_a', bodies['cylinder_a'], axes_A, zero, leg_a(False))
+    add_body('piston_a', bodies['piston_a'], axes_A, g.A3, leg_a(True))
     Gdd = (qdd[0], qdd[1], 0.0)
     zl = zx(g.l)
-    out['rod'] = _rigid(bodies['rod'], (g.l, zl, Z0), g.A3, (0.0, 0.0, beta_d),
-                        (0.0, 0.0, beta_dd), g.G, Gdd)
-    roll_d, roll_dd = qd[2], qdd[2]
-    omega_P = (roll_d * g.l[0], roll_d * g.l[1], beta_d)
-    eps_P = (roll_dd * g.l[0] + beta_d * roll_d * zl[0],
-             roll_dd * g.l[1] + beta_d * roll_d * zl[1], beta_dd)
-    out['platform'] = _rigid(bodies['platform'], (g.l, g.n, g.t), g.A3, omega_P, eps_P,
-                             g.G, Gdd)
+    add_body('rod', bodies['rod'], (g.l, zl, Z0), g.A3,
+             lambda: ((0.0, 0.0, V[0] + V[2]), (0.0, 0.0, Gamma[0] + Gamma[2]), g.G, Gdd))
+
+    def platform_motion():
+        beta_d, beta_dd, roll_d, roll_dd = V[0] + V[2], Gamma[0] + Gamma[2], qd[2], qdd[2]
+        omega = (roll_d * g.l[0], roll_d * g.l[1], beta_d)       # beta' z0 + roll' l
+        eps = (roll_dd * g.l[0], roll_dd * g.l[1], beta_dd)
+        if vp:
+            eps = axpy(beta_d * roll_d, zl, eps)                 # + beta' roll' z0 x l
+        return omega, eps, g.G, Gdd
+
+    axes_P = (g.l, g.n, g.t)
+    add_body('platform', bodies['platform'], axes_P, g.A3, platform_motion)
+    if model.payload is not None:
+        add_body('payload', model.payload, axes_P, g.A3, platform_motion)
+
     # chains B, C: U-joint at the base (omega_10 about z0, omega_21 about e2), slider v_32
     base_x = geom.d2 + geom.d3 + geom.d4
     for leg, k, P1, P4, d, e2 in (('b', 3, (base_x, 0.0, geom.d5), g.B4, g.dB, g.e2B),
                                   ('c', 6, (base_x, 0.0, -geom.d5), g.C4, g.dC, g.e2C)):
-        w10, w21, Lr = V[k], V[k + 1], V[k + 2]
-        e10, e21, Lrr = Gamma[k], Gamma[k + 1], Gamma[k + 2]
-        omega = (w21 * e2[0], w21 * e2[1], w10)
-        ze2 = zx(e2)
-        eps = (e21 * e2[0] + w10 * w21 * ze2[0], e21 * e2[1] + w10 * w21 * ze2[1], e10)
         axes = (d, cross(e2, d), e2)
-        out[f'cylinder_{leg}'] = _rigid(bodies[f'cylinder_{leg}'], axes, P1, omega, eps,
-                                        P1, zero)
-        acc_slide = axpy(Lrr, d, scale(2.0 * Lr, cross(omega, d)))
-        out[f'piston_{leg}'] = _rigid(bodies[f'piston_{leg}'], axes, P4, omega, eps,
-                                      P1, acc_slide)
+
+        def leg_bc(slide: bool, k=k, P1=P1, d=d, e2=e2):
+            def motion():
+                w10, w21 = V[k], V[k + 1]
+                omega = (w21 * e2[0], w21 * e2[1], w10)
+                eps = (Gamma[k + 1] * e2[0], Gamma[k + 1] * e2[1], Gamma[k])
+                if vp:
+                    eps = axpy(w10 * w21, zx(e2), eps)
+                if not slide:
+                    return omega, eps, P1, zero
+                acc_slide = scale(Gamma[k + 2], d)
+                if vp:
+                    acc_slide = axpy(2.0 * V[k + 2], cross(omega, d), acc_slide)
+                return omega, eps, P1, acc_slide
+            return motion
+
+        add_body(f'cylinder_{leg}', bodies[f'cylinder_{leg}'], axes, P1, leg_bc(False))
+        add_body(f'piston_{leg}', bodies[f'piston_{leg}'], axes, P4, leg_bc(True))
+
     # cranks D, E: rotation about z0 at the fixed pivot
     for name, k, P1, d in (('crank_d', 9, (geom.d2 + geom.d3, 0.0, 0.0), g.dD),
                            ('crank_e', 10, (geom.d2, 0.0, 0.0), g.dE)):
-        out[name] = _rigid(bodies[name], (d, zx(d), Z0), P1, (0.0, 0.0, V[k]),
-                           (0.0, 0.0, Gamma[k]), P1, zero)
+        add_body(name, bodies[name], (d, zx(d), Z0), P1,
+                 lambda k=k, P1=P1: ((0.0, 0.0, V[k]), (0.0, 0.0, Gamma[k]), P1, zero))
     return out
 
 
-def required_wrench(body: Body, motion: BodyMotion, gravity: float,
-                    about: Vec) -> tuple[Vec, Vec]:
+def required_wrench(state: BodyState, gravity: float, about: Vec,
+                    velocity_products: bool) -> tuple[Vec, Vec]:
     """F_k0, M_k0 of eq. (21) = -(inertia wrench, eq. 18) - (weight wrench, eq. 19),
     the moment taken about the point ``about`` (the joint centre A_k).
 
     F = m (a_C - g), M = J_C eps + omega x J_C omega + (C - A_k) x F, with
     g = -gravity y0 (the paper's eq. 19 writes the weight along u3: the
     vertical of this machine is y0, see mechanism.md). J_C is applied in the
-    body frame (J_C = R J R^T).
+    body frame (J_C = R J R^T). Terms the scene leaves out are not computed.
     """
-    a = motion.acc
-    force = (body.mass * a[0], body.mass * (a[1] + gravity), body.mass * a[2])
-    w = to_frame(motion.axes, motion.omega)
-    e = to_frame(motion.axes, motion.eps)
-    Jw = mat_vec(body.inertia_t, w)
-    moment_body = add(mat_vec(body.inertia_t, e), cross(w, Jw))
-    moment = add(from_frame(motion.axes, moment_body), cross(sub(motion.com, about), force))
+    m = state.body.mass
+    if state.acc is None:
+        force = (0.0, m * gravity, 0.0)
+        return force, cross(sub(state.com, about), force)
+    a = state.acc
+    force = (m * a[0], m * (a[1] + gravity), m * a[2])
+    I = state.body.inertia_t
+    moment_body = mat_vec(I, to_frame(state.axes, state.eps))
+    if velocity_products:
+        w = to_frame(state.axes, state.omega)
+        moment_body = add(moment_body, cross(w, mat_vec(I, w)))
+    moment = add(from_frame(state.axes, moment_body), cross(sub(state.com, about), force))
     return force, moment
 
 
 def joint_forces(model: Model, g: Geometric,
-                 motions: dict[str, BodyMotion]) -> tuple[list, Scalar]:
+                 states: dict[str, BodyState]) -> tuple[list, Scalar]:
     """Backward recursion of eq. (20)-(22) along chains A, B, C and cranks D, E.
 
     Returns tau (12 components), the projection of the accumulated wrench on
     each joint axis (u3^T F_k for a prismatic joint, u3^T M_k for a revolute
     one) in the order of eq. (13), and tau_43, that of the platform roll joint
-    A4. The massless slider E2 carries no term (tau[11] = 0).
+    A4. The massless slider E2 carries no term (tau[11] = 0). Bodies left out
+    of the scene contribute nothing.
     """
     geom = model.geometry
-    bodies = model.bodies
-    grav = model.gravity
+    grav = model.gravity if model.effects.gravity else 0.0
+    vp = model.effects.velocity_products
+    zero: Vec = (0.0, 0.0, 0.0)
+
+    def wrench(names: tuple[str, ...], about: Vec) -> tuple[Vec, Vec]:
+        F, M = zero, zero
+        for name in names:
+            if name in states:
+                f, m = required_wrench(states[name], grav, about, vp)
+                F, M = add(F, f), add(M, m)
+        return F, M
+
     tau = [0.0] * 12
     # chain A, joints A1 (rev z0), A2 (prismatic dA), A3 (rev z0), A4 (rev l); A4 = A3
-    A1: Vec = (0.0, 0.0, 0.0)
     A2 = axpy(-geom.l2, g.dA, g.A3)
-    F4, M4 = required_wrench(bodies['platform'], motions['platform'], grav, g.A3)
-    F30, M30 = required_wrench(bodies['rod'], motions['rod'], grav, g.A3)
-    F3, M3 = add(F30, F4), add(M30, M4)                                  # r_43 = 0
-    F20, M20 = required_wrench(bodies['piston_a'], motions['piston_a'], grav, A2)
+    F4, M4 = wrench(PLATFORM_BODIES, g.A3)                        # platform (+ payload)
+    F30, M30 = wrench(('rod',), g.A3)
+    F3, M3 = add(F30, F4), add(M30, M4)                            # r_43 = 0
+    F20, M20 = wrench(('piston_a',), A2)
     F2 = add(F20, F3)
     M2 = add(add(M20, M3), cross(sub(g.A3, A2), F3))
-    F10, M10 = required_wrench(bodies['cylinder_a'], motions['cylinder_a'], grav, A1)
-    M1 = add(add(M10, M2), cross(A2, F2))                                # r_21 = A2 - A1
+    _, M10 = wrench(('cylinder_a',), zero)
+    M1 = add(add(M10, M2), cross(A2, F2))                          # r_21 = A2 - A1
     tau[0] = M1[2]                      # u3^T M_1^A, axis z0
     tau[1] = dot(g.dA, F2)              # u3^T F_2^A, axis dA
     tau[2] = M3[2]                      # u3^T M_3^A, axis z0
@@ -144,9 +226,8 @@ def joint_forces(model: Model, g: Geometric,
     for leg, k, P1, P4, d, e2 in (('b', 3, (base_x, 0.0, geom.d5), g.B4, g.dB, g.e2B),
                                   ('c', 6, (base_x, 0.0, -geom.d5), g.C4, g.dC, g.e2C)):
         P3 = axpy(-geom.l4, d, P4)
-        F3, M3 = required_wrench(bodies[f'piston_{leg}'], motions[f'piston_{leg}'], grav, P3)
-        _, M20 = required_wrench(bodies[f'cylinder_{leg}'], motions[f'cylinder_{leg}'],
-                                 grav, P1)
+        F3, M3 = wrench((f'piston_{leg}',), P3)
+        _, M20 = wrench((f'cylinder_{leg}',), P1)
         M2 = add(add(M20, M3), cross(sub(P3, P1), F3))    # M_1 = M_2: massless cross
         tau[k] = M2[2]                  # u3^T M_1^B, axis z0
         tau[k + 1] = dot(e2, M2)        # u3^T M_2^B, axis e2
@@ -154,8 +235,7 @@ def joint_forces(model: Model, g: Geometric,
     # cranks D, E
     for name, k, P1 in (('crank_d', 9, (geom.d2 + geom.d3, 0.0, 0.0)),
                         ('crank_e', 10, (geom.d2, 0.0, 0.0))):
-        _, M1 = required_wrench(bodies[name], motions[name], grav, P1)
-        tau[k] = M1[2]
+        tau[k] = wrench((name,), P1)[1][2]
     return tau, tau_43
 
 
@@ -192,3 +272,12 @@ def actuator_forces(tau: list, tau_43: Scalar, Vv: list, roll_v: list) -> list:
     the actuator pushes its two ends apart."""
     return [sum(Vv[j][a] * tau[j] for j in range(11))   # tau[11] = 0: slider E2 is massless
             + roll_v[a] * tau_43 for a in range(3)]
+
+
+def friction_forces(model: Model, rate: tuple, xp) -> list:
+    """Actuator friction (effect 'friction'): viscous x rate + Coulomb x
+    tanh(rate / smoothing velocity), per actuator; it adds to the force the
+    actuator must give."""
+    fr = model.friction
+    return [fr.viscous[i] * rate[i] + fr.coulomb[i] * xp.tanh(rate[i] / fr.smoothing_velocity)
+            for i in range(3)]

@@ -12,11 +12,13 @@ Everything that changes per cycle lives in the per-solve data
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Mapping
 
 import numpy as np
+
+from .effects import Effects
 
 #: Order of the geometry constants (paper's symbols, Section 3 application data).
 GEOMETRY_KEYS = ('d1', 'd2', 'd3', 'd4', 'd5', 'l1', 'l2', 'l3', 'l4', 'l5', 'l6',
@@ -114,6 +116,16 @@ class Body:
 
 
 @dataclass(frozen=True)
+class Friction:
+    """Actuator friction (used when the scene enables it): per actuator A, B, C,
+    f = viscous x rate + coulomb x tanh(rate / smoothing_velocity)."""
+
+    viscous: tuple = (0.0, 0.0, 0.0)      # N s/m
+    coulomb: tuple = (0.0, 0.0, 0.0)      # N
+    smoothing_velocity: float = 1e-3      # m/s
+
+
+@dataclass(frozen=True)
 class CentralConfiguration:
     """Constants fixed once at the central configuration (q = 0)."""
 
@@ -133,6 +145,15 @@ class Model:
     gravity: float
     central: CentralConfiguration
     values: Mapping[str, object] = field(default_factory=dict)  # the validated flat parameters
+    effects: Effects = field(default_factory=Effects)           # what the solver computes
+    scene: str = 'full'                                         # name of the scene
+    payload: Body | None = None                                 # cab and occupants (platform frame)
+    friction: Friction = field(default_factory=Friction)
+
+    def with_effects(self, effects: Effects, scene: str | None = None) -> 'Model':
+        """The same mechanism simulating another set of effects."""
+        return replace(self, effects=effects,
+                       scene=scene if scene is not None else 'custom')
 
     def __post_init__(self) -> None:
         object.__setattr__(self, 'bodies', MappingProxyType(dict(self.bodies)))

@@ -23,7 +23,7 @@ from typing import Any, Iterable, Mapping
 import numpy as np
 import yaml
 
-from .model import BODY_NAMES, GEOMETRY_KEYS, Body, Geometry, Model
+from .model import BODY_NAMES, GEOMETRY_KEYS, Body, Friction, Geometry, Model
 
 NODE_NAME = 'flight_sim_dynamics'
 PACKAGE_NAME = 'flight_sim_dynamics'
@@ -59,6 +59,7 @@ class ParamSpec:
     exclusive_minimum: bool = False
     length: int | None = None
     choices: tuple[str, ...] | None = None
+    required: bool = True     # a complete model file must give it (model parameters only)
 
     @property
     def full_description(self) -> str:
@@ -127,6 +128,33 @@ def _model_specs() -> list[ParamSpec]:
                       f'inertia tensor of {name} about its centre of mass, body frame, '
                       'row-major 3x3', 'kg m^2', length=9),
         ]
+    # payload (cab and occupants): used when a scene enables the 'payload' effect.
+    # Defaults: a 60 kg cab plus an 80 kg occupant centred on the platform.
+    specs += [
+        ParamSpec('payload.mass', 'double', 140.0,
+                  'mass of the payload (cab and occupants) on the platform', 'kg',
+                  minimum=0.0, exclusive_minimum=True, maximum=1.0e6, required=False),
+        ParamSpec('payload.com', 'double_array', [0.7, 0.45, 0.0],
+                  'payload centre of mass in the platform frame (origin A3; x along the rod '
+                  'A3->G, y platform normal up, z lateral right)', 'm', length=3,
+                  required=False),
+        ParamSpec('payload.inertia', 'double_array',
+                  [16.0, 0.0, 0.0, 0.0, 20.0, 0.0, 0.0, 0.0, 18.0],
+                  'payload inertia tensor about its centre of mass, platform axes, '
+                  'row-major 3x3', 'kg m^2', length=9, required=False),
+    ]
+    # actuator friction: used when a scene enables the 'friction' effect.
+    specs += [
+        ParamSpec('friction.viscous', 'double_array', [200.0, 200.0, 200.0],
+                  'viscous friction coefficient of actuators A, B, C', 'N s/m', length=3,
+                  required=False),
+        ParamSpec('friction.coulomb', 'double_array', [5.0, 5.0, 5.0],
+                  'Coulomb (dry) friction force of actuators A, B, C', 'N', length=3,
+                  required=False),
+        ParamSpec('friction.smoothing_velocity', 'double', 1.0e-3,
+                  'rate below which Coulomb friction is smoothed: F_c tanh(rate / v_s)', 'm/s',
+                  minimum=0.0, exclusive_minimum=True, maximum=10.0, required=False),
+    ]
     return specs
 
 
@@ -251,14 +279,15 @@ def default_params_path() -> Path:
         + ', '.join(str(c) for c in candidates))
 
 
-def _flatten(tree: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
+def flatten(tree: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
+    """Nested YAML maps to dotted names, as ROS 2 flattens parameters."""
     flat: dict[str, Any] = {}
     for key, value in tree.items():
         name = f'{prefix}{key}'
         if isinstance(value, Mapping):
             if not value:
                 raise ParameterError(name, value, 'empty group')
-            flat.update(_flatten(value, name + '.'))
+            flat.update(flatten(value, name + '.'))
         else:
             flat[name] = value
     return flat
@@ -292,7 +321,7 @@ def read_params_file(path: str | os.PathLike[str]) -> dict[str, Any]:
         params = body['ros__parameters']
         if not isinstance(params, Mapping):
             raise ParameterError(f'{section}.ros__parameters', params, 'expected a map')
-        flat.update(_flatten(params))
+        flat.update(flatten(params))
         found = True
     if not found:
         raise ParameterError('params_file', str(path),
@@ -378,9 +407,10 @@ def check_inertia(key: str, value: Iterable[float]) -> np.ndarray:
 def validate(values: Mapping[str, Any], *, require_all: bool = True) -> dict[str, Any]:
     """Check a flat dict of parameters against the schema.
 
-    Unknown keys are errors. With ``require_all`` every model parameter must be
-    present (as when loading a complete file); otherwise missing ones take their
-    packaged defaults. Node parameters always default when absent.
+    Unknown keys are errors. With ``require_all`` every required model
+    parameter (gravity, geometry, bodies) must be present (as when loading a
+    complete file); otherwise missing ones take their packaged defaults. Effect
+    parameters (payload, friction) and node parameters default when absent.
     Returns the complete, canonical flat dict.
     """
     for key in values:
@@ -390,21 +420,36 @@ def validate(values: Mapping[str, Any], *, require_all: bool = True) -> dict[str
     for spec in ALL_PARAMETERS:
         if spec.name in values:
             result[spec.name] = check_value(spec, values[spec.name])
-        elif require_all and spec in MODEL_PARAMETERS:
+        elif require_all and spec.required and spec in MODEL_PARAMETERS:
             raise ParameterError(spec.name, None, 'missing (every model parameter must be given)')
     for name in BODY_NAMES:
         check_inertia(f'bodies.{name}.inertia', result[f'bodies.{name}.inertia'])
+    check_inertia('payload.inertia', result['payload.inertia'])
+    for key in ('friction.viscous', 'friction.coulomb'):
+        if min(result[key]) < 0.0:
+            raise ParameterError(key, result[key], 'friction coefficients must be >= 0')
     return result
 
 
-def model_from_values(values: Mapping[str, Any], *, require_all: bool = True) -> Model:
+def model_from_values(values: Mapping[str, Any], *, require_all: bool = True,
+                      scene: 'Scene | str | None' = None) -> Model:
     """Validate ``values`` (flat dotted names) and build the :class:`Model`.
 
+    ``scene`` (a :class:`~.effects.Scene`, a scene name or path; None = ``full``)
+    selects the effects; its parameter overrides apply on top of ``values``.
     Raises :class:`ParameterError` if anything is invalid, including a geometry
     whose loops cannot close at the central configuration (crank D, crank E
-    meeting the rod between A3 and G)."""
+    meeting the rod between A3 and G), and :class:`~.effects.SceneError` for a
+    bad scene."""
+    from .effects import Scene, SceneError, load_scene
     from .kinematics import central_configuration, GeometryError
 
+    scene = scene if isinstance(scene, Scene) else load_scene(scene)
+    values = dict(values)
+    for key, value in scene.parameters.items():
+        if key not in SPECS or SPECS[key] not in MODEL_PARAMETERS:
+            raise SceneError(scene.name, f"parameter '{key}' is not a model parameter")
+        values[key] = value
     checked = validate(values, require_all=require_all)
     geometry = Geometry(**{k: checked[f'geometry.{k}'] for k in GEOMETRY_KEYS})
     bodies = {
@@ -420,14 +465,24 @@ def model_from_values(values: Mapping[str, Any], *, require_all: bool = True) ->
                              f'loops cannot close at the central configuration: {exc}') from None
     for arr in (*(b.com for b in bodies.values()), *(b.inertia for b in bodies.values())):
         arr.setflags(write=False)
+    payload = Body(mass=checked['payload.mass'],
+                   com=np.array(checked['payload.com'], dtype=float),
+                   inertia=check_inertia('payload.inertia', checked['payload.inertia']))
+    friction = Friction(viscous=tuple(checked['friction.viscous']),
+                        coulomb=tuple(checked['friction.coulomb']),
+                        smoothing_velocity=checked['friction.smoothing_velocity'])
     return Model(geometry=geometry, bodies=bodies, gravity=checked['gravity'],
-                 central=central, values=checked)
+                 central=central, values=checked, effects=scene.effects, scene=scene.name,
+                 payload=payload, friction=friction)
 
 
-def load_model(path: str | os.PathLike[str] | None = None) -> Model:
-    """Load and validate a parameter file (None: the packaged defaults).
+def load_model(path: str | os.PathLike[str] | None = None,
+               scene: str | os.PathLike[str] | None = None) -> Model:
+    """Load and validate a parameter file (None: the packaged defaults) and a
+    scene (a name from config/scenes or a path; None: ``full``, the paper's model).
 
-    The file must give every model parameter (geometry, bodies, gravity);
-    node-only parameters may be present and default when absent."""
+    The file must give every required model parameter (gravity, geometry,
+    bodies); effect parameters (payload, friction) and node parameters may be
+    present and default when absent."""
     values = read_params_file(default_params_path() if path is None else path)
-    return model_from_values(values, require_all=True)
+    return model_from_values(values, require_all=True, scene=scene)

@@ -20,8 +20,8 @@ from typing import Sequence
 
 import numpy as np
 
-from .dynamics import (actuator_forces, actuator_jacobian, body_motions, joint_forces,
-                       virtual_velocities)
+from .dynamics import (actuator_forces, actuator_jacobian, body_states, friction_forces,
+                       joint_forces, virtual_velocities)
 from .kinematics import (Geometric, acceleration_column, connectivity_matrix, factorize,
                          inverse_geometry, pose_rate_columns, solve_connectivity)
 from .model import ACTUATED_JOINTS, Model
@@ -72,12 +72,19 @@ def _solve(model: Model, q: tuple, qd: tuple, qdd: tuple, batch: bool) -> Soluti
     V = [K[0][j] * qd[0] + K[1][j] * qd[1] + K[2][j] * qd[2] for j in range(12)]  # eq. (11)
     S = acceleration_column(model, g, V, qd, qdd)                        # eq. (17)
     Gamma = solve_connectivity(g, f, S)                                  # eq. (16)
-    motions = body_motions(model, g, V, Gamma, qd, qdd)
-    tau, tau_43 = joint_forces(model, g, motions)                        # eq. (18)-(22)
+    effects = model.effects
+    if effects.velocity_products or not effects.any_inertia:
+        Gamma_dyn = Gamma
+    else:   # accelerations from rest: Q^-1 (P_q qdd) = K qdd, no velocity products
+        Gamma_dyn = [K[0][j] * qdd[0] + K[1][j] * qdd[1] + K[2][j] * qdd[2] for j in range(12)]
+    states = body_states(model, g, V, Gamma_dyn, qd, qdd)
+    tau, tau_43 = joint_forces(model, g, states)                         # eq. (18)-(22)
     J = actuator_jacobian(K)
     Vv, roll_v = virtual_velocities(K, J)                                # eq. (14)
     force = actuator_forces(tau, tau_43, Vv, roll_v)                     # eq. (23)
     rate = (V[_A], V[_B], V[_C])
+    if effects.friction:
+        force = [fi + ff for fi, ff in zip(force, friction_forces(model, rate, xp))]
     pack = _pack_batch if batch else _pack_single
     return Solution(
         length=pack(g.length), stroke=pack((g.raw[_A], g.raw[_B], g.raw[_C])),

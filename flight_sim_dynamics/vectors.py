@@ -72,6 +72,7 @@ def mat_vec(m: np.ndarray, c: Vec) -> Vec:
 
 _SCALAR = SimpleNamespace(
     sqrt=math.sqrt, sin=math.sin, cos=math.cos, atan2=math.atan2, hypot=math.hypot,
+    tanh=math.tanh,
     clip0=lambda x: x if x > 0.0 else 0.0,
     where=lambda cond, a, b: a if cond else b,
     all=bool, first_false=lambda ok: None, batch=False)
@@ -84,6 +85,7 @@ def _first_false(ok: np.ndarray) -> int | None:
 
 _ARRAY = SimpleNamespace(
     sqrt=np.sqrt, sin=np.sin, cos=np.cos, atan2=np.arctan2, hypot=np.hypot,
+    tanh=np.tanh,
     clip0=lambda x: np.maximum(x, 0.0),
     where=np.where, all=np.all, first_false=_first_false, batch=True)
 

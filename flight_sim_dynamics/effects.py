@@ -1,0 +1,158 @@
+"""Effects and scenes: simulate only what a scene calls for.
+
+An :class:`Effects` set switches each physical effect on or off. A disabled
+effect is *skipped* by the solver (its terms are never computed), not
+computed and multiplied by zero:
+
+================== ==========================================================
+gravity            weight of every simulated body (eq. 19)
+platform_inertia   inertia wrench of the platform (translation and rotation)
+payload            the cab and occupants on the platform: an extra rigid body
+                   (``payload.*`` parameters), weight and inertia
+leg_inertia        inertia wrenches of the bodies of chains A, B, C
+                   (cylinders, pistons and the rod A3G)
+crank_inertia      inertia wrenches of cranks D and E
+velocity_products  centrifugal and Coriolis terms (the velocity-product parts
+                   of eq. 17 and 18); off = the forces of the same
+                   accelerations from rest
+friction           actuator friction: viscous plus Coulomb (smoothed by
+                   tanh(rate / friction.smoothing_velocity)), per actuator
+================== ==========================================================
+
+A *scene* is a named set of effects plus optional parameter overrides, kept
+as a YAML file in ``config/scenes/`` (or anywhere, given by path)::
+
+    description: full model plus a cab and one occupant
+    effects: {gravity: true, platform_inertia: true, payload: true,
+              leg_inertia: true, crank_inertia: true,
+              velocity_products: true, friction: false}
+    parameters:          # optional: overrides of model parameters
+      payload: {mass: 140.0}
+
+Every effect must be listed: a scene says what it simulates, nothing is
+inherited silently.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, fields, replace
+from pathlib import Path
+from typing import Any, Mapping
+
+import yaml
+
+EFFECT_NAMES = ('gravity', 'platform_inertia', 'payload', 'leg_inertia', 'crank_inertia',
+                'velocity_products', 'friction')
+DEFAULT_SCENE = 'full'
+
+
+class SceneError(ValueError):
+    """A scene file is missing, malformed or names an unknown effect."""
+
+    def __init__(self, scene: str, reason: str) -> None:
+        self.scene = scene
+        self.reason = reason
+        super().__init__(f"scene '{scene}': {reason}")
+
+
+@dataclass(frozen=True)
+class Effects:
+    """Which physical effects the solver computes. Defaults: the paper's model."""
+
+    gravity: bool = True
+    platform_inertia: bool = True
+    payload: bool = False
+    leg_inertia: bool = True
+    crank_inertia: bool = True
+    velocity_products: bool = True
+    friction: bool = False
+
+    @property
+    def any_inertia(self) -> bool:
+        """True when some inertia wrench is computed (accelerations are needed)."""
+        return self.platform_inertia or self.payload or self.leg_inertia or self.crank_inertia
+
+    def only(self, *names: str) -> 'Effects':
+        """The effects set with exactly ``names`` enabled."""
+        unknown = set(names) - set(EFFECT_NAMES)
+        if unknown:
+            raise ValueError(f"unknown effect(s): {', '.join(sorted(unknown))}")
+        return Effects(**{name: name in names for name in EFFECT_NAMES})
+
+    def without(self, *names: str) -> 'Effects':
+        return replace(self, **{name: False for name in names})
+
+    def enabled(self) -> tuple[str, ...]:
+        return tuple(f.name for f in fields(self) if getattr(self, f.name))
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str
+    description: str
+    effects: Effects
+    parameters: Mapping[str, Any]   # flat dotted overrides of model parameters
+
+
+def scenes_dir() -> Path:
+    """The packaged scenes folder (next to the packaged parameter file)."""
+    from .parameters import default_params_path
+    return default_params_path().parent / 'scenes'
+
+
+def available_scenes() -> list[str]:
+    folder = scenes_dir()
+    return sorted(p.stem for p in folder.glob('*.yaml')) if folder.is_dir() else []
+
+
+def scene_path(scene: str | os.PathLike[str]) -> Path:
+    """A scene name (file in the packaged scenes folder) or a path to a YAML file."""
+    text = os.fspath(scene)
+    if text.endswith(('.yaml', '.yml')) or os.sep in text:
+        return Path(text)
+    path = scenes_dir() / f'{text}.yaml'
+    if not path.is_file():
+        raise SceneError(text, 'no such scene; available: ' + ', '.join(available_scenes()))
+    return path
+
+
+def load_scene(scene: str | os.PathLike[str] | None = None) -> Scene:
+    """Read and validate a scene (None: the ``full`` scene, the paper's model)."""
+    from .parameters import flatten
+
+    path = scene_path(DEFAULT_SCENE if scene is None else scene)
+    name = path.stem
+    try:
+        doc = yaml.safe_load(path.read_text())
+    except OSError as exc:
+        raise SceneError(name, f'cannot read {path}: {exc.strerror}') from None
+    except yaml.YAMLError as exc:
+        raise SceneError(name, f'not valid YAML: {exc}') from None
+    if not isinstance(doc, Mapping):
+        raise SceneError(name, "expected a map with 'effects' (and optionally "
+                               "'description', 'parameters')")
+    unknown_keys = set(doc) - {'description', 'effects', 'parameters'}
+    if unknown_keys:
+        raise SceneError(name, f"unknown key(s): {', '.join(sorted(map(str, unknown_keys)))}")
+    effects = doc.get('effects')
+    if not isinstance(effects, Mapping):
+        raise SceneError(name, "missing 'effects' map")
+    unknown = set(effects) - set(EFFECT_NAMES)
+    if unknown:
+        raise SceneError(name, f"unknown effect(s): {', '.join(sorted(map(str, unknown)))}; "
+                               f"known: {', '.join(EFFECT_NAMES)}")
+    missing = [e for e in EFFECT_NAMES if e not in effects]
+    if missing:
+        raise SceneError(name, f"effect(s) not given: {', '.join(missing)} "
+                               '(every effect must be listed true or false)')
+    for effect, value in effects.items():
+        if not isinstance(value, bool):
+            raise SceneError(name, f"effect '{effect}' must be true or false, got {value!r}")
+    overrides = doc.get('parameters') or {}
+    if not isinstance(overrides, Mapping):
+        raise SceneError(name, "'parameters' must be a map of parameter overrides")
+    description = doc.get('description', '')
+    if not isinstance(description, str):
+        raise SceneError(name, "'description' must be a string")
+    return Scene(name=name, description=description, effects=Effects(**effects),
+                 parameters=flatten(overrides))
