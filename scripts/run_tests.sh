@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Run the test suite on a fresh machine (only Python 3.11 + PyPI needed):
+#   bash scripts/run_tests.sh [PYTEST_ARGS...]
+# Creates/reuses .venv, installs requirements-test.txt and the package, then
+# runs `python -m pytest -q test "$@"` and exits with pytest's exit code
+# (5 = no tests collected counts as a failure).
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/_setup_env.sh" requirements-test.txt
+
+# Isolate the ROS 2 graph of this run: a random domain in 1..100 (inside Fast
+# DDS's default port range) and discovery limited to this machine, so parallel
+# runs and other robots on the network do not see each other.
+ROS_DOMAIN_ID=$((RANDOM % 100 + 1))
+export ROS_DOMAIN_ID
+export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
+echo "[tests] ROS_DOMAIN_ID=$ROS_DOMAIN_ID ROS_AUTOMATIC_DISCOVERY_RANGE=$ROS_AUTOMATIC_DISCOVERY_RANGE"
+
+exec python -m pytest -q test "$@"

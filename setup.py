@@ -1,0 +1,43 @@
+"""Build script of the flight_sim_dynamics ament_python package.
+
+Works with colcon (ROS 2) and with plain pip:
+
+* colcon build: scripts go to install/flight_sim_dynamics/lib/flight_sim_dynamics
+  (setup.cfg), data files to install/flight_sim_dynamics/share/...
+* pip install . (or -e .): scripts go to <venv>/bin, data files to
+  <venv>/share/flight_sim_dynamics/... (the wheel's data scheme is sys.prefix).
+"""
+from glob import glob
+
+from setuptools import find_packages, setup
+
+package_name = 'flight_sim_dynamics'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(exclude=['test', 'test.*']),
+    data_files=[
+        ('share/ament_index/resource_index/packages',
+            ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+        ('share/' + package_name + '/config', sorted(glob('config/*.yaml'))),
+        ('share/' + package_name + '/config/scenes',
+            sorted(glob('config/scenes/*.yaml'))),
+    ],
+    python_requires='>=3.10',
+    install_requires=['setuptools', 'numpy', 'PyYAML', 'matplotlib'],
+    extras_require={'test': ['pytest', 'hypothesis']},
+    zip_safe=True,
+    maintainer='flight_sim_dynamics maintainers',
+    maintainer_email='flight_sim_dynamics@example.com',
+    description='Inverse dynamics of a 3-DOF parallel flight simulator '
+                '(library, CLI and ROS 2 node).',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            'flight-sim-dynamics = flight_sim_dynamics.cli:main',
+            'dynamics_node = flight_sim_dynamics.node:main',
+        ],
+    },
+)
