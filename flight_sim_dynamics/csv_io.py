@@ -18,6 +18,7 @@ so a failed run never leaves a partial file and never clobbers an old one.
 from __future__ import annotations
 
 import contextlib
+import difflib
 import os
 import re
 import sys
@@ -77,7 +78,6 @@ class Table:
 # ----------------------------------------------------------------------------
 _ALLOWED_BYTES = b'0123456789.eE+-, \t\r\n'
 _NUMBER = re.compile(r'[ \t]*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?[ \t]*\Z')
-_BLANK_LINE = re.compile(rb'(?:\A|\n)[ \t\r]*(?:\n|\Z)')
 
 
 def _display(path: str | os.PathLike[str]) -> str:
@@ -121,20 +121,30 @@ def parse_header(raw: bytes, path: str, *, required: Sequence[str],
             raise CsvError(f"duplicate column '{name}' (also column {seen[name] + 1})",
                            path=path, line=1, column=j + 1, name=name)
         seen[name] = j
+    missing = [n for n in required if n not in seen]
     if not allow_extra:
         unknown = [(j, n) for j, n in enumerate(names) if n not in required]
         if unknown:
             j0, _ = unknown[0]
-            listed = ', '.join(f"'{n}' (column {j + 1})" for j, n in unknown)
-            raise CsvError(f'unknown column{"s" if len(unknown) > 1 else ""} {listed}; '
+            listed = ', '.join(f"'{n}' (column {j + 1})" + _did_you_mean(n, missing)
+                               for j, n in unknown)
+            also = (f"; missing {', '.join(repr(m) for m in missing)}" if missing else '')
+            raise CsvError(f'unknown column{"s" if len(unknown) > 1 else ""} {listed}{also}; '
                            f'expected exactly the columns {expected} (any order)',
                            path=path, line=1, column=j0 + 1, name=unknown[0][1])
-    missing = [n for n in required if n not in seen]
     if missing:
         raise CsvError(f'missing column{"s" if len(missing) > 1 else ""} '
                        f"{', '.join(repr(m) for m in missing)}; "
                        f'the header must name {expected} (any order)', path=path, line=1)
     return names
+
+
+def _did_you_mean(name: str, candidates: Sequence[str]) -> str:
+    lowered = {c.lower(): c for c in candidates}
+    if name.lower() in lowered:
+        return f" (did you mean '{lowered[name.lower()]}'?)"
+    close = difflib.get_close_matches(name, candidates, n=1)
+    return f" (did you mean '{close[0]}'?)" if close else ''
 
 
 def read_csv(path: str | os.PathLike[str], *, required: Sequence[str],
@@ -184,23 +194,26 @@ def _parse_fast(body: bytes, nrows: int, ncol: int) -> np.ndarray | None:
     slow scan finds and reports the offending cell)."""
     if body.translate(None, _ALLOWED_BYTES):   # letters, quotes, NUL, non-ASCII...
         return None
-    if _BLANK_LINE.search(body):
-        return None
+    if b'\r' in body:
+        body = body.replace(b'\r\n', b'\n')
     buf = np.frombuffer(body, dtype=np.uint8)
     newlines = np.flatnonzero(buf == 0x0A)
     commas = np.flatnonzero(buf == 0x2C)
     if commas.size != nrows * (ncol - 1):
         return None
     per_line = np.bincount(np.searchsorted(newlines, commas), minlength=nrows)
-    if np.any(per_line != ncol - 1):
+    if np.any(per_line != ncol - 1):     # ragged rows; also blank lines when ncol > 1
         return None
+    # numpy's C parser accepts, on these characters, exactly the cells _NUMBER
+    # accepts (test_cli checks it); it skips blank lines, caught by the shape.
     try:
-        flat = np.fromstring(body.replace(b'\n', b','), dtype=np.float64, sep=',')
+        values = np.loadtxt(body.decode('ascii').split('\n'), delimiter=',', comments=None,
+                            dtype=np.float64, ndmin=2)
     except ValueError:
         return None
-    if flat.size != nrows * ncol:
+    if values.shape != (nrows, ncol):
         return None
-    return flat.reshape(nrows, ncol)
+    return values
 
 
 def _parse_slow(body: bytes, names: Sequence[str], path: str) -> np.ndarray:
@@ -226,7 +239,7 @@ def _parse_slow(body: bytes, names: Sequence[str], path: str) -> np.ndarray:
                 value = float(cell)
             except ValueError:
                 value = None
-            if not _NUMBER.match(cell) or value is None:
+            if value is None or not _NUMBER.match(cell) or not np.isfinite(value):
                 if value is not None and not np.isfinite(value):
                     msg = f"'{shown}' is not a finite number"
                 else:
@@ -247,7 +260,6 @@ def _parse_slow(body: bytes, names: Sequence[str], path: str) -> np.ndarray:
 # ----------------------------------------------------------------------------
 # Writing: exact, vectorised float formatting
 # ----------------------------------------------------------------------------
-_WIDTH = 24                 # widest value: '-1.2345678901234567e-123'
 _RANGE = (1e-250, 1e250)    # vectorised path; outside it (and nan/inf): Python's '%.17g'
 _P10_MIN, _P10_MAX = -270, 270
 
@@ -268,16 +280,13 @@ _P10_HI, _P10_LO = _pow10_table()
 _SPLITTER = 134217729.0     # 2**27 + 1 (Dekker)
 _TEN16 = 10 ** 16
 _TEN17 = 10 ** 17
-_DIGITS4 = np.array([list(f'{i:04d}'.encode()) for i in range(10000)], dtype=np.uint8)
-_TRAILING0 = np.array([4 if i == 0 else len(f'{i:04d}') - len(f'{i:04d}'.rstrip('0'))
-                       for i in range(10000)], dtype=np.int64)
-_DIGITS3 = np.array([list(f'{i:03d}'.encode()) for i in range(1000)], dtype=np.uint8)
 
 
 def _scaled(ax: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """ax * 10**p as a double-double (hi, lo), relative error < 2**-100."""
-    th = _P10_HI[p - _P10_MIN]
-    tl = _P10_LO[p - _P10_MIN]
+    """ax * 10**p as a double-double (hi, lo), relative error < 2**-100
+    (Dekker's exact product; no overflow for ax in _RANGE, |p| <= 270)."""
+    th = np.take(_P10_HI, p - _P10_MIN)
+    tl = np.take(_P10_LO, p - _P10_MIN)
     prod = ax * th
     c = _SPLITTER * ax
     ah = c - (c - ax)
@@ -293,7 +302,7 @@ def _scaled(ax: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _round_int(hi: np.ndarray, lo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Nearest integer to hi + lo (as int64) and the residual (int - (hi + lo))."""
+    """Nearest integer to hi + lo (int64) and the residual int - (hi + lo)."""
     rh = np.rint(hi)
     frac = (hi - rh) + lo
     rf = np.rint(frac)
@@ -301,11 +310,19 @@ def _round_int(hi: np.ndarray, lo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _decimal(ax: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """For finite ax in _RANGE: (m, e) with 10**16 <= m < 10**17 and
-    m * 10**(e - 16) a decimal that reads back exactly as ax, using 16
-    significant digits when they suffice and 17 otherwise."""
+    """For positive finite ax in _RANGE: (m, e) with 10**16 <= m < 10**17 and
+    m * 10**(e - 16) a decimal that reads back exactly as ax, with 16
+    significant digits (m a multiple of 10) when they suffice, else 17.
+
+    Why exact: the scaled value carries a relative error below 2**-100, so m
+    is within 0.5 + 1e-13 units of the 17th digit of ax, i.e. within
+    5.01e-17 * ax, less than half the gap to either neighbouring double
+    (> 5.55e-17 * ax). The 16-digit candidate is kept only when its computed
+    distance is below half the gap on its side, with a 1e-9 relative margin
+    that dwarfs every rounding error of the test.
+    """
     e = np.floor(np.log10(ax)).astype(np.int64)
-    m, _ = _round_int(*_scaled(ax, 16 - e))
+    m, resid = _round_int(*_scaled(ax, 16 - e))      # resid = m - ax * 10**(16 - e)
     for _ in range(2):  # log10 may be off by one next to a power of ten
         hi = m >= _TEN17
         low = m < _TEN16
@@ -313,144 +330,162 @@ def _decimal(ax: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             break
         e = e + hi - low
         fix = hi | low
-        m[fix], _ = _round_int(*_scaled(ax[fix], 16 - e[fix]))
-    # 17 digits always read back exactly (error <= 0.51 unit < half a gap).
-    # Try 16: keep the candidate if it lies strictly within half the gap to
-    # the neighbouring double on its side (with a wide safety margin).
-    m16, resid = _round_int(*_scaled(ax, 15 - e))   # resid = m16 - ax*10**(15-e)
-    scale = _P10_HI[15 - e - _P10_MIN]
-    up = (np.nextafter(ax, np.inf) - ax) * scale
-    down = (ax - np.nextafter(ax, 0.0)) * scale
-    half_gap = 0.5 * np.where(resid >= 0, up, down) * (1.0 - 1e-9)
-    short = np.abs(resid) < half_gap
+        m[fix], resid[fix] = _round_int(*_scaled(ax[fix], 16 - e[fix]))
+    # 16 digits: v = ax * 10**(15 - e) = (m - resid) / 10 = a + (b - resid) / 10
+    # with m = 10 a + b; the nearest integer m16 is a or a + 1, and its
+    # distance to v (resid16 = m16 - v) follows exactly from small integers.
+    a, b = np.divmod(m, 10)
+    m16 = a + ((b - resid) > 5.0)
+    resid16 = ((10 * m16 - m) + resid) * 0.1
+    scale = np.take(_P10_HI, 15 - e - _P10_MIN)
+    gap = np.where(resid16 >= 0, np.nextafter(ax, np.inf) - ax, ax - np.nextafter(ax, 0.0))
+    short = np.abs(resid16) < (0.5 * (1.0 - 1e-9)) * (gap * scale)
     carry = short & (m16 >= _TEN16)      # rounded up to the next power of ten
     m = np.where(short, m16 * 10, m)
-    m[carry] = _TEN16
-    e = e + carry
+    if carry.any():
+        m[carry] = _TEN16
+        e = e + carry
     return m, e
 
 
-def _layouts() -> tuple[np.ndarray, np.ndarray]:
-    """Character layout of each format class: index into the per-value source
-    row (17 digits, exponent sign, 3 exponent digits, '.', '0', 'e', '-') and
-    the keep threshold (a cell is kept when the number of significant digits
-    exceeds it; -1 always, 99 never)."""
-    DOT, ZERO, E, MINUS, ESIGN = 21, 22, 23, 24, 17
-    never = (ZERO, 99)
-    rows_idx, rows_thr = [], []
-    for cls in range(22):
-        cells: list[tuple[int, int]] = [(MINUS, 99)]   # sign: handled separately
-        if cls <= 20:
-            e = cls - 4
-            if e >= 0:
-                cells += [(i, -1) for i in range(e + 1)]
-                cells.append((DOT, e + 1))
-                cells += [(i, i) for i in range(e + 1, 17)]
-            else:
-                cells += [(ZERO, -1), (DOT, -1)] + [(ZERO, -1)] * (-e - 1)
-                cells += [(i, i) for i in range(17)]
-        else:
-            cells += [(0, -1), (DOT, 1)] + [(i, i) for i in range(1, 17)]
-            cells += [(E, -1), (ESIGN, -1), (18, 99), (19, -1), (20, -1)]
-        cells += [never] * (_WIDTH - len(cells))
-        rows_idx.append([c[0] for c in cells])
-        rows_thr.append([c[1] for c in cells])
-    return np.array(rows_idx, dtype=np.intp), np.array(rows_thr, dtype=np.int64)
+# Each value is first written into a 48-byte template holding every character
+# any of its forms could need; a keep-mask then selects its text:
+#   byte 0: '-'   1-2: '0.'   3-5: '000'   (fixed notation, exponent -4..-1)
+#   6 + 2i: digit i (i = 0..16)   7 + 2i: '.' after digit i
+#   40-44: 'e', exponent sign, 3 exponent digits   45-46: unused   47: separator
+_SLOT = 48
 
 
-_LAYOUT_IDX, _LAYOUT_THR = _layouts()
-_SCI = 21
-_EXP_HUNDREDS_COL = 21
+def _u64(rows: list[bytes]) -> np.ndarray:
+    return np.frombuffer(b''.join(rows), dtype=np.uint64).copy()
+
+
+_WORD0 = _u64([b'-0.000' + bytes([48 + d]) + b'.' for d in range(10)])
+_WORD_DIGITS = _u64([b'.'.join(f'{g:04d}'.encode()[i:i + 1] for i in range(4)) + b'.'
+                     for g in range(10000)])
+_EXP_MIN = -400
+_WORD_EXP = _u64([b'e' + (b'-' if e < 0 else b'+') + f'{abs(e):03d}'.encode() + b'  ,'
+                  for e in range(_EXP_MIN, -_EXP_MIN + 1)])
+_TRAILING0 = np.array([4] + [len(f'{g:04d}') - len(f'{g:04d}'.rstrip('0'))
+                             for g in range(1, 10000)], dtype=np.int64)
+_I17 = np.arange(17)
+
+
+_SCI = 21   # format class of scientific notation; classes 0..20: fixed, exponent e = class - 4
+
+
+def _keep_rules(e: np.ndarray, nd: np.ndarray, neg: np.ndarray) -> np.ndarray:
+    """Which template bytes a value keeps, from its decimal exponent e, its
+    number of significant digits nd and its sign (see the layout above)."""
+    n = e.size
+    fixed = (e >= -4) & (e <= 16)
+    sci = ~fixed
+    fneg = fixed & (e < 0)
+    keep = np.zeros((n, _SLOT), dtype=bool)
+    keep[:, 0] = neg
+    keep[:, 1] = fneg
+    keep[:, 2] = fneg
+    for z in range(3):
+        keep[:, 3 + z] = fneg & (e <= -2 - z)
+    int_digits = np.where(fixed & (e >= 0), e, -1)
+    keep[:, 6:40:2] = (_I17 < nd[:, None]) | (_I17 <= int_digits[:, None])
+    dot = np.where(fixed, np.where(nd > e + 1, e, -1), np.where(nd > 1, 0, -1))
+    dot[fneg] = -1
+    keep[:, 7:40:2] = _I17 == dot[:, None]
+    keep[:, 40] = sci
+    keep[:, 41] = sci
+    keep[:, 42] = sci & (np.abs(e) >= 100)
+    keep[:, 43] = sci
+    keep[:, 44] = sci
+    keep[:, 47] = True
+    return keep
+
+
+def _keep_table() -> np.ndarray:
+    """_keep_rules for every (class, nd, 3-digit exponent, sign), indexed by
+    ((class * 17 + nd - 1) * 2 + hundreds) * 2 + negative; rows of 6 uint64."""
+    cls, nd, hundreds, neg = np.meshgrid(np.arange(_SCI + 1), np.arange(1, 18), [0, 1], [0, 1],
+                                         indexing='ij')
+    cls, nd, hundreds, neg = (a.ravel() for a in (cls, nd, hundreds, neg))
+    e = np.where(cls == _SCI, np.where(hundreds == 1, 100, 20), cls - 4)
+    keep = _keep_rules(e, nd, neg.astype(bool))
+    return np.ascontiguousarray(keep).view(np.uint64).copy()
+
+
+_KEEP_WORDS = _keep_table()
 
 
 def format_values(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Format doubles as text, vectorised.
 
-    Returns ``(chars, keep)``, both of shape (n, 24): the text of value i is
-    ``chars[i][keep[i]]``. The text follows ``'%.17g'`` (fixed notation for
-    decimal exponents -4..16, else ``d.ddde+XX``) but with 16 significant
-    digits whenever 16 read back exactly; ``float(text) == x`` always (the
-    sign of zero included)."""
+    Returns ``(chars, keep)``, both of shape (n, 48): the text of value i is
+    ``chars[i, :47][keep[i, :47]]``; ``chars[:, 47]`` is a separator slot
+    (',' and kept). The text follows ``'%.17g'`` (fixed notation for decimal
+    exponents -4..16, else ``d.ddde+XX``) but uses 16 significant digits
+    whenever 16 read back exactly: ``float(text) == x`` always, the sign of
+    zero included (``nan``, ``inf``, ``-inf`` for the non-finite)."""
     x = np.ascontiguousarray(x, dtype=np.float64).ravel()
     n = x.size
-    chars = np.zeros((n, _WIDTH), dtype=np.uint8)
-    keep = np.zeros((n, _WIDTH), dtype=bool)
     ax = np.abs(x)
     fast = (ax >= _RANGE[0]) & (ax <= _RANGE[1])      # false for 0, nan, inf
+    all_fast = bool(fast.all())
+    if not all_fast:
+        ax = np.where(fast, ax, 1.0)
+    m, e = _decimal(ax)
+    words = np.empty((n, _SLOT // 8), dtype=np.uint64)
+    g = m
+    groups = []
+    for col in (4, 3, 2, 1):
+        g, r = np.divmod(g, 10000)
+        groups.append(r)
+        words[:, col] = np.take(_WORD_DIGITS, r)
+    words[:, 0] = np.take(_WORD0, g)
+    words[:, 5] = np.take(_WORD_EXP, e - _EXP_MIN)
+    tz = _TRAILING0[groups[0]]
+    zero_so_far = groups[0] == 0
+    for r in groups[1:]:
+        tz += np.where(zero_so_far, _TRAILING0[r], 0)
+        zero_so_far &= r == 0
+    nd = 17 - tz                                       # significant digits, 1..17
     neg = np.signbit(x)
-    idx = np.flatnonzero(fast)
-    if idx.size:
-        m, e = _decimal(ax[idx])
-        k = idx.size
-        src = np.empty((k, 25), dtype=np.uint8)
-        g = m
-        groups = []
-        for _ in range(4):
-            g, r = np.divmod(g, 10000)
-            groups.append(r)
-        src[:, 0] = g + 48                       # leading digit (1..9)
-        for pos, r in zip((13, 9, 5, 1), groups):
-            src[:, pos:pos + 4] = _DIGITS4[r]
-        tz = np.zeros(k, dtype=np.int64)
-        zero_so_far = np.ones(k, dtype=bool)
-        for r in groups:
-            tz += np.where(zero_so_far, _TRAILING0[r], 0)
-            zero_so_far &= r == 0
-        nd = 17 - tz
-        ae = np.abs(e)
-        src[:, 17] = np.where(e < 0, ord('-'), ord('+'))
-        src[:, 18:21] = _DIGITS3[np.minimum(ae, 999)]
-        src[:, 21] = ord('.')
-        src[:, 22] = ord('0')
-        src[:, 23] = ord('e')
-        src[:, 24] = ord('-')
-        cls = np.where((e >= -4) & (e <= 16), e + 4, _SCI)
-        for c in np.unique(cls):
-            sel = np.flatnonzero(cls == c)
-            rows = idx[sel]
-            chars[rows] = src[sel][:, _LAYOUT_IDX[c]]
-            kp = nd[sel, None] > _LAYOUT_THR[c][None, :]
-            if c == _SCI:
-                kp[:, _EXP_HUNDREDS_COL] = ae[sel] >= 100
-            keep[rows] = kp
-    zero = x == 0
-    chars[zero, 1] = ord('0')
-    keep[zero, 1] = True
-    chars[:, 0] = ord('-')
-    keep[:, 0] = neg & ~np.isnan(x)
-    for i in np.flatnonzero(~fast & ~zero):       # nan, inf, tiny, huge: rare
-        text = ('%.17g' % abs(x[i])).encode() if not np.isnan(x[i]) else b'nan'
-        chars[i, 1:1 + len(text)] = np.frombuffer(text, dtype=np.uint8)
-        keep[i, 1:] = False
-        keep[i, 1:1 + len(text)] = True
+    cls = np.where((e >= -4) & (e <= 16), e + 4, _SCI)
+    pattern = (((cls * 17 + (nd - 1)) << 1) | (np.abs(e) >= 100)) << 1 | neg
+    keep = np.take(_KEEP_WORDS, pattern, axis=0).view(bool).reshape(n, _SLOT)
+    chars = words.view(np.uint8).reshape(n, _SLOT)
+    if not all_fast:
+        zero = x == 0
+        keep[zero, 1:_SLOT - 1] = False
+        keep[zero, 1] = True                          # '0' of '-0.000'
+        for i in np.flatnonzero(~fast & ~zero):       # nan, inf, tiny, huge: rare
+            text = b'nan' if np.isnan(x[i]) else ('%.17g' % abs(x[i])).encode()
+            chars[i, 1:1 + len(text)] = np.frombuffer(text, dtype=np.uint8)
+            keep[i, 0] = np.signbit(x[i]) and not np.isnan(x[i])
+            keep[i, 1:_SLOT - 1] = False
+            keep[i, 1:1 + len(text)] = True
     return chars, keep
 
 
 def format_value(x: float) -> str:
     """The text :func:`format_values` gives one value."""
     chars, keep = format_values(np.array([x]))
-    return chars[0][keep[0]].tobytes().decode()
+    return chars[0, :-1][keep[0, :-1]].tobytes().decode()
 
 
-def format_table(data: np.ndarray, *, chunk_rows: int = 20000) -> bytes:
-    """Rows of comma-separated exact decimals, each row ending in a newline."""
+def format_table(data: np.ndarray, *, chunk_values: int = 8192) -> bytes:
+    """Rows of comma-separated exact decimals, each row ending in a newline.
+    Works in blocks of about ``chunk_values`` numbers (cache-sized)."""
     data = np.asarray(data, dtype=np.float64)
     if data.ndim != 2:
         raise ValueError(f'expected a 2-D array, got shape {data.shape}')
     nrows, ncol = data.shape
+    step = max(1, chunk_values // max(ncol, 1))
     parts = []
-    for start in range(0, nrows, chunk_rows):
-        block = data[start:start + chunk_rows]
+    for start in range(0, nrows, step):
+        block = data[start:start + step]
         nb = block.shape[0]
         chars, keep = format_values(block)
-        out = np.empty((nb, ncol, _WIDTH + 1), dtype=np.uint8)
-        mask = np.empty((nb, ncol, _WIDTH + 1), dtype=bool)
-        out[:, :, :_WIDTH] = chars.reshape(nb, ncol, _WIDTH)
-        mask[:, :, :_WIDTH] = keep.reshape(nb, ncol, _WIDTH)
-        out[:, :, _WIDTH] = ord(',')
-        out[:, -1, _WIDTH] = ord('\n')
-        mask[:, :, _WIDTH] = True
-        parts.append(out[mask].tobytes())
+        chars.reshape(nb, ncol, _SLOT)[:, -1, _SLOT - 1] = ord('\n')
+        parts.append(np.compress(keep.ravel(), chars.ravel()).tobytes())
     return b''.join(parts)
 
 
@@ -467,7 +502,10 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[IO[bytes]]:
     path = os.fspath(path)
     directory = os.path.dirname(os.path.abspath(path))
     if os.path.isdir(path):
-        raise IsADirectoryError(21, 'Is a directory', path)
+        raise CsvError('is a directory; cannot write a file there', path=path)
+    if not os.path.isdir(directory):
+        raise CsvError(f"cannot write: directory '{os.path.dirname(path) or '.'}' does not exist",
+                       path=path)
     fd, tmp = tempfile.mkstemp(prefix='.' + os.path.basename(path) + '.', suffix='.tmp',
                                dir=directory)
     try:

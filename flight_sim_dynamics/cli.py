@@ -1,0 +1,345 @@
+"""Command line: ``flight-sim-dynamics`` (also ``python -m flight_sim_dynamics``).
+
+Subcommands::
+
+    flight-sim-dynamics example {vertical,rectilinear,general} [--rate HZ] -o traj.csv
+    flight-sim-dynamics solve traj.csv -o out.csv [--params FILE] [--joints]
+    flight-sim-dynamics plot out.csv -o fig.png [--title TEXT]
+    flight-sim-dynamics node ...           # the ROS 2 node (needs rclpy)
+    flight-sim-dynamics demo-planner ...   # the demo set-point planner (needs rclpy)
+    flight-sim-dynamics demo ...           # the end-to-end demo (needs rclpy)
+
+Every error ends the run with exit status 2 and one line ``error: ...`` on
+standard error (no traceback), and leaves no partial output file: outputs are
+written to a temporary file and moved into place at the very end.
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import importlib
+import math
+import os
+import sys
+from typing import Callable, Sequence
+
+import numpy as np
+
+from . import csv_io
+from .csv_io import TRAJECTORY_COLUMNS, CsvError
+from .model import JOINT_NAMES
+
+PROG = 'flight-sim-dynamics'
+DEFAULT_RATE_HZ = 100.0
+MAX_SAMPLES = 10_000_000
+LEGS = ('a', 'b', 'c')
+
+
+def _per_leg(field: str) -> list[str]:
+    return [f'{field}_{leg}' for leg in LEGS]
+
+
+#: Columns of ``solve``'s output, in order (``--joints`` appends JOINT_COLUMNS).
+OUTPUT_COLUMNS: tuple[str, ...] = (
+    ('t',) + tuple(_per_leg('length') + _per_leg('stroke') + _per_leg('rate')
+                   + _per_leg('force') + _per_leg('power') + _per_leg('acceleration'))
+    + ('beta', 'cond'))
+JOINT_COLUMNS: tuple[str, ...] = (tuple(JOINT_NAMES) + tuple(f'{j}_rate' for j in JOINT_NAMES)
+                                  + tuple(f'{j}_acc' for j in JOINT_NAMES))
+#: Columns ``plot`` needs (any others are ignored).
+PLOT_COLUMNS: tuple[str, ...] = ('t',) + tuple(_per_leg('force') + _per_leg('power'))
+
+UNITS = {'t': 's', 'length': 'm', 'stroke': 'm', 'rate': 'm/s', 'acceleration': 'm/s^2',
+         'force': 'N', 'power': 'W', 'beta': 'rad', 'cond': '1'}
+
+
+class CliError(Exception):
+    """A user error: printed as ``error: <message>``, exit status 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but usage errors are one line ``error: ...`` and exit 2."""
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(2, f"error: {message} (see '{self.prog} --help')\n")
+
+
+# ----------------------------------------------------------------------------
+# example
+# ----------------------------------------------------------------------------
+def _configure_example(p: argparse.ArgumentParser) -> None:
+    from .trajectories import PAPER_EXAMPLES
+
+    p.add_argument('name', choices=tuple(PAPER_EXAMPLES),
+                   help='which of the paper\'s three motions (eq. 6): vertical (Figs. 3-4), '
+                        'rectilinear (Figs. 5-6), general (Figs. 7-8)')
+    p.add_argument('--rate', type=float, default=DEFAULT_RATE_HZ, metavar='HZ',
+                   help=f'sampling rate in Hz (default {DEFAULT_RATE_HZ:g}); samples '
+                        't = 0, 1/HZ, ..., 3 s')
+    p.add_argument('-o', '--output', required=True, metavar='CSV',
+                   help="trajectory CSV to write ('-' for standard output); columns "
+                        + ','.join(TRAJECTORY_COLUMNS))
+
+
+def cmd_example(args: argparse.Namespace) -> int:
+    from .trajectories import DURATION, paper_example, sample_times
+
+    rate = args.rate
+    if not (math.isfinite(rate) and rate > 0):
+        raise CliError(f'--rate must be a positive number of Hz, got {rate:g}')
+    if DURATION * rate + 1 > MAX_SAMPLES:
+        raise CliError(f'--rate {rate:g} Hz gives more than {MAX_SAMPLES} samples over '
+                       f'{DURATION:g} s')
+    t = sample_times(rate)
+    q, qd, qdd = paper_example(args.name, t)
+    csv_io.write_csv(args.output, TRAJECTORY_COLUMNS, np.column_stack([t, q, qd, qdd]))
+    return 0
+
+
+# ----------------------------------------------------------------------------
+# solve
+# ----------------------------------------------------------------------------
+def _configure_solve(p: argparse.ArgumentParser) -> None:
+    p.add_argument('input', metavar='TRAJ_CSV',
+                   help="trajectory CSV ('-' for standard input) with the header "
+                        + ','.join(TRAJECTORY_COLUMNS)
+                        + ' in any order (SI units: s, m, rad and their rates)')
+    p.add_argument('-o', '--output', required=True, metavar='CSV',
+                   help="result CSV to write ('-' for standard output): "
+                        + ','.join(OUTPUT_COLUMNS))
+    p.add_argument('--params', metavar='YAML', default=None,
+                   help='parameter file (ROS 2 format, see config/flight_sim_dynamics.yaml); '
+                        'default: the packaged parameters (the paper\'s values)')
+    p.add_argument('--scene', metavar='NAME_OR_YAML', default=None,
+                   help='effects to simulate: a scene name from config/scenes (full, '
+                        'quasi_static, platform_only, payload, ...) or a scene file; '
+                        'default: full (the paper\'s model)')
+    p.add_argument('--joints', action='store_true',
+                   help='also write the 12 joint variables of eq. (13), their rates '
+                        '(<name>_rate) and accelerations (<name>_acc)')
+
+
+def load_model(params: str | None, scene: str | None = None):
+    """The model from ``--params`` (None: packaged defaults) and ``--scene``."""
+    import flight_sim_dynamics as fsd
+    from .effects import SceneError
+
+    if params is not None and not os.path.isfile(params):
+        raise CliError(f"--params {params}: no such file")
+    try:
+        return fsd.load_model(params, scene=scene)
+    except fsd.ParameterError as exc:
+        raise CliError(f"--params {params or '(packaged defaults)'}: {exc}") from None
+    except SceneError as exc:
+        raise CliError(f'--scene: {exc}') from None
+
+
+def solve_table(model, table: csv_io.Table, *, joints: bool = False
+                ) -> tuple[tuple[str, ...], np.ndarray]:
+    """Solve every row of a trajectory table; returns (column names, data)."""
+    import flight_sim_dynamics as fsd
+
+    col = {name: j for j, name in enumerate(table.names)}
+    data = table.data
+
+    def pick(names: Sequence[str]) -> np.ndarray:
+        return data[:, [col[n] for n in names]]
+
+    q = pick(('surge', 'heave', 'roll'))
+    qd = pick(('surge_rate', 'heave_rate', 'roll_rate'))
+    qdd = pick(('surge_acc', 'heave_acc', 'roll_acc'))
+    try:
+        sol = fsd.solve_batch(model, q, qd, qdd)
+    except fsd.UnreachablePoseError as exc:
+        index = getattr(exc, 'index', None)
+        if index is None:
+            raise CliError(f'{table.path}: {exc}') from None
+        index = int(index)
+        surge, heave, roll = q[index]
+        raise CliError(f'{table.path}, line {int(table.lines[index])}: unreachable pose '
+                       f'(surge={surge:g} m, heave={heave:g} m, roll={roll:g} rad): '
+                       f'loop {exc.loop}: {exc.reason}') from None
+    columns = [data[:, col['t']]]
+    for field in ('length', 'stroke', 'rate', 'force', 'power', 'acceleration'):
+        columns.extend(np.asarray(getattr(sol, field), dtype=float).T)
+    columns.append(np.asarray(sol.beta, dtype=float).reshape(-1))
+    columns.append(np.asarray(sol.cond, dtype=float).reshape(-1))
+    names = OUTPUT_COLUMNS
+    if joints:
+        for field in ('joints', 'joint_rates', 'joint_accelerations'):
+            columns.extend(np.asarray(getattr(sol, field), dtype=float).T)
+        names = names + JOINT_COLUMNS
+    return names, np.column_stack(columns)
+
+
+def cmd_solve(args: argparse.Namespace) -> int:
+    model = load_model(args.params, args.scene)
+    table = csv_io.read_csv(args.input, required=TRAJECTORY_COLUMNS)
+    names, data = solve_table(model, table, joints=args.joints)
+    csv_io.write_csv(args.output, names, data)
+    return 0
+
+
+# ----------------------------------------------------------------------------
+# plot
+# ----------------------------------------------------------------------------
+def _configure_plot(p: argparse.ArgumentParser) -> None:
+    p.add_argument('input', metavar='OUT_CSV',
+                   help='output of solve (needs ' + ','.join(PLOT_COLUMNS) + ')')
+    p.add_argument('-o', '--output', required=True, metavar='IMAGE',
+                   help='image to write; the format follows the extension (.png, .svg, .pdf)')
+    p.add_argument('--title', default=None,
+                   help='figure title (default: from the input file name)')
+    p.add_argument('--dpi', type=int, default=100, help='resolution of raster images '
+                   '(default 100)')
+
+
+#: The paper's figures for each example (force figure, power figure).
+PAPER_FIGURES = {'vertical': (3, 4), 'rectilinear': (5, 6), 'general': (7, 8)}
+
+
+def default_title(path: str) -> str:
+    """Title from the file name; the paper's examples name their figures."""
+    stem = os.path.splitext(os.path.basename(path))[0] if path != '-' else 'stdin'
+    if stem in PAPER_FIGURES:
+        f, p = PAPER_FIGURES[stem]
+        return f"{stem} example: actuator forces and powers (cf. the paper's Figs. {f} and {p})"
+    return f'{stem}: input forces and powers of actuators A, B, C'
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    from . import plotting
+
+    plotting.output_format(args.output)      # fail before reading a large file
+    if not 1 <= args.dpi <= 1200:
+        raise CliError(f'--dpi must be between 1 and 1200, got {args.dpi}')
+    table = csv_io.read_csv(args.input, required=PLOT_COLUMNS, allow_extra=True)
+    force = np.column_stack([table[n] for n in _per_leg('force')])
+    power = np.column_stack([table[n] for n in _per_leg('power')])
+    title = args.title if args.title is not None else default_title(args.input)
+    plotting.plot_forces_powers(table['t'], force, power, args.output, title=title,
+                                dpi=args.dpi)
+    return 0
+
+
+# ----------------------------------------------------------------------------
+# Subcommands that hand the rest of the command line to another module
+# (ROS 2 parts: imported only when used, so the CLI works without rclpy).
+# ----------------------------------------------------------------------------
+FORWARDED: dict[str, tuple[str, str]] = {
+    'node': ('flight_sim_dynamics.node', 'run the ROS 2 inverse-dynamics node '
+             '(e.g. node --ros-args --params-file FILE)'),
+    'demo-planner': ('flight_sim_dynamics.planner', 'run the demo set-point planner node'),
+    'demo': ('flight_sim_dynamics.demo', 'run the end-to-end ROS 2 demo'),
+}
+
+
+def forward(command: str, argv: Sequence[str]) -> int:
+    module_name, _ = FORWARDED[command]
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        missing = getattr(exc, 'name', None)
+        if missing == module_name:
+            raise CliError(f"'{command}' is not available in this installation "
+                           f'(no module {module_name})') from None
+        raise CliError(f"'{command}' needs {missing or 'a module'} (ROS 2 Python packages), "
+                       f'which cannot be imported: {exc}') from None
+    try:
+        rc = module.main(list(argv))
+    except SystemExit as exc:           # e.g. its own --help or usage error
+        if exc.code is None or isinstance(exc.code, int):
+            return exc.code or 0
+        print(exc.code, file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        raise
+    except Exception as exc:  # noqa: BLE001 - the module's own error: one line, exit 2
+        if os.environ.get('FLIGHT_SIM_DYNAMICS_DEBUG'):
+            raise
+        raise CliError(f'{command}: {type(exc).__name__}: {exc}') from None
+    return rc if isinstance(rc, int) else 0
+
+
+# ----------------------------------------------------------------------------
+# Registry and entry point
+# ----------------------------------------------------------------------------
+#: name -> (help, configure(parser), handler(args) -> exit status). Future
+#: subcommands (bench, workspace) register here.
+SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
+                             Callable[[argparse.Namespace], int]]] = {
+    'example': ('write one of the paper\'s three example motions as a trajectory CSV',
+                _configure_example, cmd_example),
+    'solve': ('inverse dynamics of every row of a trajectory CSV',
+              _configure_solve, cmd_solve),
+    'plot': ('plot actuator forces and powers against time (like the paper\'s Figs. 3-8)',
+             _configure_plot, cmd_plot),
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog=PROG,
+        description='Inverse dynamics of the Staicu-Ocnarescu-Ungureanu (2013) 3-DOF '
+                    'parallel flight simulator.',
+        epilog=f'Example: {PROG} example vertical -o vertical.csv && '
+               f'{PROG} solve vertical.csv -o out.csv && {PROG} plot out.csv -o fig.png. '
+               'Errors: exit status 2 and one line "error: ..." on standard error.')
+    sub = parser.add_subparsers(dest='command', metavar='COMMAND', parser_class=_Parser)
+    for name, (help_text, configure, handler) in SUBCOMMANDS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text[:1].upper() + help_text[1:])
+        configure(p)
+        p.set_defaults(handler=handler)
+    for name, (_, help_text) in FORWARDED.items():
+        # Listed for --help only: main() forwards these before argparse runs.
+        sub.add_parser(name, help=help_text + ' (options are passed through)', add_help=False)
+    return parser
+
+
+def _one_line(message: object) -> str:
+    return ' '.join(str(message).split())
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit status (0 ok, 2 error)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        if argv and argv[0] in FORWARDED:
+            return forward(argv[0], argv[1:])
+        parser = build_parser()
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exc:       # --help (0) or a usage error (2, already printed)
+            return exc.code if isinstance(exc.code, int) else 2
+        if args.command is None:
+            parser.print_help(sys.stderr)
+            return 2
+        return args.handler(args)
+    except KeyboardInterrupt:
+        print('error: interrupted', file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        # e.g. `... -o - | head`: the reader went away; not an error of ours
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
+    except (CliError, CsvError, ValueError, OSError) as exc:
+        # ValueError covers ParameterError, UnreachablePoseError, PlotError
+        print(f'error: {_one_line(_describe(exc))}', file=sys.stderr)
+        return 2
+    except Exception as exc:  # noqa: BLE001 - a bug: still one line, unless debugging
+        if os.environ.get('FLIGHT_SIM_DYNAMICS_DEBUG'):
+            raise
+        print(f'error: internal error ({type(exc).__name__}: {_one_line(exc)}); '
+              'set FLIGHT_SIM_DYNAMICS_DEBUG=1 for a traceback', file=sys.stderr)
+        return 2
+
+
+def _describe(exc: BaseException) -> str:
+    if isinstance(exc, OSError) and exc.filename is not None:
+        return f"'{exc.filename}': {exc.strerror or exc}"
+    return str(exc)
+
+
+if __name__ == '__main__':  # pragma: no cover
+    sys.exit(main())
