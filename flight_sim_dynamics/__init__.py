@@ -12,11 +12,14 @@ Python API (model/data style)::
 The numerical core imports numpy only; rclpy is needed by the node alone.
 """
 from . import trajectories
+from .forward_kinematics import ForwardSolution, forward_kinematics
 from .kinematics import UnreachablePoseError
 from .model import JOINT_NAMES, LEG_NAMES, Model
 from .parameters import ParameterError, load_model
 from .solver import Solution, solve, solve_batch
+from .status import Status
 
-__all__ = ['load_model', 'solve', 'solve_batch', 'Model', 'Solution', 'ParameterError',
-           'UnreachablePoseError', 'JOINT_NAMES', 'LEG_NAMES', 'trajectories']
+__all__ = ['load_model', 'solve', 'solve_batch', 'forward_kinematics', 'Model', 'Solution',
+           'ForwardSolution', 'Status', 'ParameterError', 'UnreachablePoseError',
+           'JOINT_NAMES', 'LEG_NAMES', 'trajectories']
 __version__ = '0.1.0'

@@ -1,0 +1,131 @@
+"""Forward kinematics: the pose (surge, heave, roll) from three leg lengths.
+
+The inverse geometry (eq. 5-8) gives the leg lengths L(q) of a pose and the
+connectivity relations (eq. 11-12) their Jacobian J = dL/dq exactly; the
+forward problem L(q) = L* is solved by a safeguarded Newton iteration:
+
+* the Newton step solves J dq = -(L(q) - L*) (Levenberg-Marquardt damping
+  when J is close to singular);
+* a backtracking line search accepts a step only if the pose it leads to is
+  reachable (every loop of eq. 7 closes) and it reduces |L(q) - L*|;
+* the iteration stops when |L(q) - L*| <= tolerance (ok), when the residual
+  cannot be reduced any more although J^T r vanishes (the lengths belong to
+  no reachable pose: unreachable) or after ``max_iterations``
+  (not_converged).
+
+A parallel mechanism has several assembly modes for the same leg lengths;
+the iteration finds the one connected to its starting pose (by default the
+central configuration), which is the one the machine uses.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from .dynamics import actuator_jacobian
+from .kinematics import (UnreachablePoseError, factorize, inverse_geometry, pose_rate_columns,
+                         solve_connectivity)
+from .model import Model
+from .status import Status
+from .vectors import backend
+
+_XP = backend(False)
+
+
+@dataclass(frozen=True)
+class ForwardSolution:
+    """Result of :func:`forward_kinematics`."""
+
+    pose: np.ndarray         # (surge m, heave m, roll rad); zeros unless status is ok
+    status: Status           # ok, unreachable, not_converged or invalid_input
+    residual: float          # max |L(pose) - L*| at the end, m
+    iterations: int
+    detail: str = ''
+
+
+def _lengths_and_jacobian(model: Model, q: tuple[float, float, float]
+                          ) -> tuple[np.ndarray, np.ndarray]:
+    g = inverse_geometry(model, q, _XP)
+    f = factorize(model, g)
+    K = tuple(solve_connectivity(g, f, P) for P in pose_rate_columns(g))
+    return np.array(g.length, dtype=float), np.array(actuator_jacobian(K), dtype=float)
+
+
+def forward_kinematics(model: Model, lengths: Sequence[float],
+                       initial: Sequence[float] = (0.0, 0.0, 0.0), *,
+                       tolerance: float = 1e-12, max_iterations: int = 50) -> ForwardSolution:
+    """Pose (surge, heave, roll) whose leg lengths (joint centre to joint centre,
+    m, legs A, B, C) are ``lengths``. Never raises for bad numbers: the status
+    says what happened."""
+    try:
+        target = np.array(lengths, dtype=float)
+        start = np.array(initial, dtype=float)
+    except (TypeError, ValueError):
+        return ForwardSolution(np.zeros(3), Status.INVALID_INPUT, math.inf, 0,
+                               f'lengths must be 3 numbers, got {lengths!r}')
+    for name, arr in (('lengths', target), ('initial', start)):
+        if arr.shape != (3,):
+            return ForwardSolution(np.zeros(3), Status.INVALID_INPUT, math.inf, 0,
+                                   f'{name} must be 3 numbers, got shape {arr.shape}')
+        if not np.all(np.isfinite(arr)):
+            return ForwardSolution(np.zeros(3), Status.INVALID_INPUT, math.inf, 0,
+                                   f'{name} must be finite, got {arr.tolist()}')
+    if np.any(target <= 0.0):
+        return ForwardSolution(np.zeros(3), Status.INVALID_INPUT, math.inf, 0,
+                               f'leg lengths must be positive, got {target.tolist()}')
+    q = start
+    try:
+        L, J = _lengths_and_jacobian(model, tuple(q))
+    except UnreachablePoseError as exc:
+        return ForwardSolution(np.zeros(3), Status.INVALID_INPUT, math.inf, 0,
+                               f'initial pose is unreachable: {exc}')
+    r = L - target
+    norm = float(np.max(np.abs(r)))
+    for iteration in range(1, max_iterations + 1):
+        if norm <= tolerance:
+            return ForwardSolution(q, Status.OK, norm, iteration - 1)
+        gradient = J.T @ r
+        try:
+            step = np.linalg.solve(J, -r)
+            if not np.all(np.isfinite(step)) or np.linalg.cond(J) > 1e12:
+                raise np.linalg.LinAlgError
+        except np.linalg.LinAlgError:   # damped least squares near a singularity
+            mu = 1e-6 * float(np.trace(J.T @ J)) + 1e-300
+            step = np.linalg.solve(J.T @ J + mu * np.eye(3), -gradient)
+        alpha = 1.0
+        blocked: UnreachablePoseError | None = None
+        while alpha >= 1e-10:
+            trial = q + alpha * step
+            try:
+                L_new, J_new = _lengths_and_jacobian(model, tuple(trial))
+            except UnreachablePoseError as exc:
+                blocked = exc
+                alpha *= 0.5
+                continue
+            r_new = L_new - target
+            norm_new = float(np.max(np.abs(r_new)))
+            if norm_new < norm or norm_new <= tolerance:
+                q, r, J, norm = trial, r_new, J_new, norm_new
+                break
+            alpha *= 0.5
+        else:
+            # no step reduces the residual: either the way on leaves the workspace
+            # (a loop of eq. 7 would open) or a local minimum of |L(q) - L*|
+            if blocked is not None:
+                return ForwardSolution(np.zeros(3), Status.UNREACHABLE, norm, iteration,
+                                       f'these leg lengths lie outside the workspace: '
+                                       f'loop {blocked.loop}: {blocked.reason} '
+                                       f'(closest miss {norm:.3g} m)')
+            if float(np.max(np.abs(gradient))) <= 1e-9 * max(1.0, norm):
+                return ForwardSolution(np.zeros(3), Status.UNREACHABLE, norm, iteration,
+                                       'no reachable pose has these leg lengths '
+                                       f'(closest miss {norm:.3g} m)')
+            return ForwardSolution(np.zeros(3), Status.NOT_CONVERGED, norm, iteration,
+                                   'line search failed (workspace boundary or singularity)')
+    if norm <= tolerance:
+        return ForwardSolution(q, Status.OK, norm, max_iterations)
+    return ForwardSolution(np.zeros(3), Status.NOT_CONVERGED, norm, max_iterations,
+                           f'{max_iterations} iterations, residual {norm:.3g} m')

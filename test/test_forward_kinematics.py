@@ -1,0 +1,55 @@
+"""Forward kinematics: round trip through the inverse geometry, bad input."""
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import flight_sim_dynamics as fsd
+from flight_sim_dynamics import Status, forward_kinematics
+
+MODEL = fsd.load_model()
+
+poses = st.tuples(st.floats(-0.12, 0.12), st.floats(-0.15, 0.15), st.floats(-0.5, 0.5))
+
+
+@settings(max_examples=150, deadline=None)
+@given(poses)
+def test_round_trip_through_inverse_geometry(q):
+    try:
+        lengths = fsd.solve(MODEL, q, (0, 0, 0), (0, 0, 0)).length
+    except fsd.UnreachablePoseError:
+        return                    # not a pose of the machine: nothing to round-trip
+    result = forward_kinematics(MODEL, lengths)
+    assert result.status == Status.OK, result.detail
+    np.testing.assert_allclose(result.pose, q, atol=1e-9)
+    assert result.residual <= 1e-12
+
+
+def test_central_configuration_needs_no_iteration():
+    result = forward_kinematics(MODEL, MODEL.central.length)
+    assert result.status == 'ok' and result.iterations == 0
+    np.testing.assert_array_equal(result.pose, 0.0)
+
+
+@pytest.mark.parametrize('lengths', [[3.0, 3.0, 3.0], [1.0, 1.0, 1.0], [1.14, 2.5, 0.6]])
+def test_lengths_outside_the_workspace_are_unreachable(lengths):
+    result = forward_kinematics(MODEL, lengths)
+    assert result.status == Status.UNREACHABLE, result
+    assert 'loop' in result.detail and np.all(result.pose == 0.0)
+
+
+@pytest.mark.parametrize('lengths, words', [
+    ([float('nan'), 1.3, 1.3], 'finite'),
+    ([1.1, float('inf'), 1.3], 'finite'),
+    ([1.1, 1.3], 'shape'),
+    ('abc', '3 numbers'),
+    ([1.1, -1.3, 1.3], 'positive'),
+    ([[1.1, 1.3, 1.3]], 'shape'),
+])
+def test_garbage_gives_invalid_input(lengths, words):
+    result = forward_kinematics(MODEL, lengths)
+    assert result.status == Status.INVALID_INPUT and words in result.detail
+    assert np.all(np.isfinite(result.pose))
+
+
+def test_status_string_form_is_its_name():
+    assert str(Status.NEAR_SINGULAR) == 'near_singular' and Status('limit') is Status.LIMIT
