@@ -72,3 +72,61 @@ def duration(name: str) -> float:
     if name not in PAPER_EXAMPLES:
         raise ValueError(f"unknown motion {name!r}; choose one of {', '.join(MOTIONS)}")
     return PAPER_DURATION
+
+
+# ----------------------------------------------------------------------------
+# Planner sequences: motions one after the other, each washed back to neutral
+# ----------------------------------------------------------------------------
+RETURN_TIME = 1.0  # s, smooth return to neutral after a paper example
+
+
+class PlannerSequence:
+    """Motions played one after the other, as a planner would stream them.
+
+    A paper example ends away from neutral (at twice its amplitude); before the
+    next motion (or the next loop) it is brought back to the central
+    configuration by a quintic smooth step of ``return_time`` seconds, so the
+    stream is continuous in position, rate and acceleration.
+    ``segments`` lists (label, start s, end s).
+    """
+
+    def __init__(self, names: list[str] | tuple[str, ...], *, loop: bool = False,
+                 return_time: float = RETURN_TIME) -> None:
+        if not names:
+            raise ValueError('no motion given')
+        self.names = tuple(names)
+        self.loop = loop
+        self.segments: list[tuple[str, float, float]] = []
+        self._parts: list[tuple[str, float, float, np.ndarray | None]] = []
+        start = 0.0
+        for i, name in enumerate(self.names):
+            length = duration(name)
+            self._parts.append((name, start, length, None))
+            self.segments.append((name, start, start + length))
+            start += length
+            if name != 'cueing' and (loop or i < len(self.names) - 1):
+                end_q = motion(name, length)[0][0]
+                self._parts.append(('return', start, return_time, end_q))
+                self.segments.append(('return', start, start + return_time))
+                start += return_time
+        self.period = start
+
+    def finished(self, t: float) -> bool:
+        """True once ``t`` is past the end (never when looping)."""
+        return not self.loop and t > self.period + 1e-9
+
+    def sample(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+        """q, qd, qdd (3 each) and the segment label at sequence time ``t``."""
+        if self.loop:
+            t = t % self.period
+        t = min(max(t, 0.0), self.period)
+        for label, start, length, end_q in reversed(self._parts):
+            if t >= start - 1e-12:
+                break
+        local = min(t - start, length)
+        if label == 'return':
+            s, ds, dds = smooth_step(np.array([local / length]))
+            return (end_q * (1.0 - s[0]), -end_q * ds[0] / length,
+                    -end_q * dds[0] / length ** 2, label)
+        q, qd, qdd = motion(label, local)
+        return q[0], qd[0], qdd[0], label

@@ -28,6 +28,7 @@ from typing import Any, Sequence
 
 import numpy as np
 import rclpy
+import rclpy.task
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
@@ -42,12 +43,11 @@ import flight_sim_dynamics as fsd
 
 from . import parameters as prm
 from .model import JOINT_NAMES, LEG_NAMES, Model
-from .setpoints import (ACCEL, ERROR, LEVEL_NAMES, NON_FINITE_OUTPUT, OK, POSE,
-                        SOLVER_ERROR, TWIST, UNREACHABLE, WARN, CycleStats,
-                        DerivativeEstimator, LogThrottle, NodeConfig, PoseInput, RateInput,
-                        Rejected, Setpoint, SetpointError, StampSynchroniser,
-                        check_acceleration, check_limits, pose_input, rate_input,
-                        unfollowable)
+from .setpoints import (ACCEL, ERROR, NON_FINITE_OUTPUT, POSE, SOLVER_ERROR, TWIST,
+                        UNREACHABLE, WARN, CycleStats, DerivativeEstimator, LogThrottle,
+                        NodeConfig, PoseInput, RateInput, Rejected, Setpoint, SetpointError,
+                        StampSynchroniser, check_acceleration, check_limits, pose_input,
+                        rate_input, unfollowable)
 
 MODEL_NAMES = frozenset(spec.name for spec in prm.MODEL_PARAMETERS)
 NODE_NAMES = frozenset(spec.name for spec in prm.NODE_PARAMETERS)
@@ -94,9 +94,10 @@ def descriptor_for(spec: prm.ParamSpec) -> ParameterDescriptor:
     if spec.kind == 'double':
         d.dynamic_typing = True
         if spec.minimum is not None or spec.maximum is not None:
+            big = sys.float_info.max
             d.floating_point_range = [FloatingPointRange(
-                from_value=float(spec.minimum if spec.minimum is not None else -sys.float_info.max),
-                to_value=float(spec.maximum if spec.maximum is not None else sys.float_info.max),
+                from_value=float(spec.minimum if spec.minimum is not None else -big),
+                to_value=float(spec.maximum if spec.maximum is not None else big),
                 step=0.0)]
     elif spec.kind == 'double_array':
         d.dynamic_typing = True     # [0, 0, 1] in YAML is an integer array
@@ -208,7 +209,8 @@ class DynamicsNode(Node):
         self.declare_parameters('', [
             (spec.name, ros_value(spec, defaults[spec.name]), descriptor_for(spec))
             for spec in prm.ALL_PARAMETERS])
-        unknown = sorted(set(self._parameter_overrides) - set(prm.SPECS) - ROS_PARAMETERS)
+        overrides = getattr(self, '_parameter_overrides', {})   # rclpy: the --ros-args values
+        unknown = sorted(set(overrides) - set(prm.SPECS) - ROS_PARAMETERS)
         if unknown:
             self.get_logger().warn('ignoring unknown parameters (typo?): ' + ', '.join(unknown))
 
@@ -253,8 +255,13 @@ class DynamicsNode(Node):
         try:
             func(*args)
         except Exception as exc:  # noqa: BLE001
-            self._stats.reject(SOLVER_ERROR, f'internal error: {type(exc).__name__}: {exc}')
-            self._log_rejection(SOLVER_ERROR, f'internal error: {type(exc).__name__}: {exc}')
+            self._internal_error(exc)
+
+    def _internal_error(self, exc: BaseException) -> None:
+        try:
+            self._reject(SOLVER_ERROR, f'internal error: {type(exc).__name__}: {exc}')
+        except Exception:  # noqa: BLE001 - even reporting failed: stay up
+            pass
 
     def _handle_pose(self, msg: PoseStamped) -> None:
         now = time.monotonic()
@@ -266,7 +273,7 @@ class DynamicsNode(Node):
             pose = pose_input(p.x, p.y, p.z, o.x, o.y, o.z, o.w,
                               self._runtime.config.quaternion_tolerance)
         except SetpointError as exc:
-            self._sync.discard(stamp_ns)
+            self._sync.discard(stamp_ns, POSE)
             self._reject(exc.reason, f'pose rejected: {exc}')
             return
         self._dispatch(*self._sync.add(POSE, stamp_ns, pose, now, stamp))
@@ -283,7 +290,7 @@ class DynamicsNode(Node):
                 check_acceleration(rates.q, config.max_linear_acceleration,
                                    config.max_angular_acceleration)
         except SetpointError as exc:
-            self._sync.discard(stamp_ns)
+            self._sync.discard(stamp_ns, kind)
             self._reject(exc.reason, f'{kind} rejected: {exc}')
             return
         self._dispatch(*self._sync.add(kind, stamp_ns, rates, now))
@@ -299,13 +306,13 @@ class DynamicsNode(Node):
             if self._sync.pending:
                 self._dispatch(*self._sync.poll(time.monotonic()))
         except Exception as exc:  # noqa: BLE001
-            self._reject(SOLVER_ERROR, f'internal error: {type(exc).__name__}: {exc}')
+            self._internal_error(exc)
 
     def _dispatch(self, released: list[Setpoint], rejected: list[Rejected]) -> None:
         for item in rejected:
             self._reject(item.reason, item.message)
         for setpoint in released:
-            self._process(setpoint)
+            self._guard(self._process, setpoint)    # one failure must not skip the others
 
     # -- one cycle -----------------------------------------------------------------
     def _process(self, sp: Setpoint) -> None:
@@ -334,9 +341,11 @@ class DynamicsNode(Node):
         if sol is None:
             self._reject(reason, f'setpoint rejected: {message}')
             return
-        if not (np.isfinite(sol.length).all() and np.isfinite(sol.rate).all()
-                and np.isfinite(sol.force).all() and np.isfinite(sol.joints).all()
-                and np.isfinite(sol.joint_rates).all()):
+        length, rate, force = sol.length, sol.rate, sol.force
+        joints, joint_rates = sol.joints, sol.joint_rates
+        # sum() is finite iff every element is (one reduction per array)
+        if not math.isfinite(float(length.sum() + rate.sum() + force.sum()
+                                   + joints.sum() + joint_rates.sum())):
             self._reject(NON_FINITE_OUTPUT, 'solver returned a non-finite value (not published)')
             return
 
@@ -349,7 +358,8 @@ class DynamicsNode(Node):
             stats.note(WARN, 'ignored ' + '/'.join(ignored))
             self._log(WARN, 'ignored', text)
 
-        limits = check_limits(sol.stroke, sol.rate, sol.force, sol.cond, config)
+        cond = sol.cond
+        limits = check_limits(sol.stroke, rate, force, cond, config)
         if limits.exceeded:
             stats.limit_exceeded += 1
             stats.note(ERROR, 'limit exceeded')
@@ -363,18 +373,19 @@ class DynamicsNode(Node):
                 stats.near_limit += 1
                 stats.note(WARN, 'near an actuator limit')
 
+        # array('d') is taken as is by the message setters (no per-element checks)
         out = self._actuator_msg
         out.header.stamp = sp.header
-        out.position = sol.length.tolist()
-        out.velocity = sol.rate.tolist()
-        out.effort = sol.force.tolist()
-        joints = self._joint_msg
-        joints.header.stamp = sp.header
-        joints.position = sol.joints.tolist()
-        joints.velocity = sol.joint_rates.tolist()
+        out.position = array.array('d', length.tobytes())
+        out.velocity = array.array('d', rate.tobytes())
+        out.effort = array.array('d', force.tobytes())
+        joint_msg = self._joint_msg
+        joint_msg.header.stamp = sp.header
+        joint_msg.position = array.array('d', joints.tobytes())
+        joint_msg.velocity = array.array('d', joint_rates.tobytes())
         self._actuator_pub.publish(out)
-        self._joint_pub.publish(joints)
-        stats.solved(elapsed, sol.cond, (out.effort[0], out.effort[1], out.effort[2]))
+        self._joint_pub.publish(joint_msg)
+        stats.solved(elapsed, cond, (out.effort[0], out.effort[1], out.effort[2]))
 
     # -- rejection and logging -------------------------------------------------
     def _reject(self, reason: str, message: str) -> None:
@@ -390,8 +401,11 @@ class DynamicsNode(Node):
             return
         if skipped:
             message += f' ({skipped} more since the last such message)'
-        logger = self.get_logger()
-        (logger.error if level >= ERROR else logger.warn)(message)
+        # rclpy fixes a severity per call site: one call site per severity.
+        if level >= ERROR:
+            self.get_logger().error(message)
+        else:
+            self.get_logger().warn(message)
 
     # -- diagnostics -------------------------------------------------------------
     def _on_diagnostics_timer(self) -> None:
@@ -404,7 +418,7 @@ class DynamicsNode(Node):
             self._diag_msg.header.stamp = self.get_clock().now().to_msg()
             self._diag_pub.publish(self._diag_msg)
         except Exception as exc:  # noqa: BLE001
-            self._log(ERROR, 'diagnostics', f'diagnostics failed: {exc}')
+            self._internal_error(exc)
 
     # -- parameters --------------------------------------------------------------
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
@@ -438,6 +452,9 @@ class DynamicsNode(Node):
 
     def _on_parameters_set(self, params: list[Parameter]) -> None:
         """Commit a staged change: one reference assignment, read once per cycle."""
+        self._guard(self._commit, params)
+
+    def _commit(self, params: list[Parameter]) -> None:
         staged, self._staged = self._staged, None
         if staged is None:
             return
@@ -517,16 +534,26 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 2
         executor = make_executor(args.executor)
         executor.add_node(node)
-        executor.spin()
+        spin(executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
-        if executor is not None:
-            executor.shutdown(timeout_sec=1.0) if args.executor == 'single' else None
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
     return 0
+
+
+def spin(executor: Any, context: Any = None) -> None:
+    """Spin until the context shuts down (Ctrl-C, SIGTERM).
+
+    Always with a timeout: rclpy 7.1.6's EventsExecutor busy-loops at 100 % CPU
+    in ``spin()`` (and hangs in ``spin_until_future_complete`` without a
+    timeout), and does not return on SIGINT; with a timeout it idles and the
+    shutdown is noticed within ``timeout_sec``."""
+    never = rclpy.task.Future()
+    while rclpy.ok(context=context):
+        executor.spin_until_future_complete(never, timeout_sec=0.5)
 
 
 if __name__ == '__main__':

@@ -166,24 +166,25 @@ MODEL_PARAMETERS: tuple[ParamSpec, ...] = tuple(_model_specs())
 # ----------------------------------------------------------------------------
 NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     # Actuator limits (common to the three legs) and the near-singular threshold.
-    ParamSpec('limits.stroke_min', 'double', -0.4,
+    ParamSpec('limits.stroke_min', 'double', -0.3,
               'lowest allowed actuator stroke (leg length minus its zero-stroke length)', 'm',
               minimum=-10.0, maximum=10.0),
-    ParamSpec('limits.stroke_max', 'double', 0.4,
+    ParamSpec('limits.stroke_max', 'double', 0.6,
               'highest allowed actuator stroke; must be > limits.stroke_min', 'm',
               minimum=-10.0, maximum=10.0),
     ParamSpec('limits.max_speed', 'double', 1.0,
               'largest allowed actuator speed |dL/dt|', 'm/s',
               minimum=0.0, exclusive_minimum=True, maximum=1.0e3),
-    ParamSpec('limits.max_force', 'double', 1000.0,
+    ParamSpec('limits.max_force', 'double', 2000.0,
               'largest allowed actuator force |f|', 'N',
               minimum=0.0, exclusive_minimum=True, maximum=1.0e9),
     ParamSpec('limits.warn_fraction', 'double', 0.9,
               'status WARN when a stroke, speed or force uses at least this fraction of its '
               'limit (stroke: of the half-range around its middle)', '1',
               minimum=0.0, maximum=1.0),
-    ParamSpec('limits.cond_warn', 'double', 1.0e3,
-              'status WARN (near singular) when cond(Q) reaches this value', '1',
+    ParamSpec('limits.cond_warn', 'double', 100.0,
+              'status WARN (near singular) when cond(Q) reaches this value (the paper\'s '
+              'motions stay below 16)', '1',
               minimum=1.0, maximum=1.0e16),
     # Input checks.
     ParamSpec('input.max_linear_acceleration', 'double', 50.0,
@@ -207,7 +208,7 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'reported as motion the mechanism cannot follow, then ignored', 'rad',
               minimum=0.0, maximum=3.2),
     # Exact-stamp synchroniser.
-    ParamSpec('sync.wait', 'double', 0.02,
+    ParamSpec('sync.wait', 'double', 0.05,
               'longest wait for the twist and acceleration carrying a pose\'s stamp before '
               'the setpoint is solved without them (they are then estimated)', 's',
               minimum=0.0, maximum=10.0),

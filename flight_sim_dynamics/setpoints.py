@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, Generic, Iterable, Mapping, TypeVar
+from typing import Any, Generic, Iterable, Mapping, Sequence, TypeVar
 
 from .parameters import NODE_PARAMETERS, SPECS, ParameterError, check_value
 
@@ -249,14 +249,17 @@ class Rejected:
 class StampSynchroniser(Generic[P, R]):
     """Join pose, twist and acceleration messages with the same header stamp.
 
-    * A setpoint is *complete* when its pose and the message of every *active*
-      optional stream (twist, accel) are there; it is then released at once,
-      whatever order the three arrived in.
+    * A setpoint is *complete* when its pose and the message of every
+      *expected* optional stream (twist, accel) are there; it is then released
+      at once, whatever order the three arrived in.
+    * An optional stream is expected for a stamp if it is active and has not
+      yet delivered a newer stamp (each topic is in order, so once it has,
+      its message for this stamp is lost or was never sent).
     * An optional stream is active until a setpoint waited ``wait`` seconds for
       it in vain; it becomes active again as soon as it delivers a message.
       So a pose-only or pose+twist stream costs one bounded wait at start-up
       and none afterwards, and a full stream is never answered without its
-      twist/accel unless one is more than ``wait`` late.
+      twist/accel unless one is lost or more than ``wait`` late.
     * Setpoints are released in stamp order: when a setpoint is complete,
       older incomplete ones are released first (with what they have; those
       without a pose are rejected as ``no_pose``).
@@ -274,13 +277,15 @@ class StampSynchroniser(Generic[P, R]):
     than ``wait``).
     """
 
-    def __init__(self, wait: float = 0.02, max_pending: int = 64) -> None:
+    def __init__(self, wait: float = 0.05, max_pending: int = 64) -> None:
         self.wait = float(wait)
         self.max_pending = int(max_pending)
         self._pending: dict[int, Setpoint[P, R]] = {}
         self._last_released: int | None = None
         self.active = {TWIST: True, ACCEL: True}
-        self._discarded: dict[int, None] = {}   # insertion-ordered set, bounded
+        self._newest: dict[str, int | None] = {TWIST: None, ACCEL: None}
+        # stamps the caller rejected -> kinds already seen (insertion-ordered, bounded)
+        self._discarded: dict[int, set[str]] = {}
 
     # -- public --------------------------------------------------------------
     @property
@@ -297,12 +302,17 @@ class StampSynchroniser(Generic[P, R]):
         self._pending.clear()
         self._last_released = None
         self._discarded.clear()
+        self._newest = {TWIST: None, ACCEL: None}
 
-    def discard(self, stamp_ns: int) -> None:
-        """The caller rejected a message with this stamp: drop the pending
-        setpoint and ignore the other messages that carry the stamp."""
-        self._pending.pop(stamp_ns, None)
-        self._discarded[stamp_ns] = None
+    def discard(self, stamp_ns: int, kind: str) -> None:
+        """The caller rejected the ``kind`` message with this stamp: drop the
+        pending setpoint and ignore the other kinds' messages with the stamp
+        (a second message of a kind already seen is reported as a duplicate)."""
+        entry = self._pending.pop(stamp_ns, None)
+        seen = self._discarded.setdefault(stamp_ns, set())
+        seen.add(kind)
+        if entry is not None:
+            seen.update(k for k in KINDS if getattr(entry, k) is not None)
         while len(self._discarded) > 4 * max(self.max_pending, 1):
             del self._discarded[next(iter(self._discarded))]
 
@@ -311,10 +321,19 @@ class StampSynchroniser(Generic[P, R]):
         """Add one message of ``kind`` (``pose``, ``twist`` or ``accel``)."""
         released: list[Setpoint[P, R]] = []
         rejected: list[Rejected] = []
-        if stamp_ns in self._discarded:
+        seen = self._discarded.get(stamp_ns)
+        if seen is not None:
+            if kind in seen:
+                rejected.append(Rejected(DUPLICATE, kind, stamp_ns,
+                                         f'second {kind} for the rejected stamp '
+                                         f'{_fmt_stamp(stamp_ns)} (ignored)'))
+            seen.add(kind)
             return released, rejected
         if kind != POSE:
             self.active[kind] = True
+            newest = self._newest[kind]
+            if newest is None or stamp_ns > newest:
+                self._newest[kind] = stamp_ns
         last = self._last_released
         if last is not None and stamp_ns <= last:
             if kind == POSE:
@@ -341,8 +360,13 @@ class StampSynchroniser(Generic[P, R]):
         setattr(entry, kind, data)
         if kind == POSE:
             entry.header = header
-        if self._complete(entry):
-            self._release_through(stamp_ns, released, rejected)
+        newest_complete = None
+        for stamp in self._pending:    # few entries: usually one
+            if (newest_complete is None or stamp > newest_complete) \
+                    and self._complete(self._pending[stamp]):
+                newest_complete = stamp
+        if newest_complete is not None:
+            self._release_through(newest_complete, released, rejected)
         return released, rejected
 
     def poll(self, now: float) -> tuple[list[Setpoint[P, R]], list[Rejected]]:
@@ -360,14 +384,22 @@ class StampSynchroniser(Generic[P, R]):
                     for kind in (TWIST, ACCEL):
                         if getattr(entry, kind) is None:
                             self.active[kind] = False
+            # newer setpoints that waited for the streams just found silent
+            for stamp in self._pending:
+                if stamp > newest and self._complete(self._pending[stamp]):
+                    newest = stamp
             self._release_through(newest, released, rejected)
         return released, rejected
 
     # -- internals -----------------------------------------------------------
+    def _expected(self, kind: str, stamp_ns: int) -> bool:
+        newest = self._newest[kind]
+        return self.active[kind] and (newest is None or newest < stamp_ns)
+
     def _complete(self, entry: Setpoint[P, R]) -> bool:
         return (entry.pose is not None
-                and (entry.twist is not None or not self.active[TWIST])
-                and (entry.accel is not None or not self.active[ACCEL]))
+                and (entry.twist is not None or not self._expected(TWIST, entry.stamp_ns))
+                and (entry.accel is not None or not self._expected(ACCEL, entry.stamp_ns)))
 
     def _release_through(self, stamp_ns: int, released: list, rejected: list) -> None:
         for stamp in sorted(s for s in self._pending if s <= stamp_ns):
@@ -580,28 +612,37 @@ class LimitReport:
     usage: float
 
 
-def check_limits(stroke: Iterable[float], rate: Iterable[float], force: Iterable[float],
+_LIMIT_NAMES = tuple((f'stroke {leg}', f'speed {leg}', f'force {leg}') for leg in 'ABC')
+_NOTHING: tuple[str, ...] = ()
+
+
+def check_limits(stroke: Sequence[float], rate: Sequence[float], force: Sequence[float],
                  cond: float, config: NodeConfig) -> LimitReport:
     """Compare one solution with the actuator limits and the near-singular
     threshold. Beyond a limit is ERROR, within ``warn_fraction`` of it (or
     ``cond >= cond_warn``) WARN. The solution is still published: the numbers
-    are what the commanded motion requires; the status says it is unsafe."""
-    exceeded: list[str] = []
-    near: list[str] = []
-    frac = config.warn_fraction
-    usage = 0.0
+    are what the commanded motion requires; the status says it is unsafe.
+
+    Usage of a limit: |force| / max_force, |rate| / max_speed and, for the
+    stroke, its distance from the middle of [stroke_min, stroke_max] over the
+    half-range (1.0 at either end)."""
     mid = 0.5 * (config.stroke_max + config.stroke_min)
     half = 0.5 * (config.stroke_max - config.stroke_min)
-    for leg, (s, v, f) in zip('ABC', zip(stroke, rate, force)):
-        for name, u in ((f'stroke {leg}', abs(s - mid) / half),
-                        (f'speed {leg}', abs(v) / config.max_speed),
-                        (f'force {leg}', abs(f) / config.max_force)):
-            usage = max(usage, u)
+    usages = [(abs(stroke[i] - mid) / half, abs(rate[i]) / config.max_speed,
+               abs(force[i]) / config.max_force) for i in range(3)]
+    usage = max(max(u) for u in usages)
+    singular = not math.isfinite(cond) or cond >= config.cond_warn
+    if usage < config.warn_fraction and not singular:       # the usual case: no strings
+        return LimitReport(OK, _NOTHING, _NOTHING, usage)
+    exceeded: list[str] = []
+    near: list[str] = []
+    for names, values in zip(_LIMIT_NAMES, usages):
+        for name, u in zip(names, values):
             if u > 1.0:
                 exceeded.append(name)
-            elif u >= frac:
+            elif u >= config.warn_fraction:
                 near.append(name)
-    if not math.isfinite(cond) or cond >= config.cond_warn:
+    if singular:
         near.append('near singular')
     level = ERROR if exceeded else WARN if near else OK
     return LimitReport(level, tuple(exceeded), tuple(near), usage)

@@ -1,0 +1,220 @@
+"""End-to-end demo: the dynamics node next to a planner.
+
+    flight-sim-dynamics demo [-o out/demo.png] [--rate 100] [--motions ...]
+
+1. starts the node as a separate process with the packaged parameter file
+   (``dynamics_node --ros-args --params-file <share>/config/flight_sim_dynamics.yaml``);
+2. runs the demo planner in this process: the paper's three motions (each
+   washed back to neutral) and the motion-cueing sequence;
+3. listens to ``actuator_states`` and ``/diagnostics`` and prints one line per
+   second: receive rate, last forces A/B/C, status;
+4. at the end plots forces and powers (effort x velocity of the received
+   messages) against time to ``-o`` and stops the node (its log is written
+   next to the PNG, ``<name>_node.log``). About 25 s in all.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any, Sequence
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+
+from .cueing import MOTIONS, PlannerSequence
+from .parameters import default_params_path
+from .planner import PlannerNode, setpoint_qos, spin_until
+from .setpoints import LEVEL_NAMES
+
+
+class Monitor(Node):
+    """Records actuator_states and the node's /diagnostics status."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__('demo_monitor', **kwargs)
+        self.stamps: list[int] = []
+        self.received_at: list[float] = []
+        self.position: list[list[float]] = []
+        self.velocity: list[list[float]] = []
+        self.effort: list[list[float]] = []
+        self.status = 'no diagnostics yet'
+        self.diagnostics: dict[str, str] = {}
+        self.sub = self.create_subscription(JointState, 'actuator_states', self._on_state,
+                                            setpoint_qos(1000))
+        self.diag_sub = self.create_subscription(DiagnosticArray, '/diagnostics',
+                                                 self._on_diagnostics, 10)
+
+    def _on_state(self, msg: JointState) -> None:
+        self.stamps.append(msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec)
+        self.received_at.append(self.get_clock().now().nanoseconds)
+        self.position.append(list(msg.position))
+        self.velocity.append(list(msg.velocity))
+        self.effort.append(list(msg.effort))
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            if status.hardware_id == 'flight_sim_dynamics':
+                level = status.level[0] if isinstance(status.level, bytes) else status.level
+                self.diagnostics = {kv.key: kv.value for kv in status.values}
+                name = LEVEL_NAMES.get(level, str(level))
+                self.status = name if status.message in ('', 'OK') else \
+                    f'{name} ({status.message})'
+
+
+def start_node(log_path: Path, params_file: Path) -> subprocess.Popen:
+    """The node as a user starts it, in its own process group."""
+    env = dict(os.environ)
+    package_root = str(Path(__file__).resolve().parent.parent)
+    env['PYTHONPATH'] = os.pathsep.join(filter(None, [package_root, env.get('PYTHONPATH')]))
+    env['PYTHONUNBUFFERED'] = '1'
+    log = open(log_path, 'w')
+    return subprocess.Popen([sys.executable, '-m', 'flight_sim_dynamics.node',
+                             '--ros-args', '--params-file', str(params_file)],
+                            stdout=log, stderr=subprocess.STDOUT, env=env,
+                            start_new_session=True)
+
+
+def stop_node(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(5)
+
+
+def plot(monitor: Monitor, sequence: PlannerSequence, t0_ns: int, path: Path) -> None:
+    """Forces and powers (effort x velocity) of the received messages vs time."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    t = (np.array(monitor.stamps, dtype=np.int64) - t0_ns) * 1e-9
+    force = np.array(monitor.effort)
+    power = force * np.array(monitor.velocity)
+    fig, (ax_f, ax_p) = plt.subplots(2, 1, sharex=True, figsize=(10, 6.5))
+    for i, leg in enumerate('ABC'):
+        ax_f.plot(t, force[:, i], label=f'leg {leg}')
+        ax_p.plot(t, power[:, i], label=f'leg {leg}')
+    for ax in (ax_f, ax_p):
+        for label, start, end in sequence.segments:
+            if label != 'return':
+                ax.axvspan(start, end, color='0.93', zorder=0)
+                if ax is ax_f:
+                    ax.text(0.5 * (start + end), 1.0, label, transform=ax.get_xaxis_transform(),
+                            ha='center', va='bottom', fontsize=8)
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc='upper right', fontsize=8)
+    ax_f.set_ylabel('force f (N)')
+    ax_p.set_ylabel('power f dL/dt (W)')
+    ax_p.set_xlabel('setpoint stamp (s from start)')
+    fig.suptitle(f'actuator_states received from the node: {len(t)} messages', y=0.995)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog='flight-sim-dynamics demo',
+        description='Start the dynamics node with the packaged parameters, drive it with the '
+                    'demo planner (paper examples + motion cueing), print a live summary and '
+                    'plot the forces and powers received on actuator_states.')
+    parser.add_argument('-o', '--output', default='out/demo.png', type=Path,
+                        help='PNG to write (default: out/demo.png)')
+    parser.add_argument('--rate', type=float, default=100.0, metavar='HZ',
+                        help='planner rate (default: 100 Hz)')
+    parser.add_argument('--motions', nargs='+', choices=MOTIONS, default=list(MOTIONS),
+                        help='motions to play (default: all four)')
+    parser.add_argument('--params-file', type=Path, default=None,
+                        help='node parameter file (default: the packaged one)')
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the demo; 0 when every setpoint was answered."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = build_parser().parse_args(rclpy.utilities.remove_ros_args(['demo', *argv])[1:])
+    params_file = args.params_file or default_params_path()
+    args.output.parent.mkdir(parents=True, exist_ok=True)
+    log_path = args.output.with_name(args.output.stem + '_node.log')   # next to the PNG
+    sequence = PlannerSequence(args.motions)
+    print(f'[demo] starting the node: dynamics_node --ros-args --params-file {params_file}')
+    print(f'[demo] node log: {log_path}')
+    node_proc = start_node(log_path, params_file)
+    context = rclpy.Context()
+    rclpy.init(args=['demo', *argv], context=context)
+    from rclpy.experimental import EventsExecutor
+    executor = EventsExecutor(context=context)
+    planner = PlannerNode(sequence, args.rate, context=context)
+    monitor = Monitor(context=context)
+    executor.add_node(planner)
+    executor.add_node(monitor)
+    try:
+        ready = spin_until(executor, lambda: (
+            planner.subscribers_ready() and monitor.sub.get_publisher_count() > 0
+            or node_proc.poll() is not None), timeout=20.0)
+        if not ready or node_proc.poll() is not None:
+            print('[demo] the node did not come up; its log:\n' + log_path.read_text()[-2000:])
+            return 1
+        print(f'[demo] node up; planner: {", ".join(sequence.names)} at {args.rate:g} Hz, '
+              f'{sequence.period:.1f} s')
+        planner.start()
+        t0_ns = planner._t0_ns
+        start = time.monotonic()
+        last_print, last_count = start, 0
+
+        def summary() -> None:
+            nonlocal last_print, last_count
+            now = time.monotonic()
+            rate = (len(monitor.stamps) - last_count) / (now - last_print)
+            last_print, last_count = now, len(monitor.stamps)
+            forces = ('  '.join(f'{f:7.2f}' for f in monitor.effort[-1])
+                      if monitor.effort else '   -      -      -  ')
+            print(f'[demo] t={now - start:5.1f} s  rate {rate:6.1f} Hz  '
+                  f'forces A/B/C {forces} N  status {monitor.status}', flush=True)
+
+        while not planner.done:
+            spin_until(executor, lambda: planner.done or time.monotonic() - last_print >= 1.0)
+            if node_proc.poll() is not None:
+                print('[demo] the node exited; its log:\n' + log_path.read_text()[-2000:])
+                return 1
+            if time.monotonic() - last_print >= 1.0:
+                summary()
+        spin_until(executor, lambda: len(monitor.stamps) >= planner.sent, timeout=5.0)
+        summary()
+        received = len(monitor.stamps)
+        latency = sorted((r - s) * 1e-6 for r, s in zip(monitor.received_at, monitor.stamps))
+        lat = (f'latency stamp->received median {latency[len(latency) // 2]:.1f} ms, '
+               f'max {latency[-1]:.1f} ms' if latency else '')
+        print(f'[demo] sent {planner.sent} setpoints, received {received} actuator_states '
+              f'({planner.sent - received} missing); {lat}')
+        d = monitor.diagnostics
+        if d:
+            print(f"[demo] node diagnostics: solve time mean {d.get('solve time mean (us)')} us, "
+                  f"rejected {d.get('rejected total')}, cond(Q) {d.get('cond(Q) last')}")
+        if received:
+            plot(monitor, sequence, t0_ns, args.output)
+            print(f'[demo] forces and powers plotted to {args.output}')
+        return 0 if received == planner.sent and received > 0 else 1
+    except KeyboardInterrupt:
+        return 130
+    finally:
+        stop_node(node_proc)
+        planner.destroy_node()
+        monitor.destroy_node()
+        rclpy.try_shutdown(context=context)
+
+
+if __name__ == '__main__':
+    sys.exit(main())

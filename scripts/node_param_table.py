@@ -1,0 +1,87 @@
+#!/usr/bin/env python3
+"""Print the node's parameters as Markdown tables, from parameters.SPECS
+(the same schema the node declares its ParameterDescriptors from).
+
+    python scripts/node_param_table.py            # node parameters + model parameters
+    python scripts/node_param_table.py --node     # node parameters only
+
+The per-body rows (bodies.<body>.mass/com/inertia) are folded into one row
+each, with the body names listed once.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from flight_sim_dynamics import parameters as prm  # noqa: E402
+from flight_sim_dynamics.model import BODY_NAMES  # noqa: E402
+
+TYPES = {'double': 'double', 'double_array': 'double[]', 'integer': 'int',
+         'string': 'string', 'bool': 'bool'}
+
+
+def value_range(spec: prm.ParamSpec) -> str:
+    if spec.choices:
+        return ' \\| '.join(spec.choices)
+    if spec.length:
+        return f'{spec.length} numbers'
+    if spec.minimum is None and spec.maximum is None:
+        return ''
+    low = '' if spec.minimum is None else f'{spec.minimum:g}'
+    high = '' if spec.maximum is None else f'{spec.maximum:g}'
+    return f"{'(' if spec.exclusive_minimum else '['}{low}, {high}]"
+
+
+def default(spec: prm.ParamSpec) -> str:
+    value = spec.default
+    if isinstance(value, list):
+        if len(value) > 3:
+            return 'see YAML'
+        return '[' + ', '.join(f'{v:g}' for v in value) + ']'
+    if isinstance(value, float):
+        return f'{value:g}'
+    return f'`{value}`' if isinstance(value, str) else str(value)
+
+
+def row(name: str, spec: prm.ParamSpec, description: str | None = None) -> str:
+    text = (description or spec.description).replace('|', '\\|')
+    return (f'| `{name}` | {TYPES[spec.kind]} | {spec.unit or "-"} | {default(spec)} '
+            f'| {value_range(spec)} | {text} |')
+
+
+def table(specs: list[prm.ParamSpec]) -> list[str]:
+    lines = ['| name | type | unit | default | range | meaning |',
+             '|---|---|---|---|---|---|']
+    folded = set()
+    for spec in specs:
+        parts = spec.name.split('.')
+        if parts[0] == 'bodies' and len(parts) == 3:
+            if parts[2] in folded:
+                continue
+            folded.add(parts[2])
+            meaning = spec.description.replace(parts[1], '<body>')
+            lines.append(row(f'bodies.<body>.{parts[2]}', spec, meaning)
+                         .replace(f'| {default(spec)} |', '| see YAML |'))
+        else:
+            lines.append(row(spec.name, spec))
+    return lines
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser.add_argument('--node', action='store_true', help='node parameters only')
+    args = parser.parse_args()
+    print('\n'.join(table(list(prm.NODE_PARAMETERS))))
+    if not args.node:
+        print()
+        print('\n'.join(table(list(prm.MODEL_PARAMETERS))))
+        print()
+        print('`<body>` is one of ' + ', '.join(f'`{b}`' for b in BODY_NAMES) + '.')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

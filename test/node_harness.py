@@ -1,0 +1,275 @@
+"""Launch-free harness of the node tests (test/test_node_*.py).
+
+* :class:`NodeProcess` starts ``python -m flight_sim_dynamics.node`` as a
+  separate process, as a user starts it, and always stops it.
+* :class:`Client` is the test's own ROS 2 participant (its own rclpy
+  context): setpoint publishers, output subscriptions, parameter-service
+  clients, and waits with deadlines (never blind sleeps).
+"""
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any, Callable, Iterable, Sequence
+
+import rclpy
+import rclpy.task
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
+from rcl_interfaces.msg import Parameter as ParameterMsg
+from rcl_interfaces.srv import (DescribeParameters, GetParameters, ListParameters,
+                                SetParameters, SetParametersAtomically)
+from rclpy.context import Context
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+
+from flight_sim_dynamics.setpoints import rpy_to_quaternion
+
+ROOT = Path(__file__).resolve().parent.parent
+PARAMS_FILE = ROOT / 'config' / 'flight_sim_dynamics.yaml'
+NODE_NAME = 'flight_sim_dynamics'
+
+# The test side: reliable, deep enough for every message of a test run.
+QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=2000,
+                 reliability=ReliabilityPolicy.RELIABLE,
+                 durability=DurabilityPolicy.VOLATILE)
+
+
+class NodeProcess:
+    """The node under test, started like a user starts it."""
+
+    def __init__(self, *ros_args: str, params_file: Path | None = PARAMS_FILE,
+                 executor: str | None = None) -> None:
+        cmd = [sys.executable, '-m', 'flight_sim_dynamics.node']
+        if executor:
+            cmd += ['--executor', executor]
+        cmd += ['--ros-args']
+        if params_file is not None:
+            cmd += ['--params-file', str(params_file)]
+        cmd += list(ros_args)
+        self.cmd = cmd
+        self.log = tempfile.NamedTemporaryFile('w+', prefix='fsd_node_', suffix='.log',
+                                               delete=False)
+        env = dict(os.environ)
+        env['PYTHONPATH'] = os.pathsep.join(filter(None, [str(ROOT), env.get('PYTHONPATH')]))
+        env['PYTHONUNBUFFERED'] = '1'
+        env.setdefault('RCUTILS_LOGGING_BUFFERED_STREAM', '0')
+        self._final_output: str | None = None
+        self.proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=self.log,
+                                     stderr=subprocess.STDOUT, start_new_session=True)
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def output(self) -> str:
+        if self._final_output is not None:
+            return self._final_output
+        self.log.flush()
+        return Path(self.log.name).read_text(errors='replace')
+
+    def cpu_seconds(self) -> float:
+        """User + system CPU time of the node process so far."""
+        fields = Path(f'/proc/{self.proc.pid}/stat').read_text().rsplit(')', 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+    def stop(self, timeout: float = 5.0) -> int:
+        """SIGINT (as Ctrl-C), then SIGKILL if it does not exit in ``timeout`` s."""
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+            try:
+                self.proc.wait(timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(5)
+        if self._final_output is None:
+            self._final_output = self.output()
+            self.log.close()
+            Path(self.log.name).unlink(missing_ok=True)
+        return self.proc.returncode
+
+
+class Client:
+    """The test's own ROS 2 participant."""
+
+    def __init__(self, name: str = 'node_test_client', namespace: str = '') -> None:
+        self.context = Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node(name, namespace=namespace, context=self.context)
+        # The EventsExecutor costs a third of the SingleThreadedExecutor's CPU per
+        # message (docs/node.md); the test side runs at 200 Hz too. Always spun
+        # with a timeout (rclpy 7.1.6's EventsExecutor hangs without one).
+        from rclpy.experimental import EventsExecutor
+        self.executor = EventsExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        n = self.node
+        self.pose_pub = n.create_publisher(PoseStamped, 'pose_setpoint', QOS)
+        self.twist_pub = n.create_publisher(TwistStamped, 'twist_setpoint', QOS)
+        self.accel_pub = n.create_publisher(AccelStamped, 'accel_setpoint', QOS)
+        self.actuator: list[tuple[float, JointState]] = []
+        self.joints: list[JointState] = []
+        self.diagnostics: list[DiagnosticArray] = []
+        self.actuator_sub = n.create_subscription(
+            JointState, 'actuator_states', lambda m: self.actuator.append((time.monotonic(), m)),
+            QOS)
+        self.joint_sub = n.create_subscription(JointState, 'joint_states', self.joints.append, QOS)
+        self.diag_sub = n.create_subscription(DiagnosticArray, '/diagnostics',
+                                              self.diagnostics.append, 10)
+        target = f'{namespace.rstrip("/")}/{NODE_NAME}' if namespace else NODE_NAME
+        self.srv = {
+            'get': n.create_client(GetParameters, f'{target}/get_parameters'),
+            'set': n.create_client(SetParameters, f'{target}/set_parameters'),
+            'atomic': n.create_client(SetParametersAtomically,
+                                      f'{target}/set_parameters_atomically'),
+            'list': n.create_client(ListParameters, f'{target}/list_parameters'),
+            'describe': n.create_client(DescribeParameters, f'{target}/describe_parameters'),
+        }
+        self.watch: NodeProcess | None = None
+
+    # -- waiting ---------------------------------------------------------------
+    def spin_until(self, predicate: Callable[[], bool], timeout: float) -> bool:
+        """Spin until ``predicate()`` or the deadline; fails fast if the
+        watched node process died."""
+        deadline = time.monotonic() + timeout
+        while True:
+            if predicate():
+                return True
+            if self.watch is not None and not self.watch.alive():
+                raise AssertionError('node process died:\n' + self.watch.output()[-3000:])
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return predicate()
+            self.executor.spin_once(timeout_sec=min(0.05, remaining))
+
+    def wait_for_node(self, node: NodeProcess, timeout: float = 20.0) -> None:
+        """Discovery: the node's subscriptions see our publishers and we see its
+        output publishers and parameter services."""
+        self.watch = node
+        ok = self.spin_until(lambda: (
+            self.pose_pub.get_subscription_count() > 0
+            and self.twist_pub.get_subscription_count() > 0
+            and self.accel_pub.get_subscription_count() > 0
+            and self.actuator_sub.get_publisher_count() > 0
+            and self.joint_sub.get_publisher_count() > 0
+            and all(c.service_is_ready() for c in self.srv.values())), timeout)
+        assert ok, 'node not discovered in time:\n' + node.output()[-3000:]
+
+    def wait_actuator(self, count: int, timeout: float = 5.0) -> bool:
+        return self.spin_until(lambda: len(self.actuator) >= count, timeout)
+
+    def wait_diagnostics(self, predicate: Callable[[dict[str, str]], bool],
+                         timeout: float = 5.0) -> dict[str, str]:
+        """The values of the first /diagnostics message (received from now on)
+        that satisfies ``predicate``."""
+        start = len(self.diagnostics)
+        found: list[dict[str, str]] = []
+
+        def check() -> bool:
+            while len(self.diagnostics) > start + len(found):
+                msg = self.diagnostics[start + len(found)]
+                found.append(diagnostic_values(msg))
+                if predicate(found[-1]):
+                    return True
+            return False
+        self.spin_until(check, timeout)
+        matching = [v for v in found if predicate(v)]
+        assert matching, f'no matching /diagnostics in {timeout} s; last: ' \
+                         f'{found[-1] if found else None}'
+        return matching[0]
+
+    def call(self, name: str, request: Any, timeout: float = 5.0) -> Any:
+        client = self.srv[name]
+        assert self.spin_until(client.service_is_ready, timeout), f'{name} service not ready'
+        future = client.call_async(request)
+        assert self.spin_until(future.done, timeout), f'{name} call timed out'
+        return future.result()
+
+    # -- parameters --------------------------------------------------------------
+    def get_params(self, names: Sequence[str]) -> list[Any]:
+        response = self.call('get', GetParameters.Request(names=list(names)))
+        return [Parameter.from_parameter_msg(ParameterMsg(name=n, value=v)).value
+                for n, v in zip(names, response.values)]
+
+    def set_params(self, values: dict[str, Any], atomic: bool = False) -> list[Any]:
+        params = [Parameter(name, value=value).to_parameter_msg()
+                  for name, value in values.items()]
+        if atomic:
+            return [self.call('atomic', SetParametersAtomically.Request(parameters=params)).result]
+        return list(self.call('set', SetParameters.Request(parameters=params)).results)
+
+    # -- setpoints -----------------------------------------------------------------
+    def send(self, stamp_ns: int, q: Iterable[float], qd: Iterable[float] | None = None,
+             qdd: Iterable[float] | None = None, *, order: str = 'pta',
+             pitch: float = 0.0, yaw: float = 0.0, sway: float = 0.0,
+             quaternion: tuple[float, float, float, float] | None = None,
+             raw: dict[str, Any] | None = None) -> None:
+        """Publish one setpoint: pose always (unless 'p' is not in ``order``),
+        twist if ``qd`` is given, accel if ``qdd`` is given, in ``order``
+        (p = pose, t = twist, a = accel). ``raw`` overrides message fields
+        (e.g. {'pose.position.x': nan})."""
+        surge, heave, roll = (float(v) for v in q)
+        stamp = rclpy.time.Time(nanoseconds=stamp_ns).to_msg()
+        msgs = {}
+        if 'p' in order:
+            pose = PoseStamped()
+            pose.header.stamp = stamp
+            pose.header.frame_id = 'simulator_base'
+            pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = surge, sway, heave
+            x, y, z, w = (quaternion if quaternion is not None
+                          else rpy_to_quaternion(roll, pitch, yaw))
+            o = pose.pose.orientation
+            o.x, o.y, o.z, o.w = x, y, z, w
+            msgs['p'] = (self.pose_pub, pose)
+        if qd is not None and 't' in order:
+            twist = TwistStamped()
+            twist.header.stamp = stamp
+            twist.twist.linear.x, twist.twist.linear.z, twist.twist.angular.x = (
+                float(v) for v in qd)
+            msgs['t'] = (self.twist_pub, twist)
+        if qdd is not None and 'a' in order:
+            accel = AccelStamped()
+            accel.header.stamp = stamp
+            accel.accel.linear.x, accel.accel.linear.z, accel.accel.angular.x = (
+                float(v) for v in qdd)
+            msgs['a'] = (self.accel_pub, accel)
+        for path, value in (raw or {}).items():
+            kind, *fields = path.split('.')
+            target = msgs[{'pose': 'p', 'twist': 't', 'accel': 'a'}[kind]][1]
+            target = getattr(target, kind)
+            for f in fields[:-1]:
+                target = getattr(target, f)
+            setattr(target, fields[-1], value)
+        for key in order:
+            if key in msgs:
+                publisher, msg = msgs[key]
+                publisher.publish(msg)
+
+    def close(self) -> None:
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+
+def diagnostic_values(msg: DiagnosticArray) -> dict[str, str]:
+    """Key/values of our status in a DiagnosticArray, plus 'level' and 'message'."""
+    for status in msg.status:
+        if status.hardware_id == 'flight_sim_dynamics':
+            values = {kv.key: kv.value for kv in status.values}
+            level = status.level
+            values['level'] = str(level[0] if isinstance(level, (bytes, bytearray)) else level)
+            values['message'] = status.message
+            return values
+    return {}
+
+
+def stamp_ns(msg: Any) -> int:
+    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+
+
+def all_finite(msg: JointState) -> bool:
+    return all(math.isfinite(v) for arr in (msg.position, msg.velocity, msg.effort) for v in arr)

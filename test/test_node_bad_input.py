@@ -1,0 +1,173 @@
+"""Bad input never takes the node down.
+
+Each bad setpoint is followed by a valid one that must be answered exactly;
+no NaN or infinity is ever published; nothing is published for a rejected
+setpoint (an unreachable pose publishes nothing: docs/node.md); every
+rejection is counted in /diagnostics and logged (throttled).
+"""
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+import pytest
+
+import flight_sim_dynamics as fsd
+from flight_sim_dynamics.trajectories import paper_example
+from node_harness import PARAMS_FILE, Client, NodeProcess, all_finite, stamp_ns
+
+NAN, INF = math.nan, math.inf
+STEP = 5_000_000                                 # 5 ms between stamps
+BASE = 1_800_000_000 * 1_000_000_000
+
+
+@pytest.fixture(scope='module')
+def node():
+    # as a user starts it, with a faster diagnostics period (the tests wait for it)
+    proc = NodeProcess('-p', 'diagnostics.period:=0.25', params_file=PARAMS_FILE)
+    yield proc
+    proc.stop()
+
+
+@pytest.fixture(scope='module')
+def client(node):
+    c = Client()
+    try:
+        c.wait_for_node(node)
+        yield c
+    finally:
+        c.close()
+
+
+@pytest.fixture(scope='module')
+def model():
+    return fsd.load_model(PARAMS_FILE)
+
+
+Q, QD, QDD = (v[0] for v in paper_example('general', np.array([1.2])))
+
+# (name, reason counter, how to send it at stamp s: f(client, s, last_valid_stamp))
+BAD_INPUTS = [
+    ('nan position', 'non_finite',
+     lambda c, s, last: c.send(s, Q, QD, QDD, raw={'pose.position.x': NAN})),
+    ('inf heave', 'non_finite',
+     lambda c, s, last: c.send(s, Q, QD, QDD, raw={'pose.position.z': INF})),
+    ('nan quaternion', 'non_finite',
+     lambda c, s, last: c.send(s, Q, QD, QDD, quaternion=(NAN, 0.0, 0.0, 1.0))),
+    ('inf twist', 'non_finite',
+     lambda c, s, last: c.send(s, Q, QD, QDD, raw={'twist.linear.z': -INF})),
+    ('nan accel', 'non_finite',
+     lambda c, s, last: c.send(s, Q, QD, QDD, raw={'accel.angular.x': NAN})),
+    ('zero quaternion', 'bad_quaternion',
+     lambda c, s, last: c.send(s, Q, QD, QDD, quaternion=(0.0, 0.0, 0.0, 0.0))),
+    ('non-unit quaternion', 'bad_quaternion',
+     lambda c, s, last: c.send(s, Q, QD, QDD, quaternion=(0.0, 0.0, 0.0, 2.0))),
+    ('unreachable pose (heave -0.5 m)', 'unreachable',
+     lambda c, s, last: c.send(s, (0.0, -0.5, 0.0), (0, 0, 0), (0, 0, 0))),
+    ('unreachable pose (surge 0.3 m)', 'unreachable',
+     lambda c, s, last: c.send(s, (0.3, 0.0, 0.0), (0, 0, 0), (0, 0, 0))),
+    ('repeated stamp', 'stamp_repeated',
+     lambda c, s, last: c.send(last, Q, QD, QDD, order='tap')),
+    ('stamp going backwards', 'stamp_backwards',
+     lambda c, s, last: c.send(last - 10 * STEP, Q, QD, QDD, order='tap')),
+    ('twist with no pose', 'no_pose',
+     lambda c, s, last: c.send(s, Q, QD, None, order='t')),
+    ('accel with no pose', 'no_pose',
+     lambda c, s, last: c.send(s, Q, None, QDD, order='a')),
+    ('absurd acceleration (1000 m/s^2)', 'absurd_acceleration',
+     lambda c, s, last: c.send(s, Q, QD, (0.0, 1000.0, 0.0))),
+    ('absurd roll acceleration (1e6 rad/s^2)', 'absurd_acceleration',
+     lambda c, s, last: c.send(s, Q, QD, (0.0, 0.0, 1e6))),
+]
+
+
+def test_each_bad_input_is_rejected_and_the_next_setpoint_answered(client, model):
+    expected = fsd.solve(model, Q, QD, QDD)
+    before = client.wait_diagnostics(lambda v: 'rejected total' in v, timeout=3.0)
+    stamp = BASE
+    client.send(stamp, Q, QD, QDD, order='tap')                 # a valid start
+    assert client.wait_actuator(1)
+    last_valid = stamp
+    expected_counts: dict[str, int] = {}
+    for name, reason, send in BAD_INPUTS:
+        stamp += STEP
+        bad_stamp = stamp
+        n = len(client.actuator)
+        send(client, bad_stamp, last_valid)
+        stamp += STEP
+        client.send(stamp, Q, QD, QDD, order='tap')             # the next valid setpoint
+        assert client.wait_actuator(n + 1, timeout=3.0), f'{name}: valid setpoint not answered'
+        client.spin_until(lambda: False, 0.02)
+        answered = [m for _, m in client.actuator[n:]]
+        assert [stamp_ns(m) for m in answered] == [stamp], \
+            f'{name}: expected one answer for the valid setpoint only'
+        np.testing.assert_allclose(answered[0].effort, expected.force, rtol=0, atol=1e-9,
+                                   err_msg=name)
+        last_valid = stamp
+        expected_counts[reason] = expected_counts.get(reason, 0) + 1
+
+    after = client.wait_diagnostics(
+        lambda v: int(v['rejected total']) >= int(before['rejected total']) + len(BAD_INPUTS),
+        timeout=3.0)
+    for reason, count in expected_counts.items():
+        got = int(after[f'rejected {reason}']) - int(before[f'rejected {reason}'])
+        assert got == count, f'counter rejected {reason}: {got} != {count}'
+    # The twist and accel of a repeated / backwards setpoint are reported as
+    # 'late' (they carry the stamp of an answered setpoint): 2 messages each.
+    late = int(after['rejected late']) - int(before['rejected late'])
+    assert late == 4
+    assert int(after['rejected total']) - int(before['rejected total']) == len(BAD_INPUTS) + late
+    assert all(all_finite(m) for _, m in client.actuator)
+    assert all(all_finite(m) for m in client.joints)
+
+
+def test_absurd_estimated_acceleration_rejected(client, model):
+    """A pose jump in a pose-only stream gives an absurd estimated acceleration:
+    rejected; the stream goes on."""
+    stamp = BASE + 10_000_000_000
+    n = len(client.actuator)
+    client.send(stamp, (0.0, 0.0, 0.0), order='p')
+    client.send(stamp + STEP, (0.0, 0.1, 0.0), order='p')      # 0.1 m in 5 ms
+    client.send(stamp + 2 * STEP, Q, QD, QDD, order='tap')
+    assert client.wait_actuator(n + 2, timeout=3.0)
+    client.spin_until(lambda: False, 0.1)
+    stamps = [stamp_ns(m) for _, m in client.actuator[n:]]
+    assert stamps == [stamp, stamp + 2 * STEP]
+    diag = client.wait_diagnostics(lambda v: 'rejected absurd_acceleration' in v, 3.0)
+    assert 'estimated acceleration' in diag['last rejection'] \
+        or int(diag['rejected absurd_acceleration']) >= 3
+
+
+def test_node_reports_error_and_recovers(client, node):
+    """The diagnostics level says ERROR after rejections, then OK again once
+    valid setpoints flow; rejections are logged and throttled."""
+    stamp = BASE + 20_000_000_000
+    for k in range(20):                                         # a burst of bad poses
+        client.send(stamp + k * STEP, Q, QD, QDD, raw={'pose.position.x': NAN})
+    diag = client.wait_diagnostics(lambda v: v['level'] == '2', timeout=3.0)
+    assert 'non_finite' in diag['message']
+    assert node.alive()
+    stamp += 20 * STEP
+    n = len(client.actuator)
+    client.send(stamp, Q, QD, QDD, order='tap')
+    assert client.wait_actuator(n + 1)
+    # the next full period without bad input is OK again
+    k = 1
+
+    def feed_and_check(v: dict) -> bool:
+        return v['level'] == '0'
+    ok = None
+    for _ in range(60):
+        client.send(stamp + k * STEP, Q, QD, QDD, order='tap')
+        k += 1
+        try:
+            ok = client.wait_diagnostics(feed_and_check, timeout=0.1)
+            break
+        except AssertionError:
+            continue
+    assert ok is not None, 'diagnostics never went back to OK'
+    log = node.output()
+    lines = [line for line in log.splitlines() if 'pose rejected' in line and 'non-finite' in line]
+    assert 1 <= len(lines) <= 8, f'{len(lines)} log lines for non-finite poses (not throttled?)'
+    assert re.search(r'more since the last such message|pose rejected', log)

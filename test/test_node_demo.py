@@ -1,0 +1,30 @@
+"""The README's demo and the entry points' --help."""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from node_harness import ROOT
+
+
+@pytest.mark.parametrize('module', ['node', 'planner', 'demo'])
+def test_help(module):
+    out = subprocess.run([sys.executable, '-m', f'flight_sim_dynamics.{module}', '--help'],
+                         cwd=ROOT, capture_output=True, text=True, timeout=30)
+    assert out.returncode == 0, out.stderr
+    assert 'usage' in out.stdout
+
+
+def test_demo_runs_and_plots(tmp_path):
+    png = tmp_path / 'demo.png'
+    out = subprocess.run([sys.executable, '-m', 'flight_sim_dynamics.demo', '-o', str(png),
+                          '--motions', 'vertical', '--rate', '100'],
+                         cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert png.stat().st_size > 10_000
+    lines = [line for line in out.stdout.splitlines() if 'rate' in line and 'forces A/B/C' in line]
+    assert len(lines) >= 2, out.stdout
+    assert 'status OK' in lines[-1]
+    assert 'sent 301 setpoints, received 301 actuator_states (0 missing)' in out.stdout

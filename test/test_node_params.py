@@ -1,0 +1,190 @@
+"""Parameters through the standard parameter services (what `ros2 param
+get/set/list/describe` call): the node started with no params file runs the
+packaged defaults (here in the namespace /sim: topics and services move);
+every parameter is declared with a descriptor; a runtime
+change is validated as a whole, rejected with a reason (old model keeps
+running) or applied atomically at the next cycle.
+"""
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from rcl_interfaces.msg import ParameterType
+from rcl_interfaces.srv import DescribeParameters, ListParameters
+
+import flight_sim_dynamics as fsd
+from flight_sim_dynamics import parameters as prm
+from flight_sim_dynamics.trajectories import paper_example
+from node_harness import ROOT, Client, NodeProcess, stamp_ns
+
+Q, QD, QDD = (v[0] for v in paper_example('general', np.array([0.8])))
+
+
+NAMESPACE = '/sim'
+
+
+@pytest.fixture(scope='module')
+def node():
+    # no params file (packaged defaults), in a namespace: topics and services move
+    proc = NodeProcess('-r', f'__ns:={NAMESPACE}', params_file=None)
+    yield proc
+    proc.stop()
+
+
+@pytest.fixture(scope='module')
+def client(node):
+    c = Client(namespace=NAMESPACE)
+    try:
+        c.wait_for_node(node)
+        yield c
+    finally:
+        c.close()
+
+
+class Stamp:
+    value = 1_900_000_000 * 1_000_000_000
+
+    @classmethod
+    def next(cls) -> int:
+        cls.value += 5_000_000
+        return cls.value
+
+
+def answer(client: Client) -> np.ndarray:
+    """Send one valid setpoint; the forces of its answer."""
+    n = len(client.actuator)
+    stamp = Stamp.next()
+    client.send(stamp, Q, QD, QDD, order='tap')
+    assert client.wait_actuator(n + 1), 'setpoint not answered'
+    msg = client.actuator[n][1]
+    assert stamp_ns(msg) == stamp
+    return np.array(msg.effort)
+
+
+def forces_with(**changes: float) -> np.ndarray:
+    values = prm.defaults()
+    values.update({k.replace('__', '.'): v for k, v in changes.items()})
+    model = prm.model_from_values(values, require_all=True)
+    return fsd.solve(model, Q, QD, QDD).force
+
+
+def test_list_and_describe_every_parameter(client):
+    names = client.call('list', ListParameters.Request(depth=0)).result.names
+    assert set(prm.SPECS) <= set(names)
+    response = client.call('describe', DescribeParameters.Request(names=list(prm.SPECS)))
+    for spec, d in zip(prm.SPECS.values(), response.descriptors):
+        assert d.name == spec.name
+        assert d.description, spec.name
+        assert not d.read_only
+        if spec.unit:
+            assert f'[{spec.unit}]' in d.description, spec.name
+        if spec.kind == 'double' and spec.minimum is not None:
+            assert len(d.floating_point_range) == 1, spec.name
+            assert d.floating_point_range[0].from_value == spec.minimum
+            assert d.floating_point_range[0].to_value == spec.maximum
+        if spec.kind == 'integer' and spec.minimum is not None:
+            assert d.integer_range[0].from_value == spec.minimum
+    by_name = dict(zip(prm.SPECS, response.descriptors))
+    assert by_name['geometry.d1'].type == ParameterType.PARAMETER_DOUBLE
+    assert 'must be > 0' in by_name['bodies.platform.mass'].description
+
+
+def test_get_defaults_without_params_file(client):
+    values = client.get_params(['geometry.d1', 'bodies.rod.mass', 'bodies.rod.com',
+                                'qos.depth', 'qos.reliability', 'estimator.method'])
+    assert values[0] == 0.4 and values[1] == 1.5
+    assert list(values[2]) == [0.7, 0.0, 0.0]
+    assert values[3] == prm.SPECS['qos.depth'].default
+    assert values[4] == 'reliable'
+    np.testing.assert_allclose(answer(client), forces_with(), rtol=0, atol=1e-9)
+
+
+def test_accepted_set_takes_effect_at_next_cycle(client):
+    [result] = client.set_params({'bodies.platform.mass': 6.5})
+    assert result.successful, result.reason
+    assert client.get_params(['bodies.platform.mass']) == [6.5]
+    np.testing.assert_allclose(answer(client), forces_with(bodies__platform__mass=6.5),
+                               rtol=0, atol=1e-9)
+    # an integer for a double is accepted as the same number (as in the YAML)
+    [result] = client.set_params({'bodies.platform.mass': 7})
+    assert result.successful, result.reason
+    np.testing.assert_allclose(answer(client), forces_with(bodies__platform__mass=7.0),
+                               rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize('name, value, reason', [
+    ('bodies.platform.mass', -1.0, 'range'),            # rclpy: outside the declared range
+    ('bodies.platform.mass', 0.0, 'must be > 0'),       # ours: exclusive minimum
+    ('bodies.rod.mass', 'heavy', 'expected a number'),
+    ('geometry.l6', 0.3, 'loops cannot close'),
+    ('geometry.l6', 5.0, 'loops cannot close'),
+    ('bodies.platform.inertia', [1.0, 0., 0., 0., 1.0, 0., 0., 0., 5.0], 'triangle'),
+    ('bodies.rod.com', [0.1, 0.2], 'expected 3 numbers'),
+    ('gravity', math.nan, ''),
+    ('limits.stroke_min', 0.7, 'must be < limits.stroke_max'),
+    ('qos.reliability', 'sometimes', 'must be one of'),
+    ('qos.depth', 0, ''),
+])
+def test_rejected_set_keeps_old_model(client, name, value, reason):
+    before = client.get_params([name])
+    reference = answer(client)
+    [result] = client.set_params({name: value})
+    assert not result.successful
+    assert reason.lower() in result.reason.lower(), result.reason
+    assert client.get_params([name]) == before
+    np.testing.assert_allclose(answer(client), reference, rtol=0, atol=1e-9)
+
+
+def test_atomic_set_is_all_or_nothing(client):
+    reference = answer(client)
+    [result] = client.set_params({'bodies.rod.mass': 3.0, 'geometry.l6': 0.3}, atomic=True)
+    assert not result.successful and 'loops cannot close' in result.reason
+    np.testing.assert_allclose(answer(client), reference, rtol=0, atol=1e-9)
+    [result] = client.set_params({'bodies.rod.mass': 3.0, 'bodies.crank_d.mass': 2.0},
+                                 atomic=True)
+    assert result.successful, result.reason
+    current = dict(zip(['bodies.platform.mass'], client.get_params(['bodies.platform.mass'])))
+    expected = forces_with(bodies__rod__mass=3.0, bodies__crank_d__mass=2.0,
+                           bodies__platform__mass=float(current['bodies.platform.mass']))
+    np.testing.assert_allclose(answer(client), expected, rtol=0, atol=1e-9)
+
+
+def test_limit_parameters_drive_the_status(client):
+    [result] = client.set_params({'limits.max_force': 1.0})
+    assert result.successful, result.reason
+    answer(client)
+    diag = client.wait_diagnostics(lambda v: 'limit exceeded' in v['message'], timeout=3.0)
+    assert diag['level'] == '2' and int(diag['limit exceeded']) >= 1
+    [result] = client.set_params({'limits.max_force': 2000.0})
+    assert result.successful
+
+
+def test_qos_change_recreates_the_endpoints(client):
+    """best_effort outputs do not match our reliable subscription: the
+    publisher disappears for us; back to reliable, it is there again."""
+    [result] = client.set_params({'qos.reliability': 'best_effort'})
+    assert result.successful, result.reason
+    assert client.spin_until(lambda: client.actuator_sub.get_publisher_count() == 0, 5.0)
+    [result] = client.set_params({'qos.reliability': 'reliable', 'qos.depth': 50}, atomic=True)
+    assert result.successful, result.reason
+    assert client.spin_until(lambda: client.actuator_sub.get_publisher_count() > 0
+                             and client.pose_pub.get_subscription_count() > 0, 5.0)
+    assert client.spin_until(lambda: client.twist_pub.get_subscription_count() > 0
+                             and client.accel_pub.get_subscription_count() > 0, 5.0)
+    answer(client)
+
+
+def test_invalid_params_file_refuses_to_start(tmp_path):
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text((ROOT / 'config' / 'flight_sim_dynamics.yaml').read_text()
+                   .replace('l6: 1.2 ', 'l6: 0.3 '))
+    assert 'l6: 0.3' in bad.read_text()
+    proc = subprocess.run([sys.executable, '-m', 'flight_sim_dynamics.node',
+                           '--ros-args', '--params-file', str(bad)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=30)
+    assert proc.returncode == 2
+    assert 'loops cannot close' in proc.stderr + proc.stdout

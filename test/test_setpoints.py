@@ -1,0 +1,345 @@
+"""Unit tests of the rclpy-free setpoint helpers (flight_sim_dynamics.setpoints)
+and of the planner motions (flight_sim_dynamics.cueing)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from flight_sim_dynamics import parameters as prm
+from flight_sim_dynamics.cueing import (CUEING_DURATION, MOTIONS, PlannerSequence,
+                                        motion, motion_cueing)
+from flight_sim_dynamics.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION,
+                                           DUPLICATE, ERROR, LATE, NO_POSE, NON_FINITE, OK,
+                                           OVERFLOW, PITCH, POSE, STAMP_BACKWARDS,
+                                           STAMP_REPEATED, SWAY, TWIST, WARN, YAW,
+                                           CycleStats, DerivativeEstimator, LogThrottle,
+                                           NodeConfig, SetpointError, StampSynchroniser,
+                                           backward_derivative, check_acceleration,
+                                           check_limits, pose_input, quaternion_to_rpy,
+                                           rate_input, rpy_to_quaternion, unfollowable,
+                                           wrap_angle)
+
+angles = st.floats(-math.pi + 1e-6, math.pi - 1e-6)
+
+
+# ----------------------------------------------------------------------------
+# Quaternions
+# ----------------------------------------------------------------------------
+@settings(max_examples=300, deadline=None)
+@given(angles, st.floats(-1.5, 1.5), angles)
+def test_rpy_round_trip(roll, pitch, yaw):
+    r, p, y = quaternion_to_rpy(*rpy_to_quaternion(roll, pitch, yaw))
+    assert abs(wrap_angle(r - roll)) < 1e-9
+    assert abs(p - pitch) < 1e-9
+    assert abs(wrap_angle(y - yaw)) < 1e-9
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.floats(-1.4, 1.4), st.floats(-0.3, 0.3))
+def test_parasitic_pitch_does_not_change_roll(roll, pitch):
+    """Ry(pitch) Rx(roll): the ZYX roll is the roll of the roll-only quaternion."""
+    with_pitch = quaternion_to_rpy(*rpy_to_quaternion(roll, pitch, 0.0))
+    roll_only = quaternion_to_rpy(*rpy_to_quaternion(roll, 0.0, 0.0))
+    assert with_pitch[0] == pytest.approx(roll_only[0], abs=1e-12)
+    assert with_pitch[1] == pytest.approx(pitch, abs=1e-12)
+
+
+def test_roll_sign_rep103():
+    """Positive roll about +X (forward) lowers the right (-Y) side."""
+    x, y, z, w = rpy_to_quaternion(0.2)
+    # rotate the left unit vector (0, 1, 0): its z becomes +sin(roll) (left side up)
+    z_of_left = 2 * (y * z + w * x)
+    assert z_of_left == pytest.approx(math.sin(0.2))
+    assert quaternion_to_rpy(x, y, z, w)[0] == pytest.approx(0.2)
+
+
+@pytest.mark.parametrize('q, reason', [
+    ((0.0, 0.0, 0.0, 0.0), BAD_QUATERNION),
+    ((0.0, 0.0, 0.0, 2.0), BAD_QUATERNION),
+    ((0.0, 0.0, 0.0, 0.99), BAD_QUATERNION),
+    ((math.nan, 0.0, 0.0, 1.0), NON_FINITE),
+    ((0.0, math.inf, 0.0, 1.0), NON_FINITE),
+])
+def test_bad_quaternions_rejected(q, reason):
+    with pytest.raises(SetpointError) as info:
+        quaternion_to_rpy(*q, tolerance=1e-3)
+    assert info.value.reason == reason
+
+
+def test_slightly_non_unit_quaternion_normalised():
+    x, y, z, w = rpy_to_quaternion(0.3)
+    assert quaternion_to_rpy(x * 1.0005, y, z, w * 1.0005, 1e-3)[0] == pytest.approx(0.3)
+
+
+def test_pose_and_rate_inputs():
+    pose = pose_input(0.05, 0.01, 0.1, *rpy_to_quaternion(0.2, 0.03, 0.04))
+    assert pose.q == pytest.approx((0.05, 0.1, 0.2))
+    assert (pose.sway, pose.pitch, pose.yaw) == pytest.approx((0.01, 0.03, 0.04))
+    rates = rate_input(1.0, 2.0, 3.0, 4.0, 5.0, 6.0)
+    assert rates.q == (1.0, 3.0, 4.0) and (rates.sway, rates.pitch, rates.yaw) == (2.0, 5.0, 6.0)
+    with pytest.raises(SetpointError):
+        pose_input(math.nan, 0, 0, 0, 0, 0, 1)
+    with pytest.raises(SetpointError):
+        rate_input(0, 0, 0, 0, 0, math.inf)
+
+
+def test_unfollowable_components():
+    clean = pose_input(0, 0, 0, *rpy_to_quaternion(0.1))
+    assert unfollowable(clean, None, None, -0.04, 1e-3, 1e-3) == ()
+    parasitic = pose_input(0, 0, 0, *rpy_to_quaternion(0.1, -0.04))
+    assert unfollowable(parasitic, None, None, -0.04, 1e-3, 1e-3) == ()
+    other = pose_input(0, 0.1, 0, *rpy_to_quaternion(0.1, 0.2, 0.3))
+    assert unfollowable(other, None, None, -0.04, 1e-3, 1e-3) == (SWAY, YAW, PITCH)
+    twist = rate_input(0, 0.5, 0, 0, 0, 0)
+    assert unfollowable(clean, twist, None, -0.04, 1e-3, 1e-3) == (SWAY,)
+
+
+def test_absurd_acceleration():
+    check_acceleration((1.0, -2.0, 3.0), 50.0, 100.0)
+    for qdd in ((51.0, 0.0, 0.0), (0.0, -51.0, 0.0), (0.0, 0.0, 101.0)):
+        with pytest.raises(SetpointError) as info:
+            check_acceleration(qdd, 50.0, 100.0)
+        assert info.value.reason == ABSURD_ACCELERATION
+
+
+# ----------------------------------------------------------------------------
+# Synchroniser
+# ----------------------------------------------------------------------------
+def stamps(released):
+    return [s.stamp_ns for s in released]
+
+
+@pytest.mark.parametrize('order', ['pta', 'pat', 'tpa', 'tap', 'apt', 'atp'])
+def test_sync_any_order_releases_once_complete(order):
+    sync = StampSynchroniser(wait=0.05)
+    kinds = {'p': POSE, 't': TWIST, 'a': ACCEL}
+    out = []
+    for i, key in enumerate(order):
+        released, rejected = sync.add(kinds[key], 100, key, now=0.0)
+        assert not rejected
+        out += released
+        if i < 2:
+            assert not released, 'released before complete'
+    assert stamps(out) == [100]
+    assert (out[0].pose, out[0].twist, out[0].accel) == ('p', 't', 'a')
+
+
+def test_sync_pose_only_stream_waits_once():
+    sync = StampSynchroniser(wait=0.05)
+    assert sync.add(POSE, 1, 'p1', now=0.0) == ([], [])
+    released, _ = sync.poll(now=0.04)
+    assert released == []
+    released, _ = sync.poll(now=0.051)
+    assert stamps(released) == [1] and released[0].twist is None
+    assert sync.active == {TWIST: False, ACCEL: False}
+    released, _ = sync.add(POSE, 2, 'p2', now=0.06)           # no more waiting
+    assert stamps(released) == [2]
+
+
+def test_sync_pose_twist_stream():
+    sync = StampSynchroniser(wait=0.05)
+    sync.add(POSE, 1, 'p', now=0.0)
+    assert sync.add(TWIST, 1, 't', now=0.0) == ([], [])       # still waits for accel
+    released, _ = sync.poll(now=0.06)
+    assert stamps(released) == [1] and released[0].twist == 't' and released[0].accel is None
+    sync.add(POSE, 2, 'p', now=0.07)
+    released, _ = sync.add(TWIST, 2, 't', now=0.07)
+    assert stamps(released) == [2]
+
+
+def test_sync_lost_message_released_when_stream_moves_on():
+    sync = StampSynchroniser(wait=10.0)
+    sync.add(POSE, 1, 'p', now=0.0)
+    sync.add(TWIST, 1, 't', now=0.0)                          # accel 1 lost
+    sync.add(POSE, 2, 'p', now=0.0)
+    sync.add(TWIST, 2, 't', now=0.0)
+    released, rejected = sync.add(ACCEL, 2, 'a', now=0.0)
+    assert stamps(released) == [1, 2] and released[0].accel is None and not rejected
+
+
+def test_sync_stamp_rules():
+    sync = StampSynchroniser(wait=0.05)
+    sync.active = {TWIST: False, ACCEL: False}
+    assert stamps(sync.add(POSE, 10, 'p', now=0.0)[0]) == [10]
+    _, rejected = sync.add(POSE, 10, 'p', now=0.0)
+    assert [r.reason for r in rejected] == [STAMP_REPEATED]
+    _, rejected = sync.add(POSE, 5, 'p', now=0.0)
+    assert [r.reason for r in rejected] == [STAMP_BACKWARDS]
+    _, rejected = sync.add(TWIST, 10, 't', now=0.0)
+    assert [r.reason for r in rejected] == [LATE]
+
+
+def test_sync_orphans_and_duplicates():
+    sync = StampSynchroniser(wait=0.05)
+    sync.add(TWIST, 7, 't', now=0.0)
+    _, rejected = sync.add(TWIST, 7, 't', now=0.0)
+    assert [r.reason for r in rejected] == [DUPLICATE]
+    released, rejected = sync.poll(now=0.1)
+    assert released == [] and [r.reason for r in rejected] == [NO_POSE]
+    # an orphan older than a complete setpoint is rejected when that one goes out
+    sync.add(ACCEL, 8, 'a', now=0.2)
+    sync.add(POSE, 9, 'p', now=0.2)
+    sync.add(TWIST, 9, 't', now=0.2)
+    released, rejected = sync.add(ACCEL, 9, 'a', now=0.2)
+    assert stamps(released) == [9] and [r.reason for r in rejected] == [NO_POSE]
+
+
+def test_sync_discard_drops_the_rest_of_a_rejected_setpoint():
+    sync = StampSynchroniser(wait=0.05)
+    sync.add(TWIST, 3, 't', now=0.0)
+    sync.discard(3, POSE)                                      # e.g. a NaN pose
+    assert sync.pending == 0
+    assert sync.add(ACCEL, 3, 'a', now=0.0) == ([], [])       # dropped silently
+    assert sync.poll(now=1.0) == ([], [])
+    _, rejected = sync.add(POSE, 3, 'p', now=1.0)              # the pose again: reported
+    assert [r.reason for r in rejected] == [DUPLICATE]
+    _, rejected = sync.add(TWIST, 3, 't', now=1.0)
+    assert [r.reason for r in rejected] == [DUPLICATE]
+
+
+def test_sync_bounded():
+    sync = StampSynchroniser(wait=1.0, max_pending=4)
+    rejected = []
+    for s in range(10):
+        rejected += sync.add(TWIST, s, 't', now=0.0)[1]
+    assert sync.pending == 4
+    assert {r.reason for r in rejected} == {OVERFLOW} and len(rejected) == 6
+
+
+# ----------------------------------------------------------------------------
+# Estimation
+# ----------------------------------------------------------------------------
+def test_backward_derivatives_exact_on_polynomials():
+    t = [0.0, 0.1, 0.25]                                       # unequal steps
+    lin = [(2 * x, 0.0, 0.0) for x in t]
+    quad = [(x * x, 0.0, 0.0) for x in t]
+    assert backward_derivative(t, lin, 1)[0] == pytest.approx(2.0)
+    assert backward_derivative(t, quad, 2)[0] == pytest.approx(0.5)    # BDF2 exact on x^2
+    assert backward_derivative(t[:1], quad, 2) == (0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize('method, order', [('backward', 1), ('backward2', 2)])
+def test_estimator_convergence_order(method, order):
+    """Error of the estimated acceleration of the paper's general motion:
+    first / second order in the step."""
+    errors = []
+    for rate in (100.0, 200.0, 400.0):
+        t = np.arange(0.0, 3.0, 1.0 / rate)
+        q, qd, qdd = motion('general', t)
+        est = DerivativeEstimator(method)
+        worst = 0.0
+        for k in range(len(t)):
+            qd_e, qdd_e = est.update(t[k], tuple(q[k]), None, None)
+            if k >= 4:
+                worst = max(worst, np.abs(np.array(qdd_e) - qdd[k]).max())
+        errors.append(worst)
+    ratios = [errors[i] / errors[i + 1] for i in range(2)]
+    assert all(r > 2 ** order * 0.8 for r in ratios), (errors, ratios)
+
+
+def test_estimator_uses_given_values_and_resets():
+    est = DerivativeEstimator('backward2', max_gap=0.5)
+    assert est.update(0.0, (0.0, 0.0, 0.0), None, None) == ((0.0,) * 3, (0.0,) * 3)
+    est.reset()
+    est.update(0.0, (0.0, 0.0, 0.0), (1.0, 2.0, 3.0), None)
+    qd, qdd = est.update(0.01, (0.01, 0.0, 0.0), (1.0, 2.0, 3.0), (4.0, 5.0, 6.0))
+    assert qd == (1.0, 2.0, 3.0) and qdd == (4.0, 5.0, 6.0)
+    qd, qdd = est.update(0.02, (0.02, 0.0, 0.0), (1.0, 2.0, 3.0), None)
+    assert qd == (1.0, 2.0, 3.0) and qdd[0] == pytest.approx(0.0, abs=1e-9)
+    qd, qdd = est.update(5.0, (0.5, 0.0, 0.0), None, None)    # gap: restart from rest
+    assert qd == (0.0,) * 3 and qdd == (0.0,) * 3
+
+
+def test_estimator_unwraps_roll():
+    est = DerivativeEstimator('backward')
+    est.update(0.0, (0.0, 0.0, math.pi - 0.01), None, None)
+    qd, _ = est.update(0.01, (0.0, 0.0, -math.pi + 0.01), None, None)
+    assert qd[2] == pytest.approx(2.0)
+
+
+# ----------------------------------------------------------------------------
+# Configuration, limits, diagnostics bookkeeping
+# ----------------------------------------------------------------------------
+def test_node_config_matches_schema_and_checks_relations():
+    config = NodeConfig.from_values({})
+    assert config.qos_reliability == 'reliable' and config.qos_depth >= 100
+    with pytest.raises(prm.ParameterError) as info:
+        NodeConfig.from_values({'limits.stroke_min': 0.7})
+    assert info.value.key == 'limits.stroke_min'
+    with pytest.raises(prm.ParameterError):
+        NodeConfig.from_values({'estimator.method': 'magic'})
+    for spec in prm.NODE_PARAMETERS:
+        assert spec.description and prm.check_value(spec, spec.default) == spec.default
+
+
+def test_node_parameters_in_packaged_yaml():
+    values = prm.read_params_file(prm.default_params_path())
+    for spec in prm.NODE_PARAMETERS:
+        assert values[spec.name] == spec.default, spec.name
+
+
+def test_limits():
+    config = NodeConfig.from_values({'limits.stroke_min': -0.3, 'limits.stroke_max': 0.6,
+                                     'limits.max_speed': 1.0, 'limits.max_force': 100.0,
+                                     'limits.warn_fraction': 0.9, 'limits.cond_warn': 50.0})
+    ok = check_limits((0.0, 0.1, 0.1), (0.1, 0.1, 0.1), (30.0, 30.0, 30.0), 10.0, config)
+    assert ok.level == OK and not ok.exceeded and not ok.near
+    near = check_limits((0.58, 0.1, 0.1), (0.1, 0.95, 0.1), (30.0, 30.0, 30.0), 10.0, config)
+    assert near.level == WARN and set(near.near) == {'stroke A', 'speed B'}
+    over = check_limits((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (30.0, 30.0, -101.0), 60.0, config)
+    assert over.level == ERROR and over.exceeded == ('force C',)
+    assert 'near singular' in over.near
+
+
+def test_cycle_stats_report():
+    stats = CycleStats()
+    level, message, values = stats.report(0.0)
+    assert level == OK and message == 'waiting for setpoints'
+    stats.solved(0.001, 12.0, (1.0, 2.0, 3.0))
+    stats.reject(NON_FINITE, 'nan')
+    level, message, values = stats.report(1.0)
+    d = dict(values)
+    assert level == ERROR and 'non_finite' in message
+    assert d['rejected non_finite'] == '1' and d['setpoints answered'] == '1'
+    assert float(d['solve time mean (us)']) == pytest.approx(1000.0)
+    level, _, values = stats.report(2.0)                       # next period: clean
+    assert level == OK and dict(values)['rejected total'] == '1'
+
+
+def test_log_throttle():
+    throttle = LogThrottle(1.0)
+    assert throttle('a', 0.0) == 0
+    assert throttle('a', 0.5) is None and throttle('a', 0.6) is None
+    assert throttle('b', 0.6) == 0
+    assert throttle('a', 1.1) == 2
+
+
+# ----------------------------------------------------------------------------
+# Planner motions
+# ----------------------------------------------------------------------------
+def test_cueing_returns_to_neutral_and_derivatives_are_consistent():
+    t = np.linspace(0.0, CUEING_DURATION, 13001)
+    q, qd, qdd = motion_cueing(t)
+    np.testing.assert_allclose(q[0], 0.0, atol=1e-15)
+    np.testing.assert_allclose(q[-1], 0.0, atol=1e-12)
+    np.testing.assert_allclose(qd[-1], 0.0, atol=1e-12)
+    h = t[1] - t[0]
+    np.testing.assert_allclose(np.gradient(q, h, axis=0)[1:-1], qd[1:-1], atol=1e-4)
+    # (jerk jumps at segment ends: the central difference is off by ~h jerk / 2 there)
+    np.testing.assert_allclose(np.gradient(qd, h, axis=0)[1:-1], qdd[1:-1], atol=2e-2)
+    assert np.abs(q).max(axis=0)[2] > 0.1                     # it does roll
+
+
+def test_planner_sequence_continuous():
+    seq = PlannerSequence(list(MOTIONS), loop=True)
+    assert seq.period == pytest.approx(3 * 4.0 + CUEING_DURATION)
+    t = np.arange(0.0, 2 * seq.period, 0.005)
+    q = np.array([seq.sample(x)[0] for x in t])
+    assert np.abs(np.diff(q, axis=0)).max() < 5e-3            # no jumps in position
+    assert not seq.finished(100.0)
+    once = PlannerSequence(['general'])
+    assert once.period == 3.0 and once.finished(3.01) and not once.finished(3.0)
