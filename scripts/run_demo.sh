@@ -1,18 +1,17 @@
 #!/usr/bin/env bash
-# Run the demo on a fresh machine (only Python 3.11 + PyPI needed):
-#   bash scripts/run_demo.sh
-# Creates/reuses .venv, installs requirements.txt and the package, then for
-# each example motion (vertical, rectilinear, general) generates the motion,
-# solves the inverse dynamics and plots it: out/<name>.csv,
-# out/<name>_solved.csv and out/<name>.png.
+# The main job on a fresh machine (only Python 3.11 + PyPI needed):
+#   bash scripts/run_demo.sh [DEMO_ARGS...]
+# Creates/reuses .venv, installs requirements.txt and the package, then runs
+# `flight-sim-dynamics demo`: the node (dynamics_node, a separate process, with
+# the packaged parameter file) next to the built-in demo planner streaming the
+# paper's three motions and a motion-cueing sequence; one summary line per
+# second; at the end out/demo.png, the forces and powers recorded from the
+# published actuator_states. Extra arguments go to the demo (see --help).
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/_setup_env.sh" requirements.txt
 
+# Keep this run's ROS 2 graph to itself (same as scripts/run_tests.sh).
+export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$((RANDOM % 100 + 1))}"
+export ROS_AUTOMATIC_DISCOVERY_RANGE="${ROS_AUTOMATIC_DISCOVERY_RANGE:-LOCALHOST}"
 mkdir -p out
-for example in vertical rectilinear general; do
-    echo "[demo] $example"
-    flight-sim-dynamics example "$example" -o "out/$example.csv"
-    flight-sim-dynamics solve "out/$example.csv" -o "out/${example}_solved.csv"
-    flight-sim-dynamics plot "out/${example}_solved.csv" -o "out/$example.png"
-done
-echo "[demo] outputs in $(pwd)/out"
+exec flight-sim-dynamics demo -o out/demo.png "$@"
