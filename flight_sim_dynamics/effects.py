@@ -41,18 +41,22 @@ from typing import Any, Mapping
 
 import yaml
 
+from .errors import ParameterError
+
 EFFECT_NAMES = ('gravity', 'platform_inertia', 'payload', 'leg_inertia', 'crank_inertia',
                 'velocity_products', 'friction')
 DEFAULT_SCENE = 'full'
 
 
-class SceneError(ValueError):
-    """A scene file is missing, malformed or names an unknown effect."""
+class SceneError(ParameterError):
+    """A scene file is missing, malformed or names an unknown effect. A
+    ParameterError of the parameter ``scene``, so that whoever handles bad
+    parameters (the node's parameter service, the command line) handles it."""
 
     def __init__(self, scene: str, reason: str) -> None:
+        super().__init__('scene', scene, reason)
         self.scene = scene
-        self.reason = reason
-        super().__init__(f"scene '{scene}': {reason}")
+        self.args = (f"scene '{scene}': {reason}",)
 
 
 @dataclass(frozen=True)
@@ -92,6 +96,7 @@ class Scene:
     description: str
     effects: Effects
     parameters: Mapping[str, Any]   # flat dotted overrides of model parameters
+    path: Path | None = None        # the file, when not a packaged scene
 
 
 def scenes_dir() -> Path:
@@ -154,5 +159,6 @@ def load_scene(scene: str | os.PathLike[str] | None = None) -> Scene:
     description = doc.get('description', '')
     if not isinstance(description, str):
         raise SceneError(name, "'description' must be a string")
+    packaged = path.resolve().parent == scenes_dir().resolve()
     return Scene(name=name, description=description, effects=Effects(**effects),
-                 parameters=flatten(overrides))
+                 parameters=flatten(overrides), path=None if packaged else path)

@@ -411,6 +411,7 @@ class DynamicsNode(Node):
     def _on_diagnostics_timer(self) -> None:
         try:
             level, message, values = self._stats.report(time.monotonic())
+            values.insert(1, ('scene', self._runtime.model.scene))
             status = self._diag_status
             status.level = bytes([level])
             status.message = message

@@ -23,21 +23,12 @@ from typing import Any, Iterable, Mapping
 import numpy as np
 import yaml
 
+from .errors import ParameterError
 from .model import BODY_NAMES, GEOMETRY_KEYS, Body, Friction, Geometry, Model
 
 NODE_NAME = 'flight_sim_dynamics'
 PACKAGE_NAME = 'flight_sim_dynamics'
 DEFAULT_PARAMS_FILE = 'flight_sim_dynamics.yaml'
-
-
-class ParameterError(ValueError):
-    """A parameter value is missing, unknown, mistyped or physically invalid."""
-
-    def __init__(self, key: str, value: Any, reason: str) -> None:
-        self.key = key
-        self.value = value
-        self.reason = reason
-        super().__init__(f"parameter '{key}' = {value!r}: {reason}")
 
 
 @dataclass(frozen=True)
@@ -128,6 +119,10 @@ def _model_specs() -> list[ParamSpec]:
                       f'inertia tensor of {name} about its centre of mass, body frame, '
                       'row-major 3x3', 'kg m^2', length=9),
         ]
+    specs.append(ParamSpec(
+        'scene', 'string', 'full',
+        'effects to simulate: a scene name from config/scenes (full, quasi_static, '
+        'platform_only, payload) or the path of a scene YAML file', required=False))
     # payload (cab and occupants): used when a scene enables the 'payload' effect.
     # Defaults: a 60 kg cab plus an 80 kg occupant centred on the platform.
     specs += [
@@ -436,8 +431,9 @@ def model_from_values(values: Mapping[str, Any], *, require_all: bool = True,
                       scene: 'Scene | str | None' = None) -> Model:
     """Validate ``values`` (flat dotted names) and build the :class:`Model`.
 
-    ``scene`` (a :class:`~.effects.Scene`, a scene name or path; None = ``full``)
-    selects the effects; its parameter overrides apply on top of ``values``.
+    ``scene`` (a :class:`~.effects.Scene`, a scene name or path; None = the
+    ``scene`` parameter in ``values``, else ``full``) selects the effects; its
+    parameter overrides apply on top of ``values``.
     Raises :class:`ParameterError` if anything is invalid, including a geometry
     whose loops cannot close at the central configuration (crank D, crank E
     meeting the rod between A3 and G), and :class:`~.effects.SceneError` for a
@@ -445,8 +441,13 @@ def model_from_values(values: Mapping[str, Any], *, require_all: bool = True,
     from .effects import Scene, SceneError, load_scene
     from .kinematics import central_configuration, GeometryError
 
+    if scene is None:
+        scene = values.get('scene', SPECS['scene'].default)
+        if not isinstance(scene, str):
+            raise ParameterError('scene', scene, 'expected a scene name or a file path')
     scene = scene if isinstance(scene, Scene) else load_scene(scene)
     values = dict(values)
+    values['scene'] = scene.name if scene.path is None else str(scene.path)
     for key, value in scene.parameters.items():
         if key not in SPECS or SPECS[key] not in MODEL_PARAMETERS:
             raise SceneError(scene.name, f"parameter '{key}' is not a model parameter")
@@ -480,7 +481,8 @@ def model_from_values(values: Mapping[str, Any], *, require_all: bool = True,
 def load_model(path: str | os.PathLike[str] | None = None,
                scene: str | os.PathLike[str] | None = None) -> Model:
     """Load and validate a parameter file (None: the packaged defaults) and a
-    scene (a name from config/scenes or a path; None: ``full``, the paper's model).
+    scene (a name from config/scenes or a path; None: the file's ``scene``
+    parameter if it has one, else ``full``, the paper's model).
 
     The file must give every required model parameter (gravity, geometry,
     bodies); effect parameters (payload, friction) and node parameters may be

@@ -163,6 +163,34 @@ def test_limit_parameters_drive_the_status(client):
     assert result.successful
 
 
+def expected_from_node(client: Client) -> np.ndarray:
+    """Forces of the test setpoint for the model the node's parameters describe now."""
+    names = [spec.name for spec in prm.MODEL_PARAMETERS]
+    values = dict(zip(names, client.get_params(names)))
+    values = {k: (list(v) if not isinstance(v, (str, float, int, bool)) else v)
+              for k, v in values.items()}
+    return fsd.solve(prm.model_from_values(values, require_all=True), Q, QD, QDD).force
+
+
+def test_scene_selection_changes_forces_at_next_cycle(client):
+    full = answer(client)
+    [result] = client.set_params({'scene': 'quasi_static'})
+    assert result.successful, result.reason
+    static = answer(client)
+    np.testing.assert_allclose(static, expected_from_node(client), rtol=0, atol=1e-9)
+    assert np.abs(static - full).max() > 1e-3          # the inertia is gone
+    diag = client.wait_diagnostics(lambda v: v.get('scene') == 'quasi_static', timeout=3.0)
+    assert diag['scene'] == 'quasi_static'
+    # a bad scene is rejected with the reason; the old one keeps running
+    [result] = client.set_params({'scene': 'turbulence'})
+    assert not result.successful and "scene 'turbulence'" in result.reason, result.reason
+    assert client.get_params(['scene']) == ['quasi_static']
+    np.testing.assert_allclose(answer(client), static, rtol=0, atol=1e-9)
+    [result] = client.set_params({'scene': 'full'})
+    assert result.successful, result.reason
+    np.testing.assert_allclose(answer(client), full, rtol=0, atol=1e-9)
+
+
 def test_qos_change_recreates_the_endpoints(client):
     """best_effort outputs do not match our reliable subscription: the
     publisher disappears for us; back to reliable, it is there again."""
