@@ -43,14 +43,15 @@ def _per_leg(field: str) -> list[str]:
 OUTPUT_COLUMNS: tuple[str, ...] = (
     ('t',) + tuple(_per_leg('length') + _per_leg('stroke') + _per_leg('rate')
                    + _per_leg('force') + _per_leg('power') + _per_leg('acceleration'))
-    + ('beta', 'cond'))
+    + ('beta', 'cond', 'kinematic_condition', 'jacobian_condition'))
 JOINT_COLUMNS: tuple[str, ...] = (tuple(JOINT_NAMES) + tuple(f'{j}_rate' for j in JOINT_NAMES)
                                   + tuple(f'{j}_acc' for j in JOINT_NAMES))
 #: Columns ``plot`` needs (any others are ignored).
 PLOT_COLUMNS: tuple[str, ...] = ('t',) + tuple(_per_leg('force') + _per_leg('power'))
 
 UNITS = {'t': 's', 'length': 'm', 'stroke': 'm', 'rate': 'm/s', 'acceleration': 'm/s^2',
-         'force': 'N', 'power': 'W', 'beta': 'rad', 'cond': '1'}
+         'force': 'N', 'power': 'W', 'beta': 'rad', 'cond': '1', 'kinematic_condition': '1',
+         'jacobian_condition': '1'}
 
 
 class CliError(Exception):
@@ -135,8 +136,9 @@ def load_model(params: str | None, scene: str | None = None):
 
 
 def solve_table(model, table: csv_io.Table, *, joints: bool = False
-                ) -> tuple[tuple[str, ...], np.ndarray]:
-    """Solve every row of a trajectory table; returns (column names, data)."""
+                ) -> tuple[tuple[str, ...], np.ndarray, list[str]]:
+    """Solve every row of a trajectory table; returns (column names, data,
+    status of each row)."""
     import flight_sim_dynamics as fsd
 
     col = {name: j for j, name in enumerate(table.names)}
@@ -148,35 +150,44 @@ def solve_table(model, table: csv_io.Table, *, joints: bool = False
     q = pick(('surge', 'heave', 'roll'))
     qd = pick(('surge_rate', 'heave_rate', 'roll_rate'))
     qdd = pick(('surge_acc', 'heave_acc', 'roll_acc'))
-    try:
-        sol = fsd.solve_batch(model, q, qd, qdd)
-    except fsd.UnreachablePoseError as exc:
-        index = getattr(exc, 'index', None)
-        if index is None:
-            raise CliError(f'{table.path}: {exc}') from None
-        index = int(index)
-        surge, heave, roll = q[index]
-        raise CliError(f'{table.path}, line {int(table.lines[index])}: unreachable pose '
-                       f'(surge={surge:g} m, heave={heave:g} m, roll={roll:g} rad): '
-                       f'loop {exc.loop}: {exc.reason}') from None
+    sol = fsd.solve_batch(model, q, qd, qdd)
+    report_statuses(table, sol)
     columns = [data[:, col['t']]]
     for field in ('length', 'stroke', 'rate', 'force', 'power', 'acceleration'):
         columns.extend(np.asarray(getattr(sol, field), dtype=float).T)
     columns.append(np.asarray(sol.beta, dtype=float).reshape(-1))
     columns.append(np.asarray(sol.cond, dtype=float).reshape(-1))
+    columns.append(np.asarray(sol.kinematic_condition, dtype=float).reshape(-1))
+    columns.append(np.asarray(sol.jacobian_condition, dtype=float).reshape(-1))
     names = OUTPUT_COLUMNS
     if joints:
         for field in ('joints', 'joint_rates', 'joint_accelerations'):
             columns.extend(np.asarray(getattr(sol, field), dtype=float).T)
         names = names + JOINT_COLUMNS
-    return names, np.column_stack(columns)
+    return names, np.column_stack(columns), [str(s) for s in sol.status]
+
+
+def report_statuses(table: csv_io.Table, sol) -> None:
+    """Nothing is dropped silently: rows whose status is not ok are written (with
+    their status; unreachable and invalid ones as zeros) and summarised here."""
+    from collections import Counter
+
+    counts = Counter(str(s) for s in sol.status)
+    counts.pop('ok', None)
+    if not counts:
+        return
+    first = next(i for i, s in enumerate(sol.status) if str(s) != 'ok')
+    summary = ', '.join(f'{n} {name}' for name, n in sorted(counts.items()))
+    print(f'warning: {table.path}: {sum(counts.values())} of {len(sol.status)} rows are not '
+          f'ok ({summary}); first at line {int(table.lines[first])}: '
+          f'{sol.status[first]}: {sol.detail[first]}', file=sys.stderr)
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
     model = load_model(args.params, args.scene)
     table = csv_io.read_csv(args.input, required=TRAJECTORY_COLUMNS)
-    names, data = solve_table(model, table, joints=args.joints)
-    csv_io.write_csv(args.output, names, data)
+    names, data, status = solve_table(model, table, joints=args.joints)
+    csv_io.write_csv(args.output, names, data, text=('status', status))
     return 0
 
 
@@ -213,7 +224,8 @@ def cmd_plot(args: argparse.Namespace) -> int:
     plotting.output_format(args.output)      # fail before reading a large file
     if not 1 <= args.dpi <= 1200:
         raise CliError(f'--dpi must be between 1 and 1200, got {args.dpi}')
-    table = csv_io.read_csv(args.input, required=PLOT_COLUMNS, allow_extra=True)
+    table = csv_io.read_csv(args.input, required=PLOT_COLUMNS, allow_extra=True,
+                            text_columns=('status',))
     force = np.column_stack([table[n] for n in _per_leg('force')])
     power = np.column_stack([table[n] for n in _per_leg('power')])
     title = args.title if args.title is not None else default_title(args.input)
@@ -274,6 +286,10 @@ SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
               _configure_solve, cmd_solve),
     'plot': ('plot actuator forces and powers against time (like the paper\'s Figs. 3-8)',
              _configure_plot, cmd_plot),
+    'bench': ('time per cycle against force error for every scene and single-effect variant, '
+              'and the cost of estimating missing accelerations (writes scenes.md, scenes.png)',
+              lambda p: importlib.import_module('flight_sim_dynamics.bench').configure(p),
+              lambda args: importlib.import_module('flight_sim_dynamics.bench').run(args)),
 }
 
 

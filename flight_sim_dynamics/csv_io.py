@@ -148,7 +148,7 @@ def _did_you_mean(name: str, candidates: Sequence[str]) -> str:
 
 
 def read_csv(path: str | os.PathLike[str], *, required: Sequence[str],
-             allow_extra: bool = False) -> Table:
+             allow_extra: bool = False, text_columns: Sequence[str] = ()) -> Table:
     """Read a numeric CSV file with a header naming at least ``required``
     (exactly those, in any order, unless ``allow_extra``).
 
@@ -156,12 +156,14 @@ def read_csv(path: str | os.PathLike[str], *, required: Sequence[str],
     """
     display = _display(path)
     data = read_bytes(path)
-    return parse_csv(data, display, required=required, allow_extra=allow_extra)
+    return parse_csv(data, display, required=required, allow_extra=allow_extra,
+                     text_columns=text_columns)
 
 
 def parse_csv(data: bytes, path: str = '<input>', *, required: Sequence[str],
-              allow_extra: bool = False) -> Table:
-    """:func:`read_csv` on the bytes of a file."""
+              allow_extra: bool = False, text_columns: Sequence[str] = ()) -> Table:
+    """:func:`read_csv` on the bytes of a file. Columns named in ``text_columns``
+    (words such as ``status``) are skipped, not parsed as numbers."""
     if data.startswith(b'\xef\xbb\xbf'):
         data = data[3:]
     if not data.strip():
@@ -170,6 +172,12 @@ def parse_csv(data: bytes, path: str = '<input>', *, required: Sequence[str],
     end = data.find(b'\n')
     header, body = (data, b'') if end < 0 else (data[:end], data[end + 1:])
     names = parse_header(header, path, required=required, allow_extra=allow_extra)
+    skip = [j for j, name in enumerate(names) if name in text_columns]
+    if skip:
+        keep = [j for j in range(len(names)) if j not in skip]
+        names = tuple(names[j] for j in keep)
+        body = b'\n'.join(b','.join(f for j, f in enumerate(line.split(b',')) if j not in skip)
+                          for line in body.split(b'\n'))
     ncol = len(names)
     # Trailing blank lines at the end of the file are fine; any other blank
     # line is a row with every value missing.
@@ -521,12 +529,22 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[IO[bytes]]:
         raise
 
 
-def write_csv(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarray) -> None:
-    """Write a header and the rows of ``data`` (N, len(names)), exactly, atomically."""
+def write_csv(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarray,
+              text: tuple[str, Sequence[str]] | None = None) -> None:
+    """Write a header and the rows of ``data`` (N, len(names)), exactly, atomically;
+    ``text = (name, values)`` appends one column of plain words (no commas)."""
     data = np.asarray(data, dtype=np.float64)
     if data.ndim != 2 or data.shape[1] != len(names):
         raise ValueError(f'{len(names)} column names for data of shape {data.shape}')
     body = format_table(data)
+    header = ','.join(names)
+    if text is not None:
+        name, values = text
+        if len(values) != data.shape[0] or any(',' in v or '\n' in v for v in values):
+            raise ValueError(f'text column {name!r}: one word per row expected')
+        header += ',' + name
+        rows = body.split(b'\n')[:-1]
+        body = b''.join(row + b',' + v.encode() + b'\n' for row, v in zip(rows, values))
     with atomic_output(path) as f:
-        f.write((','.join(names) + '\n').encode())
+        f.write((header + '\n').encode())
         f.write(body)

@@ -255,15 +255,15 @@ def _inverse3(m: list) -> list:
             [C * inv_det, (b * g - a * h) * inv_det, (a * e - b * d) * inv_det]]
 
 
-def virtual_velocities(K: tuple[list, list, list], J: list) -> tuple[list, list]:
+def virtual_velocities(K: tuple[list, list, list], J: list) -> tuple[list, list, list]:
     """The three virtual motions of eq. (14): motion a has unit rate of actuator a
     and zero rate of the others, i.e. pose rates J^-1 e_a. Returns the virtual
-    joint velocities Vv[j][a] (12 x 3, eq. 11) and the virtual roll rates
-    (omega_43a, 3)."""
+    joint velocities Vv[j][a] (12 x 3, eq. 11), the virtual roll rates
+    (omega_43a, 3) and J^-1."""
     Jinv = _inverse3(J)
     Vv = [[K[0][j] * Jinv[0][a] + K[1][j] * Jinv[1][a] + K[2][j] * Jinv[2][a]
            for a in range(3)] for j in range(12)]
-    return Vv, Jinv[2]
+    return Vv, Jinv[2], Jinv
 
 
 def actuator_forces(tau: list, tau_43: Scalar, Vv: list, roll_v: list) -> list:

@@ -64,7 +64,7 @@ class GeometryError(ValueError):
         super().__init__(reason)
 
 
-_LOOP_REASONS = {
+LOOP_REASONS = {
     'D': 'crank D cannot reach the rod (|D2 - D1| = l5 has no solution)',
     'E': 'crank E cannot reach the rod line (|E2 - E1| = l6 has no solution)',
     'E2 on rod': 'slider E2 would leave the rod between A3 and G',
@@ -209,7 +209,7 @@ def central_configuration(geom: Geometry) -> CentralConfiguration:
             raise GeometryError('h', f'degenerate geometry ({exc})') from None
     for loop, ok in g.valid.items():
         if not ok:
-            raise GeometryError(_CULPRIT_KEY[loop], _LOOP_REASONS[loop])
+            raise GeometryError(_CULPRIT_KEY[loop], LOOP_REASONS[loop])
     raw = np.array(g.raw, dtype=float)
     if not np.all(np.isfinite(raw)):
         raise GeometryError('h', 'degenerate geometry (non-finite joint variables)')
@@ -220,10 +220,11 @@ def central_configuration(geom: Geometry) -> CentralConfiguration:
 
 
 def inverse_geometry(model: Model, q: tuple[Scalar, Scalar, Scalar],
-                     xp: SimpleNamespace) -> Geometric:
+                     xp: SimpleNamespace, check: bool = True) -> Geometric:
     """Inverse geometric problem (eq. 5-8): all 12 joint variables for the pose
-    q = (surge, heave, roll). Raises :class:`UnreachablePoseError` naming the loop
-    of eq. (7) that cannot close (and, for a batch, the first sample concerned)."""
+    q = (surge, heave, roll). With ``check``, raises :class:`UnreachablePoseError`
+    naming the loop of eq. (7) that cannot close (and, for a batch, the first
+    sample concerned); without, ``valid`` tells per sample (batch only)."""
     if xp.batch:
         with np.errstate(all='ignore'):
             g = closure(model.geometry, q, xp)
@@ -233,8 +234,8 @@ def inverse_geometry(model: Model, q: tuple[Scalar, Scalar, Scalar],
         except (ZeroDivisionError, ValueError):
             raise UnreachablePoseError('A', 'degenerate leg geometry') from None
     for loop, ok in g.valid.items():
-        if not xp.all(ok):
-            raise UnreachablePoseError(loop, _LOOP_REASONS[loop], xp.first_false(ok))
+        if check and not xp.all(ok):
+            raise UnreachablePoseError(loop, LOOP_REASONS[loop], xp.first_false(ok))
     zero = model.central.joint_zero
     raw = [v - z for v, z in zip(g.raw, zero)]
     for i in _ANGLES:   # wrap the angle differences into (-pi, pi]

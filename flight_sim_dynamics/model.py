@@ -126,6 +126,19 @@ class Friction:
 
 
 @dataclass(frozen=True)
+class Limits:
+    """Actuator limits and near-singularity thresholds: a solve beyond them gets
+    the status ``limit`` or ``near_singular`` (parameters ``limits.*``)."""
+
+    stroke_min: float = -0.3                 # m, lowest stroke L - L0
+    stroke_max: float = 0.6                  # m, highest stroke
+    max_speed: float = 1.0                   # m/s, largest |dL/dt|
+    max_force: float = 2000.0                # N, largest |f|
+    max_kinematic_condition: float = 100.0   # of Q's pivot blocks
+    max_jacobian_condition: float = 100.0    # of the scaled actuator Jacobian
+
+
+@dataclass(frozen=True)
 class CentralConfiguration:
     """Constants fixed once at the central configuration (q = 0)."""
 
@@ -149,6 +162,7 @@ class Model:
     scene: str = 'full'                                         # name of the scene
     payload: Body | None = None                                 # cab and occupants (platform frame)
     friction: Friction = field(default_factory=Friction)
+    limits: Limits = field(default_factory=Limits)
 
     def with_effects(self, effects: Effects, scene: str | None = None) -> 'Model':
         """The same mechanism simulating another set of effects."""

@@ -43,6 +43,7 @@ import flight_sim_dynamics as fsd
 
 from . import parameters as prm
 from .model import JOINT_NAMES, LEG_NAMES, Model
+from .status import Status
 from .setpoints import (ACCEL, ERROR, NON_FINITE_OUTPUT, POSE, SOLVER_ERROR, TWIST,
                         UNREACHABLE, WARN, CycleStats, DerivativeEstimator, LogThrottle,
                         NodeConfig, PoseInput, RateInput, Rejected, Setpoint, SetpointError,
@@ -63,16 +64,19 @@ HARDWARE_ID = 'flight_sim_dynamics'
 # ----------------------------------------------------------------------------
 def solve_setpoint(model: Model, q: Sequence[float], qd: Sequence[float],
                    qdd: Sequence[float]) -> tuple[Any | None, str, str]:
-    """Solve one setpoint. Returns ``(solution, '', '')`` or ``(None, reason,
-    message)`` with reason ``unreachable`` or ``solver_error``. Never raises
-    (when the solver reports unreachable poses through ``sol.status``, this is
-    the one function to change)."""
+    """Solve one setpoint. Returns ``(solution, '', '')``, or ``(None, reason,
+    message)`` when there is nothing to publish: reason ``unreachable`` (the
+    solver's status unreachable or invalid_input) or ``solver_error``. Never
+    raises."""
     try:
-        return fsd.solve(model, q, qd, qdd), '', ''
-    except fsd.UnreachablePoseError as exc:
-        return None, UNREACHABLE, str(exc)
-    except Exception as exc:  # noqa: BLE001 - ValueError, LinAlgError, ...: never escape
+        sol = fsd.solve(model, q, qd, qdd)
+    except Exception as exc:  # noqa: BLE001 - a malformed call: never escape a callback
         return None, SOLVER_ERROR, f'{type(exc).__name__}: {exc}'
+    if sol.status is Status.UNREACHABLE:
+        return None, UNREACHABLE, f'unreachable pose: {sol.detail}'
+    if sol.status is Status.INVALID_INPUT:
+        return None, SOLVER_ERROR, f'invalid input: {sol.detail}'
+    return sol, '', ''
 
 
 # ----------------------------------------------------------------------------
@@ -162,6 +166,7 @@ class DynamicsNode(Node):
         config = NodeConfig.from_values({k: values[k] for k in NODE_NAMES})
         self._runtime = Runtime(model, config)
         self._staged: Runtime | None = None
+        self._last_solution: Any = None
 
         self._stats = CycleStats()
         self._throttle = LogThrottle(config.log_throttle)
@@ -358,20 +363,20 @@ class DynamicsNode(Node):
             stats.note(WARN, 'ignored ' + '/'.join(ignored))
             self._log(WARN, 'ignored', text)
 
-        cond = sol.cond
-        limits = check_limits(sol.stroke, rate, force, cond, config)
+        if sol.status is Status.NEAR_SINGULAR:
+            stats.near_singular += 1
+            stats.note(WARN, 'near singular')
+            self._log(WARN, 'near_singular', f'near singular: {sol.detail}')
+        limits = check_limits(sol.stroke, rate, force, runtime.model.limits,
+                              config.warn_fraction)
         if limits.exceeded:
             stats.limit_exceeded += 1
             stats.note(ERROR, 'limit exceeded')
             self._log(ERROR, 'limit', 'actuator limit exceeded (published anyway): '
                       + ', '.join(limits.exceeded))
         elif limits.near:
-            if 'near singular' in limits.near:
-                stats.near_singular += 1
-                stats.note(WARN, 'near singular')
-            if len(limits.near) > ('near singular' in limits.near):
-                stats.near_limit += 1
-                stats.note(WARN, 'near an actuator limit')
+            stats.near_limit += 1
+            stats.note(WARN, 'near an actuator limit')
 
         # array('d') is taken as is by the message setters (no per-element checks)
         out = self._actuator_msg
@@ -385,7 +390,9 @@ class DynamicsNode(Node):
         joint_msg.velocity = array.array('d', joint_rates.tobytes())
         self._actuator_pub.publish(out)
         self._joint_pub.publish(joint_msg)
-        stats.solved(elapsed, cond, (out.effort[0], out.effort[1], out.effort[2]))
+        stats.solved(elapsed, sol.kinematic_condition, sol.jacobian_condition,
+                     (out.effort[0], out.effort[1], out.effort[2]))
+        self._last_solution = sol
 
     # -- rejection and logging -------------------------------------------------
     def _reject(self, reason: str, message: str) -> None:
@@ -410,7 +417,9 @@ class DynamicsNode(Node):
     # -- diagnostics -------------------------------------------------------------
     def _on_diagnostics_timer(self) -> None:
         try:
-            level, message, values = self._stats.report(time.monotonic())
+            last = self._last_solution
+            exact_cond = last.cond if last is not None else math.nan   # one SVD per report
+            level, message, values = self._stats.report(time.monotonic(), exact_cond)
             values.insert(1, ('scene', self._runtime.model.scene))
             status = self._diag_status
             status.level = bytes([level])

@@ -24,7 +24,7 @@ import numpy as np
 import yaml
 
 from .errors import ParameterError
-from .model import BODY_NAMES, GEOMETRY_KEYS, Body, Friction, Geometry, Model
+from .model import BODY_NAMES, GEOMETRY_KEYS, Body, Friction, Geometry, Limits, Model
 
 NODE_NAME = 'flight_sim_dynamics'
 PACKAGE_NAME = 'flight_sim_dynamics'
@@ -138,6 +138,27 @@ def _model_specs() -> list[ParamSpec]:
                   'payload inertia tensor about its centre of mass, platform axes, '
                   'row-major 3x3', 'kg m^2', length=9, required=False),
     ]
+    # actuator limits and near-singularity thresholds: the status of every solve
+    specs += [
+        ParamSpec('limits.stroke_min', 'double', -0.3,
+                  'lowest allowed actuator stroke (leg length minus its zero-stroke length)',
+                  'm', minimum=-10.0, maximum=10.0, required=False),
+        ParamSpec('limits.stroke_max', 'double', 0.6,
+                  'highest allowed actuator stroke; must be > limits.stroke_min', 'm',
+                  minimum=-10.0, maximum=10.0, required=False),
+        ParamSpec('limits.max_speed', 'double', 1.0, 'largest allowed actuator speed |dL/dt|',
+                  'm/s', minimum=0.0, exclusive_minimum=True, maximum=1.0e3, required=False),
+        ParamSpec('limits.max_force', 'double', 2000.0, 'largest allowed actuator force |f|',
+                  'N', minimum=0.0, exclusive_minimum=True, maximum=1.0e9, required=False),
+        ParamSpec('limits.max_kinematic_condition', 'double', 100.0,
+                  'status near_singular beyond this condition number of the connectivity '
+                  'matrix Q (largest 2-norm condition of the pivot blocks of its block '
+                  'factorisation)', '1', minimum=1.0, maximum=1.0e16, required=False),
+        ParamSpec('limits.max_jacobian_condition', 'double', 100.0,
+                  'status near_singular beyond this condition number of the actuator '
+                  'Jacobian dL/dq (Frobenius, roll column scaled by b/2)', '1',
+                  minimum=1.0, maximum=1.0e16, required=False),
+    ]
     # actuator friction: used when a scene enables the 'friction' effect.
     specs += [
         ParamSpec('friction.viscous', 'double_array', [200.0, 200.0, 200.0],
@@ -160,27 +181,11 @@ MODEL_PARAMETERS: tuple[ParamSpec, ...] = tuple(_model_specs())
 # accepted in the YAML read by load_model so that one file serves both.
 # ----------------------------------------------------------------------------
 NODE_PARAMETERS: tuple[ParamSpec, ...] = (
-    # Actuator limits (common to the three legs) and the near-singular threshold.
-    ParamSpec('limits.stroke_min', 'double', -0.3,
-              'lowest allowed actuator stroke (leg length minus its zero-stroke length)', 'm',
-              minimum=-10.0, maximum=10.0),
-    ParamSpec('limits.stroke_max', 'double', 0.6,
-              'highest allowed actuator stroke; must be > limits.stroke_min', 'm',
-              minimum=-10.0, maximum=10.0),
-    ParamSpec('limits.max_speed', 'double', 1.0,
-              'largest allowed actuator speed |dL/dt|', 'm/s',
-              minimum=0.0, exclusive_minimum=True, maximum=1.0e3),
-    ParamSpec('limits.max_force', 'double', 2000.0,
-              'largest allowed actuator force |f|', 'N',
-              minimum=0.0, exclusive_minimum=True, maximum=1.0e9),
+    # Near-limit warnings (the limits themselves are model parameters: limits.*).
     ParamSpec('limits.warn_fraction', 'double', 0.9,
               'status WARN when a stroke, speed or force uses at least this fraction of its '
               'limit (stroke: of the half-range around its middle)', '1',
               minimum=0.0, maximum=1.0),
-    ParamSpec('limits.cond_warn', 'double', 100.0,
-              'status WARN (near singular) when cond(Q) reaches this value (the paper\'s '
-              'motions stay below 16)', '1',
-              minimum=1.0, maximum=1.0e16),
     # Input checks.
     ParamSpec('input.max_linear_acceleration', 'double', 50.0,
               'setpoints whose surge or heave acceleration (given or estimated) exceeds this '
@@ -255,17 +260,21 @@ def defaults() -> dict[str, Any]:
 # YAML
 # ----------------------------------------------------------------------------
 def default_params_path() -> Path:
-    """The packaged parameter file: the ament share directory on a ROS install,
-    else the installed share/ tree of a pip install, else the source tree."""
+    """The packaged parameter file. Code imported from a source checkout reads
+    the checkout's own config/ (code and defaults always match); an installed
+    package reads its share directory: the ament index on a ROS install, else
+    <prefix>/share/flight_sim_dynamics/config of a pip install."""
+    import sys
     candidates = []
+    source = Path(__file__).resolve().parent.parent
+    if (source / 'package.xml').is_file():
+        candidates.append(source / 'config')
     try:  # a colcon/ROS install
         from ament_index_python.packages import get_package_share_directory
         candidates.append(Path(get_package_share_directory(PACKAGE_NAME)) / 'config')
     except Exception:  # noqa: BLE001 - not installed through ament, or no ament_index
         pass
-    import sys
     candidates.append(Path(sys.prefix) / 'share' / PACKAGE_NAME / 'config')
-    candidates.append(Path(__file__).resolve().parent.parent / 'config')
     for folder in candidates:
         path = folder / DEFAULT_PARAMS_FILE
         if path.is_file():
@@ -424,6 +433,9 @@ def validate(values: Mapping[str, Any], *, require_all: bool = True) -> dict[str
     for key in ('friction.viscous', 'friction.coulomb'):
         if min(result[key]) < 0.0:
             raise ParameterError(key, result[key], 'friction coefficients must be >= 0')
+    if not result['limits.stroke_min'] < result['limits.stroke_max']:
+        raise ParameterError('limits.stroke_min', result['limits.stroke_min'],
+                             f"must be < limits.stroke_max = {result['limits.stroke_max']:g} m")
     return result
 
 
@@ -473,9 +485,10 @@ def model_from_values(values: Mapping[str, Any], *, require_all: bool = True,
     friction = Friction(viscous=tuple(checked['friction.viscous']),
                         coulomb=tuple(checked['friction.coulomb']),
                         smoothing_velocity=checked['friction.smoothing_velocity'])
+    limits = Limits(**{name: checked[f'limits.{name}'] for name in Limits.__dataclass_fields__})
     return Model(geometry=geometry, bodies=bodies, gravity=checked['gravity'],
                  central=central, values=checked, effects=scene.effects, scene=scene.name,
-                 payload=payload, friction=friction)
+                 payload=payload, friction=friction, limits=limits)
 
 
 def load_model(path: str | os.PathLike[str] | None = None,

@@ -22,6 +22,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Generic, Iterable, Mapping, Sequence, TypeVar
 
+from .model import Limits
 from .parameters import NODE_PARAMETERS, SPECS, ParameterError, check_value
 
 # ----------------------------------------------------------------------------
@@ -527,12 +528,7 @@ NODE_PARAMETER_NAMES = tuple(spec.name for spec in NODE_PARAMETERS)
 class NodeConfig:
     """The validated node parameters (see ``NODE_PARAMETERS``)."""
 
-    stroke_min: float
-    stroke_max: float
-    max_speed: float
-    max_force: float
     warn_fraction: float
-    cond_warn: float
     max_linear_acceleration: float
     max_angular_acceleration: float
     quaternion_tolerance: float
@@ -550,12 +546,7 @@ class NodeConfig:
     joint_states_frame_id: str
 
     _FIELDS = {
-        'limits.stroke_min': 'stroke_min',
-        'limits.stroke_max': 'stroke_max',
-        'limits.max_speed': 'max_speed',
-        'limits.max_force': 'max_force',
         'limits.warn_fraction': 'warn_fraction',
-        'limits.cond_warn': 'cond_warn',
         'input.max_linear_acceleration': 'max_linear_acceleration',
         'input.max_angular_acceleration': 'max_angular_acceleration',
         'input.quaternion_tolerance': 'quaternion_tolerance',
@@ -581,9 +572,6 @@ class NodeConfig:
         for name, field in cls._FIELDS.items():
             spec = SPECS[name]
             kwargs[field] = check_value(spec, values[name] if name in values else spec.default)
-        if not kwargs['stroke_min'] < kwargs['stroke_max']:
-            raise ParameterError('limits.stroke_min', kwargs['stroke_min'],
-                                 f"must be < limits.stroke_max = {kwargs['stroke_max']:g} m")
         return cls(**kwargs)
 
 
@@ -617,22 +605,21 @@ _NOTHING: tuple[str, ...] = ()
 
 
 def check_limits(stroke: Sequence[float], rate: Sequence[float], force: Sequence[float],
-                 cond: float, config: NodeConfig) -> LimitReport:
-    """Compare one solution with the actuator limits and the near-singular
-    threshold. Beyond a limit is ERROR, within ``warn_fraction`` of it (or
-    ``cond >= cond_warn``) WARN. The solution is still published: the numbers
-    are what the commanded motion requires; the status says it is unsafe.
+                 limits: Limits, warn_fraction: float) -> LimitReport:
+    """Compare one solution with the actuator limits (``limits.*``, the model's:
+    the solver's status says ``limit`` beyond them). Beyond a limit is ERROR,
+    within ``warn_fraction`` of it WARN. The solution is still published: the
+    numbers are what the commanded motion requires; the status says it is unsafe.
 
     Usage of a limit: |force| / max_force, |rate| / max_speed and, for the
     stroke, its distance from the middle of [stroke_min, stroke_max] over the
     half-range (1.0 at either end)."""
-    mid = 0.5 * (config.stroke_max + config.stroke_min)
-    half = 0.5 * (config.stroke_max - config.stroke_min)
-    usages = [(abs(stroke[i] - mid) / half, abs(rate[i]) / config.max_speed,
-               abs(force[i]) / config.max_force) for i in range(3)]
+    mid = 0.5 * (limits.stroke_max + limits.stroke_min)
+    half = 0.5 * (limits.stroke_max - limits.stroke_min)
+    usages = [(abs(stroke[i] - mid) / half, abs(rate[i]) / limits.max_speed,
+               abs(force[i]) / limits.max_force) for i in range(3)]
     usage = max(max(u) for u in usages)
-    singular = not math.isfinite(cond) or cond >= config.cond_warn
-    if usage < config.warn_fraction and not singular:       # the usual case: no strings
+    if usage < warn_fraction:       # the usual case: no strings
         return LimitReport(OK, _NOTHING, _NOTHING, usage)
     exceeded: list[str] = []
     near: list[str] = []
@@ -640,10 +627,8 @@ def check_limits(stroke: Sequence[float], rate: Sequence[float], force: Sequence
         for name, u in zip(names, values):
             if u > 1.0:
                 exceeded.append(name)
-            elif u >= config.warn_fraction:
+            elif u >= warn_fraction:
                 near.append(name)
-    if singular:
-        near.append('near singular')
     level = ERROR if exceeded else WARN if near else OK
     return LimitReport(level, tuple(exceeded), tuple(near), usage)
 
@@ -655,8 +640,10 @@ class CycleStats:
     """Counters and per-period statistics for the diagnostics message.
 
     Totals (received, answered, rejections by reason, ignored components,
-    limit events) accumulate from start-up; solve times, cond(Q) extremes
+    limit events) accumulate from start-up; solve times, condition extremes
     and the worst level are per reporting period and reset by :meth:`report`.
+    Per cycle only the solver's cheap condition figures are recorded; the exact
+    cond(Q) of the last solution (an SVD) is computed once per report.
     """
 
     def __init__(self) -> None:
@@ -673,12 +660,14 @@ class CycleStats:
         self.parameter_rejections = 0
         self.last_message = ''
         self.last_cond = math.nan
+        self.last_jacobian_cond = math.nan
         self.last_force: tuple[float, float, float] | None = None
         self._period_reset(None)
 
     def _period_reset(self, now: float | None) -> None:
         self._times: list[float] = []
         self._cond_max = 0.0
+        self._jacobian_cond_max = 0.0
         self._level = OK
         self._messages: list[str] = []
         self._answered_at_start = self.answered
@@ -696,16 +685,24 @@ class CycleStats:
         self.last_message = message
         self.note(ERROR if reason in ERROR_REASONS else WARN, f'rejected ({reason})')
 
-    def solved(self, seconds: float, cond: float, force: tuple[float, float, float]) -> None:
+    def solved(self, seconds: float, cond: float, jacobian_cond: float,
+               force: tuple[float, float, float]) -> None:
+        """One answered setpoint: solve time, the solver's kinematic condition
+        (of Q) and actuator-Jacobian condition, the forces."""
         self.answered += 1
         self._times.append(seconds)
         self.last_cond = cond
+        self.last_jacobian_cond = jacobian_cond
         self.last_force = force
-        if cond > self._cond_max or not math.isfinite(cond):
+        if cond > self._cond_max:
             self._cond_max = cond
+        if jacobian_cond > self._jacobian_cond_max:
+            self._jacobian_cond_max = jacobian_cond
 
-    def report(self, now: float) -> tuple[int, str, list[tuple[str, str]]]:
-        """(level, message, [(key, value), ...]) for this period; starts a new one."""
+    def report(self, now: float, exact_cond: float = math.nan
+               ) -> tuple[int, str, list[tuple[str, str]]]:
+        """(level, message, [(key, value), ...]) for this period; starts a new one.
+        ``exact_cond``: cond(Q) of the last solution (SVD), if known."""
         times = sorted(self._times)
         n = len(times)
         period = (now - self._period_start) if self._period_start is not None else math.nan
@@ -734,8 +731,12 @@ class CycleStats:
             ('solve time p99 (us)', f'{p99_us:.1f}'),
             ('solve time max (us)', f'{max_us:.1f}'),
             ('solves this period', str(n)),
-            ('cond(Q) last', f'{self.last_cond:.4g}'),
-            ('cond(Q) max this period', f'{self._cond_max:.4g}' if n else 'nan'),
+            ('cond(Q) last', f'{exact_cond:.4g}'),
+            ('kinematic condition last', f'{self.last_cond:.4g}'),
+            ('kinematic condition max this period', f'{self._cond_max:.4g}' if n else 'nan'),
+            ('Jacobian condition last', f'{self.last_jacobian_cond:.4g}'),
+            ('Jacobian condition max this period',
+             f'{self._jacobian_cond_max:.4g}' if n else 'nan'),
             ('rejected total', str(total_rejected)),
         ]
         values += [(f'rejected {reason}', str(count)) for reason, count in self.rejected.items()]

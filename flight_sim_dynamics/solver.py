@@ -22,10 +22,14 @@ import numpy as np
 
 from .dynamics import (actuator_forces, actuator_jacobian, body_states, friction_forces,
                        joint_forces, virtual_velocities)
-from .kinematics import (Geometric, acceleration_column, connectivity_matrix, factorize,
-                         inverse_geometry, pose_rate_columns, solve_connectivity)
+from .kinematics import (LOOP_REASONS, Geometric, UnreachablePoseError, acceleration_column,
+                         connectivity_matrix, factorize, inverse_geometry, pose_rate_columns,
+                         solve_connectivity)
 from .model import ACTUATED_JOINTS, Model
+from .status import BY_SEVERITY, SEVERITY, SINGULAR, Status, condition_2x2
 from .vectors import backend
+
+_SCALAR, _ARRAY = backend(False), backend(True)
 
 _A, _B, _C = ACTUATED_JOINTS
 
@@ -46,27 +50,84 @@ class Solution:
     joint_accelerations: np.ndarray   # Gamma of eq. (15)
     beta: np.ndarray | float          # parasitic pitch (rod angle about z0), rad
     jacobian: np.ndarray              # dL/dq (3, 3): leg rates = jacobian @ qd
+    kinematic_condition: np.ndarray | float   # condition of Q from its block factorisation
+    jacobian_condition: np.ndarray | float    # condition of the scaled actuator Jacobian
+    status: Status | np.ndarray       # ok, limit, near_singular, unreachable, invalid_input
+    detail: str | tuple               # why the status is not ok ('' when ok)
     model: Model = field(repr=False, compare=False)
-    geometric: Geometric = field(repr=False, compare=False)
+    geometric: Geometric | None = field(repr=False, compare=False)
 
     @cached_property
     def Q(self) -> np.ndarray:
         """The connectivity matrix of eq. (11)-(12), (12, 12) or (N, 12, 12); the
-        solver itself never forms it (see kinematics.Connectivity)."""
-        Q = connectivity_matrix(self.model, self.geometric)[0]
-        return Q if self.geometric.xp.batch else Q[0]
+        solver itself never forms it (see kinematics.Connectivity). Zero where
+        the pose is unreachable or the input invalid."""
+        if self.geometric is None:
+            return np.zeros((12, 12))
+        with np.errstate(all='ignore'):
+            Q = connectivity_matrix(self.model, self.geometric)[0]
+        if not self.geometric.xp.batch:
+            return Q[0]
+        Q[np.asarray([SEVERITY[s] >= 3 for s in self.status])] = 0.0
+        return np.where(np.isfinite(Q), Q, 0.0)
 
     @cached_property
     def cond(self) -> np.ndarray | float:
-        """2-norm condition number of Q (SVD), computed on first access only: it
-        is a diagnostic and costs more than the whole solve."""
+        """Exact 2-norm condition number of Q (SVD), computed on first access only:
+        it is a diagnostic and costs more than the whole solve (the per-cycle
+        figure is ``kinematic_condition``). 0 where Q is meaningless."""
+        if not self.geometric or (not self.geometric.xp.batch
+                                  and SEVERITY[self.status] >= 3):
+            return 0.0
         value = np.linalg.cond(self.Q)
-        return value if self.geometric.xp.batch else float(value)
+        if not self.geometric.xp.batch:
+            return float(value) if math.isfinite(value) else SINGULAR
+        value = np.where(np.isfinite(value), value, SINGULAR)
+        return np.where([SEVERITY[s] >= 3 for s in self.status], 0.0, value)
 
 
-def _solve(model: Model, q: tuple, qd: tuple, qdd: tuple, batch: bool) -> Solution:
-    xp = backend(batch)
-    g = inverse_geometry(model, q, xp)                                   # eq. (5)-(8)
+_FIELD_NAMES = ('q', 'qd', 'qdd')
+_COORDINATES = ('surge', 'heave', 'roll')
+
+
+def _input_problem(q: tuple, qd: tuple, qdd: tuple) -> str:
+    """Which field of a single-cycle input is not finite ('' if none)."""
+    for name, values in zip(_FIELD_NAMES, (q, qd, qdd)):
+        for i, v in enumerate(values):
+            if not math.isfinite(v):
+                return f'{name}[{i}] ({_COORDINATES[i]}) is not finite ({v})'
+    return ''
+
+
+def kinematic_condition(g: Geometric, f, xp) -> object:
+    """Condition of Q from its block factorisation: the largest exact 2-norm
+    condition number of the pivot blocks (loops A, B, C: orthogonal columns of
+    norms L, 1 and L h, L, 1; loops D, E: 2x2). Q is singular exactly when one
+    of them is, so this tracks the approach of a kinematic singularity at a
+    fraction of the cost of an SVD (sol.cond gives the exact cond(Q))."""
+    LA, LB, LC = g.length
+    one = 1.0
+    return xp.maximum(xp.maximum(LA, one) / xp.minimum(LA, one),
+                      xp.maximum(LB, one) / xp.minimum(LB * g.hB, one),
+                      xp.maximum(LC, one) / xp.minimum(LC * g.hC, one),
+                      condition_2x2(f.aD, f.bD, xp), condition_2x2(f.aE, g.l, xp))
+
+
+def jacobian_condition(model: Model, J: list, Jinv: list, xp) -> object:
+    """Frobenius condition number |J_s| |J_s^-1| of the actuator Jacobian dL/dq
+    with its roll column scaled by c = b/2 (m/rad), so that the three columns
+    are lengths: J_s = J diag(1, 1, 1/c). Within a factor 3 of the 2-norm one."""
+    c = 0.5 * model.geometry.b
+    nJ = sum(r[0] * r[0] + r[1] * r[1] + (r[2] / c) * (r[2] / c) for r in J)
+    nI = sum(Jinv[0][j] * Jinv[0][j] + Jinv[1][j] * Jinv[1][j]
+             + (c * Jinv[2][j]) * (c * Jinv[2][j]) for j in range(3))
+    return xp.sqrt(nJ * nI)
+
+
+def _solve(model: Model, q: tuple, qd: tuple, qdd: tuple, xp) -> dict:
+    """The paper's method for components q, qd, qdd (floats or arrays). Returns
+    the raw results (lists of components)."""
+    g = inverse_geometry(model, q, xp, check=not xp.batch)               # eq. (5)-(8)
     f = factorize(model, g)                                              # Q, eq. (12)
     K = tuple(solve_connectivity(g, f, P) for P in pose_rate_columns(g))  # Q^-1 P per unit rate
     V = [K[0][j] * qd[0] + K[1][j] * qd[1] + K[2][j] * qd[2] for j in range(12)]  # eq. (11)
@@ -80,19 +141,51 @@ def _solve(model: Model, q: tuple, qd: tuple, qdd: tuple, batch: bool) -> Soluti
     states = body_states(model, g, V, Gamma_dyn, qd, qdd)
     tau, tau_43 = joint_forces(model, g, states)                         # eq. (18)-(22)
     J = actuator_jacobian(K)
-    Vv, roll_v = virtual_velocities(K, J)                                # eq. (14)
+    Vv, roll_v, Jinv = virtual_velocities(K, J)                          # eq. (14)
     force = actuator_forces(tau, tau_43, Vv, roll_v)                     # eq. (23)
     rate = (V[_A], V[_B], V[_C])
     if effects.friction:
         force = [fi + ff for fi, ff in zip(force, friction_forces(model, rate, xp))]
-    pack = _pack_batch if batch else _pack_single
-    return Solution(
-        length=pack(g.length), stroke=pack((g.raw[_A], g.raw[_B], g.raw[_C])),
-        rate=pack(rate), acceleration=pack((Gamma[_A], Gamma[_B], Gamma[_C])),
-        force=pack(force), power=pack([fi * ri for fi, ri in zip(force, rate)]),
-        joints=pack(g.raw), joint_rates=pack(V), joint_accelerations=pack(Gamma),
-        beta=g.beta, jacobian=np.stack([pack(row) for row in J], axis=-2),
-        model=model, geometric=g)
+    return dict(g=g, length=g.length, stroke=(g.raw[_A], g.raw[_B], g.raw[_C]), rate=rate,
+                acceleration=(Gamma[_A], Gamma[_B], Gamma[_C]), force=force,
+                power=[fi * ri for fi, ri in zip(force, rate)], joints=g.raw,
+                joint_rates=V, joint_accelerations=Gamma, beta=g.beta, jacobian=J,
+                kinematic_condition=kinematic_condition(g, f, xp),
+                jacobian_condition=jacobian_condition(model, J, Jinv, xp))
+
+
+def _limit_detail(model: Model, stroke, rate, force) -> str:
+    """Which limits one sample exceeds ('' if none)."""
+    lim = model.limits
+    out = []
+    for i, leg in enumerate('ABC'):
+        if not lim.stroke_min <= stroke[i] <= lim.stroke_max:
+            out.append(f'stroke {leg} {stroke[i]:.4g} m outside '
+                       f'[{lim.stroke_min:g}, {lim.stroke_max:g}] m')
+        if abs(rate[i]) > lim.max_speed:
+            out.append(f'speed {leg} {abs(rate[i]):.4g} m/s > {lim.max_speed:g} m/s')
+        if abs(force[i]) > lim.max_force:
+            out.append(f'force {leg} {abs(force[i]):.4g} N > {lim.max_force:g} N')
+    return '; '.join(out)
+
+
+def _singular_detail(model: Model, kin: float, jac: float) -> str:
+    lim = model.limits
+    out = []
+    if not kin <= lim.max_kinematic_condition:
+        out.append(f'kinematic condition {kin:.3g} > {lim.max_kinematic_condition:g}')
+    if not jac <= lim.max_jacobian_condition:
+        out.append(f'actuator Jacobian condition {jac:.3g} > {lim.max_jacobian_condition:g}')
+    return '; '.join(out)
+
+
+def _zero_solution(model: Model, status: Status, detail: str, g: Geometric | None) -> Solution:
+    z3, z12 = np.zeros(3), np.zeros(12)
+    return Solution(length=z3, stroke=z3.copy(), rate=z3.copy(), acceleration=z3.copy(),
+                    force=z3.copy(), power=z3.copy(), joints=z12, joint_rates=z12.copy(),
+                    joint_accelerations=z12.copy(), beta=0.0, jacobian=np.zeros((3, 3)),
+                    kinematic_condition=0.0, jacobian_condition=0.0, status=status,
+                    detail=detail, model=model, geometric=g)
 
 
 def _pack_single(values: Sequence[float]) -> np.ndarray:
@@ -107,22 +200,133 @@ def solve(model: Model, q: Sequence[float], qd: Sequence[float],
           qdd: Sequence[float]) -> Solution:
     """Solve one control cycle: q, qd, qdd are 3 floats each (surge m, heave m,
     roll rad, and their derivatives). Leg fields are arrays of 3 (A, B, C), joint
-    fields arrays of 12; ``beta`` and ``cond`` are floats. Raises
-    :class:`UnreachablePoseError` for a pose whose loops cannot close and
-    ValueError for malformed or non-finite input."""
-    return _solve(model, _three('q', q), _three('qd', qd), _three('qdd', qdd), batch=False)
+    fields arrays of 12; ``beta``, ``cond`` and the conditions are floats.
+
+    Never raises for a bad pose or bad numbers: ``sol.status`` says what
+    happened (:mod:`.status`), ``sol.detail`` why. Only input that is not three
+    numbers per argument (a programming error) raises ValueError."""
+    q3, qd3, qdd3 = _three('q', q), _three('qd', qd), _three('qdd', qdd)
+    problem = _input_problem(q3, qd3, qdd3)
+    if problem:
+        return _zero_solution(model, Status.INVALID_INPUT, problem, None)
+    try:
+        r = _solve(model, q3, qd3, qdd3, _SCALAR)
+    except UnreachablePoseError as exc:
+        return _zero_solution(model, Status.UNREACHABLE, f'loop {exc.loop}: {exc.reason}', None)
+    except (ZeroDivisionError, OverflowError):
+        return _zero_solution(model, Status.NEAR_SINGULAR,
+                              'exact singularity: a pivot of Q or the actuator Jacobian is '
+                              'singular; nothing can be computed (all set to 0)', None)
+    kin, jac = r['kinematic_condition'], r['jacobian_condition']
+    total = (sum(r['force']) + sum(r['rate']) + sum(r['joint_accelerations'])
+             + sum(r['joint_rates']) + kin + jac)
+    near = not (kin <= model.limits.max_kinematic_condition
+                and jac <= model.limits.max_jacobian_condition)
+    status, detail = Status.OK, ''
+    if not math.isfinite(total):
+        if not near:
+            return _zero_solution(model, Status.INVALID_INPUT,
+                                  'results are not finite: input too large', r['g'])
+        r['force'] = r['power'] = (0.0, 0.0, 0.0)
+        status, detail = Status.NEAR_SINGULAR, 'exact singularity: forces set to 0'
+    elif near:
+        status, detail = Status.NEAR_SINGULAR, _singular_detail(model, kin, jac)
+    else:
+        detail = _limit_detail(model, r['stroke'], r['rate'], r['force'])
+        if detail:
+            status = Status.LIMIT
+    pack = _pack_single
+    return Solution(
+        length=pack(r['length']), stroke=pack(r['stroke']), rate=pack(r['rate']),
+        acceleration=pack(r['acceleration']), force=pack(r['force']), power=pack(r['power']),
+        joints=pack(r['joints']), joint_rates=pack(r['joint_rates']),
+        joint_accelerations=pack(r['joint_accelerations']), beta=float(r['beta']),
+        jacobian=np.array(r['jacobian'], dtype=float),
+        kinematic_condition=_finite(kin), jacobian_condition=_finite(jac),
+        status=status, detail=detail, model=model, geometric=r['g'])
+
+
+def _finite(x: float) -> float:
+    return float(x) if math.isfinite(x) else SINGULAR
+
+
+_FIELDS_3 = ('length', 'stroke', 'rate', 'acceleration', 'force', 'power')
+_FIELDS_12 = ('joints', 'joint_rates', 'joint_accelerations')
+_STATUS_BY_CODE = np.array(BY_SEVERITY, dtype=object)
 
 
 def solve_batch(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> Solution:
     """Inverse kinematics and dynamics for N samples at once, vectorised.
 
     q, qd, qdd: (N, 3) arrays of (surge m, heave m, roll rad) and their first and
-    second time derivatives. Fields of the result have a leading N axis.
+    second time derivatives. Fields of the result have a leading N axis;
+    ``status`` is an array of :class:`Status`, ``detail`` a tuple of strings.
+    A bad sample gets its own status and never affects the others. Only input
+    that is not an (N, 3) array of numbers raises ValueError.
     """
-    q = _as_batch('q', q, None)
-    qd = _as_batch('qd', qd, len(q[0]))
-    qdd = _as_batch('qdd', qdd, len(q[0]))
-    return _solve(model, q, qd, qdd, batch=True)
+    arrays = _as_batch('q', q, None), None, None
+    n = arrays[0].shape[0]
+    arrays = (arrays[0], _as_batch('qd', qd, n), _as_batch('qdd', qdd, n))
+    finite = np.ones(n, dtype=bool)
+    for arr in arrays:
+        finite &= np.isfinite(arr).all(axis=1)
+    columns = [tuple(np.ascontiguousarray(np.where(finite[:, None], arr, 0.0).T))
+               for arr in arrays]
+    with np.errstate(all='ignore'):
+        r = _solve(model, *columns, _ARRAY)
+    g = r['g']
+    out = {name: _pack_batch(r[name]) for name in _FIELDS_3 + _FIELDS_12}
+    out['jacobian'] = np.stack([_pack_batch(row) for row in r['jacobian']], axis=-2)
+    beta = np.broadcast_to(r['beta'], (n,)).astype(float)
+    kin = np.broadcast_to(r['kinematic_condition'], (n,)).astype(float)
+    jac = np.broadcast_to(r['jacobian_condition'], (n,)).astype(float)
+    lim = model.limits
+    reachable = np.ones(n, dtype=bool)
+    failed_loop = np.full(n, '', dtype=object)
+    for loop, ok in g.valid.items():
+        bad = ~np.broadcast_to(ok, (n,)) & reachable
+        failed_loop[bad] = loop
+        reachable &= ~bad
+    results_finite = np.ones(n, dtype=bool)
+    for name in _FIELDS_3 + _FIELDS_12:
+        results_finite &= np.isfinite(out[name]).all(axis=1)
+    results_finite &= np.isfinite(kin) & np.isfinite(jac)
+    near = ~((kin <= lim.max_kinematic_condition) & (jac <= lim.max_jacobian_condition))
+    stroke, rate, force = out['stroke'], out['rate'], out['force']
+    over = ((stroke < lim.stroke_min) | (stroke > lim.stroke_max)
+            | (np.abs(rate) > lim.max_speed) | (np.abs(force) > lim.max_force)).any(axis=1)
+    code = np.where(over, 1, 0)
+    code = np.where(near, 2, code)
+    code = np.where(~results_finite & ~near, 4, code)
+    code = np.where(~reachable, 3, code)
+    code = np.where(~finite, 4, code).astype(np.int8)
+    # no NaN or infinity with any status: rows without meaning are zero
+    void = code >= 3
+    for name in _FIELDS_3 + _FIELDS_12 + ('jacobian',):
+        arr = out[name]
+        arr[void] = 0.0
+        arr[~np.isfinite(arr)] = 0.0
+    beta = np.where(void | ~np.isfinite(beta), 0.0, beta)
+    kin = np.where(void, 0.0, np.where(np.isfinite(kin), kin, SINGULAR))
+    jac = np.where(void, 0.0, np.where(np.isfinite(jac), jac, SINGULAR))
+    detail = [''] * n
+    for i in np.flatnonzero(code):
+        c = code[i]
+        if c == 4 and not finite[i]:
+            detail[i] = _input_problem(*(tuple(a[i]) for a in arrays))
+        elif c == 4:
+            detail[i] = 'results are not finite: input too large'
+        elif c == 3:
+            loop = failed_loop[i]
+            detail[i] = f'loop {loop}: {LOOP_REASONS[loop]}'
+        elif c == 2:
+            detail[i] = (_singular_detail(model, kin[i], jac[i]) if results_finite[i]
+                         else 'exact singularity: non-finite results set to 0')
+        else:
+            detail[i] = _limit_detail(model, stroke[i], rate[i], force[i])
+    return Solution(**out, beta=beta, kinematic_condition=kin, jacobian_condition=jac,
+                    status=_STATUS_BY_CODE[code], detail=tuple(detail), model=model,
+                    geometric=g)
 
 
 def _three(name: str, value: Sequence[float]) -> tuple[float, float, float]:
@@ -132,13 +336,10 @@ def _three(name: str, value: Sequence[float]) -> tuple[float, float, float]:
         out = tuple(float(v) for v in value)
     except (TypeError, ValueError):
         raise ValueError(f'{name} must be numbers (surge, heave, roll), got {value!r}') from None
-    for i, v in enumerate(out):
-        if not math.isfinite(v):
-            raise ValueError(f'{name}[{i}] is not finite ({v})')
     return out  # type: ignore[return-value]
 
 
-def _as_batch(name: str, value: object, n: int | None) -> tuple[np.ndarray, ...]:
+def _as_batch(name: str, value: object, n: int | None) -> np.ndarray:
     try:
         arr = np.array(value, dtype=float)
     except (TypeError, ValueError):
@@ -147,9 +348,4 @@ def _as_batch(name: str, value: object, n: int | None) -> tuple[np.ndarray, ...]
         raise ValueError(f'{name} must have shape (N, 3), got {arr.shape}')
     if n is not None and arr.shape[0] != n:
         raise ValueError(f'{name} has {arr.shape[0]} rows, q has {n}')
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        row, col = np.argwhere(bad)[0]
-        raise ValueError(f'{name}[{row}, {col}] is not finite ({arr[row, col]})')
-    columns = np.ascontiguousarray(arr.T)
-    return columns[0], columns[1], columns[2]
+    return arr

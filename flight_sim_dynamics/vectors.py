@@ -10,6 +10,7 @@ samples (a whole trajectory, vectorised). The same solver code serves both;
 """
 from __future__ import annotations
 
+import functools
 import math
 from types import SimpleNamespace
 from typing import Tuple, Union
@@ -72,7 +73,7 @@ def mat_vec(m: np.ndarray, c: Vec) -> Vec:
 
 _SCALAR = SimpleNamespace(
     sqrt=math.sqrt, sin=math.sin, cos=math.cos, atan2=math.atan2, hypot=math.hypot,
-    tanh=math.tanh,
+    tanh=math.tanh, abs=abs, maximum=max, minimum=min,
     clip0=lambda x: x if x > 0.0 else 0.0,
     where=lambda cond, a, b: a if cond else b,
     all=bool, first_false=lambda ok: None, batch=False)
@@ -85,7 +86,9 @@ def _first_false(ok: np.ndarray) -> int | None:
 
 _ARRAY = SimpleNamespace(
     sqrt=np.sqrt, sin=np.sin, cos=np.cos, atan2=np.arctan2, hypot=np.hypot,
-    tanh=np.tanh,
+    tanh=np.tanh, abs=np.abs,
+    maximum=lambda *a: functools.reduce(np.maximum, a),
+    minimum=lambda *a: functools.reduce(np.minimum, a),
     clip0=lambda x: np.maximum(x, 0.0),
     where=np.where, all=np.all, first_false=_first_false, batch=True)
 

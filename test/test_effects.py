@@ -182,7 +182,7 @@ def _effects(**changes):
     ({'description': 'x'}, "missing 'effects'"),
     ({'effects': _effects(), 'colour': 'red'}, 'unknown key(s): colour'),
     ({'effects': _effects(), 'parameters': {'payload': {'mass': -3.0}}}, 'payload.mass'),
-    ({'effects': _effects(), 'parameters': {'limits': {'stroke_max': 1.0}}},
+    ({'effects': _effects(), 'parameters': {'qos': {'depth': 5}}},
      'not a model parameter'),
     ([1, 2], 'expected a map'),
 ])
