@@ -43,7 +43,7 @@ def _per_leg(field: str) -> list[str]:
 OUTPUT_COLUMNS: tuple[str, ...] = (
     ('t',) + tuple(_per_leg('length') + _per_leg('stroke') + _per_leg('rate')
                    + _per_leg('force') + _per_leg('power') + _per_leg('acceleration'))
-    + ('beta', 'cond', 'kinematic_condition', 'jacobian_condition'))
+    + ('beta', 'kinematic_condition', 'jacobian_condition'))
 JOINT_COLUMNS: tuple[str, ...] = (tuple(JOINT_NAMES) + tuple(f'{j}_rate' for j in JOINT_NAMES)
                                   + tuple(f'{j}_acc' for j in JOINT_NAMES))
 #: Columns ``plot`` needs (any others are ignored).
@@ -115,6 +115,10 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
                    help='effects to simulate: a scene name from config/scenes (full, '
                         'quasi_static, platform_only, payload, ...) or a scene file; '
                         'default: full (the paper\'s model)')
+    p.add_argument('--cond', action='store_true',
+                   help='also write cond, the exact 2-norm condition number of Q (an SVD per '
+                        'row, about 40 us each); kinematic_condition and jacobian_condition, '
+                        'the cheap per-cycle figures, are always written')
     p.add_argument('--joints', action='store_true',
                    help='also write the 12 joint variables of eq. (13), their rates '
                         '(<name>_rate) and accelerations (<name>_acc)')
@@ -135,7 +139,7 @@ def load_model(params: str | None, scene: str | None = None):
         raise CliError(f'--scene: {exc}') from None
 
 
-def solve_table(model, table: csv_io.Table, *, joints: bool = False
+def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond: bool = False
                 ) -> tuple[tuple[str, ...], np.ndarray, list[str]]:
     """Solve every row of a trajectory table; returns (column names, data,
     status of each row)."""
@@ -156,10 +160,12 @@ def solve_table(model, table: csv_io.Table, *, joints: bool = False
     for field in ('length', 'stroke', 'rate', 'force', 'power', 'acceleration'):
         columns.extend(np.asarray(getattr(sol, field), dtype=float).T)
     columns.append(np.asarray(sol.beta, dtype=float).reshape(-1))
-    columns.append(np.asarray(sol.cond, dtype=float).reshape(-1))
     columns.append(np.asarray(sol.kinematic_condition, dtype=float).reshape(-1))
     columns.append(np.asarray(sol.jacobian_condition, dtype=float).reshape(-1))
     names = OUTPUT_COLUMNS
+    if exact_cond:                      # an SVD per row: ~40 us each, so on request
+        columns.append(np.asarray(sol.cond, dtype=float).reshape(-1))
+        names = names + ('cond',)
     if joints:
         for field in ('joints', 'joint_rates', 'joint_accelerations'):
             columns.extend(np.asarray(getattr(sol, field), dtype=float).T)
@@ -186,7 +192,7 @@ def report_statuses(table: csv_io.Table, sol) -> None:
 def cmd_solve(args: argparse.Namespace) -> int:
     model = load_model(args.params, args.scene)
     table = csv_io.read_csv(args.input, required=TRAJECTORY_COLUMNS)
-    names, data, status = solve_table(model, table, joints=args.joints)
+    names, data, status = solve_table(model, table, joints=args.joints, exact_cond=args.cond)
     csv_io.write_csv(args.output, names, data, text=('status', status))
     return 0
 

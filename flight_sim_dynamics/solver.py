@@ -55,7 +55,11 @@ class Solution:
     status: Status | np.ndarray       # ok, limit, near_singular, unreachable, invalid_input
     detail: str | tuple               # why the status is not ok ('' when ok)
     model: Model = field(repr=False, compare=False)
-    geometric: Geometric | None = field(repr=False, compare=False)
+    geometric: Geometric | tuple | None = field(repr=False, compare=False)
+
+    @property
+    def _batch(self) -> bool:
+        return np.ndim(self.force) == 2
 
     @cached_property
     def Q(self) -> np.ndarray:
@@ -64,9 +68,10 @@ class Solution:
         the pose is unreachable or the input invalid."""
         if self.geometric is None:
             return np.zeros((12, 12))
+        pieces = self.geometric if isinstance(self.geometric, tuple) else (self.geometric,)
         with np.errstate(all='ignore'):
-            Q = connectivity_matrix(self.model, self.geometric)[0]
-        if not self.geometric.xp.batch:
+            Q = np.concatenate([connectivity_matrix(self.model, g)[0] for g in pieces])
+        if not self._batch:
             return Q[0]
         Q[np.asarray([SEVERITY[s] >= 3 for s in self.status])] = 0.0
         return np.where(np.isfinite(Q), Q, 0.0)
@@ -76,11 +81,10 @@ class Solution:
         """Exact 2-norm condition number of Q (SVD), computed on first access only:
         it is a diagnostic and costs more than the whole solve (the per-cycle
         figure is ``kinematic_condition``). 0 where Q is meaningless."""
-        if not self.geometric or (not self.geometric.xp.batch
-                                  and SEVERITY[self.status] >= 3):
+        if self.geometric is None or (not self._batch and SEVERITY[self.status] >= 3):
             return 0.0
         value = np.linalg.cond(self.Q)
-        if not self.geometric.xp.batch:
+        if not self._batch:
             return float(value) if math.isfinite(value) else SINGULAR
         value = np.where(np.isfinite(value), value, SINGULAR)
         return np.where([SEVERITY[s] >= 3 for s in self.status], 0.0, value)
@@ -253,6 +257,9 @@ def _finite(x: float) -> float:
 _FIELDS_3 = ('length', 'stroke', 'rate', 'acceleration', 'force', 'power')
 _FIELDS_12 = ('joints', 'joint_rates', 'joint_accelerations')
 _STATUS_BY_CODE = np.array(BY_SEVERITY, dtype=object)
+_BATCH_ARRAYS = ('jacobian', 'beta', 'kinematic_condition', 'jacobian_condition', 'status')
+#: Samples per piece of a long batch (the working set of a piece stays in cache).
+BATCH_CHUNK = 8192
 
 
 def solve_batch(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> Solution:
@@ -267,6 +274,18 @@ def solve_batch(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) ->
     arrays = _as_batch('q', q, None), None, None
     n = arrays[0].shape[0]
     arrays = (arrays[0], _as_batch('qd', qd, n), _as_batch('qdd', qdd, n))
+    if n > BATCH_CHUNK:     # cache-sized pieces: about twice as fast for long batches
+        parts = [_solve_chunk(model, *(a[i:i + BATCH_CHUNK] for a in arrays))
+                 for i in range(0, n, BATCH_CHUNK)]
+        fields = {name: np.concatenate([getattr(p, name) for p in parts])
+                  for name in _FIELDS_3 + _FIELDS_12 + _BATCH_ARRAYS}
+        return Solution(**fields, detail=sum((p.detail for p in parts), ()), model=model,
+                        geometric=tuple(p.geometric for p in parts))
+    return _solve_chunk(model, *arrays)
+
+
+def _solve_chunk(model: Model, *arrays: np.ndarray) -> Solution:
+    n = arrays[0].shape[0]
     finite = np.ones(n, dtype=bool)
     for arr in arrays:
         finite &= np.isfinite(arr).all(axis=1)

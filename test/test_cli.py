@@ -168,9 +168,10 @@ def solve_cli(tmp_path, text: str, *extra: str) -> tuple[int, Path]:
 def test_solve_equals_solve_batch(tmp_path):
     data = write_trajectory(tmp_path / 'traj.csv', 'general', rate=40.0)
     out = tmp_path / 'out.csv'
-    assert cli.main(['solve', str(tmp_path / 'traj.csv'), '-o', str(out), '--joints']) == 0
+    assert cli.main(['solve', str(tmp_path / 'traj.csv'), '-o', str(out), '--joints',
+                     '--cond']) == 0
     header, res = read_plain(out)
-    assert tuple(header) == cli.OUTPUT_COLUMNS + cli.JOINT_COLUMNS
+    assert tuple(header) == cli.OUTPUT_COLUMNS + ('cond',) + cli.JOINT_COLUMNS
     for name in fsd.model.JOINT_NAMES:
         assert name in header and f'{name}_rate' in header
     col = {name: j for j, name in enumerate(header)}
@@ -181,6 +182,8 @@ def test_solve_equals_solve_batch(tmp_path):
             assert np.array_equal(res[:, col[f'{field}_{leg}']], getattr(sol, field)[:, i])
     assert np.array_equal(res[:, col['beta']], sol.beta)
     assert np.array_equal(res[:, col['cond']], sol.cond)
+    assert np.array_equal(res[:, col['kinematic_condition']], sol.kinematic_condition)
+    assert np.array_equal(res[:, col['jacobian_condition']], sol.jacobian_condition)
     for j, name in enumerate(fsd.model.JOINT_NAMES):
         assert np.array_equal(res[:, col[name]], sol.joints[:, j])
         assert np.array_equal(res[:, col[f'{name}_rate']], sol.joint_rates[:, j])
