@@ -161,10 +161,10 @@ def _model_specs() -> list[ParamSpec]:
     ]
     # actuator friction: used when a scene enables the 'friction' effect.
     specs += [
-        ParamSpec('friction.viscous', 'double_array', [200.0, 200.0, 200.0],
+        ParamSpec('friction.viscous', 'double_array', [20.0, 20.0, 20.0],
                   'viscous friction coefficient of actuators A, B, C', 'N s/m', length=3,
                   required=False),
-        ParamSpec('friction.coulomb', 'double_array', [5.0, 5.0, 5.0],
+        ParamSpec('friction.coulomb', 'double_array', [2.0, 2.0, 2.0],
                   'Coulomb (dry) friction force of actuators A, B, C', 'N', length=3,
                   required=False),
         ParamSpec('friction.smoothing_velocity', 'double', 1.0e-3,

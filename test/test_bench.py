@@ -1,0 +1,126 @@
+"""The speed/accuracy benchmark (``flight-sim-dynamics bench``): a quick run
+writes its report and figure, and the accuracy side is right. No timing is
+asserted (the machine is shared and noisy)."""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+import flight_sim_dynamics as fsd
+from flight_sim_dynamics import bench, cli
+
+PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
+
+
+@pytest.fixture(scope='module')
+def quick_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp('bench')
+    rc = bench.main(['--quick', '--out-dir', str(out)])
+    return rc, out
+
+
+def test_quick_run_writes_the_report_and_the_figure(quick_run, capsys):
+    rc, out = quick_run
+    assert rc == 0
+    md = (out / 'scenes.md').read_text()
+    assert md.startswith('# ')
+    assert '## Summary' in md
+    for needed in ('## Machine and command', 'flight-sim-dynamics bench --quick',
+                   'numpy', 'Python', '## Missing accelerations', '## The violent motion',
+                   '(scenes.png)'):
+        assert needed in md
+    for variant in ('full', 'quasi_static', 'platform_only', 'payload', 'full - leg_inertia',
+                    'full - gravity', 'full + friction'):
+        assert f'| `{variant}` |' in md
+    assert (out / 'scenes.png').read_bytes()[:8] == PNG_SIGNATURE
+
+
+def test_report_says_full_is_exact_and_quasi_static_is_not(quick_run):
+    _, out = quick_run
+    md = (out / 'scenes.md').read_text()
+    full_row = next(line for line in md.splitlines() if line.startswith('| `full` | reference'))
+    cells = [c.strip() for c in full_row.strip('|').split('|')]
+    assert cells[-4:] == ['0 N (0 %)'] * 4          # max error on the four motions
+    qs_row = next(line for line in md.splitlines() if line.startswith('| `quasi_static` |'))
+    violent = qs_row.strip('|').split('|')[-1]
+    assert float(re.match(r'\s*([0-9.e+-]+) N', violent).group(1)) > 1.0
+
+
+def test_error_of_full_against_itself_is_exactly_zero():
+    full = fsd.load_model()
+    ms = bench.motion_set(full, 100.0)
+    variants = bench.variants()
+    assert variants[0].key == 'full' and variants[0].kind == bench.REFERENCE
+    errors = bench.variant_errors(variants[0], ms)
+    assert set(errors) == set(bench.MOTIONS)
+    for e in errors.values():
+        assert e.max == 0.0 and e.rms == 0.0 and e.peak > 0.0
+    qs = next(v for v in variants if v.key == 'quasi_static')
+    e = bench.variant_errors(qs, ms)['violent']
+    assert e.max > 0.05 * e.peak          # inertia matters on the violent motion
+    assert e.rms > 0.0
+
+
+def test_variants_cover_scenes_and_single_effects():
+    keys = {v.key: v for v in bench.variants()}
+    for scene in ('full', 'quasi_static', 'platform_only', 'payload'):
+        assert scene in keys
+    for effect in ('gravity', 'platform_inertia', 'leg_inertia', 'crank_inertia',
+                   'velocity_products'):
+        v = keys[f'full - {effect}']
+        assert v.kind == bench.DROPS and not getattr(v.model.effects, effect)
+    assert keys['full + friction'].model.effects.friction
+    assert keys['full + friction'].kind == bench.ADDS
+    assert keys['payload'].kind == bench.ADDS
+
+
+def test_violent_motion_is_violent_reachable_and_exact():
+    t = np.arange(3001) / 1000.0
+    q, qd, qdd = bench.violent_motion(t)
+    assert np.abs(qdd[:, :2]).max() > 0.9 * 9.81          # about 1 g
+    assert np.abs(qdd[:, 2]).max() > 15.0                  # about 20 rad/s^2
+    assert np.abs(q[:, :2]).max() <= 0.1 + 1e-12
+    assert np.abs(q[:, 2]).max() <= 0.3 + 1e-12
+    for k in (0, -1):                                      # from rest to rest
+        assert np.abs(q[k]).max() < 1e-12 and np.abs(qd[k]).max() < 1e-12
+    sol = fsd.solve_batch(fsd.load_model(), q, qd, qdd)    # reachable: older solvers raise,
+    for status in np.atleast_1d(getattr(sol, 'status', [])):   # newer ones say so per sample
+        assert str(status) not in ('unreachable', 'invalid_input')
+    assert np.isfinite(sol.force).all()
+    h = t[1] - t[0]
+    np.testing.assert_allclose(np.gradient(q, h, axis=0)[1:-1], qd[1:-1], atol=2e-3)
+    # (the jerk jumps where a step starts or ends: central differences are off there)
+    np.testing.assert_allclose(np.gradient(qd, h, axis=0)[1:-1], qdd[1:-1], atol=0.5)
+
+
+def test_estimated_accelerations_get_better_with_rate():
+    full = fsd.load_model()
+    ms = bench.motion_set(full, 100.0)
+    cases = bench.estimator_cases(full, ms.peak)
+    for source in ('twist', 'pose'):
+        for method in ('backward', 'backward2'):
+            errs = [bench.find_estimator(cases, source, method, r).steady['violent'].max
+                    for r in bench.ESTIMATOR_RATES]
+            assert errs[0] > errs[1] > errs[2] > 0.0
+
+
+def test_estimate_feeds_exact_twists_through():
+    q, qd_used, qdd_used, qd, qdd = bench.estimate('backward2', 250.0, 'violent', twist=True)
+    np.testing.assert_array_equal(qd_used, qd)
+    assert np.abs(qdd_used - qdd)[bench.STARTUP_SAMPLES:].max() < 0.2 * np.abs(qdd).max()
+
+
+def test_cli_registers_bench():
+    parser = cli.build_parser()
+    args = parser.parse_args(['bench', '--quick', '--out-dir', 'x', '--no-plot'])
+    assert args.quick and args.no_plot and args.out_dir == 'x'
+    assert callable(args.handler)
+
+
+def test_sign_test():
+    assert bench.sign_test(np.ones(20)) < 1e-5
+    assert bench.sign_test(np.array([1.0, -1.0] * 10)) == 1.0
+    assert bench.sign_test(np.zeros(5)) == 1.0
+    assert abs(bench.sign_test(np.array([1.0] * 9 + [-1.0])) - 22 / 1024) < 1e-12
