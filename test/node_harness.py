@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
 
+import pytest
 import rclpy
 import rclpy.task
 from diagnostic_msgs.msg import DiagnosticArray
@@ -30,6 +31,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
+import flight_sim_dynamics as fsd
 from flight_sim_dynamics.setpoints import rpy_to_quaternion
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -273,3 +275,31 @@ def stamp_ns(msg: Any) -> int:
 
 def all_finite(msg: JointState) -> bool:
     return all(math.isfinite(v) for arr in (msg.position, msg.velocity, msg.effort) for v in arr)
+
+
+# ---------------------------------------------------------------------------
+# Module fixtures shared by the node test modules (import them by name):
+# the node started as a user starts it, a client on its topics, the model.
+# ---------------------------------------------------------------------------
+@pytest.fixture(scope='module')
+def node():
+    """The node as a user starts it (packaged params file), with a faster
+    diagnostics period (the tests wait for it)."""
+    proc = NodeProcess('-p', 'diagnostics.period:=0.25', params_file=PARAMS_FILE)
+    yield proc
+    proc.stop()
+
+
+@pytest.fixture(scope='module')
+def client(node):
+    c = Client()
+    try:
+        c.wait_for_node(node)
+        yield c
+    finally:
+        c.close()
+
+
+@pytest.fixture(scope='module')
+def model():
+    return fsd.load_model(PARAMS_FILE)

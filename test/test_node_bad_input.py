@@ -15,34 +15,12 @@ import pytest
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.trajectories import paper_example
-from node_harness import PARAMS_FILE, Client, NodeProcess, all_finite, stamp_ns
+from node_harness import PARAMS_FILE, Client, all_finite, stamp_ns
+from node_harness import client, model, node  # noqa: F401 - module fixtures
 
 NAN, INF = math.nan, math.inf
 STEP = 5_000_000                                 # 5 ms between stamps
 BASE = 1_800_000_000 * 1_000_000_000
-
-
-@pytest.fixture(scope='module')
-def node():
-    # as a user starts it, with a faster diagnostics period (the tests wait for it)
-    proc = NodeProcess('-p', 'diagnostics.period:=0.25', params_file=PARAMS_FILE)
-    yield proc
-    proc.stop()
-
-
-@pytest.fixture(scope='module')
-def client(node):
-    c = Client()
-    try:
-        c.wait_for_node(node)
-        yield c
-    finally:
-        c.close()
-
-
-@pytest.fixture(scope='module')
-def model():
-    return fsd.load_model(PARAMS_FILE)
 
 
 Q, QD, QDD = (v[0] for v in paper_example('general', np.array([1.2])))
