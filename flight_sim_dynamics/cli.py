@@ -296,6 +296,10 @@ SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
               'and the cost of estimating missing accelerations (writes scenes.md, scenes.png)',
               lambda p: importlib.import_module('flight_sim_dynamics.bench').configure(p),
               lambda args: importlib.import_module('flight_sim_dynamics.bench').run(args)),
+    'workspace': ('map the reachable (surge, heave) region per roll angle, coloured by cond(Q), '
+                  'with stroke limits, singular curves and where slider E2 would leave the rod',
+                  lambda p: importlib.import_module('flight_sim_dynamics.workspace').configure(p),
+                  lambda args: importlib.import_module('flight_sim_dynamics.workspace').run(args)),
 }
 
 
