@@ -282,8 +282,14 @@ def forward(command: str, argv: Sequence[str]) -> int:
 # ----------------------------------------------------------------------------
 # Registry and entry point
 # ----------------------------------------------------------------------------
-#: name -> (help, configure(parser), handler(args) -> exit status). Future
-#: subcommands (bench, workspace) register here.
+def _lazy(module: str) -> tuple[Callable[[argparse.ArgumentParser], None],
+                                 Callable[[argparse.Namespace], int]]:
+    """configure/run of a subcommand module, imported only when it is used."""
+    return (lambda p: importlib.import_module(module).configure(p),
+            lambda args: importlib.import_module(module).run(args))
+
+
+#: name -> (help, configure(parser), handler(args) -> exit status).
 SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
                              Callable[[argparse.Namespace], int]]] = {
     'example': ('write one of the paper\'s three example motions as a trajectory CSV',
@@ -294,12 +300,10 @@ SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
              _configure_plot, cmd_plot),
     'bench': ('time per cycle against force error for every scene and single-effect variant, '
               'and the cost of estimating missing accelerations (writes scenes.md, scenes.png)',
-              lambda p: importlib.import_module('flight_sim_dynamics.bench').configure(p),
-              lambda args: importlib.import_module('flight_sim_dynamics.bench').run(args)),
+              *_lazy('flight_sim_dynamics.bench')),
     'workspace': ('map the reachable (surge, heave) region per roll angle, coloured by cond(Q), '
                   'with stroke limits, singular curves and where slider E2 would leave the rod',
-                  lambda p: importlib.import_module('flight_sim_dynamics.workspace').configure(p),
-                  lambda args: importlib.import_module('flight_sim_dynamics.workspace').run(args)),
+                  *_lazy('flight_sim_dynamics.workspace')),
 }
 
 
