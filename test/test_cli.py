@@ -544,3 +544,25 @@ def test_format_table_matches_rows():
     assert lines[-1] == '' and len(lines) == 3001
     back = np.array([[float(v) for v in line.split(',')] for line in lines[:-1]])
     assert np.array_equal(back, data)
+
+
+def test_forward_round_trip_from_the_command_line(tmp_path, capsys):
+    """Leg lengths from `solve`, back to the poses by `forward --csv`."""
+    write_trajectory(tmp_path / 'traj.csv', 'general', rate=10.0)
+    assert cli.main(['solve', str(tmp_path / 'traj.csv'), '-o', str(tmp_path / 'out.csv')]) == 0
+    assert cli.main(['forward', '--csv', str(tmp_path / 'out.csv'), '-o',
+                     str(tmp_path / 'pose.csv')]) == 0
+    header, pose = read_plain(tmp_path / 'pose.csv')
+    assert header == ['t', 'surge', 'heave', 'roll']
+    _, traj = read_plain(tmp_path / 'traj.csv')
+    np.testing.assert_allclose(pose[:, 1:], traj[:, 1:4], atol=1e-9)
+    # one pose on the command line; lengths outside the workspace: exit 1, status named
+    L = fsd.solve(MODEL, [0.01, 0.02, 0.1], [0, 0, 0], [0, 0, 0]).length
+    assert cli.main(['forward', *map(repr, L.tolist())]) == 0
+    fields = dict(item.split('=', 1) for item in capsys.readouterr().out.split()[:4])
+    assert fields['status'] == 'ok'
+    np.testing.assert_allclose([float(fields[k]) for k in ('surge', 'heave', 'roll')],
+                               [0.01, 0.02, 0.1], atol=1e-12)
+    assert cli.main(['forward', '3', '3', '3']) == 1
+    assert 'status=unreachable' in capsys.readouterr().out
+    assert cli.main(['forward', '1', '2']) == 2
