@@ -77,7 +77,7 @@ class Table:
 # Reading
 # ----------------------------------------------------------------------------
 _ALLOWED_BYTES = b'0123456789.eE+-, \t\r\n'
-_NUMBER = re.compile(r'[ \t]*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?[ \t]*\Z')
+_NUMBER = re.compile(r'[ \t]*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?[ \t]*\Z', re.ASCII)
 
 
 def _display(path: str | os.PathLike[str]) -> str:

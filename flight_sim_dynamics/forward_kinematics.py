@@ -58,30 +58,60 @@ def forward_kinematics(model: Model, lengths: Sequence[float],
                        initial: Sequence[float] = (0.0, 0.0, 0.0), *,
                        tolerance: float = 1e-12, max_iterations: int = 50) -> ForwardSolution:
     """Pose (surge, heave, roll) whose leg lengths (joint centre to joint centre,
-    m, legs A, B, C) are ``lengths``. Never raises for bad numbers: the status
-    says what happened."""
-    try:
-        target = np.array(lengths, dtype=float)
-        start = np.array(initial, dtype=float)
-    except (TypeError, ValueError):
-        return ForwardSolution(np.zeros(3), Status.INVALID_INPUT, math.inf, 0,
-                               f'lengths must be 3 numbers, got {lengths!r}')
-    for name, arr in (('lengths', target), ('initial', start)):
+    m, legs A, B, C) are ``lengths``, by Newton's method from ``initial``.
+
+    When the direct iteration fails (its path leaves the workspace), a
+    continuation in the lengths is tried: the target moves from the lengths of
+    ``initial`` to ``lengths`` in 20, then 200 steps, each solved from the
+    previous pose, which keeps the iteration on the assembly mode of
+    ``initial``. Never raises for bad numbers: the status says what happened
+    (``residual`` is 0 for invalid input)."""
+    arrays = []
+    for name, value in (('lengths', lengths), ('initial', initial)):
+        try:
+            arr = np.array(value, dtype=float)
+        except (TypeError, ValueError):
+            return _invalid(f'{name} must be 3 numbers, got {value!r:.200}')
         if arr.shape != (3,):
-            return ForwardSolution(np.zeros(3), Status.INVALID_INPUT, math.inf, 0,
-                                   f'{name} must be 3 numbers, got shape {arr.shape}')
+            return _invalid(f'{name} must be 3 numbers, got shape {arr.shape}')
         if not np.all(np.isfinite(arr)):
-            return ForwardSolution(np.zeros(3), Status.INVALID_INPUT, math.inf, 0,
-                                   f'{name} must be finite, got {arr.tolist()}')
+            return _invalid(f'{name} must be finite, got {arr.tolist()}')
+        arrays.append(arr)
+    target, start = arrays
     if np.any(target <= 0.0):
-        return ForwardSolution(np.zeros(3), Status.INVALID_INPUT, math.inf, 0,
-                               f'leg lengths must be positive, got {target.tolist()}')
-    q = start
+        return _invalid(f'leg lengths must be positive, got {target.tolist()}')
     try:
-        L, J = _lengths_and_jacobian(model, tuple(q))
+        L0, _ = _lengths_and_jacobian(model, tuple(start))
     except UnreachablePoseError as exc:
-        return ForwardSolution(np.zeros(3), Status.INVALID_INPUT, math.inf, 0,
-                               f'initial pose is unreachable: {exc}')
+        return _invalid(f'initial pose is unreachable: {exc}')
+    result = _newton(model, target, start, tolerance, max_iterations)
+    if result.status == Status.OK:
+        return result
+    iterations = result.iterations
+    for steps in (20, 200):
+        q = start
+        for k in range(1, steps + 1):
+            step = _newton(model, L0 + (target - L0) * (k / steps), q,
+                           tolerance if k == steps else 1e-10, max_iterations)
+            iterations += step.iterations
+            if step.status != Status.OK:
+                break
+            q = step.pose
+        else:
+            return ForwardSolution(q, Status.OK, step.residual, iterations)
+    return ForwardSolution(result.pose, result.status, result.residual, iterations,
+                           result.detail)
+
+
+def _invalid(detail: str) -> ForwardSolution:
+    return ForwardSolution(np.zeros(3), Status.INVALID_INPUT, 0.0, 0, detail)
+
+
+def _newton(model: Model, target: np.ndarray, start: np.ndarray, tolerance: float,
+            max_iterations: int) -> ForwardSolution:
+    """Safeguarded Newton iteration L(q) = target from ``start`` (reachable)."""
+    q = start
+    L, J = _lengths_and_jacobian(model, tuple(q))
     r = L - target
     norm = float(np.max(np.abs(r)))
     for iteration in range(1, max_iterations + 1):

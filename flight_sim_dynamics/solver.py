@@ -14,6 +14,7 @@ samples. Both return a :class:`Solution`.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Sequence
@@ -73,7 +74,7 @@ class Solution:
             Q = np.concatenate([connectivity_matrix(self.model, g)[0] for g in pieces])
         if not self._batch:
             return Q[0]
-        Q[np.asarray([SEVERITY[s] >= 3 for s in self.status])] = 0.0
+        Q[np.asarray([SEVERITY[s] >= 3 for s in self.status], dtype=bool)] = 0.0
         return np.where(np.isfinite(Q), Q, 0.0)
 
     @cached_property
@@ -87,7 +88,8 @@ class Solution:
         if not self._batch:
             return float(value) if math.isfinite(value) else SINGULAR
         value = np.where(np.isfinite(value), value, SINGULAR)
-        return np.where([SEVERITY[s] >= 3 for s in self.status], 0.0, value)
+        return np.where(np.asarray([SEVERITY[s] >= 3 for s in self.status], dtype=bool),
+                        0.0, value)
 
 
 _FIELD_NAMES = ('q', 'qd', 'qdd')
@@ -222,17 +224,18 @@ def solve(model: Model, q: Sequence[float], qd: Sequence[float],
                               'exact singularity: a pivot of Q or the actuator Jacobian is '
                               'singular; nothing can be computed (all set to 0)', None)
     kin, jac = r['kinematic_condition'], r['jacobian_condition']
-    total = (sum(r['force']) + sum(r['rate']) + sum(r['joint_accelerations'])
-             + sum(r['joint_rates']) + kin + jac)
     near = not (kin <= model.limits.max_kinematic_condition
                 and jac <= model.limits.max_jacobian_condition)
+    r['jacobian'] = [v for row in r['jacobian'] for v in row]
+    finite = all(math.isfinite(v) for name in _SINGLE_FIELDS for v in r[name])
     status, detail = Status.OK, ''
-    if not math.isfinite(total):
+    if not finite:
         if not near:
             return _zero_solution(model, Status.INVALID_INPUT,
                                   'results are not finite: input too large', r['g'])
-        r['force'] = r['power'] = (0.0, 0.0, 0.0)
-        status, detail = Status.NEAR_SINGULAR, 'exact singularity: forces set to 0'
+        for name in _SINGLE_FIELDS:    # no NaN or infinity with any status
+            r[name] = [v if math.isfinite(v) else 0.0 for v in r[name]]
+        status, detail = Status.NEAR_SINGULAR, 'exact singularity: non-finite results set to 0'
     elif near:
         status, detail = Status.NEAR_SINGULAR, _singular_detail(model, kin, jac)
     else:
@@ -240,14 +243,19 @@ def solve(model: Model, q: Sequence[float], qd: Sequence[float],
         if detail:
             status = Status.LIMIT
     pack = _pack_single
+    beta = r['beta'] if math.isfinite(r['beta']) else 0.0
     return Solution(
         length=pack(r['length']), stroke=pack(r['stroke']), rate=pack(r['rate']),
         acceleration=pack(r['acceleration']), force=pack(r['force']), power=pack(r['power']),
         joints=pack(r['joints']), joint_rates=pack(r['joint_rates']),
-        joint_accelerations=pack(r['joint_accelerations']), beta=float(r['beta']),
-        jacobian=np.array(r['jacobian'], dtype=float),
+        joint_accelerations=pack(r['joint_accelerations']), beta=float(beta),
+        jacobian=pack(r['jacobian']).reshape(3, 3),
         kinematic_condition=_finite(kin), jacobian_condition=_finite(jac),
         status=status, detail=detail, model=model, geometric=r['g'])
+
+
+_SINGLE_FIELDS = ('length', 'stroke', 'rate', 'acceleration', 'force', 'power', 'joints',
+                  'joint_rates', 'joint_accelerations', 'jacobian')
 
 
 def _finite(x: float) -> float:
@@ -349,20 +357,26 @@ def _solve_chunk(model: Model, *arrays: np.ndarray) -> Solution:
 
 
 def _three(name: str, value: Sequence[float]) -> tuple[float, float, float]:
-    if isinstance(value, (str, bytes)) or np.ndim(value) != 1 or len(value) != 3:
-        raise ValueError(f'{name} must be 3 numbers (surge, heave, roll), got {value!r}')
-    try:
-        out = tuple(float(v) for v in value)
-    except (TypeError, ValueError):
-        raise ValueError(f'{name} must be numbers (surge, heave, roll), got {value!r}') from None
-    return out  # type: ignore[return-value]
+    """Three real numbers, or ValueError naming the argument (a programming error:
+    strings, bytes, None, sets, generators, nested or wrongly sized sequences)."""
+    if (isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray))
+            or np.asarray(value, dtype=object).ndim != 1 or len(value) != 3
+            or not all(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in value)):
+        raise ValueError(f'{name} must be 3 numbers (surge, heave, roll), got {value!r:.200}')
+    return float(value[0]), float(value[1]), float(value[2])
 
 
 def _as_batch(name: str, value: object, n: int | None) -> np.ndarray:
+    """An (N, 3) array of real numbers, or ValueError naming the argument."""
     try:
-        arr = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f'{name} must be numbers (surge, heave, roll), got {value!r}') from None
+        raw = np.asarray(value)
+    except ValueError:               # ragged nesting
+        raw = None
+    if raw is not None and raw.dtype.kind == 'O' and raw.ndim != 2:
+        raise ValueError(f'{name} must have shape (N, 3), got {raw.shape}')
+    if raw is None or raw.dtype.kind not in 'fiu':
+        raise ValueError(f'{name} must be numbers (surge, heave, roll), got {value!r:.200}')
+    arr = raw.astype(float)
     if arr.ndim != 2 or arr.shape[1] != 3:
         raise ValueError(f'{name} must have shape (N, 3), got {arr.shape}')
     if n is not None and arr.shape[0] != n:

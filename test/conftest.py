@@ -18,3 +18,38 @@ def ros_isolation() -> None:
         os.environ['ROS_DOMAIN_ID'] = str(random.randint(1, 100))
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     yield
+
+
+# ---------------------------------------------------------------------------
+# Hypothesis profiles (property-based tests: test_workspace_properties.py,
+# test_hard_cases.py, test_csv_garbage.py and any test without its own
+# max_examples):
+#
+#   ci    (default) 100 examples per property test. The workspace tests draw
+#         a batch of up to 24 samples per example, so each of them checks
+#         thousands of (pose, rate, acceleration) cases per run, and the whole
+#         hard-cases suite stays well under a minute on a 2-core machine.
+#   long  20x as many examples (2000 per test, tens of thousands of cases per
+#         workspace property): a soak run before a release, or after touching
+#         the solver, e.g.
+#             FSD_HYPOTHESIS_PROFILE=long PYTHONPATH=. python -m pytest -q \
+#                 test/test_workspace_properties.py test/test_hard_cases.py
+#
+# Select one with the environment variable FSD_HYPOTHESIS_PROFILE (ci or
+# long; any other name is an error). Both have no deadline: a solve near a
+# singularity or a forward-kinematics iteration may legitimately take longer
+# than Hypothesis' default 200 ms on a loaded CI machine. Tests that set their
+# own max_examples keep it; the hard-cases tests scale theirs from the profile
+# (hypothesis.settings.default.max_examples), so `long` makes them 20x longer.
+# ---------------------------------------------------------------------------
+from hypothesis import settings as _hypothesis_settings  # noqa: E402
+
+HYPOTHESIS_PROFILES = {'ci': 100, 'long': 2000}
+for _name, _examples in HYPOTHESIS_PROFILES.items():
+    _hypothesis_settings.register_profile(_name, max_examples=_examples, deadline=None,
+                                          print_blob=True)
+_profile = os.environ.get('FSD_HYPOTHESIS_PROFILE', 'ci')
+if _profile not in HYPOTHESIS_PROFILES:
+    raise ValueError(f'FSD_HYPOTHESIS_PROFILE={_profile!r}: expected one of '
+                     f'{", ".join(HYPOTHESIS_PROFILES)}')
+_hypothesis_settings.load_profile(_profile)

@@ -44,7 +44,7 @@ def test_heave_up_needs_more_force_than_down():
     (([0, 0], [0, 0, 0], [0, 0, 0]), 'q must be 3 numbers'),
     (([0, 0, 0], [0, 0, 0, 0], [0, 0, 0]), 'qd must be 3 numbers'),
     (([0, 0, 0], [0, 0, 0], 'abc'), 'qdd must be 3 numbers'),
-    (([0, 'x', 0], [0, 0, 0], [0, 0, 0]), 'must be numbers'),
+    (([0, 'x', 0], [0, 0, 0], [0, 0, 0]), 'q must be 3 numbers'),
 ])
 def test_bad_input_is_a_clear_error(args, words):
     with pytest.raises(ValueError, match=words):
