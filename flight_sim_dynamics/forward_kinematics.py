@@ -64,7 +64,10 @@ def forward_kinematics(model: Model, lengths: Sequence[float],
     continuation in the lengths is tried: the target moves from the lengths of
     ``initial`` to ``lengths`` in 20, then 200 steps, each solved from the
     previous pose, which keeps the iteration on the assembly mode of
-    ``initial``. Never raises for bad numbers: the status says what happened
+    ``initial``. If the straight line in lengths leaves the workspace too, the
+    iteration restarts from seed poses spread over the workspace and accepts
+    only a solution of the working mode (det dL/dq of the central
+    configuration's sign). Never raises for bad numbers: the status says what happened
     (``residual`` is 0 for invalid input)."""
     arrays = []
     for name, value in (('lengths', lengths), ('initial', initial)):
@@ -99,8 +102,27 @@ def forward_kinematics(model: Model, lengths: Sequence[float],
             q = step.pose
         else:
             return ForwardSolution(q, Status.OK, step.residual, iterations)
+    # last resort: Newton from seed poses spread over the workspace, keeping only
+    # solutions of the machine's working mode (det J of the same sign as at the
+    # central configuration), the one nearest to ``initial`` first
+    mode = np.sign(np.linalg.det(_lengths_and_jacobian(model, (0.0, 0.0, 0.0))[1]))
+    for seed in sorted(_SEEDS, key=lambda p: float(np.sum((np.array(p) - start) ** 2))):
+        try:
+            _lengths_and_jacobian(model, seed)
+        except UnreachablePoseError:
+            continue
+        trial = _newton(model, target, np.array(seed), tolerance, max_iterations)
+        iterations += trial.iterations
+        if trial.status == Status.OK and np.sign(
+                np.linalg.det(_lengths_and_jacobian(model, tuple(trial.pose))[1])) == mode:
+            return ForwardSolution(trial.pose, Status.OK, trial.residual, iterations)
     return ForwardSolution(result.pose, result.status, result.residual, iterations,
                            result.detail)
+
+
+#: Seed poses of the last-resort search (surge m, heave m, roll rad).
+_SEEDS = tuple((x, y, r) for x in (-0.3, -0.1, 0.1, 0.2) for y in (-0.25, 0.0, 0.3, 0.7)
+               for r in (-0.9, -0.4, 0.0, 0.4, 0.9))
 
 
 def _invalid(detail: str) -> ForwardSolution:

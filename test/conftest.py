@@ -26,14 +26,15 @@ def ros_isolation() -> None:
 # max_examples):
 #
 #   ci    (default) 100 examples per property test. The workspace tests draw
-#         a batch of up to 24 samples per example, so each of them checks
-#         thousands of (pose, rate, acceleration) cases per run, and the whole
-#         hard-cases suite stays well under a minute on a 2-core machine.
-#   long  20x as many examples (2000 per test, tens of thousands of cases per
-#         workspace property): a soak run before a release, or after touching
-#         the solver, e.g.
+#         a batch of 24..32 samples per example, so each of them checks about
+#         2,500 (pose, rate, acceleration) cases per run, and the three
+#         hard-cases files together run in ~40 s on a 2-core machine.
+#   long  20x as many examples (2000 per test, ~50,000 cases per workspace
+#         property; ~8 min for the three files): a soak run before a release,
+#         or after touching the solver, e.g.
 #             FSD_HYPOTHESIS_PROFILE=long PYTHONPATH=. python -m pytest -q \
-#                 test/test_workspace_properties.py test/test_hard_cases.py
+#                 test/test_workspace_properties.py test/test_hard_cases.py \
+#                 test/test_csv_garbage.py
 #
 # Select one with the environment variable FSD_HYPOTHESIS_PROFILE (ci or
 # long; any other name is an error). Both have no deadline: a solve near a

@@ -43,10 +43,10 @@ The near-singular threshold of either condition figure is model.limits
 holds to 1e-9; above it near_singular, the numbers as computed (finite,
 power balance to 1e-9 x condition / 100).
 
-Tests named ``test_bug_*`` (end of the file) document PRODUCTION BUGS found
-while writing this suite, each with its input, the expected and the actual
-result at the time it was found; they fail on code that has the bug and stay
-as regression tests once it is fixed.
+Tests named ``test_regression_*`` (end of the file) pin the production bugs
+found while writing this suite, each with its input, the expected and the
+actual result at the time it was found; all are fixed, and the tests keep
+them fixed.
 """
 from __future__ import annotations
 
@@ -568,7 +568,7 @@ HUGE = [1e308, -1e308, 1.7976931348623157e308, 1e200, 1e155, 1e150, 1e100]
 @pytest.mark.parametrize('value', HUGE)
 def test_solve_huge_input_never_gives_a_non_finite_number(argument, value):
     """Huge but finite inputs: whatever the status, no NaN or infinity, and
-    solve agrees with solve_batch. (Fails today for some: see test_bug_*.)"""
+    solve agrees with solve_batch (see also test_regression_*)."""
     for index in range(3):
         args = [list(a) for a in GOOD]
         args[argument][index] = value
@@ -588,7 +588,7 @@ GARBAGE_FLOATS = st.one_of(
 
 
 # No shrink phase: shrinking nine floats drawn from one_of() costs 10-25 s per
-# failure; a failure still prints its nine inputs, and the test_bug_* tests
+# failure; a failure still prints its nine inputs, and the test_regression_* tests
 # below pin minimal ones.
 @settings(max_examples=examples(3.0), report_multiple_bugs=False,
           phases=[Phase.explicit, Phase.reuse, Phase.generate])
@@ -597,7 +597,7 @@ def test_garbage_numbers_never_give_a_non_finite_number(args):
     """Any floats at all (NaN, inf, huge, subnormal, ordinary): solve and
     solve_batch return a status, no NaN or infinity, and agree on the status;
     a non-finite input is invalid_input naming the first such field.
-    (Fails today when it meets a bug: see test_bug_solve_*.)"""
+    (Minimal failing inputs found so far: test_regression_solve_*.)"""
     one = fsd.solve(MODEL, *args)
     batch = fsd.solve_batch(MODEL, *[[a] for a in args])
     assert not finite_problems(one), (one.status, one.detail, finite_problems(one))
@@ -781,10 +781,10 @@ def test_forward_kinematics_near_a_closure_limit_and_a_singularity():
 
 
 # ----------------------------------------------------------------------------
-# PRODUCTION BUGS (found by this suite; each test fails until fixed)
+# Regression, fixedS (found by this suite; each test fails until fixed)
 # ----------------------------------------------------------------------------
-def test_bug_solve_lets_an_infinite_power_through():
-    """PRODUCTION BUG (solver.solve): the finiteness check sums force, rate,
+def test_regression_solve_lets_an_infinite_power_through():
+    """Regression, fixed (solver.solve): the finiteness check sums force, rate,
     joint rates and accelerations and the conditions, but not the power
     (force x rate), which can overflow alone. Input q = (0, 0, 0),
     qd = (1e150, 0, 0), qdd = (0, 0, 0): expected no infinity (solve_batch
@@ -798,8 +798,8 @@ def test_bug_solve_lets_an_infinite_power_through():
     assert one.status == Status.INVALID_INPUT
 
 
-def test_bug_solve_near_singular_overflow_leaves_nan_accelerations():
-    """PRODUCTION BUG (solver.solve): when a near-singular sample's results
+def test_regression_solve_near_singular_overflow_leaves_nan_accelerations():
+    """Regression, fixed (solver.solve): when a near-singular sample's results
     overflow, only force and power are zeroed; the leg and joint accelerations
     keep their NaN/inf. Input q = (0, 0, 1.06) (Jacobian condition ~2e3),
     qd = (1e155, 0, 0), qdd = (0, 0, 0): expected no NaN (solve_batch zeroes
@@ -811,8 +811,8 @@ def test_bug_solve_near_singular_overflow_leaves_nan_accelerations():
     assert np.all(np.isfinite(one.joint_accelerations)), one.joint_accelerations
 
 
-def test_bug_solve_calls_finite_results_invalid_when_their_sum_overflows():
-    """PRODUCTION BUG (solver.solve): finiteness is tested on the *sum* of the
+def test_regression_solve_calls_finite_results_invalid_when_their_sum_overflows():
+    """Regression, fixed (solver.solve): finiteness is tested on the *sum* of the
     results, which overflows although every result is finite. Input q = 0,
     qd = 0, qdd = (1.8e307, 0, 0): expected (as solve_batch) status limit with
     forces 1.7706e308, 3.7677e307, 3.7677e307 N; actual: invalid_input
@@ -825,8 +825,8 @@ def test_bug_solve_calls_finite_results_invalid_when_their_sum_overflows():
     np.testing.assert_allclose(one.force, batch.force[0], rtol=1e-12)
 
 
-def test_bug_empty_batch_cond_raises():
-    """PRODUCTION BUG (Solution.Q / Solution.cond): for a batch of 0 rows,
+def test_regression_empty_batch_cond_raises():
+    """Regression, fixed (Solution.Q / Solution.cond): for a batch of 0 rows,
     ``sol.cond`` raises IndexError ('arrays used as indices must be of integer
     (or boolean) type': np.asarray([]) is a float array). Expected: an empty
     array, like every other field."""
@@ -841,8 +841,8 @@ def test_bug_empty_batch_cond_raises():
     lambda: fsd.solve_batch(MODEL, [['0.1', '0', '0']], [REST], [REST]),
     lambda: fsd.solve_batch(MODEL, [[0.0, None, 0.0]], [REST], [REST]),
 ], ids=['solve, str', 'solve, bytes', 'solve_batch, str', 'solve_batch, None'])
-def test_bug_non_numbers_are_taken_for_numbers(call):
-    """PRODUCTION BUG (minor; solver._three, solver._as_batch): strings and
+def test_regression_non_numbers_are_taken_for_numbers(call):
+    """Regression, fixed (minor; solver._three, solver._as_batch): strings and
     bytes of digits pass float() and are solved as numbers, and solve_batch
     turns None into NaN (status invalid_input) where solve raises ValueError
     for the same row. Documented: 'Only a call that is not three numbers per
@@ -853,8 +853,8 @@ def test_bug_non_numbers_are_taken_for_numbers(call):
 
 
 @pytest.mark.parametrize('argument', [0, 1, 2])
-def test_bug_ragged_argument_gives_numpy_message(argument):
-    """PRODUCTION BUG (minor; solver._three): an argument with a nested
+def test_regression_ragged_argument_gives_numpy_message(argument):
+    """Regression, fixed (minor; solver._three): an argument with a nested
     sequence, e.g. q = [0.0, [0.0], 0.0], raises numpy's ValueError 'setting
     an array element with a sequence. The requested array has an
     inhomogeneous shape ...' (from np.ndim) instead of the documented clear
@@ -871,8 +871,8 @@ def test_bug_ragged_argument_gives_numpy_message(argument):
     (0.2, -0.2, 0.8), (0.2, -0.2, -0.8), (0.22, -0.05, 0.6),      # fixed by the continuation
     (0.21, -0.2, 0.8), (0.21, -0.24, -0.78), (0.215, -0.2, -0.675), (0.2, -0.25, -0.8),
 ])
-def test_bug_forward_kinematics_calls_reachable_lengths_unreachable(q):
-    """PRODUCTION BUG (forward_kinematics): the Newton path from the central
+def test_regression_forward_kinematics_calls_reachable_lengths_unreachable(q):
+    """Regression, fixed (forward_kinematics): the Newton path from the central
     configuration leaves the workspace (crank E loop) and the iteration then
     declares the lengths unreachable, although they are those of a pose of
     the machine's own working mode: every q here has status ok, conditions
@@ -898,8 +898,8 @@ def test_bug_forward_kinematics_calls_reachable_lengths_unreachable(q):
     np.testing.assert_allclose(result.pose, q, atol=1e-9)
 
 
-def test_bug_forward_kinematics_bad_initial_is_blamed_on_the_lengths():
-    """PRODUCTION BUG (minor; forward_kinematics): a non-numeric ``initial``
+def test_regression_forward_kinematics_bad_initial_is_blamed_on_the_lengths():
+    """Regression, fixed (minor; forward_kinematics): a non-numeric ``initial``
     is reported as 'lengths must be 3 numbers, got <the lengths>'. Input:
     lengths = the central ones, initial = 'x'. Expected: status
     invalid_input, detail naming ``initial``; actual: the detail names the
@@ -909,8 +909,8 @@ def test_bug_forward_kinematics_bad_initial_is_blamed_on_the_lengths():
     assert result.detail.startswith('initial'), result.detail
 
 
-def test_bug_forward_kinematics_invalid_input_has_an_infinite_residual():
-    """PRODUCTION BUG (minor; forward_kinematics): README: 'No NaN or infinity
+def test_regression_forward_kinematics_invalid_input_has_an_infinite_residual():
+    """Regression, fixed (minor; forward_kinematics): README: 'No NaN or infinity
     ever comes out, whatever the status ... forward_kinematics returns ok,
     unreachable, not_converged or invalid_input in the same way'; but every
     invalid_input result has residual = inf. Input: lengths = [nan, 1.3, 1.3].

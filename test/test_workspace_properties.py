@@ -236,10 +236,9 @@ def wrapped(a: np.ndarray) -> np.ndarray:
 @given(st.lists(st.tuples(*[_box(lo, hi) for lo, hi in zip(POSE_LO, POSE_HI)]),
                 min_size=1, max_size=8))
 def test_forward_kinematics_round_trip(poses):
-    """Fails while forward_kinematics calls the lengths of some poses of the
-    working mode unreachable (~0.1 % of them: a production bug, see
-    test_hard_cases.py::test_bug_forward_kinematics_calls_reachable_lengths_unreachable).
-    Poses with status limit at rest are included: that status only says a
+    """Leg lengths of any reachable pose give the pose back (this found the
+    forward-kinematics bug pinned by test_hard_cases.py::
+    test_regression_forward_kinematics_calls_reachable_lengths_unreachable). Poses with status limit at rest are included: that status only says a
     stroke is out of its range; the geometry, hence the round trip, is the same."""
     q = np.array(poses, dtype=float)
     sol = fsd.solve_batch(MODEL, q, np.zeros_like(q), np.zeros_like(q))
