@@ -781,7 +781,7 @@ def test_forward_kinematics_near_a_closure_limit_and_a_singularity():
 
 
 # ----------------------------------------------------------------------------
-# Regression, fixedS (found by this suite; each test fails until fixed)
+# Regressions: bugs found by this suite, fixed; each test pins its minimal input
 # ----------------------------------------------------------------------------
 def test_regression_solve_lets_an_infinite_power_through():
     """Regression, fixed (solver.solve): the finiteness check sums force, rate,
