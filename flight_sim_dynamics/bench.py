@@ -49,7 +49,7 @@ import numpy as np
 
 import flight_sim_dynamics as fsd
 
-from .cueing import smooth_step
+from .cueing import step_sequence
 from .model import Model
 from .setpoints import ESTIMATORS, DerivativeEstimator
 from .trajectories import DURATION as PAPER_DURATION
@@ -87,16 +87,7 @@ MOTIONS = (*PAPER_EXAMPLES, 'violent')
 def violent_motion(t: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """q, qd, qdd (each (N, 3)) of the violent motion at times ``t`` (s):
     exact derivatives of the sum of the smooth steps :data:`VIOLENT_STEPS`."""
-    t = np.atleast_1d(np.asarray(t, dtype=float))
-    q = np.zeros((t.size, 3))
-    qd = np.zeros_like(q)
-    qdd = np.zeros_like(q)
-    for axis, start, duration, change in VIOLENT_STEPS:
-        s, ds, dds = smooth_step((t - start) / duration)
-        q[:, axis] += change * s
-        qd[:, axis] += change * ds / duration
-        qdd[:, axis] += change * dds / duration ** 2
-    return q, qd, qdd
+    return step_sequence(VIOLENT_STEPS, t)
 
 
 def motion(name: str, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -43,19 +43,25 @@ def smooth_step(u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return s, ds, dds
 
 
-def motion_cueing(t: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """q, qd, qdd (each (N, 3): surge m, heave m, roll rad) of the
-    motion-cueing sequence at times ``t`` (s, 0 .. CUEING_DURATION)."""
+def step_sequence(steps, t: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """q, qd, qdd (each (N, 3)) at times ``t`` (s) of a sum of smooth steps
+    ``(coordinate, start s, duration s, change)``, with exact derivatives."""
     t = np.atleast_1d(np.asarray(t, dtype=float))
     q = np.zeros((t.size, 3))
     qd = np.zeros_like(q)
     qdd = np.zeros_like(q)
-    for axis, start, duration, change in CUEING_STEPS:
+    for axis, start, duration, change in steps:
         s, ds, dds = smooth_step((t - start) / duration)
         q[:, axis] += change * s
         qd[:, axis] += change * ds / duration
         qdd[:, axis] += change * dds / duration ** 2
     return q, qd, qdd
+
+
+def motion_cueing(t: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """q, qd, qdd (each (N, 3): surge m, heave m, roll rad) of the
+    motion-cueing sequence at times ``t`` (s, 0 .. CUEING_DURATION)."""
+    return step_sequence(CUEING_STEPS, t)
 
 
 def motion(name: str, t: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
