@@ -1,0 +1,86 @@
+"""Smoke test of the performance benchmark (``benchmarks/performance.py``):
+a quick run without ROS writes a complete report to a temporary directory
+(never docs/) and prints the summary table. No timing is asserted: the
+machine is shared and the figures of a quick run mean nothing."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+SCRIPT = ROOT / 'benchmarks' / 'performance.py'
+
+
+@pytest.fixture(scope='module')
+def quick_run(tmp_path_factory):
+    out_dir = tmp_path_factory.mktemp('performance')
+    out = out_dir / 'performance.md'
+    raw = out_dir / 'performance.json'
+    docs = ROOT / 'docs' / 'performance.md'
+    before = docs.stat().st_mtime_ns if docs.exists() else None
+    env = dict(os.environ)
+    env['PYTHONPATH'] = os.pathsep.join(filter(None, [str(ROOT), env.get('PYTHONPATH')]))
+    proc = subprocess.run([sys.executable, str(SCRIPT), '--quick', '--no-node', '--out', str(out),
+                           '--json', str(raw)],
+                          cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+    after = docs.stat().st_mtime_ns if docs.exists() else None
+    return proc, out, raw, before, after
+
+
+def test_quick_run_succeeds_and_leaves_docs_alone(quick_run):
+    proc, out, raw, before, after = quick_run
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert out.is_file() and raw.is_file()
+    assert before == after, 'the smoke run must not touch docs/performance.md'
+
+
+def test_prints_the_summary_table(quick_run):
+    proc = quick_run[0]
+    lines = proc.stdout.splitlines()
+    assert lines[0].startswith('| # | figure | measured | target | verdict | load avg')
+    for figure in ('`fsd.solve` full, median', '`fsd.solve` full, p99',
+                   '`fsd.solve` quasi_static, median', '`sol.cond` on demand',
+                   '`solve_batch` throughput', 'batch vs per-cycle',
+                   'CSV through `flight-sim-dynamics solve`', 'node latency', 'soak'):
+        assert any(figure in line for line in lines), figure
+    # every measured row says met or MISSED (with the gap) next to its target
+    rows = [line for line in lines if line.startswith('| 1 ') or line.startswith('| 2 ')
+            or line.startswith('| 3 ')]
+    assert rows
+    for row in rows:
+        verdict = row.strip('|').split('|')[4].strip()
+        assert verdict.startswith(('met', 'MISSED: ')), row
+        if verdict.startswith('MISSED'):
+            assert 'x over' in verdict or 'x under' in verdict or 'lost' in verdict, row
+    assert 'load average' in lines[-1]
+
+
+def test_report_has_every_part(quick_run):
+    md = quick_run[1].read_text()
+    assert md.startswith('# Performance\n')
+    for needed in ('## Summary', '## Machine and command', 'CPU:', 'load average', 'Python 3',
+                   'numpy', 'rclpy', 'benchmarks/performance.py --quick --no-node',
+                   '## 1. Per-cycle solve', '## 2. Batch solve', '## 3. CSV end to end',
+                   '## Profiles', '### The solver (`fsd.solve`, full model)',
+                   'bytecode instructions', '% of tottime', '### The batch solver',
+                   '## Missed targets: why, and what would close them', '**Executor.**'):
+        assert needed in md, needed
+    # the solver profile lists functions of the package, per solve
+    assert 'flight_sim_dynamics/' in md.split('### The solver', 1)[1]
+    # ROS parts were skipped and say so
+    assert 'skipped (--no-node)' in md
+    assert '## 4. Node latency' not in md
+
+
+def test_batch_and_per_cycle_agree(quick_run):
+    import json
+
+    data = json.loads(quick_run[2].read_text())
+    diffs = data['results']['batch']['diffs']
+    assert diffs['force'] <= 1e-9
+    assert data['results']['batch']['status_mismatch'] == 0
+    assert data['results']['csv']['rows_out'] == data['results']['csv']['n']
