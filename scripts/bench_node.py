@@ -15,7 +15,11 @@ Three roles, each its own process:
   JointState arrived (both CLOCK_MONOTONIC, which all processes of the machine
   share), plus every ``/diagnostics`` message;
 * this script's caller (:func:`run_stream`, no rclpy): starts both, samples the
-  target's resident memory and CPU time from /proc, stops everything.
+  target's resident memory and CPU time (per thread) from /proc, stops everything.
+
+``python scripts/bench_node.py profiled-node OUT [node arguments]`` runs the node
+with cProfile enabled from SIGUSR1 on (:func:`run_stream` sends it when the
+measured stream starts) and writes the stats to OUT when it exits.
 
 The default command prints the executor table of docs/node.md:
 
