@@ -579,13 +579,46 @@ def section_soak(args: argparse.Namespace, rows: list[Row], env: dict, workdir: 
                         f'MISSED as measured: per-minute means {min(m["mean"] for m in mins):.0f}'
                         f'-{max(m["mean"] for m in mins):.0f} us, trend '
                         f'{100 * trend["slope_mean"] * len(mins) / trend["overall_mean"]:+.0f} % '
-                        f'over the soak; they follow the load (r = {trend["load_r"]:+.2f}), see '
-                        f'section 5', load))
+                        f'over the soak; correlation with the load average r = '
+                        f'{trend["load_r"]:+.2f}; see section 5', load))
     if rate != args.rate:
         rows.append(Row('5', f'soak at {args.rate:g} Hz', 'not run', f'{args.rate:g} Hz',
                         f'MISSED: not sustainable (section 4); soaked at {rate:g} Hz instead',
                         load))
     return d
+
+
+def _soak_reading(trend: dict) -> str:
+    """What the soak's per-minute figures allow to say about a drift."""
+    mins = [m for m in trend.get('minutes', []) if math.isfinite(m.get('cpu_ms', math.nan))]
+    if len(mins) < 4:
+        return ''
+    half = len(mins) // 2
+    c1 = float(np.median([m['cpu_ms'] for m in mins[:half]]))
+    c2 = float(np.median([m['cpu_ms'] for m in mins[half:]]))
+    l1 = float(np.mean([m['load'] for m in mins[:half]]))
+    l2 = float(np.mean([m['load'] for m in mins[half:]]))
+    r = trend.get('load_r', math.nan)
+    cpu_rose = c2 > 1.05 * c1
+    text = (f' The node\'s CPU per setpoint (median per minute) was {c1:.2f} ms in the first '
+            f'half and {c2:.2f} ms in the second; the mean load average {l1:.2f} and {l2:.2f}.')
+    if c2 < 0.95 * c1:
+        return text + (' The CPU per setpoint fell along with the solve times, so the node\'s '
+                       'work per setpoint did not grow (RSS is flat too); even a process\'s CPU '
+                       'time per unit of work varies with what else runs on the machine '
+                       '(contention for the cores\' shared caches and hyperthreads), which the '
+                       '1-minute load average only partly shows.')
+    if not cpu_rose and math.isfinite(r) and r >= 0.5:
+        return text + (' The node does not do more work per setpoint (its CPU per setpoint '
+                       'and RSS are flat): the drift follows the machine\'s load.')
+    if not cpu_rose:
+        return text + (' The node does not do more work per setpoint (its CPU per setpoint '
+                       'and RSS are flat), so the drift is in the waiting, i.e. the machine.')
+    return text + (' The CPU per setpoint rose too, which the 1-minute load average does not '
+                   'explain: either contention it does not show (a job on the sibling '
+                   'hyperthread or one thrashing the shared cache makes every instruction of '
+                   'the node slower) or a slow growth of the node\'s work per setpoint; RSS is '
+                   'flat, so nothing accumulates in memory. This run cannot tell them apart.')
 
 
 def _flat(trend: dict) -> bool:
@@ -966,9 +999,12 @@ def markdown(res: dict, rows: list[Row], argv: Sequence[str], started: float,
     w(f'- whole run: {wall / 60:.1f} min\n')
     for note in res.get('notes', []):
         w(f'- {note}\n')
-    w('\nThe machine has 2 cores shared with other jobs (load average 1-3 while this ran): '
-      'every latency tail and p99 here includes their preemptions. The node, the echo and '
-      'the driver are separate processes on the same 2 cores.\n\n')
+    loads = [r.load for r in rows if math.isfinite(r.load)]
+    span = f'{min(loads):.2f}-{max(loads):.2f}' if loads else '?'
+    w(f'\nThe machine has {os.cpu_count()} cores shared with other jobs (1-minute load '
+      f'average {span} at the figures of the summary): every latency tail and p99 here '
+      f'includes their preemptions. The node, the echo and the driver are separate processes '
+      f'on the same cores.\n\n')
 
     if 'solve' in res:
         s = res['solve']
@@ -1334,8 +1370,11 @@ def analysis(res: dict, rows: list[Row]) -> str:
                                       and r_main['p99'] <= TARGET_NODE_P99_MS
                                       and r_main['lost'] == 0):
             budget = 1e3 / rate0
-            solve_ms = s['full']['median'] / 1e3 if s else math.nan
             diag = [x for x in r_main.get('diag', []) if x['n'] and x['n'] > 0]
+            solve_alone_ms = s['full']['median'] / 1e3 if s else math.nan
+            solve_in_node_ms = (float(np.median([x['mean'] for x in diag])) / 1e3 if diag
+                                else math.nan)
+            solve_ms = solve_in_node_ms if math.isfinite(solve_in_node_ms) else solve_alone_ms
             answered_hz = float(np.median([x['rate'] for x in diag])) if diag else math.nan
             depth = res.get('depth', 100)
             text = (
@@ -1378,7 +1417,14 @@ def analysis(res: dict, rows: list[Row]) -> str:
                 text += '.'
             text += (
                 f' What would close it, by measured cost: (1) the solver as a compiled kernel '
-                f'(above): about -{solve_ms:.2f} ms per setpoint; (2) one input message per '
+                f'(above): about -{solve_ms:.2f} ms per setpoint (the solve\'s mean time inside '
+                f'the node, its /diagnostics, against a median of {solve_alone_ms:.2f} ms in '
+                f'isolation in section 1'
+                + (': between two solves the node runs the middleware, which evicts the '
+                   'solver\'s code and data from the caches, and the node shares the cores '
+                   'with the driver; a compact compiled kernel suffers far less from both'
+                   if solve_ms > 1.3 * solve_alone_ms else '')
+                + f'); (2) one input message per '
                 f'setpoint instead of three (e.g. `trajectory_msgs/JointTrajectoryPoint` with '
                 f'the stamp in a header-carrying wrapper, or a small custom message with q, qd, '
                 f'qdd): two fewer takes, deserialisations and callbacks and no synchroniser, '
@@ -1444,11 +1490,12 @@ def analysis(res: dict, rows: list[Row]) -> str:
                    f'r = {tr["load_r"]:+.2f}.' if math.isfinite(tr.get('load_r', math.nan))
                    else '')
                 + ' Those figures are wall-clock times of `fsd.solve` inside the node, so they '
-                'include every preemption by the other jobs of this 2-core machine; a drift '
-                'that the node\'s CPU per setpoint and RSS do not show follows the machine\'s '
-                'load rather than the node. A soak on a dedicated machine (or with the node '
-                'pinned to a reserved core) is needed to judge this target; with the '
-                'per-cycle solve compiled, preemptions would also hit far fewer cycles.')
+                'include every preemption by the other jobs of this 2-core machine.'
+                + _soak_reading(tr)
+                + ' A soak on a dedicated machine (or with the node pinned to a reserved core), '
+                'with py-spy snapshots at its start and end, is needed to judge this target; '
+                'with the per-cycle solve compiled, preemptions would also hit far fewer '
+                'cycles.')
         if soak['lost']:
             queue_ms = 1e3 * res.get('depth', 100) / soak['rate']
             lines.append(
