@@ -9,14 +9,23 @@ Works with colcon (ROS 2) and with plain pip:
 """
 from glob import glob
 
-from setuptools import find_packages, setup
+from setuptools import Extension, find_packages, setup
 
 package_name = 'flight_sim_dynamics'
+
+# The compiled kernel (src/kernel.c, see flight_sim_dynamics/kernel.py).
+# optional=True: without a C compiler the package still installs and solves
+# with its Python code (same results, slower). -ffp-contract=off keeps the
+# operations the ones written (no fused multiply-add), like the Python code.
+kernel = Extension(
+    f'{package_name}._kernel', sources=['src/kernel.c'], optional=True,
+    extra_compile_args=['-O2', '-ffp-contract=off', '-fno-math-errno'])
 
 setup(
     name=package_name,
     version='0.1.0',
     packages=find_packages(exclude=['test', 'test.*']),
+    ext_modules=[kernel],
     data_files=[
         ('share/ament_index/resource_index/packages',
             ['resource/' + package_name]),
@@ -28,7 +37,7 @@ setup(
     python_requires='>=3.10',
     install_requires=['setuptools', 'numpy', 'PyYAML', 'matplotlib'],
     extras_require={'test': ['pytest', 'hypothesis']},
-    zip_safe=True,
+    zip_safe=False,
     maintainer='flight_sim_dynamics maintainers',
     maintainer_email='flight_sim_dynamics@example.com',
     description='Inverse dynamics of a 3-DOF parallel flight simulator '

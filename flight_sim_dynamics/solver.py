@@ -1,9 +1,11 @@
 """The recursive matrix solver: one call = inverse geometry, velocities,
 accelerations and inverse dynamics (paper eq. 5-23) for one pose or a batch.
 
-:func:`solve` runs on plain Python floats (one control cycle, no numpy call
-overhead); :func:`solve_batch` runs the same code on numpy columns of N
-samples. Both return a :class:`Solution`.
+:func:`solve` solves one control cycle, :func:`solve_batch` N samples; both
+return a :class:`Solution`. Both run the compiled kernel (:mod:`.kernel`,
+``src/kernel.c``: this module's :func:`_solve` transcribed to C) when it is
+built, else the Python code below, which is the reference: it runs on plain
+floats for one cycle and on numpy columns for a batch (:mod:`.vectors`).
 
 >>> import flight_sim_dynamics as fsd
 >>> model = fsd.load_model()
@@ -21,6 +23,7 @@ from typing import Sequence
 
 import numpy as np
 
+from . import kernel
 from .dynamics import (actuator_forces, actuator_jacobian, body_states, friction_forces,
                        joint_forces, virtual_velocities)
 from .kinematics import (LOOP_REASONS, Geometric, UnreachablePoseError, acceleration_column,
@@ -56,11 +59,38 @@ class Solution:
     status: Status | np.ndarray       # ok, limit, near_singular, unreachable, invalid_input
     detail: str | tuple               # why the status is not ok ('' when ok)
     model: Model = field(repr=False, compare=False)
-    geometric: Geometric | tuple | None = field(repr=False, compare=False)
+    pose: tuple | np.ndarray = field(repr=False, compare=False)   # the q solved for
 
     @property
     def _batch(self) -> bool:
         return np.ndim(self.force) == 2
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        """Array fields of a kernel solution: views of its result row(s) (one
+        buffer per solve), made on first access (src/kernel.c O_* layout)."""
+        part = kernel.OUT.get(name)
+        rows = self.__dict__.get('_rows')
+        if part is None or rows is None:
+            raise AttributeError(f"'Solution' object has no attribute '{name}'")
+        value = rows[..., part]
+        if name == 'jacobian':
+            value = value.reshape(rows.shape[:-1] + (3, 3))
+        self.__dict__[name] = value
+        return value
+
+    @cached_property
+    def geometric(self) -> Geometric | tuple | None:
+        """Positions of every joint (:class:`.kinematics.Geometric`), recomputed
+        from ``pose`` on first access (the kernel keeps none); None when the
+        pose is unreachable or the input invalid (single solve only)."""
+        if not self._batch:
+            if SEVERITY[self.status] >= 3:
+                return None
+            return inverse_geometry(self.model, tuple(self.pose), _SCALAR)
+        q = np.where(np.isfinite(self.pose), self.pose, 0.0)
+        with np.errstate(all='ignore'):
+            return inverse_geometry(self.model, tuple(np.ascontiguousarray(q.T)), _ARRAY,
+                                    check=False)
 
     @cached_property
     def Q(self) -> np.ndarray:
@@ -185,13 +215,21 @@ def _singular_detail(model: Model, kin: float, jac: float) -> str:
     return '; '.join(out)
 
 
-def _zero_solution(model: Model, status: Status, detail: str, g: Geometric | None) -> Solution:
+def _new_solution(**values: object) -> Solution:
+    """A Solution without the frozen dataclass's per-field __init__ (about
+    2 us of a 10 us cycle); the fields are the same and stay read-only."""
+    sol = object.__new__(Solution)
+    sol.__dict__.update(values)
+    return sol
+
+
+def _zero_solution(model: Model, status: Status, detail: str, pose: tuple) -> Solution:
     z3, z12 = np.zeros(3), np.zeros(12)
-    return Solution(length=z3, stroke=z3.copy(), rate=z3.copy(), acceleration=z3.copy(),
-                    force=z3.copy(), power=z3.copy(), joints=z12, joint_rates=z12.copy(),
-                    joint_accelerations=z12.copy(), beta=0.0, jacobian=np.zeros((3, 3)),
-                    kinematic_condition=0.0, jacobian_condition=0.0, status=status,
-                    detail=detail, model=model, geometric=g)
+    return _new_solution(length=z3, stroke=z3.copy(), rate=z3.copy(), acceleration=z3.copy(),
+                         force=z3.copy(), power=z3.copy(), joints=z12, joint_rates=z12.copy(),
+                         joint_accelerations=z12.copy(), beta=0.0, jacobian=np.zeros((3, 3)),
+                         kinematic_condition=0.0, jacobian_condition=0.0, status=status,
+                         detail=detail, model=model, pose=pose)
 
 
 def _pack_single(values: Sequence[float]) -> np.ndarray:
@@ -212,17 +250,43 @@ def solve(model: Model, q: Sequence[float], qd: Sequence[float],
     happened (:mod:`.status`), ``sol.detail`` why. Only input that is not three
     numbers per argument (a programming error) raises ValueError."""
     q3, qd3, qdd3 = _three('q', q), _three('qd', qd), _three('qdd', qdd)
+    if kernel._enabled:
+        out, (code, info, beta, kin, jac) = kernel.solve_row(model, q3, qd3, qdd3)
+        return _new_solution(   # the array fields are views of `out` (Solution.__getattr__)
+            _rows=out, beta=beta, kinematic_condition=kin, jacobian_condition=jac,
+            status=_STATUS_BY_CODE[code],
+            detail=_detail(model, code, info, out, (q3, qd3, qdd3)) if code else '',
+            model=model, pose=q3)
+    return _solve_python(model, q3, qd3, qdd3)
+
+
+def _detail(model: Model, code: int, info: float, row: np.ndarray, inputs: tuple) -> str:
+    """The detail of a kernel status (src/kernel.c, solve_one) for one sample."""
+    if code == 4:
+        return _input_problem(*inputs) if info >= 0 else 'results are not finite: input too large'
+    if code == 3:
+        loop = kernel.LOOPS[int(info)]
+        return f'loop {loop}: {LOOP_REASONS[loop]}'
+    if code == 2:
+        if not info:
+            return 'exact singularity: non-finite results set to 0'
+        return _singular_detail(model, row[kernel.O_KIN], row[kernel.O_JAC])
+    return _limit_detail(model, row[3:6], row[6:9], row[12:15])
+
+
+def _solve_python(model: Model, q3: tuple, qd3: tuple, qdd3: tuple) -> Solution:
+    """One cycle with the Python reference code (no kernel)."""
     problem = _input_problem(q3, qd3, qdd3)
     if problem:
-        return _zero_solution(model, Status.INVALID_INPUT, problem, None)
+        return _zero_solution(model, Status.INVALID_INPUT, problem, q3)
     try:
         r = _solve(model, q3, qd3, qdd3, _SCALAR)
     except UnreachablePoseError as exc:
-        return _zero_solution(model, Status.UNREACHABLE, f'loop {exc.loop}: {exc.reason}', None)
+        return _zero_solution(model, Status.UNREACHABLE, f'loop {exc.loop}: {exc.reason}', q3)
     except (ZeroDivisionError, OverflowError):
         return _zero_solution(model, Status.NEAR_SINGULAR,
                               'exact singularity: a pivot of Q or the actuator Jacobian is '
-                              'singular; nothing can be computed (all set to 0)', None)
+                              'singular; nothing can be computed (all set to 0)', q3)
     kin, jac = r['kinematic_condition'], r['jacobian_condition']
     near = not (kin <= model.limits.max_kinematic_condition
                 and jac <= model.limits.max_jacobian_condition)
@@ -232,7 +296,7 @@ def solve(model: Model, q: Sequence[float], qd: Sequence[float],
     if not finite:
         if not near:
             return _zero_solution(model, Status.INVALID_INPUT,
-                                  'results are not finite: input too large', r['g'])
+                                  'results are not finite: input too large', q3)
         for name in _SINGLE_FIELDS:    # no NaN or infinity with any status
             r[name] = [v if math.isfinite(v) else 0.0 for v in r[name]]
         status, detail = Status.NEAR_SINGULAR, 'exact singularity: non-finite results set to 0'
@@ -244,14 +308,14 @@ def solve(model: Model, q: Sequence[float], qd: Sequence[float],
             status = Status.LIMIT
     pack = _pack_single
     beta = r['beta'] if math.isfinite(r['beta']) else 0.0
-    return Solution(
+    return _new_solution(
         length=pack(r['length']), stroke=pack(r['stroke']), rate=pack(r['rate']),
         acceleration=pack(r['acceleration']), force=pack(r['force']), power=pack(r['power']),
         joints=pack(r['joints']), joint_rates=pack(r['joint_rates']),
         joint_accelerations=pack(r['joint_accelerations']), beta=float(beta),
         jacobian=pack(r['jacobian']).reshape(3, 3),
         kinematic_condition=_finite(kin), jacobian_condition=_finite(jac),
-        status=status, detail=detail, model=model, geometric=r['g'])
+        status=status, detail=detail, model=model, pose=q3, geometric=r['g'])
 
 
 _SINGLE_FIELDS = ('length', 'stroke', 'rate', 'acceleration', 'force', 'power', 'joints',
@@ -264,9 +328,11 @@ def _finite(x: float) -> float:
 
 _FIELDS_3 = ('length', 'stroke', 'rate', 'acceleration', 'force', 'power')
 _FIELDS_12 = ('joints', 'joint_rates', 'joint_accelerations')
-_STATUS_BY_CODE = np.array(BY_SEVERITY, dtype=object)
+_STATUS_BY_CODE = tuple(BY_SEVERITY)
+_STATUS_ARRAY = np.array(BY_SEVERITY, dtype=object)
 _BATCH_ARRAYS = ('jacobian', 'beta', 'kinematic_condition', 'jacobian_condition', 'status')
-#: Samples per piece of a long batch (the working set of a piece stays in cache).
+#: Samples per piece of a long batch in the Python code (the working set of a
+#: piece stays in cache).
 BATCH_CHUNK = 8192
 
 
@@ -282,14 +348,32 @@ def solve_batch(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) ->
     arrays = _as_batch('q', q, None), None, None
     n = arrays[0].shape[0]
     arrays = (arrays[0], _as_batch('qd', qd, n), _as_batch('qdd', qdd, n))
+    if kernel._enabled:
+        return _batch_from_rows(model, kernel.solve_rows(model, *arrays), arrays)
     if n > BATCH_CHUNK:     # cache-sized pieces: about twice as fast for long batches
         parts = [_solve_chunk(model, *(a[i:i + BATCH_CHUNK] for a in arrays))
                  for i in range(0, n, BATCH_CHUNK)]
         fields = {name: np.concatenate([getattr(p, name) for p in parts])
                   for name in _FIELDS_3 + _FIELDS_12 + _BATCH_ARRAYS}
-        return Solution(**fields, detail=sum((p.detail for p in parts), ()), model=model,
-                        geometric=tuple(p.geometric for p in parts))
+        return _new_solution(**fields, detail=sum((p.detail for p in parts), ()), model=model,
+                             pose=arrays[0], geometric=tuple(p.geometric for p in parts))
     return _solve_chunk(model, *arrays)
+
+
+def _batch_from_rows(model: Model, rows: np.ndarray, arrays: tuple) -> Solution:
+    """The Solution of a batch from the kernel's result rows (views, no copies)."""
+    n = rows.shape[0]
+    code = rows[:, kernel.O_STATUS].astype(np.int8)
+    info = rows[:, kernel.O_INFO]
+    detail = [''] * n
+    for i in np.flatnonzero(code):
+        detail[i] = _detail(model, int(code[i]), info[i], rows[i],
+                            tuple(tuple(a[i].tolist()) for a in arrays))
+    return _new_solution(_rows=rows, beta=rows[:, kernel.O_BETA],
+                         kinematic_condition=rows[:, kernel.O_KIN],
+                         jacobian_condition=rows[:, kernel.O_JAC],
+                         status=_STATUS_ARRAY[code], detail=tuple(detail), model=model,
+                         pose=arrays[0])
 
 
 def _solve_chunk(model: Model, *arrays: np.ndarray) -> Solution:
@@ -351,14 +435,22 @@ def _solve_chunk(model: Model, *arrays: np.ndarray) -> Solution:
                          else 'exact singularity: non-finite results set to 0')
         else:
             detail[i] = _limit_detail(model, stroke[i], rate[i], force[i])
-    return Solution(**out, beta=beta, kinematic_condition=kin, jacobian_condition=jac,
-                    status=_STATUS_BY_CODE[code], detail=tuple(detail), model=model,
-                    geometric=g)
+    return _new_solution(**out, beta=beta, kinematic_condition=kin, jacobian_condition=jac,
+                         status=_STATUS_ARRAY[code], detail=tuple(detail), model=model,
+                         pose=arrays[0], geometric=g)
 
 
 def _three(name: str, value: Sequence[float]) -> tuple[float, float, float]:
     """Three real numbers, or ValueError naming the argument (a programming error:
     strings, bytes, None, sets, generators, nested or wrongly sized sequences)."""
+    kind = type(value)
+    if (kind is tuple or kind is list) and len(value) == 3:     # the usual case, fast
+        a, b, c = value
+        if type(a) is float and type(b) is float and type(c) is float:
+            return (a, b, c)
+    elif kind is np.ndarray and value.shape == (3,) and value.dtype == np.float64:
+        a, b, c = value.tolist()
+        return (a, b, c)
     if (isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray))
             or np.asarray(value, dtype=object).ndim != 1 or len(value) != 3
             or not all(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in value)):

@@ -78,6 +78,13 @@ sys.exit(any(version(n) != v for n, v in (s.split("==") for s in sys.argv[1].spl
     # fetching the latest one into a throw-away environment (3-6 s instead of
     # 12-14 s per run, and no network once the venv is complete).
     "$FSD_VENV/bin/python" -m pip install --quiet --disable-pip-version-check --no-build-isolation .
+    # The compiled kernel (src/kernel.c) next to the sources too, for code run
+    # from the source tree (the tests, benchmarks/): a gitignored .so in
+    # flight_sim_dynamics/. Without a C compiler both steps leave the kernel
+    # out and the package solves with its Python code (FSD_REQUIRE_KERNEL=1
+    # turns that into an error, as scripts/run_tests.sh does).
+    "$FSD_VENV/bin/python" setup.py --quiet build_ext --inplace >/dev/null 2>&1 \
+        || echo "[setup] warning: the compiled kernel did not build (no C compiler?); the Python code will be used" >&2
     echo "[setup] done in $((SECONDS - fsd_setup_start)) s"
 fi
 

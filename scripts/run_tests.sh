@@ -15,4 +15,9 @@ export ROS_DOMAIN_ID
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 echo "[tests] ROS_DOMAIN_ID=$ROS_DOMAIN_ID ROS_AUTOMATIC_DISCOVERY_RANGE=$ROS_AUTOMATIC_DISCOVERY_RANGE"
 
+# The compiled kernel must be there: a failed build fails the run instead of
+# quietly testing the Python fallback only (FSD_REQUIRE_KERNEL=0 to allow it;
+# FSD_KERNEL=0 runs the whole suite on the Python code, see test/conftest.py).
+export FSD_REQUIRE_KERNEL="${FSD_REQUIRE_KERNEL:-1}"
+
 exec python -m pytest -q test "$@"

@@ -54,3 +54,18 @@ if _profile not in HYPOTHESIS_PROFILES:
     raise ValueError(f'FSD_HYPOTHESIS_PROFILE={_profile!r}: expected one of '
                      f'{", ".join(HYPOTHESIS_PROFILES)}')
 _hypothesis_settings.load_profile(_profile)
+
+
+# ---------------------------------------------------------------------------
+# Solver implementation under test: the compiled kernel (default, when built;
+# scripts/run_tests.sh builds it and sets FSD_REQUIRE_KERNEL=1 so that a
+# failed build fails the run) or, with FSD_KERNEL=0, the Python reference code
+# for the whole suite:  FSD_KERNEL=0 PYTHONPATH=. python -m pytest -q test
+# test/test_kernel.py checks the two against each other in every run.
+# ---------------------------------------------------------------------------
+_kernel_choice = os.environ.get('FSD_KERNEL', '1')
+if _kernel_choice not in ('0', '1'):
+    raise ValueError(f'FSD_KERNEL={_kernel_choice!r}: expected 0 (Python code) or 1 (kernel)')
+if _kernel_choice == '0':
+    from flight_sim_dynamics import kernel as _fsd_kernel  # noqa: E402
+    _fsd_kernel._enabled = False

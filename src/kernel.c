@@ -1,0 +1,794 @@
+/*
+ * flight_sim_dynamics._kernel: the solver's scalar path (paper eq. 5-23) as
+ * straight-line C, for one control cycle (solve) or a batch (solve_batch).
+ *
+ * This is a transcription of the Python modules kinematics.py and
+ * dynamics.py (and the status rules of solver.py), line by line and in the
+ * same order of operations, so that the two agree to round-off; the Python
+ * code is the reference (it is itself checked against an independent
+ * implementation in test/reference_model.py), and the test suite checks this
+ * kernel against it for every combination of effects, random reachable
+ * poses, unreachable poses, singular poses and garbage input
+ * (test/test_kernel.py). Function names follow the Python ones.
+ *
+ * The model arrives as a packed array of doubles (flight_sim_dynamics/
+ * kernel.py, pack_model: the layout is the P_* offsets below) and a bit set
+ * of effects; a disabled effect is skipped, as in the Python code.
+ *
+ * Results: one row of OUT_SIZE doubles per sample (offsets O_* below, the
+ * same as kernel.py's), including the status code and its detail code.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <float.h>
+#include <math.h>
+#include <string.h>
+
+/* ---- layout of the packed model (kernel.py keeps the same numbers) ---- */
+enum {
+    P_D1 = 0, P_D2, P_D3, P_D4, P_D5, P_L1, P_L2, P_L3, P_L4, P_L5, P_L6,
+    P_B, P_H, P_HG, P_SA, P_SB, P_SC,           /* geometry, GEOMETRY_KEYS order */
+    P_L0 = 17,                                   /* 3: leg lengths at zero stroke */
+    P_ZERO = 20,                                 /* 12: central joint values */
+    P_GRAVITY = 32,
+    P_BODIES = 33,                               /* 11 x 13: mass, com[3], inertia[9] */
+    BODY_SIZE = 13,
+    P_VISCOUS = 33 + 11 * 13,                    /* 176: 3 */
+    P_COULOMB = P_VISCOUS + 3,                   /* 179: 3 */
+    P_SMOOTHING = P_COULOMB + 3,                 /* 182 */
+    P_LIMITS = P_SMOOTHING + 1,                  /* 183: stroke_min, stroke_max,
+                                                    max_speed, max_force,
+                                                    max_kinematic_condition,
+                                                    max_jacobian_condition */
+    P_SIZE = P_LIMITS + 6                        /* 189 */
+};
+
+/* body indices: BODY_NAMES order, then the payload */
+enum { CYL_A, PIS_A, ROD, PLATFORM, CYL_B, PIS_B, CYL_C, PIS_C, CRANK_D, CRANK_E, PAYLOAD,
+       N_BODIES };
+
+/* effects bits (kernel.py: EFFECT_BITS) */
+enum { E_GRAVITY = 1, E_PLATFORM = 2, E_PAYLOAD = 4, E_LEG = 8, E_CRANK = 16, E_VP = 32,
+       E_FRICTION = 64, E_HAS_PAYLOAD = 128 };
+
+/* ---- layout of one result row ---- */
+enum {
+    O_LENGTH = 0, O_STROKE = 3, O_RATE = 6, O_ACCELERATION = 9, O_FORCE = 12, O_POWER = 15,
+    O_JOINTS = 18, O_JOINT_RATES = 30, O_JOINT_ACCELERATIONS = 42, O_JACOBIAN = 54,
+    O_BETA = 63, O_KIN = 64, O_JAC = 65, O_STATUS = 66, O_INFO = 67, OUT_SIZE = 68
+};
+
+/* status codes = severity (status.py) */
+enum { S_OK = 0, S_LIMIT = 1, S_NEAR_SINGULAR = 2, S_UNREACHABLE = 3, S_INVALID = 4 };
+
+typedef struct { double x, y, z; } v3;
+
+static inline v3 vec(double x, double y, double z) { v3 r = {x, y, z}; return r; }
+static inline v3 add(v3 a, v3 b) { return vec(a.x + b.x, a.y + b.y, a.z + b.z); }
+static inline v3 sub(v3 a, v3 b) { return vec(a.x - b.x, a.y - b.y, a.z - b.z); }
+static inline v3 scale(double s, v3 a) { return vec(s * a.x, s * a.y, s * a.z); }
+static inline v3 axpy(double s, v3 a, v3 b)   /* s a + b */
+{ return vec(s * a.x + b.x, s * a.y + b.y, s * a.z + b.z); }
+static inline double dot(v3 a, v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline v3 cross(v3 a, v3 b)
+{ return vec(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x); }
+static inline v3 zx(v3 a) { return vec(-a.y, a.x, 0.0); }   /* z0 x a, eq. (10) */
+
+typedef struct { v3 x, y, z; } axes3;      /* body axes in the fixed frame */
+
+static inline v3 to_frame(const axes3 *R, v3 v)
+{ return vec(dot(R->x, v), dot(R->y, v), dot(R->z, v)); }
+static inline v3 from_frame(const axes3 *R, v3 c)
+{
+    return vec(c.x * R->x.x + c.y * R->y.x + c.z * R->z.x,
+               c.x * R->x.y + c.y * R->y.y + c.z * R->z.y,
+               c.x * R->x.z + c.y * R->y.z + c.z * R->z.z);
+}
+static inline v3 mat_vec(const double *m, v3 c)
+{
+    return vec(m[0] * c.x + m[1] * c.y + m[2] * c.z,
+               m[3] * c.x + m[4] * c.y + m[5] * c.z,
+               m[6] * c.x + m[7] * c.y + m[8] * c.z);
+}
+static inline double clip0(double x) { return x > 0.0 ? x : 0.0; }
+/* numpy's maximum/minimum: NaN propagates (as in the batch path) */
+static inline double nmax(double a, double b) { return (a >= b || isnan(a)) ? a : b; }
+static inline double nmin(double a, double b) { return (a <= b || isnan(a)) ? a : b; }
+
+/* Python's float a % b for b > 0 (sign of the divisor) */
+static inline double pymod(double a, double b)
+{
+    double m = fmod(a, b);
+    if (m != 0.0) {
+        if ((b < 0.0) != (m < 0.0))
+            m += b;
+    } else {
+        m = copysign(0.0, b);
+    }
+    return m;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Inverse geometry (kinematics.closure, inverse_geometry; eq. 5-8)          */
+/* ------------------------------------------------------------------------ */
+typedef struct {
+    v3 G, l, t, n, A3, D2, E2, B4, C4, dA, dB, dC, e2B, e2C, dD, dE;
+    double roll, beta, u, LA, LB, LC, hB, hC;
+    double raw[12];
+    int failed;          /* -1, or the first loop that cannot close (LOOP order) */
+} geometric;
+
+/* loops in the order of kinematics.closure's `valid` (kernel.py: LOOPS) */
+enum { LOOP_D, LOOP_E, LOOP_E2, LOOP_A, LOOP_B, LOOP_C };
+
+static void unit_leg(v3 P4, v3 P1, double *L, v3 *d, double *h, v3 *e2)
+{
+    v3 v = sub(P4, P1);
+    *L = sqrt(dot(v, v));
+    *d = scale(1.0 / *L, v);
+    *h = hypot(d->x, d->y);
+    *e2 = vec(-d->y / *h, d->x / *h, 0.0);
+}
+
+static const int ANGLES[8] = {0, 2, 3, 4, 6, 7, 9, 10};
+
+static void inverse_geometry(const double *P, const double *q, geometric *g)
+{
+    const double d1 = P[P_D1], d2 = P[P_D2], d3 = P[P_D3], d4 = P[P_D4], d5 = P[P_D5];
+    const double l5 = P[P_L5], l6 = P[P_L6], b = P[P_B], h = P[P_H];
+    double surge = q[0], heave = q[1], roll = q[2];
+    g->G = vec(d2 + d3 + d4 + surge, P[P_HG] + heave, 0.0);
+    /* loop D (kinematics._crank_d_beta) */
+    double c = h - d1;
+    double wx = g->G.x - (d2 + d3), wy = g->G.y;
+    double rho2 = wx * wx + wy * wy;
+    double rho = sqrt(rho2);
+    double k = (rho2 + c * c - l5 * l5) / (2.0 * c);
+    double disc_d = (rho - k) * (rho + k);
+    double beta = atan2(wy, wx) - atan2(sqrt(clip0(disc_d)), k);
+    double cb = cos(beta), sb = sin(beta), cr = cos(roll), sr = sin(roll);
+    g->roll = roll;
+    g->beta = beta;
+    g->l = vec(cb, sb, 0.0);
+    g->t = vec(sb * sr, -cb * sr, cr);
+    g->n = vec(-cr * sb, cr * cb, sr);
+    g->A3 = axpy(-h, g->l, g->G);
+    g->D2 = axpy(-(h - d1), g->l, g->G);
+    /* loop E (kinematics._crank_e_u) */
+    wx = g->G.x - d2;
+    wy = g->G.y;
+    double p = wx * g->l.x + wy * g->l.y;
+    double c0 = wx * wx + wy * wy - l6 * l6;
+    double disc_e = p * p - c0;
+    double root = sqrt(clip0(disc_e));
+    double denominator = p + root;
+    double u = denominator > 0.0 ? c0 / denominator : p - root;
+    g->u = u;
+    g->E2 = axpy(-u, g->l, g->G);
+    double half_b = 0.5 * b;
+    g->B4 = axpy(half_b, g->t, g->G);
+    g->C4 = axpy(-half_b, g->t, g->G);
+    g->LA = hypot(g->A3.x, g->A3.y);
+    g->dA = vec(g->A3.x / g->LA, g->A3.y / g->LA, 0.0);
+    v3 B1 = vec(d2 + d3 + d4, 0.0, d5);
+    v3 C1 = vec(B1.x, 0.0, -d5);
+    unit_leg(g->B4, B1, &g->LB, &g->dB, &g->hB, &g->e2B);
+    unit_leg(g->C4, C1, &g->LC, &g->dC, &g->hC, &g->e2C);
+    g->dD = vec((g->D2.x - d2 - d3) / l5, g->D2.y / l5, 0.0);
+    g->dE = vec((g->E2.x - d2) / l6, g->E2.y / l6, 0.0);
+    double theta_A = atan2(g->dA.y, g->dA.x);
+    const double *L0 = P + P_L0;
+    double *raw = g->raw;
+    raw[0] = theta_A;
+    raw[1] = g->LA - L0[0];
+    raw[2] = beta - theta_A;
+    raw[3] = atan2(g->dB.y, g->dB.x);
+    raw[4] = -atan2(g->dB.z, g->hB);
+    raw[5] = g->LB - L0[1];
+    raw[6] = atan2(g->dC.y, g->dC.x);
+    raw[7] = -atan2(g->dC.z, g->hC);
+    raw[8] = g->LC - L0[2];
+    raw[9] = atan2(g->dD.y, g->dD.x);
+    raw[10] = atan2(g->dE.y, g->dE.x);
+    raw[11] = (h - d1) - u;
+    const double tiny = 1e-9;
+    g->failed = !(disc_d >= 0.0) ? LOOP_D
+              : !(disc_e >= 0.0) ? LOOP_E
+              : !((u >= 0.0) && (u <= h)) ? LOOP_E2
+              : !(g->LA > tiny) ? LOOP_A
+              : !((g->LB > tiny) && (g->hB > tiny)) ? LOOP_B
+              : !((g->LC > tiny) && (g->hC > tiny)) ? LOOP_C : -1;
+    /* joint variables from the central configuration, angles wrapped to (-pi, pi] */
+    for (int i = 0; i < 12; i++)
+        raw[i] = raw[i] - P[P_ZERO + i];
+    for (int i = 0; i < 8; i++) {
+        int j = ANGLES[i];
+        raw[j] = pymod(raw[j] + M_PI, 2.0 * M_PI) - M_PI;
+    }
+}
+
+/* ------------------------------------------------------------------------ */
+/* Connectivity: block factorisation of Q (kinematics.factorize,             */
+/* solve_connectivity; eq. 11-12, 16)                                        */
+/* ------------------------------------------------------------------------ */
+typedef struct { v3 aD, bD, cA, aE, cE, cB, cC, eB, eC; double detD, detE; } connectivity;
+
+static void factorize(const double *P, const geometric *g, connectivity *f)
+{
+    v3 D1 = vec(P[P_D2] + P[P_D3], 0.0, 0.0), E1 = vec(P[P_D2], 0.0, 0.0);
+    f->aD = zx(sub(g->G, g->D2));
+    f->bD = zx(sub(g->D2, D1));
+    f->aE = zx(sub(g->E2, E1));
+    v3 bE = g->l;
+    f->detD = f->aD.x * f->bD.y - f->aD.y * f->bD.x;
+    f->cA = zx(sub(g->G, g->A3));
+    f->cE = zx(sub(g->G, g->E2));
+    f->detE = -(f->aE.x * bE.y - f->aE.y * bE.x);
+    f->cB = scale(-1.0, zx(sub(g->B4, g->G)));
+    f->cC = scale(-1.0, zx(sub(g->C4, g->G)));
+    f->eB = cross(g->e2B, g->dB);
+    f->eC = cross(g->e2C, g->dC);
+}
+
+static void solve_connectivity(const geometric *g, const connectivity *f, const double *r,
+                               double *X)
+{
+    double beta_dot = (r[8] * f->bD.y - r[9] * f->bD.x) / f->detD;
+    X[9] = (f->aD.x * r[9] - f->aD.y * r[8]) / f->detD;
+    double rx = r[0] - f->cA.x * beta_dot, ry = r[1] - f->cA.y * beta_dot;
+    X[1] = g->dA.x * rx + g->dA.y * ry;
+    X[0] = (g->dA.x * ry - g->dA.y * rx) / g->LA;
+    X[2] = beta_dot - X[0];
+    rx = r[10] - f->cE.x * beta_dot;
+    ry = r[11] - f->cE.y * beta_dot;
+    X[10] = (-rx * g->l.y + ry * g->l.x) / f->detE;
+    X[11] = (f->aE.x * ry - f->aE.y * rx) / f->detE;
+    for (int leg = 0; leg < 2; leg++) {
+        int k = leg ? 6 : 3, row = leg ? 5 : 2;
+        v3 c = leg ? f->cC : f->cB, e2 = leg ? g->e2C : g->e2B, e = leg ? f->eC : f->eB;
+        v3 d = leg ? g->dC : g->dB;
+        double h = leg ? g->hC : g->hB, L = leg ? g->LC : g->LB;
+        v3 rr = vec(r[row] - c.x * beta_dot, r[row + 1] - c.y * beta_dot, r[row + 2]);
+        X[k] = dot(e2, rr) / (L * h);
+        X[k + 1] = dot(e, rr) / L;
+        X[k + 2] = dot(d, rr);
+    }
+}
+
+/* columns of P per unit surge, heave, roll rate (kinematics.pose_rate_columns, eq. 12) */
+static void pose_rate_columns(const geometric *g, double cols[3][12])
+{
+    v3 lB = cross(g->l, sub(g->B4, g->G)), lC = cross(g->l, sub(g->C4, g->G));
+    static const double surge[12] = {1, 0, 1, 0, 0, 1, 0, 0, 1, 0, 1, 0};
+    static const double heave[12] = {0, 1, 0, 1, 0, 0, 1, 0, 0, 1, 0, 1};
+    memcpy(cols[0], surge, sizeof surge);
+    memcpy(cols[1], heave, sizeof heave);
+    double roll[12] = {0.0, 0.0, lB.x, lB.y, lB.z, lC.x, lC.y, lC.z, 0.0, 0.0, 0.0, 0.0};
+    memcpy(cols[2], roll, sizeof roll);
+}
+
+/* S of eq. (16)-(17) (kinematics.acceleration_column) */
+static void acceleration_column(const double *P, const geometric *g, const double *V,
+                                const double *qd, const double *qdd, double *S)
+{
+    const double d2 = P[P_D2], d3 = P[P_D3], d4 = P[P_D4], d5 = P[P_D5], h = P[P_H];
+    v3 Gdd = vec(qdd[0], qdd[1], 0.0);
+    double roll_d = qd[2], roll_dd = qdd[2];
+    double beta_d = V[0] + V[2];
+    double beta_d2 = beta_d * beta_d;
+    v3 zl = zx(g->l);
+    double th = V[0], Ld = V[1], LA = g->LA;
+    v3 zdA = zx(g->dA);
+    S[0] = Gdd.x - 2.0 * Ld * th * zdA.x + th * th * LA * g->dA.x + beta_d2 * h * g->l.x;
+    S[1] = Gdd.y - 2.0 * Ld * th * zdA.y + th * th * LA * g->dA.y + beta_d2 * h * g->l.y;
+    v3 omega_P = vec(roll_d * g->l.x, roll_d * g->l.y, beta_d);
+    v3 eps_bias = axpy(roll_dd, g->l, scale(beta_d * roll_d, zl));
+    double base_x = d2 + d3 + d4;
+    for (int leg = 0; leg < 2; leg++) {
+        int row = leg ? 5 : 2, k = leg ? 6 : 3;
+        v3 P4 = leg ? g->C4 : g->B4, P1 = vec(base_x, 0.0, leg ? -d5 : d5);
+        v3 d = leg ? g->dC : g->dB, e2 = leg ? g->e2C : g->e2B;
+        v3 r = sub(P4, g->G), rho = sub(P4, P1);
+        double w10 = V[k], w21 = V[k + 1], Lr = V[k + 2];
+        v3 omega = vec(w21 * e2.x, w21 * e2.y, w10);
+        v3 platform = cross(eps_bias, r);
+        platform = axpy(1.0, cross(omega_P, cross(omega_P, r)), platform);
+        v3 chain = scale(w10 * w21, cross(zx(e2), rho));
+        chain = axpy(1.0, cross(omega, cross(omega, rho)), chain);
+        chain = axpy(2.0 * Lr, cross(omega, d), chain);
+        S[row] = Gdd.x + platform.x - chain.x;
+        S[row + 1] = Gdd.y + platform.y - chain.y;
+        S[row + 2] = Gdd.z + platform.z - chain.z;
+    }
+    double thD2 = V[9] * V[9], D1x = d2 + d3;
+    S[8] = Gdd.x + beta_d2 * (g->G.x - g->D2.x) + thD2 * (g->D2.x - D1x);
+    S[9] = Gdd.y + beta_d2 * (g->G.y - g->D2.y) + thD2 * g->D2.y;
+    double thE2 = V[10] * V[10], v = V[11];
+    S[10] = Gdd.x + 2.0 * v * beta_d * zl.x + beta_d2 * (g->G.x - g->E2.x)
+            + thE2 * (g->E2.x - d2);
+    S[11] = Gdd.y + 2.0 * v * beta_d * zl.y + beta_d2 * (g->G.y - g->E2.y) + thE2 * g->E2.y;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Inverse dynamics (dynamics.body_states, required_wrench, joint_forces;   */
+/* eq. 18-22)                                                                */
+/* ------------------------------------------------------------------------ */
+typedef struct {
+    int present, moving;
+    axes3 R;
+    v3 com, omega, eps, acc;
+} body_state;
+
+/* add_body of dynamics.body_states: frame, centre of mass and, if inertial,
+   a_C = a_ref + eps x rho (+ omega x (omega x rho)), rho = C - ref */
+static void add_body(body_state *s, const double *body, axes3 R, v3 origin, v3 omega, v3 eps,
+                     v3 ref, v3 acc_ref, int vp)
+{
+    s->R = R;
+    s->com = add(origin, from_frame(&R, vec(body[1], body[2], body[3])));
+    if (!s->moving)
+        return;
+    v3 rho = sub(s->com, ref);
+    v3 acc = add(acc_ref, cross(eps, rho));
+    if (vp)
+        acc = add(acc, cross(omega, cross(omega, rho)));
+    s->omega = omega;
+    s->eps = eps;
+    s->acc = acc;
+}
+
+static void body_states(const double *P, int fx, const geometric *g, const double *V,
+                        const double *Gamma, const double *qd, const double *qdd,
+                        body_state *st)
+{
+    const int vp = (fx & E_VP) != 0;
+    const int payload = (fx & E_PAYLOAD) && (fx & E_HAS_PAYLOAD);
+    const v3 zero = vec(0.0, 0.0, 0.0), Z0 = vec(0.0, 0.0, 1.0);
+    for (int i = 0; i < N_BODIES; i++) {
+        int moving;
+        switch (i) {
+        case PLATFORM: moving = (fx & E_PLATFORM) != 0; break;
+        case PAYLOAD: moving = payload; break;
+        case CRANK_D: case CRANK_E: moving = (fx & E_CRANK) != 0; break;
+        default: moving = (fx & E_LEG) != 0;
+        }
+        st[i].moving = moving;
+        st[i].present = i == PAYLOAD ? payload : (moving || (fx & E_GRAVITY));
+    }
+    const double *B = P + P_BODIES;
+#define BODY(i) (B + (i) * BODY_SIZE)
+    /* chain A */
+    v3 zdA = zx(g->dA);
+    axes3 RA = {g->dA, zdA, Z0};
+    v3 wA = vec(0.0, 0.0, V[0]), eA = vec(0.0, 0.0, Gamma[0]);
+    if (st[CYL_A].present)
+        add_body(&st[CYL_A], BODY(CYL_A), RA, zero, wA, eA, zero, zero, vp);
+    if (st[PIS_A].present) {
+        v3 acc_slide = zero;
+        if (st[PIS_A].moving) {
+            acc_slide = scale(Gamma[1], g->dA);
+            if (vp)
+                acc_slide = axpy(2.0 * V[1] * V[0], zdA, acc_slide);
+        }
+        add_body(&st[PIS_A], BODY(PIS_A), RA, g->A3, wA, eA, zero, acc_slide, vp);
+    }
+    v3 Gdd = vec(qdd[0], qdd[1], 0.0);
+    v3 zl = zx(g->l);
+    if (st[ROD].present) {
+        axes3 R = {g->l, zl, Z0};
+        add_body(&st[ROD], BODY(ROD), R, g->A3, vec(0.0, 0.0, V[0] + V[2]),
+                 vec(0.0, 0.0, Gamma[0] + Gamma[2]), g->G, Gdd, vp);
+    }
+    if (st[PLATFORM].present || st[PAYLOAD].present) {
+        double beta_d = V[0] + V[2], beta_dd = Gamma[0] + Gamma[2];
+        double roll_d = qd[2], roll_dd = qdd[2];
+        v3 omega = vec(roll_d * g->l.x, roll_d * g->l.y, beta_d);
+        v3 eps = vec(roll_dd * g->l.x, roll_dd * g->l.y, beta_dd);
+        if (vp)
+            eps = axpy(beta_d * roll_d, zl, eps);
+        axes3 R = {g->l, g->n, g->t};
+        if (st[PLATFORM].present)
+            add_body(&st[PLATFORM], BODY(PLATFORM), R, g->A3, omega, eps, g->G, Gdd, vp);
+        if (st[PAYLOAD].present)
+            add_body(&st[PAYLOAD], BODY(PAYLOAD), R, g->A3, omega, eps, g->G, Gdd, vp);
+    }
+    /* chains B, C */
+    double base_x = P[P_D2] + P[P_D3] + P[P_D4];
+    for (int leg = 0; leg < 2; leg++) {
+        int k = leg ? 6 : 3, cyl = leg ? CYL_C : CYL_B, pis = leg ? PIS_C : PIS_B;
+        v3 P1 = vec(base_x, 0.0, leg ? -P[P_D5] : P[P_D5]);
+        v3 P4 = leg ? g->C4 : g->B4, d = leg ? g->dC : g->dB, e2 = leg ? g->e2C : g->e2B;
+        axes3 R = {d, cross(e2, d), e2};
+        double w10 = V[k], w21 = V[k + 1];
+        v3 omega = vec(w21 * e2.x, w21 * e2.y, w10);
+        v3 eps = vec(Gamma[k + 1] * e2.x, Gamma[k + 1] * e2.y, Gamma[k]);
+        if (vp)
+            eps = axpy(w10 * w21, zx(e2), eps);
+        if (st[cyl].present)
+            add_body(&st[cyl], BODY(cyl), R, P1, omega, eps, P1, zero, vp);
+        if (st[pis].present) {
+            v3 acc_slide = scale(Gamma[k + 2], d);
+            if (vp)
+                acc_slide = axpy(2.0 * V[k + 2], cross(omega, d), acc_slide);
+            add_body(&st[pis], BODY(pis), R, P4, omega, eps, P1, acc_slide, vp);
+        }
+    }
+    /* cranks D, E */
+    for (int c = 0; c < 2; c++) {
+        int i = c ? CRANK_E : CRANK_D, k = c ? 10 : 9;
+        if (!st[i].present)
+            continue;
+        v3 P1 = vec(c ? P[P_D2] : P[P_D2] + P[P_D3], 0.0, 0.0), d = c ? g->dE : g->dD;
+        axes3 R = {d, zx(d), Z0};
+        add_body(&st[i], BODY(i), R, P1, vec(0.0, 0.0, V[k]), vec(0.0, 0.0, Gamma[k]), P1,
+                 zero, vp);
+    }
+#undef BODY
+}
+
+/* F_k0, M_k0 of eq. (21) about `about` (dynamics.required_wrench) */
+static void required_wrench(const body_state *s, const double *body, double gravity, v3 about,
+                            int vp, v3 *F, v3 *M)
+{
+    double m = body[0];
+    if (!s->moving) {
+        *F = vec(0.0, m * gravity, 0.0);
+        *M = cross(sub(s->com, about), *F);
+        return;
+    }
+    v3 a = s->acc;
+    *F = vec(m * a.x, m * (a.y + gravity), m * a.z);
+    const double *I = body + 4;
+    v3 moment_body = mat_vec(I, to_frame(&s->R, s->eps));
+    if (vp) {
+        v3 w = to_frame(&s->R, s->omega);
+        moment_body = add(moment_body, cross(w, mat_vec(I, w)));
+    }
+    *M = add(from_frame(&s->R, moment_body), cross(sub(s->com, about), *F));
+}
+
+/* sum of the required wrenches of the listed bodies about `about` */
+static void wrench(const double *P, const body_state *st, const int *names, int count,
+                   double gravity, v3 about, int vp, v3 *F, v3 *M)
+{
+    *F = vec(0.0, 0.0, 0.0);
+    *M = vec(0.0, 0.0, 0.0);
+    for (int i = 0; i < count; i++) {
+        int b = names[i];
+        if (!st[b].present)
+            continue;
+        v3 f, m;
+        required_wrench(&st[b], P + P_BODIES + b * BODY_SIZE, gravity, about, vp, &f, &m);
+        *F = add(*F, f);
+        *M = add(*M, m);
+    }
+}
+
+/* backward recursion of eq. (20)-(22) (dynamics.joint_forces) */
+static double joint_forces(const double *P, int fx, const geometric *g, const body_state *st,
+                           double *tau)
+{
+    double grav = (fx & E_GRAVITY) ? P[P_GRAVITY] : 0.0;
+    int vp = (fx & E_VP) != 0;
+    const v3 zero = vec(0.0, 0.0, 0.0);
+    static const int platform[2] = {PLATFORM, PAYLOAD}, rod[1] = {ROD}, pis_a[1] = {PIS_A},
+                     cyl_a[1] = {CYL_A};
+    v3 A2 = axpy(-P[P_L2], g->dA, g->A3);
+    v3 F4, M4, F30, M30, F20, M20, F10, M10;
+    wrench(P, st, platform, 2, grav, g->A3, vp, &F4, &M4);
+    wrench(P, st, rod, 1, grav, g->A3, vp, &F30, &M30);
+    v3 F3 = add(F30, F4), M3 = add(M30, M4);
+    wrench(P, st, pis_a, 1, grav, A2, vp, &F20, &M20);
+    v3 F2 = add(F20, F3);
+    v3 M2 = add(add(M20, M3), cross(sub(g->A3, A2), F3));
+    wrench(P, st, cyl_a, 1, grav, zero, vp, &F10, &M10);
+    v3 M1 = add(add(M10, M2), cross(A2, F2));
+    tau[0] = M1.z;
+    tau[1] = dot(g->dA, F2);
+    tau[2] = M3.z;
+    double tau_43 = dot(g->l, M4);
+    double base_x = P[P_D2] + P[P_D3] + P[P_D4];
+    for (int leg = 0; leg < 2; leg++) {
+        int k = leg ? 6 : 3, pis[1] = {leg ? PIS_C : PIS_B}, cyl[1] = {leg ? CYL_C : CYL_B};
+        v3 P1 = vec(base_x, 0.0, leg ? -P[P_D5] : P[P_D5]);
+        v3 P4 = leg ? g->C4 : g->B4, d = leg ? g->dC : g->dB, e2 = leg ? g->e2C : g->e2B;
+        v3 P3 = axpy(-P[P_L4], d, P4);
+        v3 Fp, Mp, Fc, Mc;
+        wrench(P, st, pis, 1, grav, P3, vp, &Fp, &Mp);
+        wrench(P, st, cyl, 1, grav, P1, vp, &Fc, &Mc);
+        v3 Mleg = add(add(Mc, Mp), cross(sub(P3, P1), Fp));
+        tau[k] = Mleg.z;
+        tau[k + 1] = dot(e2, Mleg);
+        tau[k + 2] = dot(d, Fp);
+    }
+    for (int c = 0; c < 2; c++) {
+        int name[1] = {c ? CRANK_E : CRANK_D};
+        v3 P1 = vec(c ? P[P_D2] : P[P_D2] + P[P_D3], 0.0, 0.0), F, M;
+        wrench(P, st, name, 1, grav, P1, vp, &F, &M);
+        tau[c ? 10 : 9] = M.z;
+    }
+    tau[11] = 0.0;
+    return tau_43;
+}
+
+/* 2-norm condition number of the 2x2 with columns a, b (status.condition_2x2) */
+static double condition_2x2(v3 a, v3 b)
+{
+    double f2 = a.x * a.x + a.y * a.y + b.x * b.x + b.y * b.y;
+    double det = fabs(a.x * b.y - a.y * b.x);
+    double sigma_max2 = 0.5 * (f2 + sqrt(clip0((f2 - 2.0 * det) * (f2 + 2.0 * det))));
+    return sigma_max2 / det;
+}
+
+/* ------------------------------------------------------------------------ */
+/* One sample: solver._solve plus the status rules of solver._solve_chunk    */
+/* ------------------------------------------------------------------------ */
+static const int ACTUATED[3] = {1, 5, 8};
+
+static void solve_one(const double *P, int fx, const double *q, const double *qd,
+                      const double *qdd, double *out)
+{
+    memset(out, 0, OUT_SIZE * sizeof(double));
+    /* non-finite input: nothing is computed */
+    for (int i = 0; i < 9; i++) {
+        double v = i < 3 ? q[i] : i < 6 ? qd[i - 3] : qdd[i - 6];
+        if (!isfinite(v)) {
+            out[O_STATUS] = S_INVALID;
+            out[O_INFO] = i;
+            return;
+        }
+    }
+    geometric g;
+    connectivity f;
+    double cols[3][12], K[3][12], V[12], S[12], Gamma[12], Gdyn[12], tau[12];
+    inverse_geometry(P, q, &g);                                   /* eq. (5)-(8) */
+    if (g.failed >= 0) {
+        out[O_STATUS] = S_UNREACHABLE;
+        out[O_INFO] = g.failed;
+        return;
+    }
+    factorize(P, &g, &f);                                         /* eq. (12) */
+    pose_rate_columns(&g, cols);
+    for (int c = 0; c < 3; c++)
+        solve_connectivity(&g, &f, cols[c], K[c]);
+    for (int j = 0; j < 12; j++)                                  /* eq. (11) */
+        V[j] = K[0][j] * qd[0] + K[1][j] * qd[1] + K[2][j] * qd[2];
+    acceleration_column(P, &g, V, qd, qdd, S);                    /* eq. (17) */
+    solve_connectivity(&g, &f, S, Gamma);                         /* eq. (16) */
+    const int any_inertia = (fx & (E_PLATFORM | E_PAYLOAD | E_LEG | E_CRANK)) != 0;
+    const double *Gd = Gamma;
+    if (!((fx & E_VP) || !any_inertia)) {   /* accelerations from rest: K qdd */
+        for (int j = 0; j < 12; j++)
+            Gdyn[j] = K[0][j] * qdd[0] + K[1][j] * qdd[1] + K[2][j] * qdd[2];
+        Gd = Gdyn;
+    }
+    body_state st[N_BODIES];
+    body_states(P, fx, &g, V, Gd, qd, qdd, st);
+    double tau_43 = joint_forces(P, fx, &g, st, tau);             /* eq. (18)-(22) */
+    /* actuator Jacobian J[i][k] = K[k][actuated i], its inverse (adjugate) */
+    double J[3][3];
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++)
+            J[i][k] = K[k][ACTUATED[i]];
+    double a = J[0][0], b = J[0][1], c = J[0][2], d = J[1][0], e = J[1][1], ff = J[1][2],
+           gg = J[2][0], h = J[2][1], ii = J[2][2];
+    double A = e * ii - ff * h, B = ff * gg - d * ii, C = d * h - e * gg;
+    double inv_det = 1.0 / (a * A + b * B + c * C);
+    double Jinv[3][3] = {
+        {A * inv_det, (c * h - b * ii) * inv_det, (b * ff - c * e) * inv_det},
+        {B * inv_det, (a * ii - c * gg) * inv_det, (c * d - a * ff) * inv_det},
+        {C * inv_det, (b * gg - a * h) * inv_det, (a * e - b * d) * inv_det}};
+    /* eq. (14) and (23): virtual joint velocities, virtual work */
+    double force[3], rate[3];
+    for (int m = 0; m < 3; m++) {
+        double sum = 0.0;
+        for (int j = 0; j < 11; j++) {
+            double Vv = K[0][j] * Jinv[0][m] + K[1][j] * Jinv[1][m] + K[2][j] * Jinv[2][m];
+            sum += Vv * tau[j];
+        }
+        force[m] = sum + Jinv[2][m] * tau_43;
+        rate[m] = V[ACTUATED[m]];
+    }
+    if (fx & E_FRICTION) {
+        const double *vis = P + P_VISCOUS, *cou = P + P_COULOMB;
+        for (int m = 0; m < 3; m++)
+            force[m] = force[m] + (vis[m] * rate[m]
+                                   + cou[m] * tanh(rate[m] / P[P_SMOOTHING]));
+    }
+    /* conditions (solver.kinematic_condition, solver.jacobian_condition) */
+    double LA = g.LA, LB = g.LB, LC = g.LC;
+    double kin = nmax(nmax(nmax(nmax(nmax(LA, 1.0) / nmin(LA, 1.0),
+                                     nmax(LB, 1.0) / nmin(LB * g.hB, 1.0)),
+                                nmax(LC, 1.0) / nmin(LC * g.hC, 1.0)),
+                           condition_2x2(f.aD, f.bD)),
+                      condition_2x2(f.aE, g.l));
+    double cs = 0.5 * P[P_B], nJ = 0.0, nI = 0.0;
+    for (int r = 0; r < 3; r++)
+        nJ += J[r][0] * J[r][0] + J[r][1] * J[r][1] + (J[r][2] / cs) * (J[r][2] / cs);
+    for (int j = 0; j < 3; j++)
+        nI += Jinv[0][j] * Jinv[0][j] + Jinv[1][j] * Jinv[1][j]
+              + (cs * Jinv[2][j]) * (cs * Jinv[2][j]);
+    double jac = sqrt(nJ * nI);
+    /* the result row */
+    out[O_LENGTH] = LA;
+    out[O_LENGTH + 1] = LB;
+    out[O_LENGTH + 2] = LC;
+    for (int m = 0; m < 3; m++) {
+        out[O_STROKE + m] = g.raw[ACTUATED[m]];
+        out[O_RATE + m] = rate[m];
+        out[O_ACCELERATION + m] = Gamma[ACTUATED[m]];
+        out[O_FORCE + m] = force[m];
+        out[O_POWER + m] = force[m] * rate[m];
+    }
+    for (int j = 0; j < 12; j++) {
+        out[O_JOINTS + j] = g.raw[j];
+        out[O_JOINT_RATES + j] = V[j];
+        out[O_JOINT_ACCELERATIONS + j] = Gamma[j];
+    }
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++)
+            out[O_JACOBIAN + 3 * i + k] = J[i][k];
+    /* status (solver._solve_chunk): worst that applies */
+    int results_finite = isfinite(kin) && isfinite(jac);
+    for (int i = 0; i < O_JACOBIAN; i++)
+        results_finite = results_finite && isfinite(out[i]);
+    const double *lim = P + P_LIMITS;
+    int near = !((kin <= lim[4]) && (jac <= lim[5]));
+    int over = 0;
+    for (int m = 0; m < 3; m++) {
+        double s = out[O_STROKE + m];
+        over |= (s < lim[0]) | (s > lim[1]) | (fabs(rate[m]) > lim[2])
+                | (fabs(force[m]) > lim[3]);
+    }
+    int code = over ? S_LIMIT : S_OK;
+    if (near)
+        code = S_NEAR_SINGULAR;
+    if (!results_finite && !near) {
+        memset(out, 0, OUT_SIZE * sizeof(double));
+        out[O_STATUS] = S_INVALID;
+        out[O_INFO] = -1;                    /* results not finite: input too large */
+        return;
+    }
+    for (int i = 0; i < O_BETA; i++)         /* no NaN or infinity with any status */
+        if (!isfinite(out[i]))
+            out[i] = 0.0;
+    out[O_BETA] = isfinite(g.beta) ? g.beta : 0.0;
+    out[O_KIN] = isfinite(kin) ? kin : DBL_MAX;
+    out[O_JAC] = isfinite(jac) ? jac : DBL_MAX;
+    out[O_STATUS] = code;
+    out[O_INFO] = results_finite;            /* near_singular: 0 = exact singularity */
+}
+
+/* ------------------------------------------------------------------------ */
+/* Python bindings                                                            */
+/* ------------------------------------------------------------------------ */
+static int get_params(PyObject *obj, Py_buffer *view)
+{
+    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS) < 0)
+        return -1;
+    if (view->len != (Py_ssize_t)(P_SIZE * sizeof(double))) {
+        PyErr_Format(PyExc_ValueError, "packed model must be %d doubles", (int)P_SIZE);
+        PyBuffer_Release(view);
+        return -1;
+    }
+    return 0;
+}
+
+PyDoc_STRVAR(solve_doc,
+"solve(params, effects, out, q0, q1, q2, qd0, qd1, qd2, qdd0, qdd1, qdd2)\n"
+"    -> (status, info, beta, kinematic_condition, jacobian_condition)\n\n"
+"One sample: fills the writable buffer `out` (OUT_SIZE doubles) and returns the\n"
+"scalars of the row. params: the packed model (kernel.pack_model); effects: bit set.");
+
+static PyObject *py_solve(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 12) {
+        PyErr_SetString(PyExc_TypeError, "solve() takes 12 arguments");
+        return NULL;
+    }
+    double x[9];
+    for (int i = 0; i < 9; i++) {
+        x[i] = PyFloat_AsDouble(args[3 + i]);
+        if (x[i] == -1.0 && PyErr_Occurred())
+            return NULL;
+    }
+    long fx = PyLong_AsLong(args[1]);
+    if (fx == -1 && PyErr_Occurred())
+        return NULL;
+    Py_buffer pv, ov;
+    if (get_params(args[0], &pv) < 0)
+        return NULL;
+    if (PyObject_GetBuffer(args[2], &ov, PyBUF_C_CONTIGUOUS | PyBUF_WRITABLE) < 0) {
+        PyBuffer_Release(&pv);
+        return NULL;
+    }
+    if (ov.len != (Py_ssize_t)(OUT_SIZE * sizeof(double))) {
+        PyBuffer_Release(&pv);
+        PyBuffer_Release(&ov);
+        PyErr_Format(PyExc_ValueError, "out must be %d doubles", (int)OUT_SIZE);
+        return NULL;
+    }
+    double *out = (double *)ov.buf;
+    solve_one((const double *)pv.buf, (int)fx, x, x + 3, x + 6, out);
+    PyBuffer_Release(&pv);
+    PyBuffer_Release(&ov);
+    return Py_BuildValue("(iiddd)", (int)out[O_STATUS], (int)out[O_INFO], out[O_BETA],
+                         out[O_KIN], out[O_JAC]);
+}
+
+PyDoc_STRVAR(solve_batch_doc,
+"solve_batch(params, effects, q, qd, qdd, out) -> None\n\n"
+"N samples: q, qd, qdd C-contiguous (N, 3) float64 buffers, out a writable\n"
+"C-contiguous (N, OUT_SIZE) float64 buffer. Releases the GIL while it runs.");
+
+static PyObject *py_solve_batch(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 6) {
+        PyErr_SetString(PyExc_TypeError, "solve_batch() takes 6 arguments");
+        return NULL;
+    }
+    long fx = PyLong_AsLong(args[1]);
+    if (fx == -1 && PyErr_Occurred())
+        return NULL;
+    Py_buffer views[5];
+    int got = 0;
+    PyObject *result = NULL;
+    if (get_params(args[0], &views[0]) < 0)
+        return NULL;
+    got = 1;
+    for (int i = 0; i < 4; i++) {
+        int flags = PyBUF_C_CONTIGUOUS | (i == 3 ? PyBUF_WRITABLE : 0);
+        if (PyObject_GetBuffer(args[2 + i], &views[1 + i], flags) < 0)
+            goto done;
+        got++;
+    }
+    Py_ssize_t n = views[1].len / (Py_ssize_t)(3 * sizeof(double));
+    if (views[1].len != n * 3 * (Py_ssize_t)sizeof(double)
+            || views[2].len != views[1].len || views[3].len != views[1].len
+            || views[4].len != n * OUT_SIZE * (Py_ssize_t)sizeof(double)) {
+        PyErr_SetString(PyExc_ValueError, "q, qd, qdd must be (N, 3) and out (N, OUT_SIZE)");
+        goto done;
+    }
+    {
+        const double *P = (const double *)views[0].buf;
+        const double *q = (const double *)views[1].buf, *qd = (const double *)views[2].buf,
+                     *qdd = (const double *)views[3].buf;
+        double *out = (double *)views[4].buf;
+        Py_BEGIN_ALLOW_THREADS
+        for (Py_ssize_t i = 0; i < n; i++)
+            solve_one(P, (int)fx, q + 3 * i, qd + 3 * i, qdd + 3 * i, out + OUT_SIZE * i);
+        Py_END_ALLOW_THREADS
+    }
+    Py_INCREF(Py_None);
+    result = Py_None;
+done:
+    for (int i = 0; i < got; i++)
+        PyBuffer_Release(&views[i]);
+    return result;
+}
+
+static PyMethodDef methods[] = {
+    {"solve", (PyCFunction)(void (*)(void))py_solve, METH_FASTCALL, solve_doc},
+    {"solve_batch", (PyCFunction)(void (*)(void))py_solve_batch, METH_FASTCALL,
+     solve_batch_doc},
+    {NULL, NULL, 0, NULL}
+};
+
+static struct PyModuleDef module = {
+    PyModuleDef_HEAD_INIT, "_kernel",
+    "Compiled scalar path of the flight_sim_dynamics solver (see kernel.py).", -1, methods
+};
+
+PyMODINIT_FUNC PyInit__kernel(void)
+{
+    PyObject *m = PyModule_Create(&module);
+    if (m == NULL)
+        return NULL;
+    if (PyModule_AddIntConstant(m, "P_SIZE", P_SIZE) < 0
+            || PyModule_AddIntConstant(m, "OUT_SIZE", OUT_SIZE) < 0
+            || PyModule_AddIntConstant(m, "BODY_SIZE", BODY_SIZE) < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}
