@@ -25,8 +25,9 @@ anywhere):
 5. a soak of the node for ``--soak-minutes``: VmRSS every 10 s, lost setpoints,
    the /diagnostics solve-time figures per period;
 
-plus profiles: cProfile of ``fsd.solve`` (per function, by tottime; phases;
-bytecodes per solve) and of the node under load (py-spy if installed, and/or
+plus profiles: the parts of ``fsd.solve`` (compiled kernel, wrapper, and the
+Python reference code for comparison), the batch with one and all threads,
+and the node under load (py-spy if installed, and/or
 cProfile of the node process). rclpy is imported only by the node/echo/driver
 processes, never by this one.
 """
@@ -64,7 +65,7 @@ for _p in (str(ROOT), str(ROOT / 'scripts')):
         sys.path.insert(0, _p)
 
 import flight_sim_dynamics as fsd  # noqa: E402
-from flight_sim_dynamics import bench  # noqa: E402
+from flight_sim_dynamics import bench, kernel  # noqa: E402
 from flight_sim_dynamics.cueing import PlannerSequence  # noqa: E402
 
 import bench_node  # noqa: E402  (scripts/bench_node.py)
@@ -635,123 +636,68 @@ def _flat(trend: dict) -> bool:
 # ----------------------------------------------------------------------------
 # Profiles
 # ----------------------------------------------------------------------------
-PHASES = ('inverse_geometry', 'factorize', 'pose_rate_columns', 'solve_connectivity',
-          'acceleration_column', 'body_states', 'joint_forces', 'actuator_jacobian',
-          'virtual_velocities', 'actuator_forces', 'kinematic_condition', 'jacobian_condition')
-
-
-def _short(key: tuple) -> str:
-    filename, line, func = key
-    if filename == '~':
-        return func
-    p = Path(filename)
-    try:
-        rel = p.resolve().relative_to(ROOT)
-        name = str(rel)
-    except ValueError:
-        parts = p.parts
-        name = '/'.join(parts[parts.index('site-packages') + 1:]) if 'site-packages' in parts \
-            else p.name
-    return f'{name}:{line}({func})'
-
-
-def count_bytecodes(fn: Callable[[], Any]) -> tuple[int, int]:
-    """(bytecode instructions, of which BINARY_OP: the arithmetic) executed by
-    one call of ``fn`` (sys.settrace with opcode events)."""
-    import dis
-
-    binary = dis.opmap.get('BINARY_OP', -1)
-    n = [0, 0]
-
-    def tracer(frame, event, arg):
-        frame.f_trace_opcodes = True
-        if event == 'opcode':
-            n[0] += 1
-            code = frame.f_code.co_code
-            if frame.f_lasti < len(code) and code[frame.f_lasti] == binary:
-                n[1] += 1
-        return tracer
-    sys.settrace(tracer)
-    try:
-        fn()
-    finally:
-        sys.settrace(None)
-    return n[0], n[1]
+def _per_call_us(fn: Callable[[], Any], n: int, repeats: int = 5) -> float:
+    """Best of ``repeats`` runs of n calls, us per call (the load only adds time)."""
+    best = math.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        for _ in range(n):
+            fn()
+        best = min(best, time.perf_counter() - t0)
+    return 1e6 * best / n
 
 
 def profile_solver(args: argparse.Namespace) -> dict:
+    """Where the time of one ``fsd.solve`` goes: the compiled kernel alone, its
+    Python wrapper, and the Python reference code for comparison; and the
+    batch with one thread, all threads and the Python reference code."""
     n = args.profile_solves
-    log(f'profile: cProfile of {n} fsd.solve calls (full)')
-    full = fsd.load_model(scene='full')
-    qs = fsd.load_model(scene='quasi_static')
+    log(f'profile: the parts of fsd.solve ({n} calls each)')
     states = as_states(*sequence_states(100.0))
-    for k in range(200):
-        fsd.solve(full, *states[k % len(states)])
-    prof = cProfile.Profile()
-    prof.enable()
-    for k in range(n):
-        fsd.solve(full, *states[k % len(states)])
-    prof.disable()
-    st = pstats.Stats(prof)
-    total_tt = sum(v[2] for v in st.stats.values())
-    top = sorted(st.stats.items(), key=lambda kv: -kv[1][2])[:args.profile_top]
-    rows = [dict(func=_short(k), calls=v[1] / n, tottime_us=1e6 * v[2] / n,
-                 cumtime_us=1e6 * v[3] / n, pct=100.0 * v[2] / total_tt) for k, v in top]
-    phases = []
-    for name in PHASES:
-        hits = [(k, v) for k, v in st.stats.items() if k[2] == name and 'flight_sim' in k[0]]
-        if hits:
-            calls = sum(v[1] for _, v in hits)
-            cum = sum(v[3] for _, v in hits)
-            phases.append(dict(phase=name, calls=calls / n, cumtime_us=1e6 * cum / n,
-                               pct=100.0 * cum / total_tt))
-    # by kind: the 3-vector helpers, numpy, builtins
-    kinds = {'flight_sim_dynamics/vectors.py (3-vector helpers)': 0.0, 'numpy': 0.0,
-             'builtins (sum, min, max, math, ...)': 0.0}
-    calls_kind = dict.fromkeys(kinds, 0.0)
-    for k, v in st.stats.items():
-        if 'vectors.py' in k[0]:
-            key = 'flight_sim_dynamics/vectors.py (3-vector helpers)'
-        elif 'numpy' in k[0] or 'numpy' in k[2]:
-            key = 'numpy'
-        elif k[0] == '~':
-            key = 'builtins (sum, min, max, math, ...)'
-        else:
-            continue
-        kinds[key] += v[2]
-        calls_kind[key] += v[1]
-    by_kind = [dict(kind=k, calls=calls_kind[k] / n, tottime_us=1e6 * t / n,
-                    pct=100.0 * t / total_tt) for k, t in kinds.items()]
-    bc_full, arith_full = count_bytecodes(lambda: fsd.solve(full, *states[50]))
-    bc_qs, arith_qs = count_bytecodes(lambda: fsd.solve(qs, *states[50]))
-    prof_qs = cProfile.Profile()
-    prof_qs.enable()
-    for k in range(min(n, 500)):
-        fsd.solve(qs, *states[k % len(states)])
-    prof_qs.disable()
-    calls_qs = pstats.Stats(prof_qs).total_calls / min(n, 500)
-    return dict(n=n, total_calls=st.total_calls / n, profiled_us=1e6 * total_tt / n, top=rows,
-                phases=phases, by_kind=by_kind, bytecodes_full=bc_full, bytecodes_qs=bc_qs,
-                arith_full=arith_full, arith_qs=arith_qs, calls_qs=calls_qs,
-                batch=profile_batch(args, full))
+    q, qd, qdd = states[50]
+    out: dict[str, Any] = dict(n=n, kernel=kernel.enabled(),
+                               kernel_path=getattr(kernel._kernel, '__file__', None))
+    for scene in ('full', 'quasi_static'):
+        model = fsd.load_model(scene=scene)
+        part: dict[str, float] = {}
+        if kernel.enabled():
+            params, bits = kernel.prepared(model)
+            buf = np.empty(kernel.OUT_SIZE)
+            c_solve = kernel._kernel.solve
+            part['kernel'] = _per_call_us(lambda: c_solve(params, bits, buf, *q, *qd, *qdd), n)
+            part['solve_row'] = _per_call_us(lambda: kernel.solve_row(model, q, qd, qdd), n)
+        part['solve'] = _per_call_us(lambda: fsd.solve(model, q, qd, qdd), n)
+        part['read'] = _per_call_us(lambda: fsd.solve(model, q, qd, qdd).force[0], n)
+        with kernel.use_kernel(False):
+            part['python'] = _per_call_us(lambda: fsd.solve(model, q, qd, qdd),
+                                          max(n // 20, 20), 3)
+        out[scene] = part
+    full = fsd.load_model(scene='full')
+    nb = min(args.batch_n, 100_000)
+    Q, Qd, Qdd = tiled(sequence_states(1000.0), nb)
+    batch: dict[str, float] = dict(n=nb, threads=kernel._threads())
+    if kernel.enabled():
+        saved = kernel.THREAD_MIN_SAMPLES
+        try:
+            kernel.THREAD_MIN_SAMPLES = nb + 1          # one thread
+            batch['one_thread'] = nb / min(_timed(lambda: fsd.solve_batch(full, Q, Qd, Qdd))
+                                           for _ in range(3))
+        finally:
+            kernel.THREAD_MIN_SAMPLES = saved
+        batch['threads_rate'] = nb / min(_timed(lambda: fsd.solve_batch(full, Q, Qd, Qdd))
+                                         for _ in range(3))
+    m = min(nb, 20_000)
+    with kernel.use_kernel(False):
+        batch['python'] = m / _timed(lambda: fsd.solve_batch(full, Q[:m], Qd[:m], Qdd[:m]))
+    out['batch'] = batch
+    return out
 
 
-def profile_batch(args: argparse.Namespace, model: Any) -> dict:
-    """cProfile of one solve_batch call (the numpy ufuncs are charged to the
-    Python functions that call them)."""
-    n = min(args.batch_n, 50_000)
-    Q, Qd, Qdd = tiled(sequence_states(1000.0), n)
-    prof = cProfile.Profile()
-    prof.enable()
-    fsd.solve_batch(model, Q, Qd, Qdd)
-    prof.disable()
-    st = pstats.Stats(prof)
-    total_tt = sum(v[2] for v in st.stats.values())
-    top = sorted(st.stats.items(), key=lambda kv: -kv[1][2])[:min(args.profile_top, 10)]
-    return dict(n=n, total_s=total_tt, calls=st.total_calls,
-                top=[dict(func=_short(k), calls=v[1], tottime_ms=1e3 * v[2],
-                          cumtime_ms=1e3 * v[3], pct=100.0 * v[2] / total_tt)
-                     for k, v in top])
+def _timed(fn: Callable[[], Any]) -> float:
+    gc.collect()
+    t0 = time.perf_counter()
+    fn()
+    return time.perf_counter() - t0
 
 
 def find_py_spy() -> str | None:
@@ -1165,36 +1111,35 @@ def markdown(res: dict, rows: list[Row], argv: Sequence[str], started: float,
     w('## Profiles\n\n')
     if 'profile_solver' in res:
         p = res['profile_solver']
-        w(f'### The solver (`fsd.solve`, full model)\n\ncProfile over {p["n"]} calls (states '
-          f'of section 1). Per solve: {p["total_calls"]:.0f} Python function calls, '
-          f'{p["bytecodes_full"]:,} bytecode instructions executed (counted with '
-          f'`sys.settrace`), of which {p["arith_full"]:,} are arithmetic (`BINARY_OP`) '
-          f'(`quasi_static`: {p["calls_qs"]:.0f} calls, {p["bytecodes_qs"]:,} instructions, '
-          f'{p["arith_qs"]:,} arithmetic); {p["profiled_us"]:.0f} us per solve under the '
-          f'profiler (its overhead is per call, so small helpers are inflated). Top '
-          f'{len(p["top"])} by tottime, per solve:\n\n')
-        w(table(['function', 'calls per solve', 'tottime us', 'cumtime us', '% of tottime'],
-                [[f'`{r["func"]}`', f'{r["calls"]:.0f}', f'{r["tottime_us"]:.1f}',
-                  f'{r["cumtime_us"]:.1f}', f'{r["pct"]:.1f}'] for r in p['top']],
-                ['l', 'r', 'r', 'r', 'r']) + '\n\n')
-        w('Phases of `solver._solve` (cumulative, per solve, same profile):\n\n')
-        w(table(['phase', 'calls per solve', 'cumtime us', '% of profiled total'],
-                [[f'`{r["phase"]}`', f'{r["calls"]:.0f}', f'{r["cumtime_us"]:.1f}',
-                  f'{r["pct"]:.1f}'] for r in p['phases']]) + '\n\n')
-        w(table(['kind of callee', 'calls per solve', 'tottime us', '% of tottime'],
-                [[r['kind'], f'{r["calls"]:.0f}', f'{r["tottime_us"]:.1f}', f'{r["pct"]:.1f}']
-                 for r in p['by_kind']]) + '\n\n')
-        pb = p.get('batch')
-        if pb:
-            w(f'### The batch solver (`fsd.solve_batch`, full model)\n\ncProfile of one call on '
-              f'{pb["n"]:,} samples ({pb["total_s"]:.2f} s under the profiler, '
-              f'{pb["calls"]:,} Python function calls in all: the per-sample work is in numpy '
-              f'ufuncs, which cProfile charges to the Python function whose arithmetic '
-              f'calls them). Top {len(pb["top"])} by tottime:\n\n')
-            w(table(['function', 'calls', 'tottime ms', 'cumtime ms', '% of tottime'],
-                    [[f'`{r["func"]}`', str(r['calls']), f'{r["tottime_ms"]:.0f}',
-                      f'{r["cumtime_ms"]:.0f}', f'{r["pct"]:.1f}'] for r in pb['top']],
-                    ['l', 'r', 'r', 'r', 'r']) + '\n\n')
+        impl = (f'the compiled kernel (`{Path(p["kernel_path"]).name}`, built from '
+                f'`src/kernel.c`)' if p['kernel'] else
+                '**the Python code: the compiled kernel was not available**')
+        w(f'### The solver: where one `fsd.solve` goes\n\n`fsd.solve` ran {impl}. Each figure '
+          f'is the best of 5 runs of {p["n"]} calls on one state of section 1 (us per call; '
+          f'the load of other jobs only adds time). "kernel" is the C function alone (packed '
+          f'model and output buffer prepared, 9 floats in); "solve_row" adds the model lookup '
+          f'and the output buffer; "fsd.solve" adds the argument checks and the `Solution` '
+          f'(its array fields are views of the output buffer, made on first access: '
+          f'"+ read force" includes one); "Python code" is the same solve through the '
+          f'reference Python implementation (`kernel.use_kernel(False)`), for comparison.\n\n')
+        trows = []
+        for scene in ('full', 'quasi_static'):
+            t = p[scene]
+            trows.append([f'`{scene}`', fmt(t.get('kernel', math.nan)),
+                          fmt(t.get('solve_row', math.nan)), fmt(t['solve']), fmt(t['read']),
+                          fmt(t['python'], 0), f'{t["python"] / t["solve"]:.0f}x'])
+        w(table(['scene', 'kernel us', 'solve_row us', 'fsd.solve us', '+ read force us',
+                 'Python code us', 'speed-up'], trows) + '\n\n')
+        pb = p['batch']
+        if 'one_thread' in pb:
+            w(f'`fsd.solve_batch`, full model, N = {pb["n"]:,} (best of 3): one thread '
+              f'{pb["one_thread"] / 1e3:.0f} k samples/s ({1e6 / pb["one_thread"]:.2f} us per '
+              f'sample, the kernel looped in C with the GIL released); split over the '
+              f'{pb["threads"]} usable cores {pb["threads_rate"] / 1e3:.0f} k samples/s; the '
+              f'Python code (numpy columns) {pb["python"] / 1e3:.0f} k samples/s.\n\n')
+        else:
+            w(f'`fsd.solve_batch` with the Python code: {pb["python"] / 1e3:.0f} k '
+              f'samples/s.\n\n')
     if 'profile_node' in res:
         pn = res['profile_node']
         if 'py_spy' in pn:
@@ -1269,96 +1214,50 @@ def analysis(res: dict, rows: list[Row]) -> str:
     """The note for each missed target, from the numbers of this run."""
     out: list[str] = []
     s, p = res.get('solve'), res.get('profile_solver')
-    if s and p:
-        med = s['full']['median']
-        per_bc = 1e3 * med / p['bytecodes_full']
-        vec = next((k for k in p['by_kind'] if k['kind'].startswith('flight_sim')), None)
-        npy = next((k for k in p['by_kind'] if k['kind'] == 'numpy'), None)
-        need = med / TARGET_SOLVE_MEDIAN_US
-        out.append(
-            f'**Per-cycle solve** (median {med:.0f} us vs {TARGET_SOLVE_MEDIAN_US:g} us: '
-            f'{need:.1f}x over; p99 {s["full"]["p99"]:.0f} vs {TARGET_SOLVE_P99_US:g} us; '
-            f'`quasi_static` {s["quasi_static"]["median"]:.0f} vs {TARGET_QS_US:g} us). '
-            f'Why: the scalar path is interpreted Python. One full solve executes '
-            f'{p["bytecodes_full"]:,} bytecode instructions in {p["total_calls"]:.0f} function '
-            f'calls, i.e. about {per_bc:.0f} ns per instruction on this machine, which is what '
-            f'CPython costs; no single hot spot dominates (the top function has '
-            f'{p["top"][0]["pct"]:.0f} % of tottime). The model itself is a few thousand '
-            f'floating-point operations, which compiled code does in a few microseconds. '
-            + (f'The 3-vector helpers of `vectors.py` alone are {vec["calls"]:.0f} calls per '
-               f'solve ({vec["pct"]:.0f} % of tottime under the profiler); ' if vec else '')
-            + (f'numpy is {npy["calls"]:.0f} calls ({npy["pct"]:.0f} %), mostly building the '
-               f'result arrays of `Solution`. ' if npy else '')
-            + f'At ~{per_bc:.0f} ns per instruction the target allows about '
-            f'{TARGET_SOLVE_MEDIAN_US * 1e3 / per_bc:,.0f} instructions: '
-            f'{need:.0f}x fewer. Pure-Python rewrites cannot get there: inlining the '
-            f'helpers into generated straight-line Python (one function, locals only, no '
-            f'tuples) removes the call overhead and perhaps halves the time, still far over. '
-            f'What would close it: a compiled kernel for the whole per-cycle path, called '
-            f'once per cycle with the 9 inputs and writing into a preallocated output buffer '
-            f'(so `Solution` wraps views instead of {npy["calls"] if npy else 0:.0f} numpy '
-            f'calls): '
-            f'(a) generated straight-line C (from the symbolic model, e.g. SymPy `cse` + '
-            f'codegen, or from the same Python code through a tracer) built as a small C '
-            f'extension or loaded with ctypes/cffi: a few us of arithmetic plus ~1-3 us of '
-            f'call and wrapping overhead; (b) numba `@njit` of the scalar code (same '
-            f'straight-line style, compiled at import or cached): similar, ~5 us, at the cost '
-            f'of a heavy dependency and JIT warm-up; (c) Cython with typed doubles: similar. '
-            f'Expected: 10-30 us median for `full`, under 10 us for `quasi_static` (which '
-            f'skips the inertia and velocity terms), and a p99 set by the machine\'s '
-            f'preemptions rather than the code. A numpy formulation per cycle is no way out '
-            f'(per-call overheads of 1-20 us per small array operation, the issue\'s 125 us).')
-        out.append(
-            f'The diagnostics-only quantities are already off the per-cycle path: '
-            f'`sol.cond` (SVD, median {s["cond"]["median"]:.0f} us here) is computed only on '
-            f'demand; the per-cycle condition figures are estimates from the factorisation '
-            f'(see `kinematic_condition` / `jacobian_condition` in the phase table).')
+    if s and p and not p['kernel']:
+        out.append('**Per-cycle solve and batch**: this run used the Python code because the '
+                   'compiled kernel was not built (no C compiler when the package was '
+                   f'installed?: {kernel.IMPORT_ERROR}). Build it (`pip install .` or '
+                   '`python setup.py build_ext --inplace`) and rerun; the Python code is '
+                   'the reference implementation, 50-100x slower.')
+    elif s and p:
+        f, qs = s['full'], s['quasi_static']
+        missed = (f['median'] > TARGET_SOLVE_MEDIAN_US or f['p99'] > TARGET_SOLVE_P99_US
+                  or qs['median'] > TARGET_QS_US)
+        if missed:
+            k = p['full']
+            out.append(
+                f'**Per-cycle solve** (full median {f["median"]:.1f} us, p99 {f["p99"]:.1f} us; '
+                f'`quasi_static` median {qs["median"]:.1f} us). Of a solve, the C kernel is '
+                f'{fmt(k.get("kernel", math.nan))} us and the rest is the Python wrapper '
+                f'(argument checks, the call, the `Solution`); the percentiles above include '
+                f'the preemptions of this shared 2-core machine (compare the typical block '
+                f'p99). Closing the rest means a thinner wrapper (e.g. a C-level `Solution`).')
     b = res.get('batch')
     c = res.get('csv')
     if b and b['best'] < TARGET_BATCH_PER_S:
-        arith = p['arith_full'] if p else 0
-        ns = 1e9 / b['best']
+        pb = (p or {}).get('batch', {})
         out.append(
             f'**Batch throughput** ({b["best"] / 1e3:.0f} k samples/s vs '
-            f'{TARGET_BATCH_PER_S / 1e3:.0f} k: needs {TARGET_BATCH_PER_S / b["best"]:.1f}x). '
-            f'Why: `solve_batch` runs the per-cycle code on numpy columns of '
-            f'{fsd.solver.BATCH_CHUNK} samples, so each of the ~{arith:,} arithmetic '
-            f'operations of a solve becomes one numpy ufunc call per chunk that allocates a '
-            f'temporary column and makes a pass over its inputs: {ns:.0f} ns per sample is '
-            f'~{ns / max(arith, 1):.1f} ns per operation per sample, the cost of streaming three '
-            f'8-byte values through memory for one flop (the profile of `solve_batch` above '
-            f'charges the time to the functions doing that arithmetic, led by the 3-vector '
-            f'helpers). What would close it: the compiled kernel of the per-cycle solve, looped '
-            f'over the samples in compiled code (values stay in registers, no temporaries): '
-            f'~{arith:,} flops plus a few dozen sqrt/trigonometric calls per sample, about '
-            f'0.5-2 us, i.e. 0.5-2 M samples/s per core; `numba` with `prange` or a C loop '
-            f'over the same generated code. Within numpy, cutting the temporaries (in-place '
-            f'`out=` arithmetic, `numexpr` for the long expressions) would give perhaps '
-            f'1.5-2x: not enough alone.')
+            f'{TARGET_BATCH_PER_S / 1e3:.0f} k). The kernel does '
+            + (f'{pb["one_thread"] / 1e3:.0f} k samples/s in one thread and '
+               f'{pb["threads_rate"] / 1e3:.0f} k on {pb["threads"]} cores in the profile run; '
+               if 'one_thread' in pb else '')
+            + 'on a shared machine the second core is often busy. About half of a sample\'s '
+            '~2 us is the 10 atan2/hypot/sincos calls of the inverse geometry and the wrench '
+            'recursion over 11 bodies; SIMD across samples (AVX2, four samples at once) is '
+            'what would take it further.')
     if c and c['median'] >= TARGET_CSV_S:
         parts = sorted([('writing the CSV (`write_csv`)', c['write']),
                         ('the solve (`solve_batch` + columns)', c['solve']),
                         ('reading the CSV (`read_csv`)', c['read']),
                         ('interpreter start-up and imports', c['startup'])],
                        key=lambda kv: -kv[1])
-        solve_at_target = c['n'] / TARGET_BATCH_PER_S
-        rest = c['median'] - c['solve'] + solve_at_target
-        values = c['n'] * c.get('cols_out', 23)
         out.append(
-            f'**CSV end to end** ({c["median"]:.2f} s vs {TARGET_CSV_S:g} s: '
-            f'{c["median"] / TARGET_CSV_S:.1f}x over). Where the time goes: '
-            + ', '.join(f'{name} {t:.2f} s' for name, t in parts)
-            + f'. The batch target alone ({c["n"]:,} rows at 500 k/s = {solve_at_target:.2f} s) '
-            f'would bring the run to about {rest:.1f} s'
-            + (f', still over: the writer ({c["write"]:.2f} s for ~{values / 1e6:.1f} M exact '
-               f'shortest-round-trip values, ~{1e9 * c["write"] / values:.0f} ns each, '
-               f'vectorised numpy) and the reader ({c["read"]:.2f} s) must shrink too. A '
-               f'compiled shortest-round-trip formatter (Ryu or C++17 `std::to_chars`, as '
-               f'used by the pyarrow and polars CSV writers) runs at ~30-60 ns per value, '
-               f'~{values * 45e-9:.2f} s here; a compiled parser (pyarrow/polars `read_csv`, or '
-               f'a C `strtod` loop) reads these {c["bytes"] / 1e6:.0f} MB in ~0.1 s. With '
-               f'those and the batch target the run would be ~{c["startup"] + solve_at_target + 0.1 + values * 45e-9:.1f} s, '
-               f'start-up included.' if rest >= TARGET_CSV_S else ', under the target.'))
+            f'**CSV end to end** ({c["median"]:.2f} s vs {TARGET_CSV_S:g} s). Where the time '
+            f'goes: ' + ', '.join(f'{name} {t:.2f} s' for name, t in parts)
+            + '. The largest remaining stage is the one to compile next (a C shortest-round-'
+            'trip formatter or parser in the same extension as the kernel).')
     node = res.get('node')
     pn = res.get('profile_node') or {}
     ps = pn.get('py_spy')

@@ -65,19 +65,6 @@ class Solution:
     def _batch(self) -> bool:
         return np.ndim(self.force) == 2
 
-    def __getattr__(self, name: str) -> np.ndarray:
-        """Array fields of a kernel solution: views of its result row(s) (one
-        buffer per solve), made on first access (src/kernel.c O_* layout)."""
-        part = kernel.OUT.get(name)
-        rows = self.__dict__.get('_rows')
-        if part is None or rows is None:
-            raise AttributeError(f"'Solution' object has no attribute '{name}'")
-        value = rows[..., part]
-        if name == 'jacobian':
-            value = value.reshape(rows.shape[:-1] + (3, 3))
-        self.__dict__[name] = value
-        return value
-
     @cached_property
     def geometric(self) -> Geometric | tuple | None:
         """Positions of every joint (:class:`.kinematics.Geometric`), recomputed
@@ -120,6 +107,36 @@ class Solution:
         value = np.where(np.isfinite(value), value, SINGULAR)
         return np.where(np.asarray([SEVERITY[s] >= 3 for s in self.status], dtype=bool),
                         0.0, value)
+
+
+class _RowView:
+    """Field of a kernel solution: a view of its result row(s) (src/kernel.c O_*
+    layout), made on first access and then kept in the instance (a non-data
+    descriptor, like functools.cached_property without its lock)."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.part = kernel.OUT[name]
+
+    def __get__(self, sol: Solution | None, owner: type | None = None) -> object:
+        if sol is None:
+            return self
+        rows = sol.__dict__['_rows']
+        value = rows[..., self.part]
+        if self.name == 'jacobian':
+            value = value.reshape(rows.shape[:-1] + (3, 3))
+        sol.__dict__[self.name] = value
+        return value
+
+
+class _KernelSolution(Solution):
+    """A :class:`Solution` whose array fields are views of the kernel's output
+    buffer (one allocation per solve), made when first read."""
+
+
+for _name in kernel.OUT:
+    setattr(_KernelSolution, _name, _RowView(_name))
+_KernelSolution.__qualname__ = _KernelSolution.__name__ = 'Solution'
 
 
 _FIELD_NAMES = ('q', 'qd', 'qdd')
@@ -217,8 +234,9 @@ def _singular_detail(model: Model, kin: float, jac: float) -> str:
 
 def _new_solution(**values: object) -> Solution:
     """A Solution without the frozen dataclass's per-field __init__ (about
-    2 us of a 10 us cycle); the fields are the same and stay read-only."""
-    sol = object.__new__(Solution)
+    2 us of a 10 us cycle); the fields are the same and stay read-only. With
+    ``_rows`` (kernel output), the array fields are views of it."""
+    sol = object.__new__(_KernelSolution if '_rows' in values else Solution)
     sol.__dict__.update(values)
     return sol
 
