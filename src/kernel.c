@@ -98,6 +98,8 @@ static inline double nmin(double a, double b) { return (a <= b || isnan(a)) ? a 
 /* Python's float a % b for b > 0 (sign of the divisor) */
 static inline double pymod(double a, double b)
 {
+    if (a >= 0.0 && a < b)      /* the usual case: fmod(a, b) == a exactly */
+        return a + 0.0;         /* (+ 0.0: -0.0 -> +0.0, as below) */
     double m = fmod(a, b);
     if (m != 0.0) {
         if ((b < 0.0) != (m < 0.0))
