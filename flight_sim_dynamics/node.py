@@ -14,17 +14,25 @@ Run it::
 
 Topics (relative: a namespace or remap moves them), QoS and parameters are
 described in docs/node.md. The plain-Python parts (quaternion conversion,
-synchroniser, estimators, limit checks) are in :mod:`.setpoints`.
+synchroniser, estimators, limit checks, reading serialized setpoints) are in
+:mod:`.setpoints`.
+
+Per setpoint the node builds no ROS message: the setpoints are taken
+serialized and read in place (:class:`.setpoints.StampedReader`), the two
+outputs are serialized templates whose stamp and numbers are overwritten
+(:class:`JointStateOutput`), and nothing is logged or formatted unless a
+(throttled) line is due. docs/node.md, "What a cycle costs", has the figures.
 """
 from __future__ import annotations
 
 import argparse
 import array
 import math
+import struct
 import sys
 import time
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 import rclpy
@@ -37,6 +45,7 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 
 import flight_sim_dynamics as fsd
@@ -44,11 +53,12 @@ import flight_sim_dynamics as fsd
 from . import parameters as prm
 from .model import JOINT_NAMES, LEG_NAMES, Model
 from .status import Status
-from .setpoints import (ACCEL, ERROR, NON_FINITE_OUTPUT, POSE, SOLVER_ERROR, TWIST,
-                        UNREACHABLE, WARN, CycleStats, DerivativeEstimator, LogThrottle,
-                        NodeConfig, PoseInput, RateInput, Rejected, Setpoint, SetpointError,
-                        StampSynchroniser, check_acceleration, check_limits, pose_input,
-                        rate_input, unfollowable)
+from .setpoints import (ACCEL, CDR_BE, CDR_LE, ERROR, NON_FINITE_OUTPUT, POSE, SOLVER_ERROR,
+                        TWIST, UNREACHABLE, WARN, CycleStats, DerivativeEstimator,
+                        LogThrottle, NodeConfig, PoseInput, RateInput, Rejected, Setpoint,
+                        SetpointError, StampSynchroniser, check_acceleration, check_limits,
+                        pose_input, rate_input, read_pose_stamped, read_twist_stamped,
+                        unfollowable)
 
 MODEL_NAMES = frozenset(spec.name for spec in prm.MODEL_PARAMETERS)
 NODE_NAMES = frozenset(spec.name for spec in prm.NODE_PARAMETERS)
@@ -77,6 +87,22 @@ def solve_setpoint(model: Model, q: Sequence[float], qd: Sequence[float],
     if sol.status is Status.INVALID_INPUT:
         return None, SOLVER_ERROR, f'invalid input: {sol.detail}'
     return sol, '', ''
+
+
+def _pose_fields(msg: PoseStamped) -> tuple[int, int, tuple[float, ...]]:
+    """What :data:`.setpoints.read_pose_stamped` reads, from a PoseStamped."""
+    p, o = msg.pose.position, msg.pose.orientation
+    return (msg.header.stamp.sec, msg.header.stamp.nanosec,
+            (p.x, p.y, p.z, o.x, o.y, o.z, o.w))
+
+
+def _rate_fields(msg: Any) -> tuple[int, int, tuple[float, ...]]:
+    """What :data:`.setpoints.read_twist_stamped` reads, from a TwistStamped or
+    AccelStamped."""
+    body = msg.twist if isinstance(msg, TwistStamped) else msg.accel
+    lin, ang = body.linear, body.angular
+    return (msg.header.stamp.sec, msg.header.stamp.nanosec,
+            (lin.x, lin.y, lin.z, ang.x, ang.y, ang.z))
 
 
 # ----------------------------------------------------------------------------
@@ -143,6 +169,112 @@ def make_qos(config: NodeConfig) -> QoSProfile:
         durability=DurabilityPolicy.VOLATILE)
 
 
+class JointStateOutput:
+    """One output topic's ``sensor_msgs/JointState``, reused every cycle.
+
+    Names and ``header.frame_id`` are fixed; per cycle only the stamp and the
+    value arrays change (their lengths never do). So the message is kept
+    *serialized*: a template built once by the middleware's own serializer,
+    in which :meth:`fill` overwrites the stamp and the doubles in place, and
+    which is published as bytes (``Publisher.publish`` takes a serialized
+    message). That skips converting the Python message to C and serializing
+    it again every cycle: the wire bytes are the same.
+
+    The template is checked once, by deserializing a filled copy; if the
+    middleware's encoding is not one this class understands, ``raw`` is
+    False and :meth:`fill` returns the message object with its arrays
+    replaced instead (the old way: correct, slower).
+
+    ``names``: joint names; ``frame_id``; ``arrays``: how many value arrays
+    are filled (3: position, velocity, effort; 2: position, velocity, effort
+    left empty).
+    """
+
+    FIELDS = ('position', 'velocity', 'effort')
+
+    def __init__(self, names: Sequence[str], frame_id: str, arrays: int = 3) -> None:
+        self.msg = JointState()
+        self.msg.name = list(names)
+        self.msg.header.frame_id = frame_id
+        self.size = len(names)
+        self.arrays = arrays
+        self._fields = self.FIELDS[:arrays]
+        self.raw = False
+        self._buf = bytearray()
+        self._stamp_at = 0
+        self._value_at: tuple[int, ...] = ()
+        self._stamp_struct = struct.Struct('<iI')
+        self._values_struct = struct.Struct(f'<{self.size}d')
+        try:
+            self.raw = self._build_template()
+        except Exception:  # noqa: BLE001 - any surprise: publish the message object
+            self.raw = False
+
+    def _build_template(self) -> bool:
+        """Serialize the message with recognisable values and find where the
+        stamp and each array went; True when a filled copy deserializes back
+        exactly."""
+        n = self.size
+        msg = self.msg
+        # distinct, finite, unlikely 8-byte patterns
+        marks = [[(1.0 + (i * n + k + 1) * 2.0 ** -30) * 2.0 ** 999 for k in range(n)]
+                 for i in range(self.arrays)]
+        for name, values in zip(self._fields, marks):
+            setattr(msg, name, array.array('d', values))
+        msg.header.stamp.sec, msg.header.stamp.nanosec = 0x1A2B3C4D, 0x2B3C4D5E
+        data = serialize_message(msg)
+        order = {CDR_LE: '<', CDR_BE: '>'}.get(bytes(data[:2]))
+        if order is None:
+            return False
+        stamp_struct = struct.Struct(order + 'iI')
+        values_struct = struct.Struct(f'{order}{n}d')
+
+        def only(pattern: bytes) -> int:
+            at = data.find(pattern)
+            if at < 0 or data.find(pattern, at + 1) >= 0:
+                raise ValueError('pattern not found exactly once')
+            return at
+
+        self._stamp_at = only(stamp_struct.pack(0x1A2B3C4D, 0x2B3C4D5E))
+        self._value_at = tuple(only(values_struct.pack(*values)) for values in marks)
+        self._stamp_struct, self._values_struct = stamp_struct, values_struct
+        self._buf = bytearray(data)
+        # check: a filled copy must read back as the message it stands for
+        check = [[(i + 1) * 10.0 + k * 0.5 for k in range(n)] for i in range(self.arrays)]
+        back = deserialize_message(self._fill_raw(-7, 999_999_999, check), JointState)
+        ok = (list(back.name) == list(msg.name) and back.header.frame_id == msg.header.frame_id
+              and (back.header.stamp.sec, back.header.stamp.nanosec) == (-7, 999_999_999)
+              and all(list(getattr(back, name)) == values
+                      for name, values in zip(self._fields, check))
+              and all(len(getattr(back, name)) == 0 for name in self.FIELDS[self.arrays:]))
+        for name in self._fields:
+            setattr(msg, name, array.array('d', [0.0] * n))
+        msg.header.stamp.sec = msg.header.stamp.nanosec = 0
+        return ok
+
+    def _fill_raw(self, sec: int, nanosec: int, values: Sequence[Sequence[float]]) -> bytes:
+        buf = self._buf
+        self._stamp_struct.pack_into(buf, self._stamp_at, sec, nanosec)
+        pack = self._values_struct.pack_into
+        for at, vals in zip(self._value_at, values):
+            pack(buf, at, *vals)
+        return bytes(buf)
+
+    def fill(self, sec: int, nanosec: int, *values: Sequence[float]) -> Any:
+        """The message for this cycle: stamp ``sec``/``nanosec``, then one
+        sequence of ``len(names)`` floats per array. Serialized bytes when
+        ``raw``, else the (reused) JointState."""
+        if self.raw:
+            return self._fill_raw(sec, nanosec, values)
+        msg = self.msg
+        stamp = msg.header.stamp
+        stamp.sec, stamp.nanosec = sec, nanosec
+        for name, vals in zip(self._fields, values):
+            # array('d') is taken as is by the message setters (no per-element checks)
+            setattr(msg, name, array.array('d', vals))
+        return msg
+
+
 @dataclass(frozen=True)
 class Runtime:
     """What a cycle needs from the parameters: swapped as one reference."""
@@ -169,18 +301,16 @@ class DynamicsNode(Node):
         self._last_solution: Any = None
 
         self._stats = CycleStats()
+        self._received = self._stats.received      # counters per message kind
         self._throttle = LogThrottle(config.log_throttle)
         self._sync: StampSynchroniser[PoseInput, RateInput] = StampSynchroniser(
             config.sync_wait, config.sync_max_pending)
         self._estimator = DerivativeEstimator(config.estimator, config.estimator_max_gap)
 
-        # Reused output messages (no per-cycle message allocation).
-        self._actuator_msg = JointState()
-        self._actuator_msg.name = list(LEG_NAMES)
-        self._actuator_msg.header.frame_id = config.frame_id
-        self._joint_msg = JointState()
-        self._joint_msg.name = list(JOINT_NAMES)
-        self._joint_msg.header.frame_id = config.joint_states_frame_id
+        # Reused output messages, kept serialized (no per-cycle message allocation
+        # or conversion; see JointStateOutput).
+        self._actuator_out = JointStateOutput(LEG_NAMES, config.frame_id, 3)
+        self._joint_out = JointStateOutput(JOINT_NAMES, config.joint_states_frame_id, 2)
         self._diag_msg = DiagnosticArray()
         self._diag_status = DiagnosticStatus(name=DIAGNOSTIC_NAME, hardware_id=HARDWARE_ID)
         self._diag_msg.status = [self._diag_status]
@@ -201,6 +331,9 @@ class DynamicsNode(Node):
             f'subscribing {self._topic("pose_setpoint")}, {self._topic("twist_setpoint")}, '
             f'{self._topic("accel_setpoint")}; publishing {self._topic("actuator_states")}, '
             f'{self._topic("joint_states")}, /diagnostics')
+        if not (self._actuator_out.raw and self._joint_out.raw):
+            self.get_logger().info('outputs published as message objects (the middleware '
+                                   'writes an encoding the in-place writer does not know)')
 
     # -- set-up ----------------------------------------------------------------
     def _topic(self, name: str) -> str:
@@ -239,24 +372,75 @@ class DynamicsNode(Node):
         self._joint_pub = self.create_publisher(JointState, 'joint_states', qos)
         self._io = [
             self._actuator_pub, self._joint_pub,
-            self.create_subscription(PoseStamped, 'pose_setpoint', self._on_pose, qos),
-            self.create_subscription(TwistStamped, 'twist_setpoint', self._on_twist, qos),
-            self.create_subscription(AccelStamped, 'accel_setpoint', self._on_accel, qos),
+            # serialized (raw): read by setpoints.StampedReader, no Python message built
+            self.create_subscription(PoseStamped, 'pose_setpoint', self._on_pose, qos,
+                                     raw=True),
+            self.create_subscription(TwistStamped, 'twist_setpoint', self._on_twist, qos,
+                                     raw=True),
+            self.create_subscription(AccelStamped, 'accel_setpoint', self._on_accel, qos,
+                                     raw=True),
         ]
 
     # -- subscription callbacks --------------------------------------------------
-    def _on_pose(self, msg: PoseStamped) -> None:
-        self._guard(self._handle_pose, msg)
+    # The setpoints arrive serialized (raw=True): the stamp and the doubles are
+    # read straight from the CDR bytes. A sample in an encoding the reader does
+    # not know is deserialized the usual way. Nothing escapes a callback (an
+    # escaped exception would stop the executor, i.e. the node).
+    def _on_pose(self, data: bytes) -> None:
+        try:
+            now = time.monotonic()
+            fields = read_pose_stamped(data)
+            if fields is None:
+                fields = _pose_fields(deserialize_message(data, PoseStamped))
+            sec, nanosec, (px, py, pz, qx, qy, qz, qw) = fields
+            stamp_ns = sec * 1_000_000_000 + nanosec
+            self._received[POSE] += 1
+            try:
+                pose = pose_input(px, py, pz, qx, qy, qz, qw,
+                                  self._runtime.config.quaternion_tolerance)
+            except SetpointError as exc:
+                self._sync.discard(stamp_ns, POSE)
+                self._reject(exc.reason, f'pose rejected: {exc}')
+                return
+            released, rejected = self._sync.add(POSE, stamp_ns, pose, now, (sec, nanosec))
+            if released or rejected:
+                self._dispatch(released, rejected)
+        except Exception as exc:  # noqa: BLE001
+            self._internal_error(exc)
 
-    def _on_twist(self, msg: TwistStamped) -> None:
-        self._guard(self._handle_rates, TWIST, msg, msg.twist)
+    def _on_twist(self, data: bytes) -> None:
+        self._on_rates(TWIST, TwistStamped, data)
 
-    def _on_accel(self, msg: AccelStamped) -> None:
-        self._guard(self._handle_rates, ACCEL, msg, msg.accel)
+    def _on_accel(self, data: bytes) -> None:
+        self._on_rates(ACCEL, AccelStamped, data)
+
+    def _on_rates(self, kind: str, msg_type: Any, data: bytes) -> None:
+        try:
+            now = time.monotonic()
+            fields = read_twist_stamped(data)
+            if fields is None:
+                fields = _rate_fields(deserialize_message(data, msg_type))
+            sec, nanosec, (lx, ly, lz, ax, ay, az) = fields
+            stamp_ns = sec * 1_000_000_000 + nanosec
+            self._received[kind] += 1
+            try:
+                rates = rate_input(lx, ly, lz, ax, ay, az, kind)
+                if kind == ACCEL:
+                    config = self._runtime.config
+                    check_acceleration(rates.q, config.max_linear_acceleration,
+                                       config.max_angular_acceleration)
+            except SetpointError as exc:
+                self._sync.discard(stamp_ns, kind)
+                self._reject(exc.reason, f'{kind} rejected: {exc}')
+                return
+            released, rejected = self._sync.add(kind, stamp_ns, rates, now)
+            if released or rejected:
+                self._dispatch(released, rejected)
+        except Exception as exc:  # noqa: BLE001
+            self._internal_error(exc)
 
     def _guard(self, func: Any, *args: Any) -> None:
-        """Run a callback body; nothing escapes (an escaped exception would stop
-        the executor, i.e. the node)."""
+        """Run a callback body; nothing escapes."""
         try:
             func(*args)
         except Exception as exc:  # noqa: BLE001
@@ -267,38 +451,6 @@ class DynamicsNode(Node):
             self._reject(SOLVER_ERROR, f'internal error: {type(exc).__name__}: {exc}')
         except Exception:  # noqa: BLE001 - even reporting failed: stay up
             pass
-
-    def _handle_pose(self, msg: PoseStamped) -> None:
-        now = time.monotonic()
-        stamp = msg.header.stamp
-        stamp_ns = stamp.sec * 1_000_000_000 + stamp.nanosec
-        self._stats.received[POSE] += 1
-        p, o = msg.pose.position, msg.pose.orientation
-        try:
-            pose = pose_input(p.x, p.y, p.z, o.x, o.y, o.z, o.w,
-                              self._runtime.config.quaternion_tolerance)
-        except SetpointError as exc:
-            self._sync.discard(stamp_ns, POSE)
-            self._reject(exc.reason, f'pose rejected: {exc}')
-            return
-        self._dispatch(*self._sync.add(POSE, stamp_ns, pose, now, stamp))
-
-    def _handle_rates(self, kind: str, msg: Any, body: Any) -> None:
-        now = time.monotonic()
-        stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        self._stats.received[kind] += 1
-        lin, ang = body.linear, body.angular
-        try:
-            rates = rate_input(lin.x, lin.y, lin.z, ang.x, ang.y, ang.z, kind)
-            if kind == ACCEL:
-                config = self._runtime.config
-                check_acceleration(rates.q, config.max_linear_acceleration,
-                                   config.max_angular_acceleration)
-        except SetpointError as exc:
-            self._sync.discard(stamp_ns, kind)
-            self._reject(exc.reason, f'{kind} rejected: {exc}')
-            return
-        self._dispatch(*self._sync.add(kind, stamp_ns, rates, now))
 
     def _on_poll_timer(self) -> None:
         """Release setpoints whose bounded wait expired; apply QoS changes."""
@@ -317,21 +469,29 @@ class DynamicsNode(Node):
         for item in rejected:
             self._reject(item.reason, item.message)
         for setpoint in released:
-            self._guard(self._process, setpoint)    # one failure must not skip the others
+            try:
+                self._process(setpoint)
+            except Exception as exc:  # noqa: BLE001 - one failure must not skip the others
+                self._internal_error(exc)
 
     # -- one cycle -----------------------------------------------------------------
     def _process(self, sp: Setpoint) -> None:
-        """Estimate what is missing, check, solve, publish: one setpoint."""
+        """Estimate what is missing, check, solve, publish: one setpoint.
+
+        The outputs go out as soon as the solution is known to be finite; the
+        bookkeeping that only feeds the diagnostics (ignored components,
+        limits, statistics) comes after."""
         runtime = self._runtime            # read once: a parameter change applies next cycle
         config = runtime.config
         pose: PoseInput = sp.pose
+        twist, accel = sp.twist, sp.accel
         stats = self._stats
         qd, qdd = self._estimator.update(sp.stamp_ns * 1e-9, pose.q,
-                                         sp.twist.q if sp.twist is not None else None,
-                                         sp.accel.q if sp.accel is not None else None)
-        if sp.twist is None:
+                                         None if twist is None else twist.q,
+                                         None if accel is None else accel.q)
+        if twist is None:
             stats.estimated_twist += 1
-        if sp.accel is None:
+        if accel is None:
             stats.estimated_accel += 1
             try:
                 check_acceleration(qdd, config.max_linear_acceleration,
@@ -346,52 +506,43 @@ class DynamicsNode(Node):
         if sol is None:
             self._reject(reason, f'setpoint rejected: {message}')
             return
-        length, rate, force = sol.length, sol.rate, sol.force
-        joints, joint_rates = sol.joints, sol.joint_rates
-        # sum() is finite iff every element is (one reduction per array)
-        if not math.isfinite(float(length.sum() + rate.sum() + force.sum()
-                                   + joints.sum() + joint_rates.sum())):
+        # plain floats: cheaper than numpy for 3 and 12 numbers
+        length, rate, force = sol.length.tolist(), sol.rate.tolist(), sol.force.tolist()
+        joints, joint_rates = sol.joints.tolist(), sol.joint_rates.tolist()
+        # a sum is finite iff every term is (inf - inf is nan)
+        if not math.isfinite(sum(length) + sum(rate) + sum(force) + sum(joints)
+                             + sum(joint_rates)):
             self._reject(NON_FINITE_OUTPUT, 'solver returned a non-finite value (not published)')
             return
 
-        ignored = unfollowable(pose, sp.twist, sp.accel, -sol.beta,
+        sec, nanosec = sp.header
+        self._actuator_pub.publish(self._actuator_out.fill(sec, nanosec, length, rate, force))
+        self._joint_pub.publish(self._joint_out.fill(sec, nanosec, joints, joint_rates))
+
+        ignored = unfollowable(pose, twist, accel, -sol.beta,
                                config.position_tolerance, config.angle_tolerance)
         if ignored:
             for component in ignored:
                 stats.ignored[component] += 1
-            text = 'motion the mechanism cannot follow, ignored: ' + ', '.join(ignored)
             stats.note(WARN, 'ignored ' + '/'.join(ignored))
-            self._log(WARN, 'ignored', text)
-
+            self._log(WARN, 'ignored', lambda: 'motion the mechanism cannot follow, ignored: '
+                      + ', '.join(ignored))
         if sol.status is Status.NEAR_SINGULAR:
             stats.near_singular += 1
             stats.note(WARN, 'near singular')
-            self._log(WARN, 'near_singular', f'near singular: {sol.detail}')
-        limits = check_limits(sol.stroke, rate, force, runtime.model.limits,
+            self._log(WARN, 'near_singular', lambda: f'near singular: {sol.detail}')
+        limits = check_limits(sol.stroke.tolist(), rate, force, runtime.model.limits,
                               config.warn_fraction)
         if limits.exceeded:
             stats.limit_exceeded += 1
             stats.note(ERROR, 'limit exceeded')
-            self._log(ERROR, 'limit', 'actuator limit exceeded (published anyway): '
+            self._log(ERROR, 'limit', lambda: 'actuator limit exceeded (published anyway): '
                       + ', '.join(limits.exceeded))
         elif limits.near:
             stats.near_limit += 1
             stats.note(WARN, 'near an actuator limit')
-
-        # array('d') is taken as is by the message setters (no per-element checks)
-        out = self._actuator_msg
-        out.header.stamp = sp.header
-        out.position = array.array('d', length.tobytes())
-        out.velocity = array.array('d', rate.tobytes())
-        out.effort = array.array('d', force.tobytes())
-        joint_msg = self._joint_msg
-        joint_msg.header.stamp = sp.header
-        joint_msg.position = array.array('d', joints.tobytes())
-        joint_msg.velocity = array.array('d', joint_rates.tobytes())
-        self._actuator_pub.publish(out)
-        self._joint_pub.publish(joint_msg)
         stats.solved(elapsed, sol.kinematic_condition, sol.jacobian_condition,
-                     (out.effort[0], out.effort[1], out.effort[2]))
+                     (force[0], force[1], force[2]))
         self._last_solution = sol
 
     # -- rejection and logging -------------------------------------------------
@@ -402,10 +553,15 @@ class DynamicsNode(Node):
     def _log_rejection(self, reason: str, message: str) -> None:
         self._log(ERROR if reason in (UNREACHABLE, SOLVER_ERROR) else WARN, reason, message)
 
-    def _log(self, level: int, key: str, message: str) -> None:
+    def _log(self, level: int, key: str, message: str | Callable[[], str]) -> None:
+        """Log ``message`` (or what the callable returns: built only when the
+        line is not throttled) at most once per ``diagnostics.log_throttle``
+        per ``key``."""
         skipped = self._throttle(key, time.monotonic())
         if skipped is None:
             return
+        if not isinstance(message, str):
+            message = message()
         if skipped:
             message += f' ({skipped} more since the last such message)'
         # rclpy fixes a severity per call site: one call site per severity.
@@ -477,8 +633,10 @@ class DynamicsNode(Node):
         self._sync.wait = new.sync_wait
         self._sync.max_pending = new.sync_max_pending
         self._throttle.period = new.log_throttle
-        self._actuator_msg.header.frame_id = new.frame_id
-        self._joint_msg.header.frame_id = new.joint_states_frame_id
+        if new.frame_id != old.frame_id:
+            self._actuator_out = JointStateOutput(LEG_NAMES, new.frame_id, 3)
+        if new.joint_states_frame_id != old.joint_states_frame_id:
+            self._joint_out = JointStateOutput(JOINT_NAMES, new.joint_states_frame_id, 2)
         if new.diagnostics_period != old.diagnostics_period:
             self._diag_timer.timer_period_ns = int(new.diagnostics_period * 1e9)
         if self._poll_period(new) != self._poll_period(old):

@@ -7,6 +7,8 @@ that is plain Python lives here, so that it can be unit-tested without rclpy:
   with the checks for non-finite, zero and non-unit quaternions;
 * :func:`pose_input`, :func:`rate_input` -- the three commanded coordinates
   (surge, heave, roll) and the components the mechanism cannot follow;
+* :class:`StampedReader` -- the stamp and numbers of a serialized (CDR)
+  PoseStamped, TwistStamped or AccelStamped, read without building the message;
 * :class:`StampSynchroniser` -- joins pose, twist and acceleration messages
   that carry the same header stamp (exact match, bounded wait);
 * :class:`DerivativeEstimator` -- causal finite differences that fill in the
@@ -19,8 +21,9 @@ Units: SI throughout (m, rad, s); stamps are integer nanoseconds.
 from __future__ import annotations
 
 import math
+import struct
 from dataclasses import dataclass
-from typing import Any, Generic, Iterable, Mapping, Sequence, TypeVar
+from typing import Any, Generic, Iterable, Mapping, NamedTuple, Sequence, TypeVar
 
 from .model import Limits
 from .parameters import NODE_PARAMETERS, SPECS, ParameterError, check_value
@@ -62,6 +65,7 @@ OK, WARN, ERROR = 0, 1, 2
 LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR'}
 
 Vec3 = tuple[float, float, float]
+_NOTHING: tuple[str, ...] = ()
 
 
 class SetpointError(ValueError):
@@ -100,7 +104,8 @@ def quaternion_to_rpy(x: float, y: float, z: float, w: float,
     if abs(norm - 1.0) > tolerance:
         raise SetpointError(BAD_QUATERNION, f'orientation quaternion is not a unit '
                                              f'quaternion (|q| = {norm:.6g})')
-    x, y, z, w = x / norm, y / norm, z / norm, w / norm
+    if norm != 1.0:
+        x, y, z, w = x / norm, y / norm, z / norm, w / norm
     roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
     sin_pitch = max(-1.0, min(1.0, 2.0 * (w * y - z * x)))
     pitch = math.asin(sin_pitch)
@@ -120,12 +125,12 @@ def rpy_to_quaternion(roll: float, pitch: float = 0.0, yaw: float = 0.0
             cr * cp * cy + sr * sp * sy)
 
 
-@dataclass(frozen=True, slots=True)
-class PoseInput:
+class PoseInput(NamedTuple):
     """A pose setpoint in the mechanism's coordinates.
 
     ``q`` = (surge m, heave m, roll rad); ``sway`` (m), ``pitch`` and ``yaw``
-    (rad) are what the message asked for beyond them."""
+    (rad) are what the message asked for beyond them. (A named tuple: one is
+    built per message, and a tuple is the cheapest immutable record.)"""
 
     q: Vec3
     sway: float
@@ -133,8 +138,7 @@ class PoseInput:
     yaw: float
 
 
-@dataclass(frozen=True, slots=True)
-class RateInput:
+class RateInput(NamedTuple):
     """A twist or acceleration setpoint: the derivatives of (surge, heave, roll)
     (``q``) and the sway, pitch and yaw components (``sway``, ``pitch``,
     ``yaw``: linear.y, angular.y, angular.z)."""
@@ -151,7 +155,8 @@ def pose_input(px: float, py: float, pz: float,
     """Convert the fields of a geometry_msgs/Pose (REP-103 simulator base,
     origin at G's central position) into a :class:`PoseInput`: surge =
     position.x, heave = position.z, roll = ZYX roll of the orientation."""
-    if not (math.isfinite(px) and math.isfinite(py) and math.isfinite(pz)):
+    if not (math.isfinite(px + py + pz)
+            or (math.isfinite(px) and math.isfinite(py) and math.isfinite(pz))):
         raise SetpointError(NON_FINITE, f'position has a non-finite component '
                                         f'({px!r}, {py!r}, {pz!r})')
     roll, pitch, yaw = quaternion_to_rpy(qx, qy, qz, qw, quaternion_tolerance)
@@ -163,7 +168,10 @@ def rate_input(lx: float, ly: float, lz: float, ax: float, ay: float, az: float,
     """Convert the linear/angular fields of a Twist or Accel into a
     :class:`RateInput`: d/dt of (surge, heave, roll) = (linear.x, linear.z,
     angular.x)."""
-    if not all(math.isfinite(v) for v in (lx, ly, lz, ax, ay, az)):
+    # a sum is finite iff every term is (inf - inf is nan), unless it overflows:
+    # then the components are checked one by one
+    if not math.isfinite(lx + ly + lz + ax + ay + az) and not all(
+            math.isfinite(v) for v in (lx, ly, lz, ax, ay, az)):
         raise SetpointError(NON_FINITE, f'{what} has a non-finite component')
     return RateInput((lx, lz, ax), ly, ay, az)
 
@@ -196,20 +204,77 @@ def unfollowable(pose: PoseInput, twist: RateInput | None, accel: RateInput | No
     derivatives, which the planner cannot choose; they are not checked.
     Rates are compared against the same tolerances per second (per s^2).
     """
-    found = []
     sway = abs(pose.sway) > position_tolerance
     yaw = abs(pose.yaw) > angle_tolerance
+    pitch = pose.pitch
     for rates in (twist, accel):
         if rates is not None:
             sway = sway or abs(rates.sway) > position_tolerance
             yaw = yaw or abs(rates.yaw) > angle_tolerance
+    if not (sway or yaw) and (abs(pitch) <= angle_tolerance
+                              or abs(pitch - parasitic_pitch) <= angle_tolerance):
+        return _NOTHING           # the usual case
+    found = []
     if sway:
         found.append(SWAY)
     if yaw:
         found.append(YAW)
-    if abs(pose.pitch) > angle_tolerance and abs(pose.pitch - parasitic_pitch) > angle_tolerance:
+    if abs(pitch) > angle_tolerance and abs(pitch - parasitic_pitch) > angle_tolerance:
         found.append(PITCH)
     return tuple(found)
+
+
+# ----------------------------------------------------------------------------
+# Serialized setpoint messages
+# ----------------------------------------------------------------------------
+#: Encapsulation identifiers (first two bytes of a serialized DDS sample) of
+#: plain XCDR1, which rmw_fastrtps and rmw_cyclonedds write for ROS messages.
+CDR_BE, CDR_LE = b'\x00\x00', b'\x00\x01'
+
+
+class StampedReader:
+    """Read a serialized (CDR) ``geometry_msgs/*Stamped`` message without building
+    the Python message: the header stamp and the ``count`` doubles that follow
+    the header (PoseStamped: 7 = position x, y, z, orientation x, y, z, w;
+    TwistStamped, AccelStamped: 6 = linear x, y, z, angular x, y, z).
+
+    The node subscribes its setpoints serialized (``raw=True``): building the
+    nested Python message of each sample costs more than the rest of its
+    handling. Layout (XCDR1, plain CDR, either byte order): 4 bytes
+    encapsulation, ``int32 sec``, ``uint32 nanosec``, ``uint32`` length of
+    ``frame_id`` (its terminating NUL included) and its bytes, then the doubles,
+    aligned to 8 bytes from the end of the encapsulation.
+
+    Calling it returns ``(sec, nanosec, doubles)``, or None when the sample is
+    in another encoding (the caller then deserializes it the usual way). A
+    truncated sample raises ``struct.error``.
+    """
+
+    __slots__ = ('count', '_le', '_be')
+
+    def __init__(self, count: int) -> None:
+        self.count = count
+        self._le = (struct.Struct('<iII'), struct.Struct(f'<{count}d'))
+        self._be = (struct.Struct('>iII'), struct.Struct(f'>{count}d'))
+
+    def __call__(self, data: bytes) -> tuple[int, int, tuple[float, ...]] | None:
+        if data[0] != 0:
+            return None
+        encoding = data[1]
+        if encoding == 1:
+            head, body = self._le
+        elif encoding == 0:
+            head, body = self._be
+        else:
+            return None
+        sec, nanosec, length = head.unpack_from(data, 4)
+        offset = 16 + length               # 4 encapsulation + 12 header bytes + frame_id
+        offset += (4 - offset) % 8         # align the doubles (relative to byte 4)
+        return sec, nanosec, body.unpack_from(data, offset)
+
+
+read_pose_stamped = StampedReader(7)
+read_twist_stamped = StampedReader(6)        # and AccelStamped: the same layout
 
 
 # ----------------------------------------------------------------------------
@@ -348,12 +413,13 @@ class StampSynchroniser(Generic[P, R]):
                                          f'{kind} stamped {_fmt_stamp(stamp_ns)} arrived after '
                                          'its setpoint was answered (or after a newer one)'))
             return released, rejected
-        entry = self._pending.get(stamp_ns)
+        pending = self._pending
+        entry = pending.get(stamp_ns)
         if entry is None:
-            if len(self._pending) >= self.max_pending:
+            if len(pending) >= self.max_pending:
                 self._evict_oldest(released, rejected)
             entry = Setpoint(stamp_ns, first_arrival=now)
-            self._pending[stamp_ns] = entry
+            pending[stamp_ns] = entry
         if getattr(entry, kind) is not None:
             rejected.append(Rejected(DUPLICATE, kind, stamp_ns,
                                      f'second {kind} for stamp {_fmt_stamp(stamp_ns)} (ignored)'))
@@ -361,10 +427,15 @@ class StampSynchroniser(Generic[P, R]):
         setattr(entry, kind, data)
         if kind == POSE:
             entry.header = header
+        if len(pending) == 1:          # the usual case: only this stamp is pending
+            if self._complete(entry):
+                del pending[stamp_ns]
+                self._release(entry, released, rejected)
+            return released, rejected
         newest_complete = None
-        for stamp in self._pending:    # few entries: usually one
-            if (newest_complete is None or stamp > newest_complete) \
-                    and self._complete(self._pending[stamp]):
+        complete = self._complete
+        for stamp, other in pending.items():
+            if (newest_complete is None or stamp > newest_complete) and complete(other):
                 newest_complete = stamp
         if newest_complete is not None:
             self._release_through(newest_complete, released, rejected)
@@ -398,9 +469,11 @@ class StampSynchroniser(Generic[P, R]):
         return self.active[kind] and (newest is None or newest < stamp_ns)
 
     def _complete(self, entry: Setpoint[P, R]) -> bool:
-        return (entry.pose is not None
-                and (entry.twist is not None or not self._expected(TWIST, entry.stamp_ns))
-                and (entry.accel is not None or not self._expected(ACCEL, entry.stamp_ns)))
+        if entry.pose is None:
+            return False
+        if entry.twist is None and self._expected(TWIST, entry.stamp_ns):
+            return False
+        return entry.accel is not None or not self._expected(ACCEL, entry.stamp_ns)
 
     def _release_through(self, stamp_ns: int, released: list, rejected: list) -> None:
         for stamp in sorted(s for s in self._pending if s <= stamp_ns):
@@ -587,8 +660,7 @@ _check_fields_match()
 # ----------------------------------------------------------------------------
 # Limits
 # ----------------------------------------------------------------------------
-@dataclass(frozen=True, slots=True)
-class LimitReport:
+class LimitReport(NamedTuple):
     """Outcome of :func:`check_limits`: the level and what caused it.
 
     ``usage`` is the largest ratio value/limit over stroke, speed and force
@@ -601,7 +673,6 @@ class LimitReport:
 
 
 _LIMIT_NAMES = tuple((f'stroke {leg}', f'speed {leg}', f'force {leg}') for leg in 'ABC')
-_NOTHING: tuple[str, ...] = ()
 
 
 def check_limits(stroke: Sequence[float], rate: Sequence[float], force: Sequence[float],
@@ -616,11 +687,18 @@ def check_limits(stroke: Sequence[float], rate: Sequence[float], force: Sequence
     half-range (1.0 at either end)."""
     mid = 0.5 * (limits.stroke_max + limits.stroke_min)
     half = 0.5 * (limits.stroke_max - limits.stroke_min)
-    usages = [(abs(stroke[i] - mid) / half, abs(rate[i]) / limits.max_speed,
-               abs(force[i]) / limits.max_force) for i in range(3)]
-    usage = max(max(u) for u in usages)
+    max_speed, max_force = limits.max_speed, limits.max_force
+    s0, s1, s2 = stroke
+    r0, r1, r2 = rate
+    f0, f1, f2 = force
+    # the usual case first: plain arithmetic, no per-leg containers
+    usage = max(abs(s0 - mid) / half, abs(s1 - mid) / half, abs(s2 - mid) / half,
+                abs(r0) / max_speed, abs(r1) / max_speed, abs(r2) / max_speed,
+                abs(f0) / max_force, abs(f1) / max_force, abs(f2) / max_force)
     if usage < warn_fraction:       # the usual case: no strings
         return LimitReport(OK, _NOTHING, _NOTHING, usage)
+    usages = [(abs(stroke[i] - mid) / half, abs(rate[i]) / max_speed,
+               abs(force[i]) / max_force) for i in range(3)]
     exceeded: list[str] = []
     near: list[str] = []
     for names, values in zip(_LIMIT_NAMES, usages):

@@ -13,7 +13,13 @@ Three roles, each its own process:
   = the node's ``qos.depth``), receives ``actuator_states`` and records, per
   sample, the time just before its pose was published and the time its
   JointState arrived (both CLOCK_MONOTONIC, which all processes of the machine
-  share), plus every ``/diagnostics`` message;
+  share), plus every ``/diagnostics`` message. It publishes messages
+  serialized once before the stream (per sample only the stamp is put in) and
+  takes ``actuator_states`` serialized (only the stamp is read), so that its
+  own Python message conversions (tens of microseconds per message, on the
+  measured path of both targets, and for the node twice more: its twist and
+  accel go out after the pose) stay out of the latency; ``--python-messages``
+  restores message objects;
 * this script's caller (:func:`run_stream`, no rclpy): starts both, samples the
   target's resident memory and CPU time (per thread) from /proc, stops everything.
 
@@ -24,7 +30,7 @@ measured stream starts) and writes the stats to OUT when it exits.
 The default command prints the executor table of docs/node.md:
 
     python scripts/bench_node.py [--rates 200 500] [--seconds 3] [--executors events single]
-                                 [--echo] [--domain-id 87]
+                                 [--echo] [--repeat 1] [--python-messages] [--domain-id 87]
 
 ``benchmarks/performance.py`` uses :func:`run_stream` for its node, echo and
 soak sections.
@@ -295,7 +301,7 @@ def run_stream(kind: str, rate: float, seconds: float, *, env: dict[str, str],
                py_spy: tuple[str, Path, float] | None = None,
                cprofile_out: Path | None = None,
                progress: Callable[[str], None] | None = None,
-               drain: float = 3.0) -> StreamResult:
+               drain: float = 3.0, python_messages: bool = False) -> StreamResult:
     """Start the target (``kind`` 'node' or 'echo') and the driver, stream
     ``rate`` Hz for ``seconds`` s, and return what was measured.
 
@@ -303,7 +309,8 @@ def run_stream(kind: str, rate: float, seconds: float, *, env: dict[str, str],
     many seconds of the stream (soak). ``py_spy``: (py-spy executable, output
     file, seconds) to attach to the target once streaming (raw format,
     non-blocking). ``cprofile_out``: run the node under cProfile (stats written
-    when it stops)."""
+    when it stops). ``python_messages``: the driver publishes and receives
+    Python message objects (its old way) instead of serialized messages."""
     depth = node_qos_depth() if depth is None else depth
     own_tmp = workdir is None
     workdir = Path(tempfile.mkdtemp(prefix='fsd_bench_')) if own_tmp else workdir
@@ -325,7 +332,8 @@ def run_stream(kind: str, rate: float, seconds: float, *, env: dict[str, str],
         driver = Proc([sys.executable, str(Path(__file__).resolve()), 'drive',
                        '--expect', kind, '--rate', f'{rate:g}', '--seconds', f'{seconds:g}',
                        '--depth', str(depth), '--out', str(out_file),
-                       '--progress', f'{sample_every or 0:g}', '--drain', f'{drain:g}'],
+                       '--progress', f'{sample_every or 0:g}', '--drain', f'{drain:g}']
+                      + (['--python-messages'] if python_messages else []),
                       env, workdir / f'{tag}_driver.log', stdout_pipe=True)
         threading.Thread(target=_reader, args=(driver.proc.stdout, lines), daemon=True).start()
         t_start = None
@@ -452,7 +460,12 @@ def drive_main(argv: Sequence[str]) -> int:
                    help='after the last publish, wait until every answer is in or none '
                         'came for this long')
     p.add_argument('--discovery-timeout', type=float, default=60.0)
+    p.add_argument('--python-messages', action='store_true',
+                   help='publish and receive Python message objects (converted to and from '
+                        'C by rclpy in this process) instead of serialized messages')
     args = p.parse_args(argv)
+
+    import struct
 
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
@@ -460,6 +473,7 @@ def drive_main(argv: Sequence[str]) -> int:
     from rclpy.context import Context
     from rclpy.experimental import EventsExecutor
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from rclpy.serialization import deserialize_message, serialize_message
     from sensor_msgs.msg import JointState
 
     from flight_sim_dynamics.setpoints import rpy_to_quaternion
@@ -488,10 +502,18 @@ def drive_main(argv: Sequence[str]) -> int:
     clock = time.monotonic
     first_ns = base_ns + warm * period_ns       # stamp of sample k = 0
 
+    # The stamp of a serialized (CDR) message: int32 sec, uint32 nanosec right
+    # after the 4-byte encapsulation header (byte 1: 1 = little endian).
+    stamp_le, stamp_be = struct.Struct('<iI'), struct.Struct('>iI')
+    raw = not args.python_messages
+
     def on_actuator(msg: Any) -> None:
         t = clock()
-        s = msg.header.stamp
-        k = (s.sec * 1_000_000_000 + s.nanosec - first_ns) // period_ns
+        if raw:
+            sec, nanosec = (stamp_le if msg[1] == 1 else stamp_be).unpack_from(msg, 4)
+        else:
+            sec, nanosec = msg.header.stamp.sec, msg.header.stamp.nanosec
+        k = (sec * 1_000_000_000 + nanosec - first_ns) // period_ns
         if 0 <= k < n:
             if recv[k] != recv[k]:       # nan: first answer
                 recv[k] = t
@@ -509,7 +531,7 @@ def drive_main(argv: Sequence[str]) -> int:
             if status.hardware_id == 'flight_sim_dynamics':
                 diagnostics.append((t, {kv.key: kv.value for kv in status.values}))
 
-    node.create_subscription(JointState, 'actuator_states', on_actuator, qos)
+    node.create_subscription(JointState, 'actuator_states', on_actuator, qos, raw=raw)
     node.create_subscription(DiagnosticArray, '/diagnostics', on_diagnostics, 10)
     executor = EventsExecutor(context=context)
     executor.add_node(node)
@@ -530,21 +552,55 @@ def drive_main(argv: Sequence[str]) -> int:
     al, aa = accel.accel.linear, accel.accel.angular
     stamp = pose.header.stamp
 
-    def publish(j: int) -> None:
-        """Sample j (>= 0: measured k = j - warm) of the whole run."""
-        i = j % m
-        sec, nsec = divmod(base_ns + j * period_ns, 1_000_000_000)
-        stamp.sec, stamp.nanosec = sec, nsec
-        twist.header.stamp = stamp
-        accel.header.stamp = stamp
+    def fill(i: int) -> None:
+        """The messages of motion sample i (stamp aside)."""
         q, qd, qdd = motion_q[i], motion_qd[i], motion_qdd[i]
         pp.x, pp.z = q[0], q[1]
         po.x, po.y, po.z, po.w = quats[i]
         tl.x, tl.z, ta.x = qd
         al.x, al.z, aa.x = qdd
+
+    def publish_messages(j: int) -> None:
+        """Sample j (>= 0: measured k = j - warm) of the whole run."""
+        sec, nsec = divmod(base_ns + j * period_ns, 1_000_000_000)
+        stamp.sec, stamp.nanosec = sec, nsec
+        twist.header.stamp = stamp
+        accel.header.stamp = stamp
+        fill(j % m)
         pose_pub.publish(pose)
         twist_pub.publish(twist)
         accel_pub.publish(accel)
+
+    # Serialized: each motion sample's three messages are serialized once, before
+    # the stream; per sample only the stamp (bytes 4-11 of every *Stamped
+    # message) is put in, so the driver's own cost per publish is the
+    # middleware's, as for a planner written in C++.
+    serialized: list[tuple[bytes, bytes, bytes]] = []
+    head = b''
+    if raw:
+        for i in range(m):
+            fill(i)
+            serialized.append(tuple(serialize_message(x)[12:] for x in (pose, twist, accel)))
+        head = serialize_message(pose)[:4]
+        stamp_pack = (stamp_le if head[1] == 1 else stamp_be).pack
+        # check one sample the slow way
+        fill(1 % m)
+        stamp.sec, stamp.nanosec = 12345, 678
+        back = deserialize_message(head + stamp_pack(12345, 678) + serialized[1 % m][0],
+                                   PoseStamped)
+        if back != pose:
+            print('ERROR serialized pose template does not read back', flush=True)
+            return 3
+
+    def publish_serialized(j: int) -> None:
+        """Sample j (>= 0: measured k = j - warm) of the whole run."""
+        p_, t_, a_ = serialized[j % m]
+        h = head + stamp_pack(*divmod(base_ns + j * period_ns, 1_000_000_000))
+        pose_pub.publish(h + p_)
+        twist_pub.publish(h + t_)
+        accel_pub.publish(h + a_)
+
+    publish = publish_serialized if raw else publish_messages
 
     subs = [pose_pub] if args.expect == 'echo' else [pose_pub, twist_pub, accel_pub]
     t0 = clock()
@@ -671,24 +727,35 @@ def table_main(argv: Sequence[str]) -> int:
     parser.add_argument('--executors', nargs='+', default=['events', 'single'])
     parser.add_argument('--echo', action='store_true',
                         help='also measure the bare rclpy echo with each executor')
+    parser.add_argument('--repeat', type=int, default=1,
+                        help='run every stream this many times (echo and node alternate)')
+    parser.add_argument('--python-messages', action='store_true',
+                        help='the driver publishes and receives Python message objects '
+                             '(default: serialized messages, see the module docstring)')
     parser.add_argument('--domain-id', type=int, default=None,
                         help='ROS_DOMAIN_ID of every process (default: $ROS_DOMAIN_ID or '
                              'random 1..100)')
     args = parser.parse_args(argv)
     env = ros_env(args.domain_id)
     print(f'# {os.cpu_count()} CPUs, load average {load_average()[0]:.2f} at start, '
-          f'ROS_DOMAIN_ID={env["ROS_DOMAIN_ID"]}')
-    print('| target | executor | rate Hz | answered / sent | latency median ms | p99 ms '
-          '| max ms | target CPU per setpoint ms | load avg |')
-    print('|---|---|---:|---:|---:|---:|---:|---:|---:|')
+          f'ROS_DOMAIN_ID={env["ROS_DOMAIN_ID"]}, driver '
+          f'{"message objects" if args.python_messages else "serialized"}')
+    print('| target | executor | rate Hz | answered / sent | lost | latency median ms '
+          '| p90 ms | p99 ms | max ms | target CPU per setpoint ms (Python thread) '
+          '| load avg |')
+    print('|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|')
     kinds = ['echo', 'node'] if args.echo else ['node']
     for executor in args.executors:
         for rate in args.rates:
-            for kind in kinds:
-                r = run_stream(kind, rate, args.seconds, env=env, executor=executor)
-                print(f'| {kind} | {executor} | {rate:g} | {r.answered} / {r.sent} '
-                      f'| {r.median:.2f} | {r.p99:.2f} | {r.max:.1f} '
-                      f'| {r.cpu_ms_per_setpoint:.2f} | {r.load[0]:.2f} |', flush=True)
+            for _ in range(args.repeat):
+                for kind in kinds:
+                    r = run_stream(kind, rate, args.seconds, env=env, executor=executor,
+                                   python_messages=args.python_messages)
+                    main_ms = 1e3 * r.main_thread_cpu_s / max(r.answered, 1)
+                    print(f'| {kind} | {executor} | {rate:g} | {r.answered} / {r.sent} '
+                          f'| {r.lost} | {r.median:.2f} | {r.pct(90):.2f} | {r.p99:.2f} '
+                          f'| {r.max:.1f} | {r.cpu_ms_per_setpoint:.3f} ({main_ms:.3f}) '
+                          f'| {r.load[0]:.2f} |', flush=True)
     print(f'# load average {load_average()[0]:.2f} at end')
     return 0
 

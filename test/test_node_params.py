@@ -15,9 +15,11 @@ import numpy as np
 import pytest
 from rcl_interfaces.msg import ParameterType
 from rcl_interfaces.srv import DescribeParameters, ListParameters
+from sensor_msgs.msg import JointState
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics import parameters as prm
+from flight_sim_dynamics.model import JOINT_NAMES, LEG_NAMES
 from flight_sim_dynamics.trajectories import paper_example
 from node_harness import ROOT, Client, NodeProcess, stamp_ns
 
@@ -189,6 +191,43 @@ def test_scene_selection_changes_forces_at_next_cycle(client):
     [result] = client.set_params({'scene': 'full'})
     assert result.successful, result.reason
     np.testing.assert_allclose(answer(client), full, rtol=0, atol=1e-9)
+
+
+def test_frame_id_change_applies_to_the_reused_outputs(client):
+    """The outputs are reused serialized messages: a new frame_id (a longer
+    one moves every number behind it) is in the next answer of both topics,
+    with names, stamp and values intact, and so is the old one again."""
+    def one() -> tuple[JointState, JointState, int]:
+        n, m = len(client.actuator), len(client.joints)
+        stamp = Stamp.next()
+        client.send(stamp, Q, QD, QDD)
+        assert client.spin_until(lambda: len(client.actuator) > n and len(client.joints) > m,
+                                 5.0), 'setpoint not answered'
+        return client.actuator[n][1], client.joints[m], stamp
+
+    reference = fsd.solve(prm.model_from_values(
+        {k: (list(v) if not isinstance(v, (str, float, int, bool)) else v) for k, v in zip(
+            [s.name for s in prm.MODEL_PARAMETERS],
+            client.get_params([s.name for s in prm.MODEL_PARAMETERS]))},
+        require_all=True), Q, QD, QDD)
+    for frame, joint_frame in (('sim/a_much_longer_base_frame', 'j'), ('simulator_base',
+                                                                         'simulator_base')):
+        [result] = client.set_params({'output.frame_id': frame,
+                                      'output.joint_states_frame_id': joint_frame},
+                                     atomic=True)
+        assert result.successful, result.reason
+        for _ in range(2):                         # and the cycle after
+            actuator, joints, stamp = one()
+            assert actuator.header.frame_id == frame and joints.header.frame_id == joint_frame
+            assert stamp_ns(actuator) == stamp == stamp_ns(joints)
+            assert list(actuator.name) == list(LEG_NAMES)
+            assert list(joints.name) == list(JOINT_NAMES) and len(joints.effort) == 0
+            np.testing.assert_allclose(actuator.position, reference.length, rtol=0, atol=1e-9)
+            np.testing.assert_allclose(actuator.velocity, reference.rate, rtol=0, atol=1e-9)
+            np.testing.assert_allclose(actuator.effort, reference.force, rtol=0, atol=1e-9)
+            np.testing.assert_allclose(joints.position, reference.joints, rtol=0, atol=1e-9)
+            np.testing.assert_allclose(joints.velocity, reference.joint_rates, rtol=0,
+                                       atol=1e-9)
 
 
 def test_qos_change_recreates_the_endpoints(client):
