@@ -155,10 +155,11 @@ def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond:
     qd = pick(('surge_rate', 'heave_rate', 'roll_rate'))
     qdd = pick(('surge_acc', 'heave_acc', 'roll_acc'))
     sol = fsd.solve_batch(model, q, qd, qdd)
-    report_statuses(table, sol)
+    words = _status_words(sol.status)
+    report_statuses(table, sol, words)
     columns = [data[:, col['t']]]
     for field in ('length', 'stroke', 'rate', 'force', 'power', 'acceleration'):
-        columns.extend(np.asarray(getattr(sol, field), dtype=float).T)
+        columns.append(np.asarray(getattr(sol, field), dtype=float))
     columns.append(np.asarray(sol.beta, dtype=float).reshape(-1))
     columns.append(np.asarray(sol.kinematic_condition, dtype=float).reshape(-1))
     columns.append(np.asarray(sol.jacobian_condition, dtype=float).reshape(-1))
@@ -168,23 +169,66 @@ def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond:
         names = names + ('cond',)
     if joints:
         for field in ('joints', 'joint_rates', 'joint_accelerations'):
-            columns.extend(np.asarray(getattr(sol, field), dtype=float).T)
+            columns.append(np.asarray(getattr(sol, field), dtype=float))
         names = names + JOINT_COLUMNS
-    return names, np.column_stack(columns), [str(s) for s in sol.status]
+    return names, _stack_columns(columns, len(names)), words.tolist()
 
 
-def report_statuses(table: csv_io.Table, sol) -> None:
+#: Rows per block when gathering the output columns (the block stays in cache).
+STACK_ROWS = 1024
+
+
+def _stack_columns(columns: Sequence[np.ndarray], width: int) -> np.ndarray:
+    """np.column_stack of 1-D and (N, k) arrays (``width`` columns in all),
+    block by block of rows: the fields of a batch solution are strided views
+    of one wide array of result rows, and a pass over all the rows per column
+    would fetch every row from memory again each time."""
+    parts, j = [], 0
+    for c in columns:
+        k = 1 if c.ndim == 1 else c.shape[1]
+        parts.append((j if c.ndim == 1 else slice(j, j + k), c))
+        j += k
+    if j != width:
+        raise ValueError(f'{j} columns for {width} names')
+    n = columns[0].shape[0]
+    out = np.empty((n, width))
+    for start in range(0, n, STACK_ROWS):
+        rows = slice(start, start + STACK_ROWS)
+        for where, c in parts:
+            out[rows, where] = c[rows]
+    return out
+
+
+def _status_words(status) -> np.ndarray:
+    """str() of every status (an object array), computed once per distinct
+    status: they are a handful of Status members repeated over the rows."""
+    status = np.asarray(status, dtype=object).reshape(-1)
+    words = np.empty(status.size, dtype=object)
+    todo = np.ones(status.size, dtype=bool)
+    while todo.any():
+        i = int(np.argmax(todo))
+        same = todo & np.equal(status, np.array(status[i], dtype=object))
+        same[i] = True
+        words[same] = str(status[i])
+        todo &= ~same
+    return words
+
+
+def report_statuses(table: csv_io.Table, sol, words: np.ndarray | None = None) -> None:
     """Nothing is dropped silently: rows whose status is not ok are written (with
-    their status; unreachable and invalid ones as zeros) and summarised here."""
+    their status; unreachable and invalid ones as zeros) and summarised here.
+    ``words``: str() of each status, if already known (:func:`_status_words`)."""
     from collections import Counter
 
-    counts = Counter(str(s) for s in sol.status)
-    counts.pop('ok', None)
-    if not counts:
+    if words is None:
+        words = _status_words(sol.status)
+    bad = np.flatnonzero(words != 'ok')
+    if not bad.size:
         return
-    first = next(i for i, s in enumerate(sol.status) if str(s) != 'ok')
+    counts = Counter(words[bad].tolist())
+    first = int(bad[0])
     summary = ', '.join(f'{n} {name}' for name, n in sorted(counts.items()))
-    print(f'warning: {table.path}: {sum(counts.values())} of {len(sol.status)} rows are not '
+    print(f'warning: {table.path}: {bad.size} of {len(sol.status)} rows are not '
           f'ok ({summary}); first at line {int(table.lines[first])}: '
           f'{sol.status[first]}: {sol.detail[first]}', file=sys.stderr)
 
@@ -366,7 +410,10 @@ SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
 }
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The command-line parser. ``only``: configure just that subcommand (the
+    one being run; the others stay listed in --help), so that running one
+    does not import the modules of all the others."""
     parser = _Parser(
         prog=PROG,
         description='Inverse dynamics of the Staicu-Ocnarescu-Ungureanu (2013) 3-DOF '
@@ -377,8 +424,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest='command', metavar='COMMAND', parser_class=_Parser)
     for name, (help_text, configure, handler) in SUBCOMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text[:1].upper() + help_text[1:])
-        configure(p)
-        p.set_defaults(handler=handler)
+        if only is None or name == only:
+            configure(p)
+            p.set_defaults(handler=handler)
     for name, (_, help_text) in FORWARDED.items():
         # Listed for --help only: main() forwards these before argparse runs.
         sub.add_parser(name, help=help_text + ' (options are passed through)', add_help=False)
@@ -395,7 +443,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         if argv and argv[0] in FORWARDED:
             return forward(argv[0], argv[1:])
-        parser = build_parser()
+        parser = build_parser(argv[0] if argv and argv[0] in SUBCOMMANDS else None)
         try:
             args = parser.parse_args(argv)
         except SystemExit as exc:       # --help (0) or a usage error (2, already printed)

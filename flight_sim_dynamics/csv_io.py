@@ -10,22 +10,22 @@ only when it fails does a line-by-line scan run to find the exact cell.
 
 Writing is exact: every float is written with enough digits (at most 17
 significant) to read back to the identical double, by a vectorised formatter
-(:func:`format_table`) that is an order of magnitude faster than ``'%.17g'``
-in a Python loop. Files are written to a temporary file in the destination
-directory and moved into place with :func:`os.replace` (:func:`atomic_output`),
-so a failed run never leaves a partial file and never clobbers an old one.
+(:func:`format_table`): numpy computes every value's digits and lays them
+out in a fixed 48-byte template, masking the bytes its form does not use to
+NUL, and ``bytes.translate`` deletes the NULs; an order of magnitude faster
+than ``'%.17g'`` or ``repr`` in a Python loop. Files are written to a
+temporary file in the destination directory and moved into place with
+:func:`os.replace` (:func:`atomic_output`), so a failed run never leaves a
+partial file and never clobbers an old one.
 """
 from __future__ import annotations
 
 import contextlib
-import difflib
 import os
 import re
 import sys
-import tempfile
 from dataclasses import dataclass
-from fractions import Fraction
-from typing import IO, Iterator, Sequence
+from typing import IO, Iterable, Iterator, Sequence
 
 import numpy as np
 
@@ -77,6 +77,7 @@ class Table:
 # Reading
 # ----------------------------------------------------------------------------
 _ALLOWED_BYTES = b'0123456789.eE+-, \t\r\n'
+_BLANK = b' \t\r\n'
 _NUMBER = re.compile(r'[ \t]*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?[ \t]*\Z', re.ASCII)
 
 
@@ -143,6 +144,8 @@ def _did_you_mean(name: str, candidates: Sequence[str]) -> str:
     lowered = {c.lower(): c for c in candidates}
     if name.lower() in lowered:
         return f" (did you mean '{lowered[name.lower()]}'?)"
+    import difflib      # only for this error message
+
     close = difflib.get_close_matches(name, candidates, n=1)
     return f" (did you mean '{close[0]}'?)" if close else ''
 
@@ -166,25 +169,27 @@ def parse_csv(data: bytes, path: str = '<input>', *, required: Sequence[str],
     (words such as ``status``) are skipped, not parsed as numbers."""
     if data.startswith(b'\xef\xbb\xbf'):
         data = data[3:]
-    if not data.strip():
+    if not data or data.isspace():
         raise CsvError('the file is empty; expected a header line '
                        f"{','.join(required)} and rows of numbers", path=path, line=1)
     end = data.find(b'\n')
-    header, body = (data, b'') if end < 0 else (data[:end], data[end + 1:])
+    header = data if end < 0 else data[:end]
     names = parse_header(header, path, required=required, allow_extra=allow_extra)
     skip = [j for j, name in enumerate(names) if name in text_columns]
+    # Trailing blank lines at the end of the file are fine; any other blank
+    # line is a row with every value missing.
     if skip:
         keep = [j for j in range(len(names)) if j not in skip]
         names = tuple(names[j] for j in keep)
         body = b'\n'.join(b','.join(f for j, f in enumerate(line.split(b',')) if j not in skip)
-                          for line in body.split(b'\n'))
+                          for line in (data[end + 1:] if end >= 0 else b'').split(b'\n'))
+        body = body.rstrip(_BLANK)
+    else:       # one copy of the rows, without the trailing blanks
+        body = data[end + 1:_content_end(data)] if end >= 0 else b''
     ncol = len(names)
-    # Trailing blank lines at the end of the file are fine; any other blank
-    # line is a row with every value missing.
-    body = body.rstrip(b' \t\r\n')
     if not body:
         raise CsvError('no data rows after the header', path=path, line=2)
-    nrows = body.count(b'\n') + 1
+    nrows = _count(body, b'\n') + 1
     values = _parse_fast(body, nrows, ncol)
     if values is None:
         values = _parse_slow(body, names, path)  # raises on the first bad cell
@@ -197,6 +202,18 @@ def parse_csv(data: bytes, path: str = '<input>', *, required: Sequence[str],
     return Table(path=path, names=names, data=values, lines=np.arange(2, nrows + 2))
 
 
+def _content_end(data: bytes) -> int:
+    """len(data.rstrip(_BLANK)), without copying a large file."""
+    tail = data[-4096:]
+    kept = len(tail.rstrip(_BLANK))
+    return len(data) - len(tail) + kept if kept else len(data.rstrip(_BLANK))
+
+
+def _count(data: bytes, byte: bytes) -> int:
+    """data.count(byte) for a single byte, about twice as fast (numpy)."""
+    return int(np.count_nonzero(np.frombuffer(data, dtype=np.uint8) == byte[0]))
+
+
 def _parse_fast(body: bytes, nrows: int, ncol: int) -> np.ndarray | None:
     """Parse ``body`` (the rows) in C; None if anything looks wrong (then the
     slow scan finds and reports the offending cell)."""
@@ -204,16 +221,12 @@ def _parse_fast(body: bytes, nrows: int, ncol: int) -> np.ndarray | None:
         return None
     if b'\r' in body:
         body = body.replace(b'\r\n', b'\n')
-    buf = np.frombuffer(body, dtype=np.uint8)
-    newlines = np.flatnonzero(buf == 0x0A)
-    commas = np.flatnonzero(buf == 0x2C)
-    if commas.size != nrows * (ncol - 1):
-        return None
-    per_line = np.bincount(np.searchsorted(newlines, commas), minlength=nrows)
-    if np.any(per_line != ncol - 1):     # ragged rows; also blank lines when ncol > 1
+    if _count(body, b',') != nrows * (ncol - 1):
         return None
     # numpy's C parser accepts, on these characters, exactly the cells _NUMBER
-    # accepts (test_cli checks it); it skips blank lines, caught by the shape.
+    # accepts (test_cli checks it). It refuses a row whose number of cells
+    # differs from the first row's and skips blank lines: so with nrows rows
+    # read and nrows * (ncol - 1) commas in all, every row has ncol cells.
     try:
         values = np.loadtxt(body.decode('ascii').split('\n'), delimiter=',', comments=None,
                             dtype=np.float64, ndmin=2)
@@ -273,14 +286,16 @@ _P10_MIN, _P10_MAX = -270, 270
 
 
 def _pow10_table() -> tuple[np.ndarray, np.ndarray]:
-    """10**k as unevaluated sums hi + lo of two doubles (|error| < 2**-106)."""
+    """10**k as unevaluated sums hi + lo of two doubles (|error| < 2**-106);
+    exact integer arithmetic, rounded once (int / int rounds correctly)."""
     ks = range(_P10_MIN, _P10_MAX + 1)
     hi = np.empty(len(ks))
     lo = np.empty(len(ks))
     for i, k in enumerate(ks):
-        exact = Fraction(10) ** k
-        hi[i] = float(exact)
-        lo[i] = float(exact - Fraction(hi[i]))
+        num, den = (10 ** k, 1) if k >= 0 else (1, 10 ** -k)
+        hi[i] = num / den
+        p, q = hi[i].as_integer_ratio()
+        lo[i] = (num * q - p * den) / (den * q)          # 10**k - hi, rounded
     return hi, lo
 
 
@@ -288,24 +303,41 @@ _P10_HI, _P10_LO = _pow10_table()
 _SPLITTER = 134217729.0     # 2**27 + 1 (Dekker)
 _TEN16 = 10 ** 16
 _TEN17 = 10 ** 17
+_U10 = np.uint64(10)
+_U10000 = np.uint64(10000)
+_EXP_BITS = np.int64(0x7FF0000000000000)    # exponent field of a double
+_MANT_BITS = np.int64(0x000FFFFFFFFFFFFF)   # its fraction field
+_ULP_SHIFT = np.int64(52 << 52)             # exponent field - 52: the unit in the last place
+_SHORT_BOUND = 0.5 * (1.0 - 1e-9)
 
 
-def _scaled(ax: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _scaled(ax: np.ndarray, i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """ax * 10**p as a double-double (hi, lo), relative error < 2**-100
-    (Dekker's exact product; no overflow for ax in _RANGE, |p| <= 270)."""
-    th = np.take(_P10_HI, p - _P10_MIN)
-    tl = np.take(_P10_LO, p - _P10_MIN)
+    (Dekker's exact product; no overflow for ax in _RANGE, |p| <= 270), where
+    i = p - _P10_MIN indexes the table of powers of ten. In place where it
+    can be (fewer temporaries): the operations are those of
+    prod = ax * th;  ah, al = split(ax);  bh, bl = split(th)
+    err = ((ah * bh - prod) + ah * bl + al * bh) + al * bl + ax * tl
+    hi = prod + err;  lo = err - (hi - prod)."""
+    th = _P10_HI.take(i)
     prod = ax * th
-    c = _SPLITTER * ax
-    ah = c - (c - ax)
+    bh = _SPLITTER * th                    # Dekker's split: bh = c - (c - th), c = S * th
+    t = bh - th
+    np.subtract(bh, t, out=bh)
+    bl = np.subtract(th, bh, out=th)
+    ah = _SPLITTER * ax
+    np.subtract(ah, ax, out=t)
+    np.subtract(ah, t, out=ah)
     al = ax - ah
-    c = _SPLITTER * th
-    bh = c - (c - th)
-    bl = th - bh
-    err = ((ah * bh - prod) + ah * bl + al * bh) + al * bl
-    err += ax * tl
+    err = ah * bh
+    err -= prod
+    err += np.multiply(ah, bl, out=t)
+    err += np.multiply(al, bh, out=t)
+    err += np.multiply(al, bl, out=t)
+    err += np.multiply(ax, _P10_LO.take(i), out=t)
     hi = prod + err
-    lo = err - (hi - prod)
+    np.subtract(hi, prod, out=t)
+    lo = np.subtract(err, t, out=err)
     return hi, lo
 
 
@@ -318,9 +350,11 @@ def _round_int(hi: np.ndarray, lo: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _decimal(ax: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """For positive finite ax in _RANGE: (m, e) with 10**16 <= m < 10**17 and
-    m * 10**(e - 16) a decimal that reads back exactly as ax, with 16
-    significant digits (m a multiple of 10) when they suffice, else 17.
+    """For positive finite ax in _RANGE (C-contiguous; m and e come out 1-D):
+    (m, e) with 10**16 <= m < 10**17 and m * 10**(e - 16) a decimal that
+    reads back exactly as ax, with 16 significant digits (m a multiple of 10;
+    the nearest, an exact tie rounded down) when they suffice, else 17 (the
+    nearest, ties to even).
 
     Why exact: the scaled value carries a relative error below 2**-100, so m
     is within 0.5 + 1e-13 units of the 17th digit of ax, i.e. within
@@ -329,54 +363,94 @@ def _decimal(ax: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     distance is below half the gap on its side, with a 1e-9 relative margin
     that dwarfs every rounding error of the test.
     """
+    ax = ax.reshape(-1)
     e = np.floor(np.log10(ax)).astype(np.int64)
-    m, resid = _round_int(*_scaled(ax, 16 - e))      # resid = m - ax * 10**(16 - e)
+    m, resid = _round_int(*_scaled(ax, (16 - _P10_MIN) - e))   # resid = m - ax * 10**(16 - e)
     for _ in range(2):  # log10 may be off by one next to a power of ten
-        hi = m >= _TEN17
-        low = m < _TEN16
-        if not (hi.any() or low.any()):
+        fix = (m - _TEN16).view(np.uint64) >= np.uint64(_TEN17 - _TEN16)    # m out of range
+        if not fix.any():
             break
-        e = e + hi - low
-        fix = hi | low
-        m[fix], resid[fix] = _round_int(*_scaled(ax[fix], 16 - e[fix]))
+        fix = np.flatnonzero(fix)
+        e[fix] += np.where(m[fix] >= _TEN17, 1, -1)
+        m[fix], resid[fix] = _round_int(*_scaled(ax[fix], (16 - _P10_MIN) - e[fix]))
     # 16 digits: v = ax * 10**(15 - e) = (m - resid) / 10 = a + (b - resid) / 10
     # with m = 10 a + b; the nearest integer m16 is a or a + 1, and its
     # distance to v (resid16 = m16 - v) follows exactly from small integers.
-    a, b = np.divmod(m, 10)
-    m16 = a + ((b - resid) > 5.0)
+    a = (m.view(np.uint64) // _U10).view(np.int64)
+    m16 = a + ((m - 10 * a - resid) > 5.0)
     resid16 = ((10 * m16 - m) + resid) * 0.1
-    scale = np.take(_P10_HI, 15 - e - _P10_MIN)
-    gap = np.where(resid16 >= 0, np.nextafter(ax, np.inf) - ax, ax - np.nextafter(ax, 0.0))
-    short = np.abs(resid16) < (0.5 * (1.0 - 1e-9)) * (gap * scale)
-    carry = short & (m16 >= _TEN16)      # rounded up to the next power of ten
+    # Half the gap to the neighbouring double on the side of the candidate, in
+    # units of the 16th digit: one unit in the last place, 2**(E - 52), read
+    # off the exponent bits (ax is normal here), half that below a power of two.
+    bits = ax.view(np.int64)
+    ulp = ((bits & _EXP_BITS) - _ULP_SHIFT).view(np.float64)
+    bound = _SHORT_BOUND * (ulp * _P10_HI.take((15 - _P10_MIN) - e))
+    below = np.flatnonzero((bits & _MANT_BITS) == 0)     # powers of two: rare
+    if below.size:
+        below = below[resid16[below] < 0]
+        bound[below] *= 0.5
+    short = np.abs(resid16) < bound
     m = np.where(short, m16 * 10, m)
-    if carry.any():
+    carry = np.flatnonzero(m == _TEN17)          # rounded up to the next power of ten
+    if carry.size:
         m[carry] = _TEN16
-        e = e + carry
+        e[carry] += 1
     return m, e
 
 
-# Each value is first written into a 48-byte template holding every character
-# any of its forms could need; a keep-mask then selects its text:
+# Each value is first written into six 64-bit words (48 bytes) holding every
+# character any of its forms could need:
 #   byte 0: '-'   1-2: '0.'   3-5: '000'   (fixed notation, exponent -4..-1)
 #   6 + 2i: digit i (i = 0..16)   7 + 2i: '.' after digit i
 #   40-44: 'e', exponent sign, 3 exponent digits   45-46: unused   47: separator
+# A byte mask chosen by the value's form (0xFF: keep, 0: drop) then zeroes the
+# bytes it does not use, and bytes.translate deletes the zeros: the text of
+# a value is its 48 bytes without the NULs.
 _SLOT = 48
+_WORDS = _SLOT // 8
+_DELETE = b'\0'
 
 
 def _u64(rows: list[bytes]) -> np.ndarray:
     return np.frombuffer(b''.join(rows), dtype=np.uint64).copy()
 
 
+def _digit_words() -> np.ndarray:
+    """'d.d.d.d.' for every group of 4 digits 0000..9999, as uint64."""
+    g = np.arange(10000)
+    chars = np.full((10000, 8), ord('.'), dtype=np.uint8)
+    for i, p in enumerate((1000, 100, 10, 1)):
+        chars[:, 2 * i] = ord('0') + g // p % 10
+    return chars.view(np.uint64).ravel().copy()
+
+
 _WORD0 = _u64([b'-0.000' + bytes([48 + d]) + b'.' for d in range(10)])
-_WORD_DIGITS = _u64([b'.'.join(f'{g:04d}'.encode()[i:i + 1] for i in range(4)) + b'.'
-                     for g in range(10000)])
+_WORD_DIGITS = _digit_words()
 _EXP_MIN = -400
-_WORD_EXP = _u64([b'e' + (b'-' if e < 0 else b'+') + f'{abs(e):03d}'.encode() + b'  ,'
-                  for e in range(_EXP_MIN, -_EXP_MIN + 1)])
-_TRAILING0 = np.array([4] + [len(f'{g:04d}') - len(f'{g:04d}'.rstrip('0'))
-                             for g in range(1, 10000)], dtype=np.int64)
+
+
+def _exponent_words() -> np.ndarray:
+    """'e+XXX  ,' (sign, 3 digits, 2 unused bytes, separator) for every decimal
+    exponent _EXP_MIN..-_EXP_MIN, as uint64."""
+    e = np.arange(_EXP_MIN, -_EXP_MIN + 1)
+    chars = np.empty((e.size, 8), dtype=np.uint8)
+    chars[:, 0] = ord('e')
+    chars[:, 1] = np.where(e < 0, ord('-'), ord('+'))
+    for i, p in enumerate((100, 10, 1)):
+        chars[:, 2 + i] = ord('0') + np.abs(e) // p % 10
+    chars[:, 5:7] = ord(' ')
+    chars[:, 7] = ord(',')
+    return chars.view(np.uint64).ravel().copy()
+
+
+_WORD_EXP = _exponent_words()
+_G = np.arange(10000)
+#: 4 * the trailing zeros of each group of 4 digits (4 * 4 for 0000).
+_TRAILING4 = 4 * ((_G % 10 == 0).astype(np.int64) + (_G % 100 == 0) + (_G % 1000 == 0)
+                  + (_G % 10000 == 0))
+del _G
 _I17 = np.arange(17)
+_NEWLINE_XOR = np.uint64((ord(',') ^ ord('\n')) << 56)   # separator byte 47: ',' -> '\n'
 
 
 _SCI = 21   # format class of scientific notation; classes 0..20: fixed, exponent e = class - 4
@@ -410,17 +484,92 @@ def _keep_rules(e: np.ndarray, nd: np.ndarray, neg: np.ndarray) -> np.ndarray:
 
 
 def _keep_table() -> np.ndarray:
-    """_keep_rules for every (class, nd, 3-digit exponent, sign), indexed by
-    ((class * 17 + nd - 1) * 2 + hundreds) * 2 + negative; rows of 6 uint64."""
+    """Byte masks (rows of 6 uint64) of _keep_rules for every (class, nd,
+    3-digit exponent, sign), indexed by ((class * 17 + nd - 1) * 2 + hundreds) * 2
+    + negative."""
     cls, nd, hundreds, neg = np.meshgrid(np.arange(_SCI + 1), np.arange(1, 18), [0, 1], [0, 1],
                                          indexing='ij')
     cls, nd, hundreds, neg = (a.ravel() for a in (cls, nd, hundreds, neg))
     e = np.where(cls == _SCI, np.where(hundreds == 1, 100, 20), cls - 4)
     keep = _keep_rules(e, nd, neg.astype(bool))
-    return np.ascontiguousarray(keep).view(np.uint64).copy()
+    return np.ascontiguousarray(keep.astype(np.uint8) * 0xFF).view(np.uint64).copy()
 
 
-_KEEP_WORDS = _keep_table()
+_KEEP_MASKS = _keep_table()
+
+
+def _exponent_patterns() -> np.ndarray:
+    """The part of the _KEEP_MASKS index set by the decimal exponent e, for
+    e = _EXP_MIN.. -_EXP_MIN, with nd = 17 (each trailing zero takes 4 off,
+    a minus sign adds 1)."""
+    e = np.arange(_EXP_MIN, -_EXP_MIN + 1)
+    cls = np.where((e >= -4) & (e <= 16), e + 4, _SCI)
+    return (cls * 17 + 16) * 4 + 2 * (np.abs(e) >= 100)
+
+
+_PATTERN_E = _exponent_patterns()
+
+
+def _special_words(v: float) -> np.ndarray:
+    """The six words of a value outside the vectorised range: 0, nan, inf and
+    the tiny or huge (Python's '%.17g')."""
+    chars = bytearray(_SLOT)
+    if v == 0:
+        text = b'0'
+    elif v != v:
+        text = b'nan'
+    else:
+        text = ('%.17g' % abs(v)).encode()
+    if v == v and np.signbit(v):
+        chars[0] = ord('-')
+    chars[1:1 + len(text)] = text
+    chars[_SLOT - 1] = ord(',')
+    return np.frombuffer(bytes(chars), dtype=np.uint64)
+
+
+_ZERO_WORDS = np.stack([_special_words(0.0), _special_words(-0.0)])
+
+
+def _format_into(x: np.ndarray, out: np.ndarray) -> None:
+    """Write the six words of every value of x (float64, C-contiguous, any
+    shape) into out (uint64, shape x.shape + (6,), may be a view), with the
+    unused bytes zeroed and ',' as separator (see the layout above)."""
+    shape = x.shape
+    ax = np.abs(x)
+    fast = (ax >= _RANGE[0]) & (ax <= _RANGE[1])      # false for 0, nan, inf
+    all_fast = bool(fast.all())
+    if not all_fast:
+        ax = np.where(fast, ax, 1.0)
+    m, e = _decimal(ax)
+    # digits: m = g * 10**16 + four groups r[3], r[2], r[1], r[0] of 4 digits
+    g = m.view(np.uint64)
+    r = []
+    for col in (4, 3, 2, 1):
+        q = g // _U10000
+        r.append((g - q * _U10000).view(np.int64))
+        g = q
+        out[..., col] = _WORD_DIGITS.take(r[-1]).reshape(shape)
+    out[..., 0] = _WORD0.take(g.view(np.int64)).reshape(shape)
+    ei = e - _EXP_MIN
+    out[..., 5] = _WORD_EXP.take(ei).reshape(shape)
+    # 4 * the trailing zeros of m: those of r[0], unless r[0] = 0000
+    tz4 = _TRAILING4.take(r[0])
+    more = np.flatnonzero(r[0] == 0)
+    if more.size:
+        t = _TRAILING4.take(r[3][more])
+        for rk in (r[2][more], r[1][more]):
+            t = _TRAILING4.take(rk) + (rk == 0) * t
+        tz4[more] += t
+    pattern = _PATTERN_E.take(ei) - tz4 + np.signbit(x).reshape(-1)
+    out &= _KEEP_MASKS.take(pattern, axis=0).reshape(out.shape)
+    if not all_fast:
+        special = np.flatnonzero(~fast)
+        values = x.reshape(-1)[special]
+        zero = values == 0
+        out[np.unravel_index(special[zero], shape)] = _ZERO_WORDS.take(
+            np.signbit(values[zero]).astype(np.intp), axis=0)
+        for i in np.flatnonzero(~zero):            # nan, inf, tiny, huge: rare
+            out[np.unravel_index(special[i], shape)] = _special_words(float(values[i]))
 
 
 def format_values(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -433,44 +582,10 @@ def format_values(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     whenever 16 read back exactly: ``float(text) == x`` always, the sign of
     zero included (``nan``, ``inf``, ``-inf`` for the non-finite)."""
     x = np.ascontiguousarray(x, dtype=np.float64).ravel()
-    n = x.size
-    ax = np.abs(x)
-    fast = (ax >= _RANGE[0]) & (ax <= _RANGE[1])      # false for 0, nan, inf
-    all_fast = bool(fast.all())
-    if not all_fast:
-        ax = np.where(fast, ax, 1.0)
-    m, e = _decimal(ax)
-    words = np.empty((n, _SLOT // 8), dtype=np.uint64)
-    g = m
-    groups = []
-    for col in (4, 3, 2, 1):
-        g, r = np.divmod(g, 10000)
-        groups.append(r)
-        words[:, col] = np.take(_WORD_DIGITS, r)
-    words[:, 0] = np.take(_WORD0, g)
-    words[:, 5] = np.take(_WORD_EXP, e - _EXP_MIN)
-    tz = _TRAILING0[groups[0]]
-    zero_so_far = groups[0] == 0
-    for r in groups[1:]:
-        tz += np.where(zero_so_far, _TRAILING0[r], 0)
-        zero_so_far &= r == 0
-    nd = 17 - tz                                       # significant digits, 1..17
-    neg = np.signbit(x)
-    cls = np.where((e >= -4) & (e <= 16), e + 4, _SCI)
-    pattern = (((cls * 17 + (nd - 1)) << 1) | (np.abs(e) >= 100)) << 1 | neg
-    keep = np.take(_KEEP_WORDS, pattern, axis=0).view(bool).reshape(n, _SLOT)
-    chars = words.view(np.uint8).reshape(n, _SLOT)
-    if not all_fast:
-        zero = x == 0
-        keep[zero, 1:_SLOT - 1] = False
-        keep[zero, 1] = True                          # '0' of '-0.000'
-        for i in np.flatnonzero(~fast & ~zero):       # nan, inf, tiny, huge: rare
-            text = b'nan' if np.isnan(x[i]) else ('%.17g' % abs(x[i])).encode()
-            chars[i, 1:1 + len(text)] = np.frombuffer(text, dtype=np.uint8)
-            keep[i, 0] = np.signbit(x[i]) and not np.isnan(x[i])
-            keep[i, 1:_SLOT - 1] = False
-            keep[i, 1:1 + len(text)] = True
-    return chars, keep
+    words = np.empty((x.size, _WORDS), dtype=np.uint64)
+    _format_into(x, words)
+    chars = words.view(np.uint8)
+    return chars, chars != 0
 
 
 def format_value(x: float) -> str:
@@ -479,22 +594,39 @@ def format_value(x: float) -> str:
     return chars[0, :-1][keep[0, :-1]].tobytes().decode()
 
 
+def _format_chunks(data: np.ndarray, chunk_values: int = 8192,
+                   text: tuple[np.ndarray, np.ndarray] | None = None) -> Iterator[bytes]:
+    """The rows of ``data`` (2-D float64) as text, in blocks of about
+    ``chunk_values`` numbers (cache-sized). ``text = (slots, codes)`` ends
+    row i with the words ``slots[codes[i]]`` (NUL-padded text of its last
+    column and the newline; shape (k, 6) each) after the numbers' ','."""
+    nrows, ncol = data.shape
+    step = max(1, chunk_values // max(ncol, 1))
+    k = 0 if text is None else text[0].shape[1]
+    if ncol + k == 0:                   # no columns at all: empty lines
+        yield b'\n' * nrows
+        return
+    for start in range(0, nrows, step):
+        block = np.ascontiguousarray(data[start:start + step])
+        nb = block.shape[0]
+        buf = np.empty((nb, ncol + k, _WORDS), dtype=np.uint64)
+        _format_into(block, buf[:, :ncol])
+        if text is not None:
+            buf[:, ncol:] = text[0].take(text[1][start:start + nb], axis=0)
+        else:
+            buf[:, ncol - 1, _WORDS - 1] ^= _NEWLINE_XOR
+        # bytes.translate deletes the NULs fastest (a bytearray's is slower, and
+        # its results keep the whole input's size allocated)
+        yield buf.tobytes().translate(None, _DELETE)
+
+
 def format_table(data: np.ndarray, *, chunk_values: int = 8192) -> bytes:
     """Rows of comma-separated exact decimals, each row ending in a newline.
     Works in blocks of about ``chunk_values`` numbers (cache-sized)."""
     data = np.asarray(data, dtype=np.float64)
     if data.ndim != 2:
         raise ValueError(f'expected a 2-D array, got shape {data.shape}')
-    nrows, ncol = data.shape
-    step = max(1, chunk_values // max(ncol, 1))
-    parts = []
-    for start in range(0, nrows, step):
-        block = data[start:start + step]
-        nb = block.shape[0]
-        chars, keep = format_values(block)
-        chars.reshape(nb, ncol, _SLOT)[:, -1, _SLOT - 1] = ord('\n')
-        parts.append(np.compress(keep.ravel(), chars.ravel()).tobytes())
-    return b''.join(parts)
+    return b''.join(_format_chunks(data, chunk_values))
 
 
 @contextlib.contextmanager
@@ -514,6 +646,8 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[IO[bytes]]:
     if not os.path.isdir(directory):
         raise CsvError(f"cannot write: directory '{os.path.dirname(path) or '.'}' does not exist",
                        path=path)
+    import tempfile
+
     fd, tmp = tempfile.mkstemp(prefix='.' + os.path.basename(path) + '.', suffix='.tmp',
                                dir=directory)
     try:
@@ -529,6 +663,18 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[IO[bytes]]:
         raise
 
 
+def _text_slots(index: dict[str, int]) -> np.ndarray | None:
+    """The slots of :func:`_format_chunks` for the words of ``index`` (word ->
+    its number): its text and the newline, NUL-padded to whole 48-byte slots.
+    None if a word holds a NUL (then the rows are joined one by one)."""
+    words = [v.encode() + b'\n' for v in index]
+    if any(_DELETE in w for w in words):
+        return None
+    width = -(-max(len(w) for w in words) // _SLOT)
+    slots = b''.join(w.ljust(width * _SLOT, _DELETE) for w in words)
+    return np.frombuffer(slots, dtype=np.uint64).reshape(len(words), width, _WORDS)
+
+
 def write_csv(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarray,
               text: tuple[str, Sequence[str]] | None = None) -> None:
     """Write a header and the rows of ``data`` (N, len(names)), exactly, atomically;
@@ -536,15 +682,24 @@ def write_csv(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarr
     data = np.asarray(data, dtype=np.float64)
     if data.ndim != 2 or data.shape[1] != len(names):
         raise ValueError(f'{len(names)} column names for data of shape {data.shape}')
-    body = format_table(data)
     header = ','.join(names)
-    if text is not None:
+    if text is None:
+        body: Iterable[bytes] = _format_chunks(data)
+    else:
         name, values = text
-        if len(values) != data.shape[0] or any(',' in v or '\n' in v for v in values):
+        index: dict[str, int] = {}      # the distinct words (a handful, e.g. statuses)
+        codes = np.fromiter((index.setdefault(v, len(index)) for v in values), dtype=np.intp,
+                            count=len(values)) if len(values) == data.shape[0] else None
+        if codes is None or any(',' in v or '\n' in v for v in index):
             raise ValueError(f'text column {name!r}: one word per row expected')
         header += ',' + name
-        rows = body.split(b'\n')[:-1]
-        body = b''.join(row + b',' + v.encode() + b'\n' for row, v in zip(rows, values))
+        slots = _text_slots(index) if index else None
+        if slots is not None:
+            body = _format_chunks(data, text=(slots, codes))
+        else:                           # no rows, or a NUL in a word: row by row
+            rows = format_table(data).split(b'\n')[:-1]
+            body = [b''.join(row + b',' + v.encode() + b'\n' for row, v in zip(rows, values))]
     with atomic_output(path) as f:
         f.write((header + '\n').encode())
-        f.write(body)
+        for part in body:               # written as formatted: the memory is reused
+            f.write(part)
