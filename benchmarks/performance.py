@@ -1113,7 +1113,9 @@ def markdown(res: dict, rows: list[Row], argv: Sequence[str], started: float,
         p = res['profile_solver']
         impl = (f'the compiled kernel (`{Path(p["kernel_path"]).name}`, built from '
                 f'`src/kernel.c`)' if p['kernel'] else
-                '**the Python code: the compiled kernel was not available**')
+                '**the Python code: the compiled kernel was switched off (FSD_KERNEL=0)**'
+                if kernel.available() else
+                '**the Python code: the compiled kernel was not built**')
         w(f'### The solver: where one `fsd.solve` goes\n\n`fsd.solve` ran {impl}. Each figure '
           f'is the best of 5 runs of {p["n"]} calls on one state of section 1 (us per call; '
           f'the load of other jobs only adds time). "kernel" is the C function alone (packed '
@@ -1215,11 +1217,12 @@ def analysis(res: dict, rows: list[Row]) -> str:
     out: list[str] = []
     s, p = res.get('solve'), res.get('profile_solver')
     if s and p and not p['kernel']:
-        out.append('**Per-cycle solve and batch**: this run used the Python code because the '
-                   'compiled kernel was not built (no C compiler when the package was '
-                   f'installed?: {kernel.IMPORT_ERROR}). Build it (`pip install .` or '
-                   '`python setup.py build_ext --inplace`) and rerun; the Python code is '
-                   'the reference implementation, 50-100x slower.')
+        out.append('**Per-cycle solve and batch**: this run used the Python code, the '
+                   'reference implementation, 50-100x slower than the compiled kernel, which '
+                   + ('was switched off (FSD_KERNEL=0).' if kernel.available() else
+                      f'was not built (no C compiler when the package was installed?: '
+                      f'{kernel.IMPORT_ERROR}); build it with `pip install .` or `python '
+                      f'setup.py build_ext --inplace` and rerun.'))
     elif s and p:
         f, qs = s['full'], s['quasi_static']
         missed = (f['median'] > TARGET_SOLVE_MEDIAN_US or f['p99'] > TARGET_SOLVE_P99_US

@@ -7,7 +7,8 @@ installed (``pip install .``, ``colcon build``; ``python setup.py build_ext
 --inplace`` for the source tree). :func:`.solver.solve` and
 :func:`.solver.solve_batch` use it when it is there and fall back to the
 Python code (the reference: same equations, same results to round-off,
-slower) when it is not; ``use_kernel(False)`` forces the Python code.
+slower) when it is not; ``use_kernel(False)`` forces the Python code, and so
+does FSD_KERNEL=0 in the environment.
 
 The model goes to C once, packed into an array of doubles by
 :func:`pack_model` (cached on the model), with the scene's effects as a bit
@@ -66,7 +67,12 @@ if _kernel is not None and (_kernel.P_SIZE, _kernel.OUT_SIZE, _kernel.BODY_SIZE)
     raise ImportError('flight_sim_dynamics._kernel was built from another version of '
                       'src/kernel.c; rebuild it')
 
-_enabled = _kernel is not None
+#: FSD_KERNEL=0 in the environment: solve with the Python code even when the
+#: kernel is built (inherited by subprocesses: the node, the command line).
+_choice = os.environ.get('FSD_KERNEL', '1')
+if _choice not in ('0', '1'):
+    raise ImportError(f'FSD_KERNEL={_choice!r}: expected 0 (the Python code) or 1 (the kernel)')
+_enabled = _kernel is not None and _choice == '1'
 
 
 def available() -> bool:

@@ -63,9 +63,5 @@ _hypothesis_settings.load_profile(_profile)
 # for the whole suite:  FSD_KERNEL=0 PYTHONPATH=. python -m pytest -q test
 # test/test_kernel.py checks the two against each other in every run.
 # ---------------------------------------------------------------------------
-_kernel_choice = os.environ.get('FSD_KERNEL', '1')
-if _kernel_choice not in ('0', '1'):
-    raise ValueError(f'FSD_KERNEL={_kernel_choice!r}: expected 0 (Python code) or 1 (kernel)')
-if _kernel_choice == '0':
-    from flight_sim_dynamics import kernel as _fsd_kernel  # noqa: E402
-    _fsd_kernel._enabled = False
+# (read by flight_sim_dynamics.kernel itself, so the node and command-line
+# processes the tests start follow the same choice)
