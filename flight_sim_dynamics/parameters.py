@@ -225,7 +225,7 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               '(motion assumed to start from rest)', 's',
               minimum=0.0, exclusive_minimum=True, maximum=3600.0),
     # Quality of service of setpoints and outputs (re-created on change).
-    ParamSpec('qos.depth', 'integer', 100,
+    ParamSpec('qos.depth', 'integer', 1000,
               'history depth (KEEP_LAST) of the setpoint subscriptions and output publishers',
               'messages', minimum=1, maximum=100000),
     ParamSpec('qos.reliability', 'string', 'reliable',

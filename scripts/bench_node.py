@@ -65,7 +65,7 @@ STAMP_BASE_S = 1_700_000_000          # stamps: base + k / rate (k = sample inde
 LEG_NAMES = ('leg_a', 'leg_b', 'leg_c')
 #: A stream "keeps up" when nothing is lost and its p99 latency stays below
 #: this fraction of the time a full queue (qos.depth samples) represents at
-#: the stream's rate: no standing backlog (at 1 kHz and depth 100: 50 ms).
+#: the stream's rate: no standing backlog (at 1 kHz and depth 1000: 500 ms).
 KEEPS_UP_QUEUE_FRACTION = 0.5
 
 
@@ -112,7 +112,7 @@ def node_command(executor: str = 'events', params_file: Path | None = PARAMS_FIL
     return cmd
 
 
-def echo_command(executor: str = 'events', depth: int = 100) -> list[str]:
+def echo_command(executor: str = 'events', depth: int = 1000) -> list[str]:
     return [sys.executable, str(Path(__file__).resolve()), 'echo', '--executor', executor,
             '--depth', str(depth)]
 
@@ -452,7 +452,7 @@ def drive_main(argv: Sequence[str]) -> int:
     p.add_argument('--expect', choices=('node', 'echo'), default='node')
     p.add_argument('--rate', type=float, required=True)
     p.add_argument('--seconds', type=float, required=True)
-    p.add_argument('--depth', type=int, default=100)
+    p.add_argument('--depth', type=int, default=1000)
     p.add_argument('--out', required=True)
     p.add_argument('--progress', type=float, default=0.0,
                    help='print a PROGRESS line every this many seconds (0: never)')
