@@ -84,6 +84,13 @@ VIOLENT_DURATION = 3.0  # s; at rest in the central configuration from 2.8 s on
 MOTIONS = (*PAPER_EXAMPLES, 'violent')
 
 
+def _us(x: float) -> str:
+    """Microseconds for the text: 0.1 us resolution below 10 us (the compiled
+    solve takes a few), whole ones above."""
+    return f'{x:.1f}' if abs(x) < 10.0 else f'{x:.0f}'
+
+
+
 def violent_motion(t: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """q, qd, qdd (each (N, 3)) of the violent motion at times ``t`` (s):
     exact derivatives of the sum of the smooth steps :data:`VIOLENT_STEPS`."""
@@ -584,8 +591,8 @@ def summary(res: Results) -> list[str]:
         if us is None:
             return 'saves no measurable time'
         if us > 0:
-            return f'saves {us:.0f} us per cycle ({100.0 * us / ref.median_us:.0f} %)'
-        return f'costs {-us:.0f} us more per cycle'
+            return f'saves {_us(us)} us per cycle ({100.0 * us / ref.median_us:.0f} %)'
+        return f'costs {_us(-us)} us more per cycle'
 
     def err(key: str, motion: str, of_peak: str = ' of the peak force') -> str:
         e = res.errors[key][motion]
@@ -595,8 +602,8 @@ def summary(res: Results) -> list[str]:
         return key.split(' - ', 1)[1].replace('_', ' ')
 
     out.append(f'On this machine one control cycle of the full model (`fsd.solve`) takes a '
-               f'median of {ref.median_us:.0f} us (p99 of a typical stretch of cycles '
-               f'{ref.block_p99_us:.0f} us); the peak actuator force is '
+               f'median of {_us(ref.median_us)} us (p99 of a typical stretch of cycles '
+               f'{_us(ref.block_p99_us)} us); the peak actuator force is '
                f'{res.peaks["general"]:.0f} N on the paper\'s general motion and '
                f'{res.peaks["violent"]:.0f} N on the violent motion-cueing test motion.')
     if 'full - leg_inertia' in by_key:
@@ -616,7 +623,7 @@ def summary(res: Results) -> list[str]:
     measurable = sorted((k for k in others if (saving(k) or 0.0) > 0),
                         key=lambda k: -saving(k))
     idle = [k for k in others if k not in measurable]
-    parts = [f'dropping {effect(k)} saves {saving(k):.0f} us and costs up to '
+    parts = [f'dropping {effect(k)} saves {_us(saving(k))} us and costs up to '
              f'{_fmt_n(res.errors[k]["violent"].max)} N' for k in measurable]
     text = ('On the violent motion, ' + ', '.join(parts)) if parts else ''
     if idle:
@@ -628,7 +635,7 @@ def summary(res: Results) -> list[str]:
         out.append(text[0].upper() + text[1:] + '.')
     if 'payload' in by_key:
         us = saving('payload')
-        cost = (f'costs {-us:.0f} us more per cycle' if us is not None and us < 0
+        cost = (f'costs {_us(-us)} us more per cycle' if us is not None and us < 0
                 else 'costs no measurable time')
         payload = by_key['payload'].model.payload
         mass = f'{payload.mass:.0f} kg ' if payload is not None else ''
@@ -642,7 +649,7 @@ def summary(res: Results) -> list[str]:
         return _fmt_n(case.steady['violent'].max)
     out.append(f'Without an acceleration stream, the node\'s default estimator (backward2, '
                f'from the twists, about '
-               f'{res.timing["estimator backward2, pose + twist"].median_us:.0f} us per cycle) '
+               f'{_us(res.timing["estimator backward2, pose + twist"].median_us)} us per cycle) '
                f'is off by up to {v(tw[60.0])} N at 60 Hz, {v(tw[250.0])} N at 250 Hz and '
                f'{v(tw[1000.0])} N at 1 kHz on the violent motion (from poses alone '
                f'{v(po[60.0])}, {v(po[250.0])} and {v(po[1000.0])} N), and by a negligible '
