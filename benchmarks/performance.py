@@ -1339,9 +1339,10 @@ def analysis(res: dict, rows: list[Row]) -> str:
                 'include every preemption by the other jobs of this 2-core machine.'
                 + _soak_reading(tr)
                 + ' A soak on a dedicated machine (or with the node pinned to a reserved core), '
-                'with py-spy snapshots at its start and end, is needed to judge this target; '
-                'with the per-cycle solve compiled, preemptions would also hit far fewer '
-                'cycles.')
+                'with py-spy snapshots at its start and end, is needed to judge this target. '
+                '(Inside the node a solve takes several times its isolated time of section 1: '
+                'between two cycles the middleware evicts its code and data from the caches '
+                'of the shared cores.)')
         if soak['lost']:
             queue_ms = 1e3 * res.get('depth', 100) / soak['rate']
             lines.append(
