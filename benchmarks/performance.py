@@ -686,7 +686,7 @@ def profile_solver(args: argparse.Namespace) -> dict:
     full = fsd.load_model(scene='full')
     nb = min(args.batch_n, 100_000)
     Q, Qd, Qdd = tiled(sequence_states(1000.0), nb)
-    batch: dict[str, float] = dict(n=nb, threads=kernel._threads())
+    batch: dict[str, float] = dict(n=nb, threads=kernel.usable_cores())
     if kernel.enabled():
         saved = kernel.THREAD_MIN_SAMPLES
         try:
@@ -884,18 +884,7 @@ def tree_state() -> str:
 
 def machine_lines(argv: Sequence[str], started: float,
                   tree_states: tuple[str, str]) -> list[str]:
-    cpu = '?'
-    try:
-        for line in Path('/proc/cpuinfo').read_text().splitlines():
-            if line.lower().startswith('model name'):
-                cpu = line.split(':', 1)[1].strip()
-                break
-    except OSError:
-        pass
-    try:
-        usable = len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        usable = os.cpu_count() or 0
+    cpu, usable = bench.cpu_model() or '?', kernel.usable_cores()
     la = bench_node.load_average()
     date = datetime.datetime.fromtimestamp(started, datetime.timezone.utc).strftime(
         '%Y-%m-%d %H:%M UTC')
@@ -988,8 +977,7 @@ def markdown(res: dict, rows: list[Row], argv: Sequence[str], started: float,
           f'{s["cond"]["p99"]:.0f} us. It is computed only on demand (a cached property); the '
           f'per-cycle path computes only the cheap estimates `kinematic_condition` (from the '
           f'block factorisation of Q it already has) and `jacobian_condition` (Frobenius, from '
-          f'the 3 x 3 Jacobian and its inverse), whose cost is in the solve time above (see '
-          f'the phases of the profile). The node reads `sol.cond` once per diagnostics '
+          f'the 3 x 3 Jacobian and its inverse), whose cost is in the solve time above. The node reads `sol.cond` once per diagnostics '
           f'period.\n\n')
 
     if 'batch' in res:

@@ -49,6 +49,7 @@ import numpy as np
 
 import flight_sim_dynamics as fsd
 
+from . import kernel
 from .cueing import step_sequence
 from .model import Model
 from .setpoints import ESTIMATORS, DerivativeEstimator
@@ -688,20 +689,20 @@ def command_line(args: argparse.Namespace) -> list[str]:
     return out
 
 
-def machine_header(argv: Sequence[str]) -> list[str]:
-    cpu = ''
+def cpu_model() -> str:
+    """The processor's model name from /proc/cpuinfo ('' where there is none)."""
     try:
         with open('/proc/cpuinfo') as f:
             for line in f:
                 if line.lower().startswith('model name'):
-                    cpu = line.split(':', 1)[1].strip()
-                    break
+                    return line.split(':', 1)[1].strip()
     except OSError:
         pass
-    try:
-        usable = len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        usable = os.cpu_count() or 0
+    return ''
+
+
+def machine_header(argv: Sequence[str]) -> list[str]:
+    cpu, usable = cpu_model(), kernel.usable_cores()
     env = ' '.join(f'{k}={os.environ[k]}' for k in ('OMP_NUM_THREADS', 'OPENBLAS_NUM_THREADS')
                    if k in os.environ)
     command = 'flight-sim-dynamics bench' + (' ' + shlex.join(argv) if argv else '')

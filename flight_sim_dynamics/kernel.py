@@ -155,7 +155,8 @@ THREAD_MIN_SAMPLES = 4096
 _pool: ThreadPoolExecutor | None = None
 
 
-def _threads() -> int:
+def usable_cores() -> int:
+    """Cores this process may run on (its CPU affinity), at least 1."""
     try:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:          # not Linux
@@ -171,12 +172,12 @@ def solve_rows(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> 
     arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in (q, qd, qdd)]
     n = arrays[0].shape[0]
     out = np.empty((n, OUT_SIZE))
-    parts = min(_threads(), n // THREAD_MIN_SAMPLES)
+    parts = min(usable_cores(), n // THREAD_MIN_SAMPLES)
     if parts < 2:
         _kernel.solve_batch(params, bits, *arrays, out)
         return out
     if _pool is None:
-        _pool = ThreadPoolExecutor(max_workers=_threads(), thread_name_prefix='fsd-kernel')
+        _pool = ThreadPoolExecutor(max_workers=usable_cores(), thread_name_prefix='fsd-kernel')
     bounds = np.linspace(0, n, parts + 1).astype(int)
     jobs = [_pool.submit(_kernel.solve_batch, params, bits,
                          *(a[lo:hi] for a in arrays), out[lo:hi])
