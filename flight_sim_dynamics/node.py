@@ -1,8 +1,12 @@
 """The ROS 2 node: pose/twist/accel setpoints in, leg lengths, rates and forces out.
 
 A thin adapter around :func:`flight_sim_dynamics.solve`. Every complete
-setpoint (pose, twist and acceleration with the same header stamp) is turned
-into one solve and one ``actuator_states`` message stamped like the setpoint.
+setpoint (pose, twist and acceleration with the same header stamp on
+``pose_setpoint``, ``twist_setpoint``, ``accel_setpoint``; or one point of a
+``trajectory_msgs/JointTrajectory`` over surge, heave, roll on
+``platform_setpoint``, which carries a whole setpoint in one message) is
+turned into one solve and one ``actuator_states`` message stamped like the
+setpoint.
 Nothing a planner sends can take the node down: every rejection is counted in
 ``/diagnostics`` and logged (throttled), and nothing non-finite is published.
 
@@ -18,7 +22,8 @@ synchroniser, estimators, limit checks, reading serialized setpoints) are in
 :mod:`.setpoints`.
 
 Per setpoint the node builds no ROS message: the setpoints are taken
-serialized and read in place (:class:`.setpoints.StampedReader`), the two
+serialized and read in place (:class:`.setpoints.StampedReader`,
+:class:`.setpoints.TrajectoryReader`), the two
 outputs are serialized templates whose stamp and numbers are overwritten
 (:class:`JointStateOutput`), and nothing is logged or formatted unless a
 (throttled) line is due. docs/node.md, "What a cycle costs", has the figures.
@@ -47,18 +52,20 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory
 
 import flight_sim_dynamics as fsd
 
 from . import parameters as prm
 from .model import JOINT_NAMES, LEG_NAMES, Model
 from .status import Status
-from .setpoints import (ACCEL, CDR_BE, CDR_LE, ERROR, NON_FINITE_OUTPUT, POSE, SOLVER_ERROR,
-                        TWIST, UNREACHABLE, WARN, CycleStats, DerivativeEstimator,
-                        LogThrottle, NodeConfig, PoseInput, RateInput, Rejected, Setpoint,
-                        SetpointError, StampSynchroniser, check_acceleration, check_limits,
-                        pose_input, rate_input, read_pose_stamped, read_twist_stamped,
-                        unfollowable)
+from .setpoints import (ACCEL, BAD_SETPOINT, CDR_BE, CDR_LE, ERROR, NON_FINITE_OUTPUT,
+                        PLATFORM, POSE, SOLVER_ERROR, TWIST, UNREACHABLE, WARN, CycleStats,
+                        DerivativeEstimator, LogThrottle, NodeConfig, PoseInput, RateInput,
+                        Rejected, Setpoint, SetpointError, StampSynchroniser, Trajectory,
+                        TrajectoryPoint, check_acceleration, check_limits, platform_setpoints,
+                        pose_input, rate_input, read_joint_trajectory, read_pose_stamped,
+                        read_twist_stamped, unfollowable)
 
 MODEL_NAMES = frozenset(spec.name for spec in prm.MODEL_PARAMETERS)
 NODE_NAMES = frozenset(spec.name for spec in prm.NODE_PARAMETERS)
@@ -103,6 +110,15 @@ def _rate_fields(msg: Any) -> tuple[int, int, tuple[float, ...]]:
     lin, ang = body.linear, body.angular
     return (msg.header.stamp.sec, msg.header.stamp.nanosec,
             (lin.x, lin.y, lin.z, ang.x, ang.y, ang.z))
+
+
+def _trajectory_fields(msg: JointTrajectory) -> Trajectory:
+    """What :data:`.setpoints.read_joint_trajectory` reads, from a JointTrajectory."""
+    stamp = msg.header.stamp
+    return Trajectory(stamp.sec, stamp.nanosec, tuple(msg.joint_names), tuple(
+        TrajectoryPoint(tuple(p.positions), tuple(p.velocities), tuple(p.accelerations),
+                        tuple(p.effort), p.time_from_start.sec, p.time_from_start.nanosec)
+        for p in msg.points))
 
 
 # ----------------------------------------------------------------------------
@@ -329,7 +345,8 @@ class DynamicsNode(Node):
             f'ready: {len(prm.SPECS)} parameters, beta0 = {model.central.beta0:.6f} rad, '
             f'QoS {config.qos_reliability} depth {config.qos_depth}; '
             f'subscribing {self._topic("pose_setpoint")}, {self._topic("twist_setpoint")}, '
-            f'{self._topic("accel_setpoint")}; publishing {self._topic("actuator_states")}, '
+            f'{self._topic("accel_setpoint")}, {self._topic("platform_setpoint")}; '
+            f'publishing {self._topic("actuator_states")}, '
             f'{self._topic("joint_states")}, /diagnostics')
         if not (self._actuator_out.raw and self._joint_out.raw):
             self.get_logger().info('outputs published as message objects (the middleware '
@@ -379,6 +396,9 @@ class DynamicsNode(Node):
                                      raw=True),
             self.create_subscription(AccelStamped, 'accel_setpoint', self._on_accel, qos,
                                      raw=True),
+            # a whole setpoint per point: read by setpoints.TrajectoryReader
+            self.create_subscription(JointTrajectory, 'platform_setpoint',
+                                     self._on_platform_setpoint, qos, raw=True),
         ]
 
     # -- subscription callbacks --------------------------------------------------
@@ -435,6 +455,41 @@ class DynamicsNode(Node):
                 return
             released, rejected = self._sync.add(kind, stamp_ns, rates, now)
             if released or rejected:
+                self._dispatch(released, rejected)
+        except Exception as exc:  # noqa: BLE001
+            self._internal_error(exc)
+
+    def _on_platform_setpoint(self, data: bytes) -> None:
+        """Whole setpoints, one per point of a JointTrajectory over surge, heave,
+        roll (stamp = header.stamp + time_from_start): checked point by point
+        (:func:`.setpoints.platform_setpoints`), ordered with the three-topic
+        setpoints by the synchroniser (:meth:`.StampSynchroniser.add_complete`),
+        then solved like them."""
+        try:
+            now = time.monotonic()
+            self._received[PLATFORM] += 1
+            try:
+                fields = read_joint_trajectory(data)
+                if fields is None:
+                    fields = _trajectory_fields(deserialize_message(data, JointTrajectory))
+            except Exception as exc:  # noqa: BLE001 - truncated or inconsistent bytes
+                self._reject(BAD_SETPOINT, f'{PLATFORM} rejected: malformed serialized '
+                                           f'message: {exc}')
+                return
+            config = self._runtime.config
+            try:
+                points = platform_setpoints(fields, config.max_linear_acceleration,
+                                            config.max_angular_acceleration)
+            except SetpointError as exc:
+                self._reject(exc.reason, f'{PLATFORM} rejected: {exc}')
+                return
+            add_complete = self._sync.add_complete
+            for point in points:
+                if isinstance(point, SetpointError):
+                    self._reject(point.reason, f'{PLATFORM} rejected: {point}')
+                    continue
+                released, rejected = add_complete(point.stamp_ns, point.pose, point.twist,
+                                                  point.accel, now, point.header)
                 self._dispatch(released, rejected)
         except Exception as exc:  # noqa: BLE001
             self._internal_error(exc)
@@ -675,8 +730,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='dynamics_node',
         description='ROS 2 node of flight_sim_dynamics: subscribes pose_setpoint, '
-                    'twist_setpoint, accel_setpoint; publishes actuator_states, joint_states '
-                    'and /diagnostics. ROS arguments go after --ros-args, e.g. '
+                    'twist_setpoint, accel_setpoint (one setpoint: the three with one stamp) '
+                    'and platform_setpoint (trajectory_msgs/JointTrajectory over surge, '
+                    'heave, roll: one setpoint per point); publishes actuator_states, '
+                    'joint_states and /diagnostics. ROS arguments go after --ros-args, e.g. '
                     '--ros-args --params-file config/flight_sim_dynamics.yaml '
                     '-r __ns:=/sim -p limits.max_force:=500.0',
         epilog='See docs/node.md for topics, parameters and QoS.')

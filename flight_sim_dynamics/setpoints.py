@@ -9,8 +9,12 @@ that is plain Python lives here, so that it can be unit-tested without rclpy:
   (surge, heave, roll) and the components the mechanism cannot follow;
 * :class:`StampedReader` -- the stamp and numbers of a serialized (CDR)
   PoseStamped, TwistStamped or AccelStamped, read without building the message;
+* :class:`TrajectoryReader`, :func:`platform_setpoints` -- a whole setpoint (or
+  several) in one serialized ``trajectory_msgs/JointTrajectory`` over the
+  joints :data:`PLATFORM_DOF_NAMES`, read and checked point by point;
 * :class:`StampSynchroniser` -- joins pose, twist and acceleration messages
-  that carry the same header stamp (exact match, bounded wait);
+  that carry the same header stamp (exact match, bounded wait), and orders the
+  one-message setpoints among them (:meth:`StampSynchroniser.add_complete`);
 * :class:`DerivativeEstimator` -- causal finite differences that fill in the
   rates and accelerations a planner does not send;
 * :class:`NodeConfig`, :func:`check_limits` -- actuator limits and tolerances;
@@ -21,6 +25,7 @@ Units: SI throughout (m, rad, s); stamps are integer nanoseconds.
 from __future__ import annotations
 
 import math
+import reprlib
 import struct
 from dataclasses import dataclass
 from typing import Any, Generic, Iterable, Mapping, NamedTuple, Sequence, TypeVar
@@ -44,15 +49,16 @@ ABSURD_ACCELERATION = 'absurd_acceleration'  # |acceleration| beyond input.max_*
 UNREACHABLE = 'unreachable'                # the loops cannot close at this pose
 SOLVER_ERROR = 'solver_error'              # any other solver failure
 NON_FINITE_OUTPUT = 'non_finite_output'    # the solver returned NaN/inf (never published)
+BAD_SETPOINT = 'bad_setpoint'              # a malformed platform_setpoint message or point
 
 REJECTION_REASONS = (NON_FINITE, BAD_QUATERNION, STAMP_REPEATED, STAMP_BACKWARDS,
                      DUPLICATE, NO_POSE, LATE, OVERFLOW, ABSURD_ACCELERATION,
-                     UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT)
+                     UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT, BAD_SETPOINT)
 
 #: Reasons that make the diagnostics level ERROR (the rest of the rejections
 #: are stream hygiene problems and make it WARN).
 ERROR_REASONS = frozenset({NON_FINITE, BAD_QUATERNION, ABSURD_ACCELERATION,
-                           UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT})
+                           UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT, BAD_SETPOINT})
 
 # Motion the mechanism cannot follow: reported, ignored, the setpoint is solved.
 SWAY = 'sway'
@@ -278,6 +284,353 @@ read_twist_stamped = StampedReader(6)        # and AccelStamped: the same layout
 
 
 # ----------------------------------------------------------------------------
+# One message per setpoint: trajectory_msgs/JointTrajectory on platform_setpoint
+# ----------------------------------------------------------------------------
+#: ``joint_names`` of a ``platform_setpoint`` message (trajectory_msgs/
+#: JointTrajectory), in any order: they give the order of the numbers of each
+#: point. Units m, m, rad (rates per s, accelerations per s^2).
+PLATFORM_DOF_NAMES = ('surge', 'heave', 'roll')
+
+
+class TrajectoryPoint(NamedTuple):
+    """The fields of one ``trajectory_msgs/JointTrajectoryPoint``: the four
+    number sequences as received (any length) and ``time_from_start``
+    (``sec``, ``nanosec``)."""
+
+    positions: tuple[float, ...]
+    velocities: tuple[float, ...]
+    accelerations: tuple[float, ...]
+    effort: tuple[float, ...]
+    sec: int
+    nanosec: int
+
+
+class Trajectory(NamedTuple):
+    """The fields of a ``trajectory_msgs/JointTrajectory`` the node uses: the
+    header stamp, ``joint_names`` and the points (``header.frame_id`` is not
+    checked, as for the other setpoints)."""
+
+    sec: int
+    nanosec: int
+    joint_names: tuple[str, ...]
+    points: tuple[TrajectoryPoint, ...]
+
+
+#: Fewest bytes of a serialized JointTrajectoryPoint: four sequence counts
+#: (empty sequences) and a Duration.
+_MIN_POINT_BYTES = 24
+_MAX_CACHED_DOUBLES = 8
+
+
+class _CdrFormats:
+    """The struct formats of one byte order (``order``: '<' or '>')."""
+
+    __slots__ = ('order', 'head', 'u32', 'duration', 'doubles')
+
+    def __init__(self, order: str) -> None:
+        self.order = order
+        self.head = struct.Struct(order + 'iII')           # stamp sec, nanosec, len(frame_id)
+        self.u32 = struct.Struct(order + 'I')
+        self.duration = struct.Struct(order + 'iI')
+        self.doubles = tuple(struct.Struct(f'{order}{n}d')
+                             for n in range(_MAX_CACHED_DOUBLES + 1))
+
+    def double_struct(self, n: int) -> struct.Struct:
+        return self.doubles[n] if n <= _MAX_CACHED_DOUBLES else struct.Struct(f'{self.order}{n}d')
+
+
+def _read_doubles(data: bytes, at: int, fmt: _CdrFormats) -> tuple[tuple[float, ...], int]:
+    """A ``float64[]`` of a serialized sample at byte ``at``: (values, end)."""
+    at += -at & 3
+    (n,) = fmt.u32.unpack_from(data, at)
+    at += 4
+    if not n:
+        return (), at                      # no alignment without elements
+    at += (4 - at) & 7                     # doubles: 8-aligned relative to byte 4
+    end = at + 8 * n
+    if end > len(data):
+        raise struct.error(f'a sequence of {n} doubles at byte {at} runs past the end '
+                           f'({len(data)} bytes)')
+    return fmt.double_struct(n).unpack_from(data, at), end
+
+
+class TrajectoryReader:
+    """Read a serialized (CDR) ``trajectory_msgs/JointTrajectory`` without
+    building the Python message (the ``platform_setpoint`` input; the same
+    reasons as :class:`StampedReader`).
+
+    Layout (XCDR1, plain CDR, either byte order; alignment of every field to
+    its size counted from the end of the 4-byte encapsulation):
+
+    * ``std_msgs/Header``: ``int32 sec``, ``uint32 nanosec``, ``frame_id``
+      (``uint32`` length including the terminating NUL, then the bytes);
+    * ``string[] joint_names``: ``uint32`` count, then each string as above
+      (each length aligned to 4);
+    * ``JointTrajectoryPoint[] points``: ``uint32`` count, then per point the
+      sequences ``positions``, ``velocities``, ``accelerations``, ``effort``
+      (``uint32`` count, then the doubles aligned to 8 when there are any)
+      and ``time_from_start`` (``int32 sec``, ``uint32 nanosec``).
+
+    Calling it returns a :class:`Trajectory`, or None when the sample is in
+    another encoding (the caller then deserializes it the usual way). A
+    truncated or inconsistent sample raises ``struct.error`` (never reads
+    past the end of ``data``, never loops longer than ``data`` is long).
+    Names are decoded as UTF-8 (undecodable bytes replaced: such a name is
+    wrong anyway and the rejection shows it). Bytes after the message are
+    ignored.
+
+    Cheap in the usual case (one point, the same three names in every
+    message): the parsed names are kept with the bytes they came from (count,
+    lengths and characters; not the padding, whose bytes are arbitrary), and a
+    message whose name bytes match gets the same tuple without parsing.
+    """
+
+    __slots__ = ('_le', '_be', '_names', '_names_encoding', '_names_parts', '_names_size')
+
+    def __init__(self) -> None:
+        self._le = _CdrFormats('<')
+        self._be = _CdrFormats('>')
+        self._names: tuple[str, ...] = ()
+        self._names_encoding = -1
+        self._names_parts: tuple[tuple[int, bytes], ...] = ()
+        self._names_size = 0
+
+    def __call__(self, data: bytes) -> Trajectory | None:
+        if len(data) < 4:
+            raise struct.error(f'{len(data)} bytes: not even an encapsulation header')
+        if data[0] != 0:
+            return None
+        encoding = data[1]
+        if encoding == 1:
+            fmt = self._le
+        elif encoding == 0:
+            fmt = self._be
+        else:
+            return None
+        size = len(data)
+        sec, nanosec, length = fmt.head.unpack_from(data, 4)
+        at = 16 + length                   # 4 encapsulation + 12 header bytes + frame_id
+        at += -at & 3                      # 4-aligned (relative to byte 4 = absolute)
+        names, at = self._joint_names(data, at, encoding, fmt)
+        at += -at & 3
+        u32 = fmt.u32.unpack_from
+        (count,) = u32(data, at)
+        at += 4
+        if count > (size - at) // _MIN_POINT_BYTES:
+            raise struct.error(f'{count} points cannot fit in the {size - at} bytes left')
+        duration = fmt.duration.unpack_from
+        make_point = TrajectoryPoint._make       # cheaper than the keyword-capable __new__
+        points = []
+        for _ in range(count):
+            positions, at = _read_doubles(data, at, fmt)
+            velocities, at = _read_doubles(data, at, fmt)
+            accelerations, at = _read_doubles(data, at, fmt)
+            effort, at = _read_doubles(data, at, fmt)
+            at += -at & 3
+            t_sec, t_nanosec = duration(data, at)
+            at += 8
+            points.append(make_point((positions, velocities, accelerations, effort,
+                                      t_sec, t_nanosec)))
+        return Trajectory._make((sec, nanosec, names, tuple(points)))
+
+    def _joint_names(self, data: bytes, at: int, encoding: int, fmt: _CdrFormats
+                     ) -> tuple[tuple[str, ...], int]:
+        """``joint_names`` starting at byte ``at`` (4-aligned): (names, end)."""
+        if encoding == self._names_encoding:
+            for offset, chunk in self._names_parts:
+                if not data.startswith(chunk, at + offset):
+                    break
+            else:
+                return self._names, at + self._names_size
+        size = len(data)
+        u32 = fmt.u32.unpack_from
+        start = at
+        (count,) = u32(data, at)
+        at += 4
+        if count > (size - at) // 4:
+            raise struct.error(f'{count} joint names cannot fit in the {size - at} bytes left')
+        names = []
+        parts = []
+        chunk_at = start                   # the current run of bytes without padding
+        for _ in range(count):
+            aligned = at + (-at & 3)
+            if aligned != at:
+                parts.append((chunk_at - start, data[chunk_at:at]))
+                chunk_at = aligned
+            (n,) = u32(data, aligned)
+            at = aligned + 4 + n
+            if at > size:
+                raise struct.error(f'a string of {n} bytes at byte {aligned + 4} runs past '
+                                   f'the end ({size} bytes)')
+            raw = data[aligned + 4:at]
+            if raw and raw[-1] == 0:
+                raw = raw[:-1]
+            names.append(raw.decode('utf-8', 'replace'))
+        parts.append((chunk_at - start, data[chunk_at:at]))
+        result = tuple(names)
+        self._names, self._names_encoding = result, encoding
+        self._names_parts, self._names_size = tuple(parts), at - start
+        return result, at
+
+
+read_joint_trajectory = TrajectoryReader()
+
+
+class PlatformPoint(NamedTuple):
+    """One setpoint of a ``platform_setpoint`` message, checked, in the
+    mechanism's coordinates: ``stamp_ns`` = header.stamp + time_from_start,
+    ``header`` = that stamp as (sec, nanosec) for the outputs; ``twist`` /
+    ``accel`` None when the point has no velocities / accelerations (they are
+    then estimated). Sway, pitch and yaw are 0: the message cannot carry them."""
+
+    stamp_ns: int
+    header: tuple[int, int]
+    pose: PoseInput
+    twist: RateInput | None
+    accel: RateInput | None
+
+
+#: The valid joint-name orders seen so far -> index of surge, heave, roll
+#: (at most the 6 permutations of PLATFORM_DOF_NAMES).
+_DOF_ORDERS: dict[tuple[str, ...], tuple[int, int, int]] = {}
+
+_INT32_MIN, _INT32_LIMIT = -2 ** 31, 2 ** 31
+_SHOWN = reprlib.Repr()
+_SHOWN.maxlist = _SHOWN.maxtuple = 6
+_SHOWN.maxstring = 40
+
+
+def _shown(values: Sequence[Any]) -> str:
+    """``values`` for a log line (at most 6 items, long strings cut)."""
+    return _SHOWN.repr(list(values))
+
+
+def platform_dof_order(joint_names: Sequence[str]) -> tuple[int, int, int]:
+    """Index of surge, heave and roll in a ``platform_setpoint``'s
+    ``joint_names``, which must be exactly :data:`PLATFORM_DOF_NAMES` in any
+    order; raises :class:`SetpointError` (``bad_setpoint``) otherwise."""
+    key = tuple(joint_names)
+    order = _DOF_ORDERS.get(key)
+    if order is not None:
+        return order
+    if len(key) != len(PLATFORM_DOF_NAMES) or set(key) != set(PLATFORM_DOF_NAMES):
+        raise SetpointError(BAD_SETPOINT, f'joint_names must be {", ".join(PLATFORM_DOF_NAMES)} '
+                                          f'(each once, in any order), got {_shown(key)}')
+    surge, heave, roll = (key.index(name) for name in PLATFORM_DOF_NAMES)
+    order = _DOF_ORDERS[key] = (surge, heave, roll)
+    return order
+
+
+def _point_problem(point: TrajectoryPoint) -> SetpointError | None:
+    """What is wrong with the numbers of one point, if anything (the checks of
+    :func:`platform_setpoints` one by one; None: a sum that overflowed)."""
+    p = point.positions
+    if len(p) != 3:
+        return SetpointError(BAD_SETPOINT, f'positions must be 3 numbers (in the order of '
+                                           f'joint_names), got {len(p)}: {_shown(p)}')
+    for name, values in (('velocities', point.velocities),
+                         ('accelerations', point.accelerations)):
+        if len(values) not in (0, 3):
+            return SetpointError(BAD_SETPOINT, f'{name} must be 3 numbers or empty (then '
+                                               f'estimated), got {len(values)}: '
+                                               f'{_shown(values)}')
+    if point.effort:
+        return SetpointError(BAD_SETPOINT, "effort must be empty (the forces are this node's "
+                                           f'output, on actuator_states), got '
+                                           f'{len(point.effort)}: {_shown(point.effort)}')
+    for name, values in (('positions', p), ('velocities', point.velocities),
+                         ('accelerations', point.accelerations)):
+        if not all(math.isfinite(v) for v in values):
+            return SetpointError(NON_FINITE, f'{name} has a non-finite number: '
+                                             f'{_shown(values)}')
+    return None
+
+
+def platform_setpoints(trajectory: Trajectory, max_linear: float, max_angular: float
+                       ) -> list[PlatformPoint | SetpointError]:
+    """The setpoints of one ``platform_setpoint`` message, point by point.
+
+    Raises :class:`SetpointError` (``bad_setpoint``) when the message as a
+    whole is malformed: ``joint_names`` not exactly :data:`PLATFORM_DOF_NAMES`
+    (in any order), or no points. Otherwise returns one item per point, in
+    the message's order: a :class:`PlatformPoint`, or the
+    :class:`SetpointError` that rejects that point alone:
+
+    * ``bad_setpoint``: ``time_from_start`` < 0; a stamp header.stamp +
+      time_from_start outside builtin_interfaces/Time (int32 seconds);
+      ``positions`` not 3 numbers; ``velocities`` or ``accelerations`` neither
+      3 numbers nor empty (empty: estimated by the node); ``effort`` not empty
+      (forces are this node's output);
+    * ``non_finite``: a NaN or infinity in a sequence used;
+    * ``absurd_acceleration``: received accelerations beyond ``max_linear``
+      (surge, heave; m/s^2) or ``max_angular`` (roll; rad/s^2), as
+      :func:`check_acceleration`;
+    * ``stamp_repeated`` / ``stamp_backwards``: a stamp not later than the
+      previous point's in the same message (points must be in increasing
+      stamp order; the order against the last answered setpoint is the
+      synchroniser's, :meth:`StampSynchroniser.add_complete`).
+
+    The stamp of a point with time_from_start 0 is the header stamp as
+    received; others are normalised (0 <= nanosec < 1e9).
+    """
+    surge, heave, roll = platform_dof_order(trajectory.joint_names)
+    points = trajectory.points
+    if not points:
+        raise SetpointError(BAD_SETPOINT, 'points is empty (each point is one setpoint)')
+    sec, nanosec = trajectory.sec, trajectory.nanosec
+    base_ns = sec * 1_000_000_000 + nanosec
+    out: list[PlatformPoint | SetpointError] = []
+    previous: int | None = None
+    make_pose, make_rates, make_point = PoseInput._make, RateInput._make, PlatformPoint._make
+    for index, point in enumerate(points):
+        offset_ns = point.sec * 1_000_000_000 + point.nanosec
+        if offset_ns < 0:
+            out.append(SetpointError(BAD_SETPOINT, f'point {index}: time_from_start must be '
+                                                   f'>= 0, got {offset_ns * 1e-9:.9g} s (sec '
+                                                   f'{point.sec}, nanosec {point.nanosec})'))
+            continue
+        stamp_ns = base_ns + offset_ns
+        before, previous = previous, stamp_ns
+        try:
+            if offset_ns == 0:
+                header = (sec, nanosec)
+            else:
+                stamp_sec, stamp_nanosec = divmod(stamp_ns, 1_000_000_000)
+                if not _INT32_MIN <= stamp_sec < _INT32_LIMIT:
+                    raise SetpointError(BAD_SETPOINT, f'header.stamp + time_from_start = '
+                                                      f'{stamp_sec} s is beyond '
+                                                      'builtin_interfaces/Time (int32 seconds)')
+                header = (stamp_sec, stamp_nanosec)
+            p, v, a = point.positions, point.velocities, point.accelerations
+            # the usual case in one test; _point_problem says what is wrong
+            if (len(p) != 3 or (v and len(v) != 3) or (a and len(a) != 3) or point.effort
+                    or not math.isfinite(p[0] + p[1] + p[2]
+                                         + (v[0] + v[1] + v[2] if v else 0.0)
+                                         + (a[0] + a[1] + a[2] if a else 0.0))):
+                problem = _point_problem(point)
+                if problem is not None:
+                    raise problem
+            # (_make: cheaper than the keyword-capable constructors)
+            pose = make_pose(((p[surge], p[heave], p[roll]), 0.0, 0.0, 0.0))
+            twist = make_rates(((v[surge], v[heave], v[roll]), 0.0, 0.0, 0.0)) if v else None
+            accel = None
+            if a:
+                accel = make_rates(((a[surge], a[heave], a[roll]), 0.0, 0.0, 0.0))
+                check_acceleration(accel.q, max_linear, max_angular)
+            if before is not None and stamp_ns <= before:
+                raise SetpointError(
+                    STAMP_REPEATED if stamp_ns == before else STAMP_BACKWARDS,
+                    f'{"repeats" if stamp_ns == before else "precedes"} the previous point\'s '
+                    f'stamp {_fmt_stamp(before)} (points must be in increasing stamp order)')
+        except SetpointError as exc:
+            out.append(SetpointError(exc.reason, f'point {index} (stamp {_fmt_stamp(stamp_ns)})'
+                                                 f': {exc}'))
+            continue
+        out.append(make_point((stamp_ns, header, pose, twist, accel)))
+    return out
+
+
+# ----------------------------------------------------------------------------
 # Exact-stamp synchroniser
 # ----------------------------------------------------------------------------
 P = TypeVar('P')
@@ -285,6 +638,8 @@ R = TypeVar('R')
 
 POSE, TWIST, ACCEL = 'pose', 'twist', 'accel'
 KINDS = (POSE, TWIST, ACCEL)
+#: A whole setpoint in one message (``platform_setpoint``, a JointTrajectory).
+PLATFORM = 'platform_setpoint'
 
 
 @dataclass(slots=True)
@@ -336,8 +691,13 @@ class StampSynchroniser(Generic[P, R]):
       silently.
     * At most ``max_pending`` stamps wait at once (the oldest is released or
       rejected as ``overflow``).
+    * A setpoint that arrives whole in one message (:meth:`add_complete`)
+      follows the same stamp rules against the same last released stamp, and
+      releases the older pending setpoints first, so the two inputs can be
+      mixed without answering out of order.
 
-    :meth:`add` and :meth:`poll` return ``(released, rejected)`` lists; the
+    :meth:`add`, :meth:`add_complete` and :meth:`poll` return ``(released,
+    rejected)`` lists; the
     caller passes the time ``now`` (monotonic seconds), so the class has no
     clock and no thread of its own: call :meth:`poll` periodically (faster
     than ``wait``).
@@ -439,6 +799,43 @@ class StampSynchroniser(Generic[P, R]):
                 newest_complete = stamp
         if newest_complete is not None:
             self._release_through(newest_complete, released, rejected)
+        return released, rejected
+
+    def add_complete(self, stamp_ns: int, pose: Any, twist: Any, accel: Any, now: float,
+                     header: Any = None, kind: str = PLATFORM
+                     ) -> tuple[list[Setpoint[P, R]], list[Rejected]]:
+        """Add a whole setpoint that came in one message (``kind``, for the
+        messages): pose, twist and acceleration (None: to be estimated).
+
+        It obeys the stamp rules of :meth:`add`: a stamp equal to the last
+        released one is ``stamp_repeated``, an older one ``stamp_backwards``.
+        A stamp that is pending (some of its three messages are here) or was
+        rejected (:meth:`discard`) is a second setpoint for that stamp:
+        ``duplicate``, and this one is dropped (the pending one stays). Else
+        the pending setpoints with older stamps are released first, in stamp
+        order and with what they have (those without a pose are rejected as
+        ``no_pose``), exactly as when a newer three-message setpoint
+        completes; then this one. The stream state (active, newest stamps) of
+        the twist and accel topics is not touched."""
+        released: list[Setpoint[P, R]] = []
+        rejected: list[Rejected] = []
+        last = self._last_released
+        if last is not None and stamp_ns <= last:
+            repeated = stamp_ns == last
+            rejected.append(Rejected(STAMP_REPEATED if repeated else STAMP_BACKWARDS, kind,
+                                     stamp_ns, f'{kind} stamp {_fmt_stamp(stamp_ns)} '
+                                     f'{"repeats" if repeated else "precedes"} the last '
+                                     f'answered stamp {_fmt_stamp(last)}'))
+            return released, rejected
+        pending = self._pending
+        if stamp_ns in pending or stamp_ns in self._discarded:
+            rejected.append(Rejected(DUPLICATE, kind, stamp_ns,
+                                     f'{kind} for stamp {_fmt_stamp(stamp_ns)}, for which '
+                                     'pose/twist/accel messages came too (ignored)'))
+            return released, rejected
+        if pending:
+            self._release_through(stamp_ns, released, rejected)
+        self._release(Setpoint(stamp_ns, pose, twist, accel, header, now), released, rejected)
         return released, rejected
 
     def poll(self, now: float) -> tuple[list[Setpoint[P, R]], list[Rejected]]:
@@ -725,7 +1122,7 @@ class CycleStats:
     """
 
     def __init__(self) -> None:
-        self.received = {POSE: 0, TWIST: 0, ACCEL: 0}
+        self.received = {POSE: 0, TWIST: 0, ACCEL: 0, PLATFORM: 0}   # messages
         self.answered = 0
         self.estimated_twist = 0
         self.estimated_accel = 0
@@ -788,10 +1185,11 @@ class CycleStats:
         total_rejected = sum(self.rejected.values())
         if n:
             mean_us = 1e6 * sum(times) / n
+            median_us = 1e6 * (times[(n - 1) // 2] + times[n // 2]) / 2.0
             p99_us = 1e6 * times[min(n - 1, int(math.ceil(0.99 * n)) - 1)]
             max_us = 1e6 * times[-1]
         else:
-            mean_us = p99_us = max_us = math.nan
+            mean_us = median_us = p99_us = max_us = math.nan
         level = self._level
         if self._messages:
             message = '; '.join(self._messages)
@@ -806,6 +1204,7 @@ class CycleStats:
             ('rate (Hz)', f'{rate:.1f}'),
             ('setpoints answered', str(self.answered)),
             ('solve time mean (us)', f'{mean_us:.1f}'),
+            ('solve time median (us)', f'{median_us:.1f}'),
             ('solve time p99 (us)', f'{p99_us:.1f}'),
             ('solve time max (us)', f'{max_us:.1f}'),
             ('solves this period', str(n)),
@@ -826,6 +1225,7 @@ class CycleStats:
             ('received pose', str(self.received[POSE])),
             ('received twist', str(self.received[TWIST])),
             ('received accel', str(self.received[ACCEL])),
+            ('received platform_setpoint', str(self.received[PLATFORM])),
             ('estimated twist', str(self.estimated_twist)),
             ('estimated accel', str(self.estimated_accel)),
             ('parameter changes accepted', str(self.parameter_changes)),

@@ -8,7 +8,9 @@ Three roles, each its own process:
   with the packaged parameters) or the bare echo (``python scripts/bench_node.py
   echo``: PoseStamped in, JointState out, nothing else);
 * the **driver** (``python scripts/bench_node.py drive ...``): publishes pose +
-  twist + accel with one stamp per sample at a fixed rate (the paper's general
+  twist + accel with one stamp per sample (``--input trajectory``: one
+  ``trajectory_msgs/JointTrajectory`` per sample on ``platform_setpoint``
+  instead) at a fixed rate (the paper's general
   motion then the motion-cueing sequence, looped; reliable QoS, KEEP_LAST depth
   = the node's ``qos.depth``), receives ``actuator_states`` and records, per
   sample, the time just before its pose was published and the time its
@@ -30,7 +32,12 @@ measured stream starts) and writes the stats to OUT when it exits.
 The default command prints the executor table of docs/node.md:
 
     python scripts/bench_node.py [--rates 200 500] [--seconds 3] [--executors events single]
-                                 [--echo] [--repeat 1] [--python-messages] [--domain-id 87]
+                                 [--echo] [--inputs topics trajectory] [--repeat 1]
+                                 [--python-messages] [--domain-id 87]
+
+Every row also gives the hypervisor's steal over the stream (``steal %``, from
+/proc/stat): on a virtual machine a stolen core stalls every process on it,
+which no executor or node code can avoid.
 
 ``benchmarks/performance.py`` uses :func:`run_stream` for its node, echo and
 soak sections.
@@ -67,6 +74,11 @@ LEG_NAMES = ('leg_a', 'leg_b', 'leg_c')
 #: this fraction of the time a full queue (qos.depth samples) represents at
 #: the stream's rate: no standing backlog (at 1 kHz and depth 1000: 500 ms).
 KEEPS_UP_QUEUE_FRACTION = 0.5
+#: How the driver sends a setpoint to the node: 'topics' = PoseStamped on
+#: pose_setpoint + TwistStamped on twist_setpoint + AccelStamped on
+#: accel_setpoint; 'trajectory' = one trajectory_msgs/JointTrajectory (names
+#: surge, heave, roll; one point) on platform_setpoint (docs/node.md).
+SETPOINT_INPUTS = ('topics', 'trajectory')
 
 
 # ----------------------------------------------------------------------------
@@ -193,6 +205,27 @@ def rss_kb(pid: int) -> int:
     return -1
 
 
+def host_cpu_jiffies() -> tuple[int, int]:
+    """(steal, total) CPU time of the whole machine so far, in clock ticks, from
+    the first line of /proc/stat. Steal is the time the hypervisor ran something
+    else while this (virtual) machine had work: a stall no process here can
+    avoid. (0, 0) where /proc/stat has no steal column."""
+    try:
+        with open('/proc/stat') as f:
+            fields = f.readline().split()
+        ticks = [int(x) for x in fields[1:9]]
+    except (OSError, ValueError, IndexError):   # pragma: no cover
+        return 0, 0
+    return (ticks[7], sum(ticks)) if len(ticks) == 8 else (0, 0)
+
+
+def steal_percent(before: tuple[int, int], after: tuple[int, int]) -> float:
+    """Share (%) of the machine's CPU time stolen by the hypervisor between two
+    :func:`host_cpu_jiffies` readings (nan if unknown)."""
+    total = after[1] - before[1]
+    return 100.0 * (after[0] - before[0]) / total if total > 0 else math.nan
+
+
 def load_average() -> tuple[float, float, float]:
     try:
         return os.getloadavg()
@@ -209,6 +242,7 @@ class StreamResult:
 
     kind: str                   # 'node' or 'echo'
     executor: str
+    setpoint_input: str         # 'topics' (pose + twist + accel) or 'trajectory' (one message)
     rate: float
     depth: int                  # KEEP_LAST depth of every endpoint
     seconds: float
@@ -225,11 +259,13 @@ class StreamResult:
     duplicates: int
     discovery_s: float
     diagnostics: list = field(default_factory=list)   # (monotonic s, {key: value})
-    memory: list = field(default_factory=list)   # (s since start, rss kB, cpu s, load 1 min)
+    # (s since start, rss kB, cpu s, load 1 min, machine steal ticks, machine total ticks)
+    memory: list = field(default_factory=list)
     main_thread_cpu_s: float = math.nan        # the Python (main) thread's share of target_cpu_s
     other_threads_cpu: list = field(default_factory=list)   # [(name, CPU s)], DDS & co.
     load: tuple = (math.nan,) * 3                     # load average at the end
     load_start: tuple = (math.nan,) * 3
+    steal_pct: float = math.nan     # the hypervisor's steal over the stream (host_cpu_jiffies)
     target_log: str = ''
     profile_file: str | None = None
 
@@ -301,7 +337,8 @@ def run_stream(kind: str, rate: float, seconds: float, *, env: dict[str, str],
                py_spy: tuple[str, Path, float] | None = None,
                cprofile_out: Path | None = None,
                progress: Callable[[str], None] | None = None,
-               drain: float = 3.0, python_messages: bool = False) -> StreamResult:
+               drain: float = 3.0, python_messages: bool = False,
+               setpoint_input: str = 'topics') -> StreamResult:
     """Start the target (``kind`` 'node' or 'echo') and the driver, stream
     ``rate`` Hz for ``seconds`` s, and return what was measured.
 
@@ -310,7 +347,15 @@ def run_stream(kind: str, rate: float, seconds: float, *, env: dict[str, str],
     file, seconds) to attach to the target once streaming (raw format,
     non-blocking). ``cprofile_out``: run the node under cProfile (stats written
     when it stops). ``python_messages``: the driver publishes and receives
-    Python message objects (its old way) instead of serialized messages."""
+    Python message objects (its old way) instead of serialized messages.
+    ``setpoint_input``: how the driver sends a setpoint to the node: ``topics``
+    (a pose, a twist and an acceleration with one stamp) or ``trajectory`` (one
+    ``trajectory_msgs/JointTrajectory`` on ``platform_setpoint``)."""
+    if setpoint_input not in SETPOINT_INPUTS:
+        raise ValueError(f'setpoint_input must be one of {SETPOINT_INPUTS}, not '
+                         f'{setpoint_input!r}')
+    if kind == 'echo' and setpoint_input != 'topics':
+        raise ValueError('the echo answers pose_setpoint: setpoint_input must be topics')
     depth = node_qos_depth() if depth is None else depth
     own_tmp = workdir is None
     workdir = Path(tempfile.mkdtemp(prefix='fsd_bench_')) if own_tmp else workdir
@@ -324,15 +369,21 @@ def run_stream(kind: str, rate: float, seconds: float, *, env: dict[str, str],
     driver = None
     spy = None
     lines: 'queue.Queue[str]' = queue.Queue()
-    memory: list[tuple[float, int, float, float]] = []
+    memory: list[tuple[float, int, float, float, int, int]] = []
     cpu0 = cpu1 = math.nan
+    host0 = host1 = (0, 0)
+
+    def sample(t: float, cpu: float) -> None:
+        memory.append((t, rss_kb(target.pid), cpu, load_average()[0], *host_cpu_jiffies()))
+
     threads0: dict = {}
     threads1: dict = {}
     try:
         driver = Proc([sys.executable, str(Path(__file__).resolve()), 'drive',
                        '--expect', kind, '--rate', f'{rate:g}', '--seconds', f'{seconds:g}',
                        '--depth', str(depth), '--out', str(out_file),
-                       '--progress', f'{sample_every or 0:g}', '--drain', f'{drain:g}']
+                       '--progress', f'{sample_every or 0:g}', '--drain', f'{drain:g}',
+                       '--input', setpoint_input]
                       + (['--python-messages'] if python_messages else []),
                       env, workdir / f'{tag}_driver.log', stdout_pipe=True)
         threading.Thread(target=_reader, args=(driver.proc.stdout, lines), daemon=True).start()
@@ -346,26 +397,26 @@ def run_stream(kind: str, rate: float, seconds: float, *, env: dict[str, str],
                 line = None
             now = time.monotonic()
             if t_start is not None and now >= next_sample and target.alive():
-                memory.append((now - t_start, rss_kb(target.pid), cpu_seconds(target.pid),
-                               load_average()[0]))
+                sample(now - t_start, cpu_seconds(target.pid))
                 next_sample += sample_every
             if line is None:
                 if not target.alive():
                     raise RuntimeError(f'{kind} process died:\n' + target.output()[-3000:])
                 if now > deadline:
-                    raise RuntimeError(f'driver did not finish in time:\n'
+                    raise RuntimeError('driver did not finish in time:\n'
                                        + Path(driver.log_path).read_text()[-3000:])
                 continue
             if line == '':                      # driver's EOF
                 break
             if line.startswith('START'):
                 t_start = time.monotonic()
+                host0 = host_cpu_jiffies()
                 threads0 = thread_cpu(target.pid)
                 cpu0 = cpu_seconds(target.pid)
                 if cprofile_out is not None:
                     os.kill(target.pid, signal.SIGUSR1)     # start profiling now
                 if sample_every:
-                    memory.append((0.0, rss_kb(target.pid), cpu0, load_average()[0]))
+                    sample(0.0, cpu0)
                     next_sample = t_start + sample_every
                 if py_spy is not None:
                     exe, spy_out, spy_seconds = py_spy
@@ -378,10 +429,10 @@ def run_stream(kind: str, rate: float, seconds: float, *, env: dict[str, str],
                 pass
             elif line.startswith('DRAINED'):
                 cpu1 = cpu_seconds(target.pid)
+                host1 = host_cpu_jiffies()
                 threads1 = thread_cpu(target.pid)
                 if sample_every and t_start is not None:
-                    memory.append((time.monotonic() - t_start, rss_kb(target.pid), cpu1,
-                                   load_average()[0]))
+                    sample(time.monotonic() - t_start, cpu1)
             elif line.startswith('PROGRESS') and progress is not None:
                 progress(f'{kind} {rate:g} Hz: {line[9:]}')
         rc = driver.proc.wait(30)
@@ -408,7 +459,7 @@ def run_stream(kind: str, rate: float, seconds: float, *, env: dict[str, str],
     ok = np.isfinite(recv)
     last = max(float(np.nanmax(send)), float(recv[ok].max()) if ok.any() else -math.inf)
     result = StreamResult(
-        kind=kind, executor=executor, rate=rate, depth=depth, seconds=seconds,
+        kind=kind, executor=executor, setpoint_input=setpoint_input, rate=rate, depth=depth, seconds=seconds,
         sent=int(send.size),
         answered=int(ok.sum()), lost=int((~ok).sum()),
         latency_ms=(recv[ok] - send[ok]) * 1e3, send_times=send, recv_times=recv,
@@ -417,7 +468,8 @@ def run_stream(kind: str, rate: float, seconds: float, *, env: dict[str, str],
         duplicates=meta['duplicates'], discovery_s=meta['discovery_s'],
         diagnostics=[(t, v) for t, v in meta['diagnostics']], memory=memory,
         main_thread_cpu_s=main_cpu, other_threads_cpu=other_cpu,
-        load=load_average(), load_start=load_start, target_log=target.output()[-4000:],
+        load=load_average(), load_start=load_start, steal_pct=steal_percent(host0, host1),
+        target_log=target.output()[-4000:],
         profile_file=str(py_spy[1]) if py_spy else (str(cprofile_out) if cprofile_out else None))
     if own_tmp:
         shutil.rmtree(workdir, ignore_errors=True)
@@ -450,6 +502,9 @@ def stream_motion(rate: float) -> tuple[list, list, list]:
 def drive_main(argv: Sequence[str]) -> int:
     p = argparse.ArgumentParser(prog='bench_node.py drive')
     p.add_argument('--expect', choices=('node', 'echo'), default='node')
+    p.add_argument('--input', choices=SETPOINT_INPUTS, default='topics',
+                   help='how a setpoint is sent (topics: pose + twist + accel; trajectory: '
+                        'one JointTrajectory on platform_setpoint)')
     p.add_argument('--rate', type=float, required=True)
     p.add_argument('--seconds', type=float, required=True)
     p.add_argument('--depth', type=int, default=1000)
@@ -475,8 +530,9 @@ def drive_main(argv: Sequence[str]) -> int:
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
     from rclpy.serialization import deserialize_message, serialize_message
     from sensor_msgs.msg import JointState
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-    from flight_sim_dynamics.setpoints import rpy_to_quaternion
+    from flight_sim_dynamics.setpoints import PLATFORM_DOF_NAMES, rpy_to_quaternion
 
     rate = args.rate
     n = int(round(args.seconds * rate))
@@ -495,6 +551,8 @@ def drive_main(argv: Sequence[str]) -> int:
     pose_pub = node.create_publisher(PoseStamped, 'pose_setpoint', qos)
     twist_pub = node.create_publisher(TwistStamped, 'twist_setpoint', qos)
     accel_pub = node.create_publisher(AccelStamped, 'accel_setpoint', qos)
+    trajectory = args.input == 'trajectory'
+    traj_pub = node.create_publisher(JointTrajectory, 'platform_setpoint', qos)
     # measured samples are k = 0..n-1; warm-up samples use negative k (earlier stamps)
     warm = 200
     recv = [math.nan] * n
@@ -551,6 +609,12 @@ def drive_main(argv: Sequence[str]) -> int:
     tl, ta = twist.twist.linear, twist.twist.angular
     al, aa = accel.accel.linear, accel.accel.angular
     stamp = pose.header.stamp
+    traj = JointTrajectory()
+    traj.header.frame_id = 'simulator_base'
+    traj.joint_names = list(PLATFORM_DOF_NAMES)
+    point = JointTrajectoryPoint()
+    traj.points = [point]
+    dof = [('surge', 'heave', 'roll').index(name) for name in PLATFORM_DOF_NAMES]
 
     def fill(i: int) -> None:
         """The messages of motion sample i (stamp aside)."""
@@ -559,6 +623,10 @@ def drive_main(argv: Sequence[str]) -> int:
         po.x, po.y, po.z, po.w = quats[i]
         tl.x, tl.z, ta.x = qd
         al.x, al.z, aa.x = qdd
+        point.positions = [float(q[j]) for j in dof]
+        point.velocities = [float(qd[j]) for j in dof]
+        point.accelerations = [float(qdd[j]) for j in dof]
+        traj.points = [point]
 
     def publish_messages(j: int) -> None:
         """Sample j (>= 0: measured k = j - warm) of the whole run."""
@@ -566,7 +634,11 @@ def drive_main(argv: Sequence[str]) -> int:
         stamp.sec, stamp.nanosec = sec, nsec
         twist.header.stamp = stamp
         accel.header.stamp = stamp
+        traj.header.stamp = stamp
         fill(j % m)
+        if trajectory:
+            traj_pub.publish(traj)
+            return
         pose_pub.publish(pose)
         twist_pub.publish(twist)
         accel_pub.publish(accel)
@@ -575,12 +647,13 @@ def drive_main(argv: Sequence[str]) -> int:
     # the stream; per sample only the stamp (bytes 4-11 of every *Stamped
     # message) is put in, so the driver's own cost per publish is the
     # middleware's, as for a planner written in C++.
-    serialized: list[tuple[bytes, bytes, bytes]] = []
+    serialized: list[tuple[bytes, ...]] = []
     head = b''
     if raw:
         for i in range(m):
             fill(i)
-            serialized.append(tuple(serialize_message(x)[12:] for x in (pose, twist, accel)))
+            serialized.append(tuple(serialize_message(x)[12:]
+                                    for x in (pose, twist, accel, traj)))
         head = serialize_message(pose)[:4]
         stamp_pack = (stamp_le if head[1] == 1 else stamp_be).pack
         # check one sample the slow way
@@ -591,18 +664,28 @@ def drive_main(argv: Sequence[str]) -> int:
         if back != pose:
             print('ERROR serialized pose template does not read back', flush=True)
             return 3
+        traj.header.stamp = stamp
+        back = deserialize_message(head + stamp_pack(12345, 678) + serialized[1 % m][3],
+                                   JointTrajectory)
+        if back != traj:
+            print('ERROR serialized trajectory template does not read back', flush=True)
+            return 3
 
     def publish_serialized(j: int) -> None:
         """Sample j (>= 0: measured k = j - warm) of the whole run."""
-        p_, t_, a_ = serialized[j % m]
+        p_, t_, a_, s_ = serialized[j % m]
         h = head + stamp_pack(*divmod(base_ns + j * period_ns, 1_000_000_000))
+        if trajectory:
+            traj_pub.publish(h + s_)
+            return
         pose_pub.publish(h + p_)
         twist_pub.publish(h + t_)
         accel_pub.publish(h + a_)
 
     publish = publish_serialized if raw else publish_messages
 
-    subs = [pose_pub] if args.expect == 'echo' else [pose_pub, twist_pub, accel_pub]
+    subs = ([pose_pub] if args.expect == 'echo' else [traj_pub] if trajectory
+            else [pose_pub, twist_pub, accel_pub])
     t0 = clock()
     found = spin_until(lambda: all(pb.get_subscription_count() > 0 for pb in subs)
                        and node.count_publishers('actuator_states') > 0,
@@ -727,6 +810,10 @@ def table_main(argv: Sequence[str]) -> int:
     parser.add_argument('--executors', nargs='+', default=['events', 'single'])
     parser.add_argument('--echo', action='store_true',
                         help='also measure the bare rclpy echo with each executor')
+    parser.add_argument('--inputs', nargs='+', choices=SETPOINT_INPUTS, default=['topics'],
+                        help='how the driver sends setpoints to the node (topics: pose + '
+                             'twist + accel; trajectory: one JointTrajectory on '
+                             'platform_setpoint); each is measured (default: topics)')
     parser.add_argument('--repeat', type=int, default=1,
                         help='run every stream this many times (echo and node alternate)')
     parser.add_argument('--python-messages', action='store_true',
@@ -742,20 +829,22 @@ def table_main(argv: Sequence[str]) -> int:
           f'{"message objects" if args.python_messages else "serialized"}')
     print('| target | executor | rate Hz | answered / sent | lost | latency median ms '
           '| p90 ms | p99 ms | max ms | target CPU per setpoint ms (Python thread) '
-          '| load avg |')
-    print('|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|')
-    kinds = ['echo', 'node'] if args.echo else ['node']
+          '| load avg | steal % |')
+    print('|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|')
+    targets = ([('echo', 'topics')] if args.echo else []) + [('node', i) for i in args.inputs]
     for executor in args.executors:
         for rate in args.rates:
             for _ in range(args.repeat):
-                for kind in kinds:
+                for kind, setpoint_input in targets:
                     r = run_stream(kind, rate, args.seconds, env=env, executor=executor,
-                                   python_messages=args.python_messages)
+                                   python_messages=args.python_messages,
+                                   setpoint_input=setpoint_input)
                     main_ms = 1e3 * r.main_thread_cpu_s / max(r.answered, 1)
-                    print(f'| {kind} | {executor} | {rate:g} | {r.answered} / {r.sent} '
+                    name = kind if kind == 'echo' else f'node ({setpoint_input})'
+                    print(f'| {name} | {executor} | {rate:g} | {r.answered} / {r.sent} '
                           f'| {r.lost} | {r.median:.2f} | {r.pct(90):.2f} | {r.p99:.2f} '
                           f'| {r.max:.1f} | {r.cpu_ms_per_setpoint:.3f} ({main_ms:.3f}) '
-                          f'| {r.load[0]:.2f} |', flush=True)
+                          f'| {r.load[0]:.2f} | {r.steal_pct:.1f} |', flush=True)
     print(f'# load average {load_average()[0]:.2f} at end')
     return 0
 

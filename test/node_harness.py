@@ -30,9 +30,10 @@ from rclpy.context import Context
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.setpoints import rpy_to_quaternion
+from flight_sim_dynamics.setpoints import PLATFORM_DOF_NAMES, rpy_to_quaternion
 
 ROOT = Path(__file__).resolve().parent.parent
 PARAMS_FILE = ROOT / 'config' / 'flight_sim_dynamics.yaml'
@@ -114,6 +115,7 @@ class Client:
         self.pose_pub = n.create_publisher(PoseStamped, 'pose_setpoint', QOS)
         self.twist_pub = n.create_publisher(TwistStamped, 'twist_setpoint', QOS)
         self.accel_pub = n.create_publisher(AccelStamped, 'accel_setpoint', QOS)
+        self.platform_pub = n.create_publisher(JointTrajectory, 'platform_setpoint', QOS)
         self.actuator: list[tuple[float, JointState]] = []
         self.joints: list[JointState] = []
         self.diagnostics: list[DiagnosticArray] = []
@@ -157,6 +159,7 @@ class Client:
             self.pose_pub.get_subscription_count() > 0
             and self.twist_pub.get_subscription_count() > 0
             and self.accel_pub.get_subscription_count() > 0
+            and self.platform_pub.get_subscription_count() > 0
             and self.actuator_sub.get_publisher_count() > 0
             and self.joint_sub.get_publisher_count() > 0
             and all(c.service_is_ready() for c in self.srv.values())), timeout)
@@ -251,6 +254,43 @@ class Client:
             if key in msgs:
                 publisher, msg = msgs[key]
                 publisher.publish(msg)
+
+    def send_platform(self, stamp_ns: int, points: Sequence[Sequence[Any]], *,
+                      names: Sequence[str] = PLATFORM_DOF_NAMES,
+                      offsets_ns: Sequence[int] | None = None,
+                      effort: Sequence[Sequence[float]] | None = None) -> None:
+        """Publish one ``platform_setpoint`` (JointTrajectory) with header stamp
+        ``stamp_ns``: one point per item of ``points``, each ``(q, qd, qdd)``
+        (surge, heave, roll order; ``qd``/``qdd`` None or empty: not sent),
+        reordered to ``names``; ``offsets_ns``: the points' time_from_start
+        (default 0, 1, 2 ... times 5 ms; negative allowed, for the tests);
+        ``effort``: per point (default empty)."""
+        msg = JointTrajectory()
+        msg.header.stamp = rclpy.time.Time(nanoseconds=stamp_ns).to_msg()
+        msg.header.frame_id = 'simulator_base'
+        msg.joint_names = list(names)
+        index = {name: i for i, name in enumerate(PLATFORM_DOF_NAMES)}
+
+        def arranged(values: Any) -> list[float]:
+            if values is None or len(values) == 0:
+                return []
+            values = [float(v) for v in values]
+            # values given in surge, heave, roll order; extra/missing names: as given
+            return ([values[index[name]] for name in names]
+                    if len(values) == 3 and sorted(names) == sorted(PLATFORM_DOF_NAMES)
+                    else values)
+        for k, (q, qd, qdd) in enumerate(points):
+            point = JointTrajectoryPoint()
+            point.positions = arranged(q)
+            point.velocities = arranged(qd)
+            point.accelerations = arranged(qdd)
+            if effort is not None:
+                point.effort = [float(v) for v in effort[k]]
+            offset = offsets_ns[k] if offsets_ns is not None else k * 5_000_000
+            point.time_from_start.sec, point.time_from_start.nanosec = divmod(
+                int(offset), 1_000_000_000)
+            msg.points.append(point)
+        self.platform_pub.publish(msg)
 
     def close(self) -> None:
         self.node.destroy_node()

@@ -1,6 +1,7 @@
 """Bad input never takes the node down.
 
-Each bad setpoint is followed by a valid one that must be answered exactly;
+Each bad setpoint (on the three topics, and on platform_setpoint) is
+followed by a valid one that must be answered exactly;
 no NaN or infinity is ever published; nothing is published for a rejected
 setpoint (an unreachable pose publishes nothing: docs/node.md); every
 rejection is counted in /diagnostics and logged (throttled).
@@ -149,3 +150,117 @@ def test_node_reports_error_and_recovers(client, node):
     lines = [line for line in log.splitlines() if 'pose rejected' in line and 'non-finite' in line]
     assert 1 <= len(lines) <= 8, f'{len(lines)} log lines for non-finite poses (not throttled?)'
     assert re.search(r'more since the last such message|pose rejected', log)
+
+
+def truncated_platform_setpoint(client: Client, stamp: int, last: int) -> None:
+    """A JointTrajectory cut short (published as serialized bytes)."""
+    from rclpy.serialization import serialize_message
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+    msg = JointTrajectory()
+    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
+    msg.joint_names = ['surge', 'heave', 'roll']
+    msg.points = [JointTrajectoryPoint(positions=list(Q), velocities=list(QD))]
+    client.platform_pub.publish(serialize_message(msg)[:70])
+
+
+PLATFORM = [(Q, QD, QDD)]
+# (name, reason counter, how to send it at stamp s: f(client, s, last_valid_stamp)),
+# all on platform_setpoint (trajectory_msgs/JointTrajectory). These tests come
+# last: their stamps follow those of the tests above (one node for the module).
+PLATFORM_BAD_INPUTS = [
+    ('joint_names with pitch', 'bad_setpoint',
+     lambda c, s, last: c.send_platform(s, PLATFORM, names=('surge', 'heave', 'pitch'))),
+    ('joint_names missing roll', 'bad_setpoint',
+     lambda c, s, last: c.send_platform(s, [(Q[:2], QD[:2], QDD[:2])], names=('surge', 'heave'))),
+    ('no points', 'bad_setpoint', lambda c, s, last: c.send_platform(s, [])),
+    ('2 positions', 'bad_setpoint', lambda c, s, last: c.send_platform(s, [(Q[:2], QD, QDD)])),
+    ('2 velocities', 'bad_setpoint',
+     lambda c, s, last: c.send_platform(s, [(Q, QD[:2], QDD)])),
+    ('4 accelerations', 'bad_setpoint',
+     lambda c, s, last: c.send_platform(s, [(Q, QD, [*QDD, 0.0])])),
+    ('effort given', 'bad_setpoint',
+     lambda c, s, last: c.send_platform(s, PLATFORM, effort=[[30.0, 30.0, 30.0]])),
+    ('negative time_from_start', 'bad_setpoint',
+     lambda c, s, last: c.send_platform(s + STEP // 2, PLATFORM, offsets_ns=[-STEP // 2])),
+    ('truncated message', 'bad_setpoint', truncated_platform_setpoint),
+    ('nan position', 'non_finite',
+     lambda c, s, last: c.send_platform(s, [((NAN, Q[1], Q[2]), QD, QDD)])),
+    ('inf velocity', 'non_finite',
+     lambda c, s, last: c.send_platform(s, [(Q, (QD[0], INF, QD[2]), QDD)])),
+    ('nan acceleration', 'non_finite',
+     lambda c, s, last: c.send_platform(s, [(Q, QD, (QDD[0], QDD[1], NAN))])),
+    ('absurd acceleration (1000 m/s^2)', 'absurd_acceleration',
+     lambda c, s, last: c.send_platform(s, [(Q, QD, (1000.0, 0.0, 0.0))])),
+    ('heave jump, no accelerations (estimated one absurd)', 'absurd_acceleration',
+     lambda c, s, last: c.send_platform(s, [((Q[0], Q[1] + 0.1, Q[2]), None, None)])),
+    ('unreachable pose (heave -0.5 m)', 'unreachable',
+     lambda c, s, last: c.send_platform(s, [((0.0, -0.5, 0.0), (0, 0, 0), (0, 0, 0))])),
+    ('repeated stamp', 'stamp_repeated', lambda c, s, last: c.send_platform(last, PLATFORM)),
+    ('stamp going backwards', 'stamp_backwards',
+     lambda c, s, last: c.send_platform(last - 10 * STEP, PLATFORM)),
+]
+
+
+def test_each_bad_platform_setpoint_is_rejected_and_the_next_answered(client, model, node):
+    """Each bad platform_setpoint is rejected with its counter (one rejection
+    each, nothing published) and the next one, valid, is answered exactly."""
+    expected = fsd.solve(model, Q, QD, QDD)
+    before = client.wait_diagnostics(lambda v: 'rejected bad_setpoint' in v, timeout=3.0)
+    stamp = BASE + 30_000_000_000
+    n = len(client.actuator)
+    client.send_platform(stamp, PLATFORM)                       # a valid start
+    assert client.wait_actuator(n + 1)
+    last_valid = stamp
+    expected_counts: dict[str, int] = {}
+    for name, reason, send in PLATFORM_BAD_INPUTS:
+        stamp += STEP
+        n = len(client.actuator)
+        send(client, stamp, last_valid)
+        stamp += STEP
+        client.send_platform(stamp, PLATFORM)                   # the next valid setpoint
+        assert client.wait_actuator(n + 1, timeout=3.0), f'{name}: valid setpoint not answered'
+        client.spin_until(lambda: False, 0.02)
+        answered = [m for _, m in client.actuator[n:]]
+        assert [stamp_ns(m) for m in answered] == [stamp], \
+            f'{name}: expected one answer for the valid setpoint only'
+        np.testing.assert_allclose(answered[0].effort, expected.force, rtol=0, atol=1e-9,
+                                   err_msg=name)
+        last_valid = stamp
+        expected_counts[reason] = expected_counts.get(reason, 0) + 1
+
+    after = client.wait_diagnostics(
+        lambda v: int(v['rejected total']) >= int(before['rejected total'])
+        + len(PLATFORM_BAD_INPUTS), timeout=3.0)
+    for reason, count in expected_counts.items():
+        got = int(after[f'rejected {reason}']) - int(before[f'rejected {reason}'])
+        assert got == count, f'counter rejected {reason}: {got} != {count}'
+    assert int(after['rejected total']) - int(before['rejected total']) \
+        == len(PLATFORM_BAD_INPUTS)
+    # every message counted as received, the malformed ones too
+    assert int(after['received platform_setpoint']) - int(before['received platform_setpoint']) \
+        == 2 * len(PLATFORM_BAD_INPUTS) + 1
+    assert all(all_finite(m) for _, m in client.actuator)
+    log = node.output()
+    assert ("platform_setpoint rejected: joint_names must be surge, heave, roll (each once, in "
+            "any order), got ['surge', 'heave', 'pitch']") in log
+
+
+def test_one_bad_point_rejects_that_point_only(client, model):
+    """A message of three points whose middle one is bad: the other two are
+    answered (stamps header + time_from_start), the bad one counted."""
+    expected = fsd.solve(model, Q, QD, QDD)
+    before = client.wait_diagnostics(lambda v: 'rejected non_finite' in v, timeout=3.0)
+    stamp = BASE + 40_000_000_000
+    n = len(client.actuator)
+    client.send_platform(stamp, [(Q, QD, QDD), ((Q[0], NAN, Q[2]), QD, QDD), (Q, QD, QDD)],
+                         offsets_ns=[0, STEP, 2 * STEP])
+    assert client.wait_actuator(n + 2)
+    client.spin_until(lambda: False, 0.05)
+    answered = [m for _, m in client.actuator[n:]]
+    assert [stamp_ns(m) for m in answered] == [stamp, stamp + 2 * STEP]
+    for msg in answered:
+        np.testing.assert_allclose(msg.effort, expected.force, rtol=0, atol=1e-9)
+    after = client.wait_diagnostics(
+        lambda v: int(v['rejected non_finite']) > int(before['rejected non_finite']), 3.0)
+    assert int(after['rejected total']) - int(before['rejected total']) == 1
+    assert 'point 1' in after['last rejection'] and 'positions' in after['last rejection']

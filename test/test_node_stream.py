@@ -4,7 +4,9 @@ paper's three motions at 200 Hz by a test publisher.
 Checks: every setpoint answered (no loss at 200 Hz), in order, with the
 setpoint's stamp, values equal to the solver's to 1e-9; the synchroniser
 whatever the delivery order; pose-only and pose+twist streams (estimation);
-motion the mechanism cannot follow reported and ignored.
+motion the mechanism cannot follow reported and ignored; the same through
+platform_setpoint (one JointTrajectory per setpoint, or several points per
+message), alone and mixed with the three topics.
 """
 from __future__ import annotations
 
@@ -140,6 +142,131 @@ def test_unfollowable_motion_reported_parasitic_pitch_accepted(client, model):
         lambda v: int(v['ignored pitch']) > int(before['ignored pitch']), timeout=3.0)
     for key in ('ignored sway', 'ignored yaw', 'ignored pitch'):
         assert int(after[key]) == int(before[key]) + 1, key
+
+
+# ----------------------------------------------------------------------------
+# One message per setpoint: platform_setpoint (trajectory_msgs/JointTrajectory)
+# ----------------------------------------------------------------------------
+def stream_platform(client: Client, stamps, q, qd, qdd, names=('surge', 'heave', 'roll'),
+                    rate: float = RATE) -> None:
+    """One JointTrajectory per setpoint (one point, time_from_start 0), paced
+    at ``rate``; ``qd``/``qdd`` None: not sent (the node estimates them)."""
+    start = time.monotonic()
+    for k, stamp in enumerate(stamps):
+        target = start + k / rate
+        client.spin_until(lambda: time.monotonic() >= target, max(0.0, target - time.monotonic()))
+        client.send_platform(int(stamp), [(q[k], None if qd is None else qd[k],
+                                           None if qdd is None else qdd[k])], names=names)
+
+
+def counters(client: Client) -> dict:
+    return client.wait_diagnostics(lambda v: 'received platform_setpoint' in v, timeout=3.0)
+
+
+def test_platform_setpoint_stream_matches_solver(client, model):
+    """The paper's general motion as one JointTrajectory per setpoint (names in
+    another order than surge, heave, roll) at 200 Hz: every setpoint answered
+    in order with its stamp, actuator_states and joint_states equal to the
+    solver's to 1e-9, nothing estimated, the messages counted."""
+    t = np.arange(0.0, 3.0 + 1e-9, 1.0 / RATE)
+    q, qd, qdd = paper_example('general', t)
+    stamps = Stamps.take(len(q))
+    before = counters(client)
+    first, first_joint = len(client.actuator), len(client.joints)
+    stream_platform(client, stamps, q, qd, qdd, names=('roll', 'surge', 'heave'))
+    assert client.wait_actuator(first + len(q), timeout=10.0), \
+        f'lost {first + len(q) - len(client.actuator)} of {len(q)} setpoints'
+    got = received_since(client, first)
+    assert [stamp_ns(m) for m in got] == [int(s) for s in stamps], 'order or stamps differ'
+    expected = fsd.solve_batch(model, q, qd, qdd)
+    np.testing.assert_allclose([list(m.position) for m in got], expected.length, rtol=0, atol=1e-9)
+    np.testing.assert_allclose([list(m.velocity) for m in got], expected.rate, rtol=0, atol=1e-9)
+    np.testing.assert_allclose([list(m.effort) for m in got], expected.force, rtol=0, atol=1e-9)
+    assert client.spin_until(lambda: len(client.joints) >= first_joint + len(q), 5.0)
+    joints = client.joints[first_joint:first_joint + len(q)]
+    assert [stamp_ns(m) for m in joints] == [int(s) for s in stamps]
+    np.testing.assert_allclose([list(m.position) for m in joints], expected.joints,
+                               rtol=0, atol=1e-9)
+    np.testing.assert_allclose([list(m.velocity) for m in joints], expected.joint_rates,
+                               rtol=0, atol=1e-9)
+    after = client.wait_diagnostics(lambda v: int(v['received platform_setpoint'])
+                                    >= int(before['received platform_setpoint']) + len(q))
+    assert int(after['received platform_setpoint']) - int(before['received platform_setpoint']) \
+        == len(q)
+    for key in ('received pose', 'estimated twist', 'estimated accel', 'rejected total'):
+        assert after[key] == before[key], key
+
+
+def test_platform_and_three_topic_setpoints_mixed(client, model):
+    """Setpoints alternately as one JointTrajectory and as pose + twist + accel:
+    one stamp order, every one answered, the same numbers either way."""
+    t = np.arange(0.0, 0.5, 1.0 / RATE) + 1.0
+    q, qd, qdd = paper_example('general', t)
+    stamps = Stamps.take(len(q))
+    first = len(client.actuator)
+    start = time.monotonic()
+    for k, stamp in enumerate(stamps):
+        target = start + k / RATE
+        client.spin_until(lambda: time.monotonic() >= target, max(0.0, target - time.monotonic()))
+        if k % 2:
+            client.send(int(stamp), q[k], qd[k], qdd[k], order='tap')
+        else:
+            client.send_platform(int(stamp), [(q[k], qd[k], qdd[k])])
+    assert client.wait_actuator(first + len(q))
+    client.spin_until(lambda: False, 0.1)   # nothing more may arrive
+    got = received_since(client, first)
+    assert [stamp_ns(m) for m in got] == [int(s) for s in stamps]
+    expected = fsd.solve_batch(model, q, qd, qdd)
+    np.testing.assert_allclose([list(m.effort) for m in got], expected.force, rtol=0, atol=1e-9)
+    np.testing.assert_allclose([list(m.position) for m in got], expected.length,
+                               rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize('kinds, tolerance', [('pv', 0.05), ('p', 0.5)])
+def test_platform_positions_only_points_are_estimated(client, model, kinds, tolerance):
+    """Points without accelerations (and velocities) are estimated like a
+    pose-only (pose + twist) stream, and counted as estimated."""
+    t = np.arange(0.0, 0.75, 1.0 / RATE)
+    q, qd, qdd = paper_example('general', t)
+    stamps = Stamps.take(len(q))
+    before = counters(client)
+    first = len(client.actuator)
+    stream_platform(client, stamps, q, qd if 'v' in kinds else None, None)
+    assert client.wait_actuator(first + len(q), timeout=5.0)
+    got = received_since(client, first)
+    assert [stamp_ns(m) for m in got] == [int(s) for s in stamps]
+    expected = fsd.solve_batch(model, q, qd, qdd)
+    np.testing.assert_allclose([list(m.position) for m in got], expected.length,
+                               rtol=0, atol=1e-9)   # positions are exact
+    error = np.abs(np.array([list(m.effort) for m in got])[3:] - expected.force[3:]).max()
+    assert error < tolerance, f'estimation error {error:.3g} N'
+    after = client.wait_diagnostics(lambda v: int(v['estimated accel'])
+                                    >= int(before['estimated accel']) + len(q))
+    assert int(after['estimated accel']) - int(before['estimated accel']) == len(q)
+    assert int(after['estimated twist']) - int(before['estimated twist']) == \
+        (0 if 'v' in kinds else len(q))
+
+
+def test_platform_multi_point_messages(client, model):
+    """A message of several points: one answer per point, in order, stamped
+    header.stamp + time_from_start, each equal to the solver's."""
+    t = 1.0 + np.array([0.0, 0.005, 0.01, 0.015, 0.02, 0.0215, 0.03, 1.03])
+    q, qd, qdd = paper_example('general', t)
+    header = Stamps.take(1)[0]
+    offsets = [int(round((x - t[0]) * 1e9)) for x in t]
+    offsets[-1] += 3                                      # a second and some nanoseconds
+    first = len(client.actuator)
+    client.send_platform(int(header), [(q[k], qd[k], qdd[k]) for k in range(5)],
+                         offsets_ns=offsets[:5])
+    client.send_platform(int(header) + offsets[5], [(q[k], qd[k], qdd[k]) for k in range(5, 8)],
+                         offsets_ns=[o - offsets[5] for o in offsets[5:]])
+    assert client.wait_actuator(first + len(t))
+    client.spin_until(lambda: False, 0.1)
+    got = received_since(client, first)
+    assert [stamp_ns(m) for m in got] == [int(header) + o for o in offsets]
+    assert got[-1].header.stamp.nanosec == (int(header) + offsets[-1]) % 1_000_000_000
+    expected = fsd.solve_batch(model, q, qd, qdd)
+    np.testing.assert_allclose([list(m.effort) for m in got], expected.force, rtol=0, atol=1e-9)
 
 
 def test_demo_planner_process_drives_the_node(client):

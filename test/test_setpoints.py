@@ -211,6 +211,117 @@ def test_sync_bounded():
     assert {r.reason for r in rejected} == {OVERFLOW} and len(rejected) == 6
 
 
+def test_sync_add_complete_alone():
+    """One-message setpoints (platform_setpoint) are released at once, with
+    their header and None for what is to be estimated; stamps must increase."""
+    sync = StampSynchroniser(wait=0.05)
+    released, rejected = sync.add_complete(10, 'p', None, 'a', now=1.0, header=(0, 10))
+    assert not rejected and stamps(released) == [10]
+    sp = released[0]
+    assert (sp.pose, sp.twist, sp.accel, sp.header, sp.first_arrival) == \
+        ('p', None, 'a', (0, 10), 1.0)
+    assert sync.last_released == 10 and sync.pending == 0
+    _, rejected = sync.add_complete(10, 'p', None, None, now=1.0)
+    assert [r.reason for r in rejected] == [STAMP_REPEATED]
+    assert 'platform_setpoint stamp 0.000000010 repeats' in rejected[0].message
+    _, rejected = sync.add_complete(5, 'p', None, None, now=1.0)
+    assert [r.reason for r in rejected] == [STAMP_BACKWARDS]
+    assert stamps(sync.add_complete(11, 'p', 't', 'a', now=1.0)[0]) == [11]
+    # the twist and accel streams are not touched
+    assert sync.active == {TWIST: True, ACCEL: True} and sync.poll(now=9.0) == ([], [])
+
+
+def test_sync_add_complete_shares_the_stamp_order_with_the_three_topics():
+    sync = StampSynchroniser(wait=0.05)
+    sync.active = {TWIST: False, ACCEL: False}                 # a pose-only stream
+    assert stamps(sync.add(POSE, 10, 'p', now=0.0)[0]) == [10]
+    assert [r.reason for r in sync.add_complete(10, 'p', None, None, now=0.0)[1]] == \
+        [STAMP_REPEATED]
+    assert [r.reason for r in sync.add_complete(9, 'p', None, None, now=0.0)[1]] == \
+        [STAMP_BACKWARDS]
+    assert stamps(sync.add_complete(20, 'p', None, None, now=0.0)[0]) == [20]
+    assert [r.reason for r in sync.add(POSE, 20, 'p', now=0.0)[1]] == [STAMP_REPEATED]
+    assert [r.reason for r in sync.add(POSE, 15, 'p', now=0.0)[1]] == [STAMP_BACKWARDS]
+    assert [r.reason for r in sync.add(TWIST, 20, 't', now=0.0)[1]] == [LATE]
+    assert sync.add(POSE, 21, 'p', now=0.0) == ([], [])        # the twist stream is back
+    assert stamps(sync.add(TWIST, 21, 't', now=0.0)[0]) == [21]
+
+
+def test_sync_add_complete_releases_older_pending_setpoints_first():
+    """Pending three-topic setpoints older than the one-message setpoint go out
+    first, in stamp order, with what they have (no pose: no_pose); newer ones
+    stay pending."""
+    sync = StampSynchroniser(wait=10.0)
+    sync.add(POSE, 2, 'p2', now=0.0)
+    sync.add(TWIST, 2, 't2', now=0.0)                          # waits for its accel
+    sync.add(POSE, 1, 'p1', now=0.0)                           # waits for twist, accel
+    sync.add(TWIST, 3, 't3', now=0.0)                          # no pose (yet)
+    sync.add(POSE, 9, 'p9', now=0.0)                           # newer: stays
+    released, rejected = sync.add_complete(5, 'p5', 't5', 'a5', now=0.0)
+    assert stamps(released) == [1, 2, 5]
+    assert [(s.pose, s.twist, s.accel) for s in released] == [
+        ('p1', None, None), ('p2', 't2', None), ('p5', 't5', 'a5')]
+    assert [(r.reason, r.stamp_ns) for r in rejected] == [(NO_POSE, 3)]
+    assert sync.pending == 1 and sync.last_released == 5
+    assert [r.reason for r in sync.add(ACCEL, 2, 'a2', now=0.0)[1]] == [LATE]
+    sync.add(TWIST, 9, 't9', now=0.0)
+    assert stamps(sync.add(ACCEL, 9, 'a9', now=0.0)[0]) == [9]
+
+
+def test_sync_add_complete_for_a_pending_or_rejected_stamp_is_a_duplicate():
+    sync = StampSynchroniser(wait=10.0)
+    sync.add(POSE, 4, 'p', now=0.0)
+    released, rejected = sync.add_complete(4, 'p', 't', 'a', now=0.0)
+    assert released == [] and [r.reason for r in rejected] == [DUPLICATE]
+    assert 'platform_setpoint for stamp' in rejected[0].message
+    sync.add(TWIST, 4, 't', now=0.0)
+    released, _ = sync.add(ACCEL, 4, 'a', now=0.0)            # the pending one completes
+    assert stamps(released) == [4] and released[0].pose == 'p'
+    sync.discard(6, TWIST)                                     # e.g. a NaN twist
+    released, rejected = sync.add_complete(6, 'p', None, None, now=0.0)
+    assert released == [] and [r.reason for r in rejected] == [DUPLICATE]
+    assert stamps(sync.add_complete(7, 'p', None, None, now=0.0)[0]) == [7]
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.tuples(st.integers(1, 12), st.sampled_from((POSE, TWIST, ACCEL))),
+                max_size=12, unique=True),
+       st.integers(1, 13))
+def test_sync_add_complete_releases_like_three_messages(pending, stamp):
+    """Whatever is pending (or already released), a one-message setpoint
+    releases and rejects the older setpoints exactly as its pose, twist and
+    accel sent as three messages would, and is released last itself."""
+    one, three = StampSynchroniser(wait=10.0), StampSynchroniser(wait=10.0)
+    for sync in (one, three):
+        for s, kind in pending:
+            sync.add(kind, s, f'{kind}{s}', now=0.0)
+    last = one.last_released
+    released, rejected = one.add_complete(stamp, 'P', 'T', 'A', now=0.0)
+    if last is not None and stamp <= last:
+        assert released == [] and [r.reason for r in rejected] == [
+            STAMP_REPEATED if stamp == last else STAMP_BACKWARDS]
+        return
+    if stamp in {s for s, _ in pending}:
+        assert released == [] and [r.reason for r in rejected] == [DUPLICATE]
+        return
+    released3, rejected3 = [], []
+    for kind, data in ((POSE, 'P'), (TWIST, 'T'), (ACCEL, 'A')):
+        r, j = three.add(kind, stamp, data, now=0.0)
+        released3 += r
+        rejected3 += j
+
+    def older(items):
+        return [(s.stamp_ns, s.pose, s.twist, s.accel) for s in items if s.stamp_ns < stamp]
+    assert older(released) == older(released3)
+    assert [s.stamp_ns for s in released if s.stamp_ns >= stamp] == [stamp]
+    assert (released[-1].pose, released[-1].twist, released[-1].accel) == ('P', 'T', 'A')
+    # (three messages may answer the stamp before its twist/accel: those are late)
+    assert [(r.reason, r.stamp_ns) for r in rejected] == \
+        [(r.reason, r.stamp_ns) for r in rejected3 if r.stamp_ns != stamp]
+    assert one.last_released == three.last_released == stamp
+    assert one.pending == three.pending
+
+
 # ----------------------------------------------------------------------------
 # Estimation
 # ----------------------------------------------------------------------------
@@ -306,8 +417,29 @@ def test_cycle_stats_report():
     assert level == ERROR and 'non_finite' in message
     assert d['rejected non_finite'] == '1' and d['setpoints answered'] == '1'
     assert float(d['solve time mean (us)']) == pytest.approx(1000.0)
+    assert float(d['solve time median (us)']) == pytest.approx(1000.0)
     level, _, values = stats.report(2.0)                       # next period: clean
     assert level == OK and dict(values)['rejected total'] == '1'
+
+
+def test_cycle_stats_solve_time_figures():
+    """Mean, median, p99 and max of one period's solve times; one preemption
+    (a 5 ms solve among 2 us ones) moves the mean, not the median."""
+    stats = CycleStats()
+    times = [2e-6] * 99 + [5e-3]
+    for t in times:
+        stats.solved(t, 1.0, 1.0, (0.0, 0.0, 0.0))
+    d = dict(stats.report(1.0)[2])
+    assert float(d['solve time median (us)']) == pytest.approx(2.0)
+    assert float(d['solve time mean (us)']) == pytest.approx(1e6 * sum(times) / 100, rel=1e-3)
+    assert float(d['solve time p99 (us)']) == pytest.approx(2.0)
+    assert float(d['solve time max (us)']) == pytest.approx(5000.0)
+    for t in (1e-6, 3e-6, 2e-6, 10e-6):       # even count: mean of the middle two
+        stats.solved(t, 1.0, 1.0, (0.0, 0.0, 0.0))
+    d = dict(stats.report(2.0)[2])
+    assert float(d['solve time median (us)']) == pytest.approx(2.5)
+    d = dict(stats.report(3.0)[2])            # no solve this period
+    assert d['solve time median (us)'] == 'nan'
 
 
 def test_log_throttle():
