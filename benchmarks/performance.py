@@ -51,6 +51,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import timeit
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -1008,6 +1009,16 @@ def machine_lines(argv: Sequence[str], started: float,
     ]
 
 
+#: A fixed piece of pure-Python work, timed at the start and the end of a run,
+#: so that runs on the same machine at different times can be compared.
+SPEED_REFERENCE = 'sum(range(1000))'
+
+
+def speed_reference_us() -> float:
+    """Best of 5 x 2000 runs of :data:`SPEED_REFERENCE`, us per run."""
+    return 1e6 * min(timeit.repeat(SPEED_REFERENCE, number=2000, repeat=5)) / 2000
+
+
 def fmt(x: float, digits: int = 2) -> str:
     return f'{x:.{digits}f}' if math.isfinite(x) else '-'
 
@@ -1049,6 +1060,12 @@ def markdown(res: dict, rows: list[Row], argv: Sequence[str], started: float,
       f'[Missed targets](#missed-targets-why-and-what-would-close-them).\n\n')
     w('## Machine and command\n\n')
     w('\n'.join(machine_lines(argv, started, res['tree'])) + '\n')
+    if 'speed' in res:
+        w(f'- speed reference (`{SPEED_REFERENCE}`, best of 5 x 2000 runs in this '
+          f'process): {fmt(res["speed"][0], 1)} us at the start, {fmt(res["speed"][1], 1)} us at '
+          f'the end. It moves with the host\'s load (a busy sibling hyperthread or a throttled '
+          f'core make every instruction slower without showing as steal); compare it before '
+          f'comparing the timings of two runs.\n')
     w(f'- whole run: {wall / 60:.1f} min\n')
     for note in res.get('notes', []):
         w(f'- {note}\n')
@@ -1619,7 +1636,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     started = time.time()
     t_start = time.monotonic()
     rows: list[Row] = []
-    res: dict[str, Any] = {'args': vars(args), 'notes': [], 'tree': (tree_state(), '')}
+    res: dict[str, Any] = {'args': vars(args), 'notes': [], 'tree': (tree_state(), ''),
+                           'speed': (speed_reference_us(), math.nan)}
     if args.quick:
         res['notes'].append('--quick: a smoke run, the figures are not meaningful')
     workdir = Path(tempfile.mkdtemp(prefix='fsd_perf_'))
@@ -1651,6 +1669,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         shutil.rmtree(workdir, ignore_errors=True)
     wall = time.monotonic() - t_start
     res['tree'] = (res['tree'][0], tree_state())
+    res['speed'] = (res['speed'][0], speed_reference_us())
     print(summary_table(rows))
     print(f'# load average {" ".join(f"{x:.2f}" for x in bench_node.load_average())}; '
           f'whole run {wall / 60:.1f} min')

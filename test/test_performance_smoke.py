@@ -63,6 +63,7 @@ def test_report_has_every_part(quick_run):
     md = quick_run[1].read_text()
     assert md.startswith('# Performance\n')
     for needed in ('## Summary', '## Machine and command', 'CPU:', 'load average', 'Python 3',
+                   'speed reference (`sum(range(1000))`',
                    'numpy', 'rclpy', 'benchmarks/performance.py --quick --no-node',
                    '## 1. Per-cycle solve', '## 2. Batch solve', '## 3. CSV end to end',
                    '## Profiles', '### The solver: where one `fsd.solve` goes',
@@ -90,3 +91,17 @@ def test_batch_and_per_cycle_agree(quick_run):
     assert diffs['force'] <= 1e-9
     assert data['results']['batch']['status_mismatch'] == 0
     assert data['results']['csv']['rows_out'] == data['results']['csv']['n']
+
+
+def test_bench_callbacks_script_answers_every_setpoint(tmp_path):
+    """scripts/bench_callbacks.py drives a real node's callbacks with both inputs
+    and exits non-zero unless every setpoint was answered and none rejected."""
+    env = dict(os.environ)
+    env['PYTHONPATH'] = os.pathsep.join(filter(None, [str(ROOT), env.get('PYTHONPATH')]))
+    env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    proc = subprocess.run([sys.executable, str(ROOT / 'scripts' / 'bench_callbacks.py'),
+                           '--setpoints', '40', '--repeat', '2'],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    lines = [line for line in proc.stdout.splitlines() if line.startswith('three topics')]
+    assert len(lines) == 2 and 'platform_setpoint' in lines[0]
