@@ -1455,9 +1455,12 @@ def analysis(res: dict, rows: list[Row]) -> str:
                          'or dedicated machine lowers.')
             elif key == 'node':
                 text += (' The node handles three messages per setpoint where the echo handles '
-                         'one, so a preemption is about three times as likely to catch it '
-                         'while a setpoint is in flight; the one-message input removes that '
-                         '(the JointTrajectory rows).')
+                         'one: its latency also holds the driver publishing the twist and the '
+                         'acceleration after the pose, and three deliveries and dispatches '
+                         'instead of one, each a chance to be preempted on the shared cores. '
+                         'The one-message input (the JointTrajectory rows) removes both; '
+                         '`python scripts/bench_node.py --echo --inputs topics trajectory` '
+                         'separates the driver\'s publishing from the rest.')
             if r_main['lost'] or e_main['lost']:
                 text += (f' Losses happen when a process stalls longer than its KEEP_LAST '
                          f'queue lasts ({1e3 * res.get("depth", 100) / rate0:.0f} ms at '

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from typing import Any, Generic, Iterable, Mapping, NamedTuple, Sequence, TypeVar
 
 from .model import Limits
-from .parameters import NODE_PARAMETERS, SPECS, ParameterError, check_value
+from .parameters import NODE_PARAMETERS, SPECS, check_value
 
 # ----------------------------------------------------------------------------
 # Rejection reasons (diagnostics counters). A *rejected* setpoint is not

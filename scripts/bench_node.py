@@ -35,7 +35,10 @@ The default command prints the executor table of docs/node.md:
                                  [--echo] [--inputs topics trajectory] [--repeat 1]
                                  [--python-messages] [--domain-id 87]
 
-Every row also gives the hypervisor's steal over the stream (``steal %``, from
+"driver publishing" is the time the driver takes to publish one sample (three
+messages with the topics, one with the trajectory); "after publishing" is the
+latency counted from the end of that instead of its start. Every row also
+gives the hypervisor's steal over the stream (``steal %``, from
 /proc/stat): on a virtual machine a stolen core stalls every process on it,
 which no executor or node code can avoid.
 
@@ -268,6 +271,18 @@ class StreamResult:
     steal_pct: float = math.nan     # the hypervisor's steal over the stream (host_cpu_jiffies)
     target_log: str = ''
     profile_file: str | None = None
+    #: per sample, ms from just before its first message was published to just
+    #: after its last (the driver's own publishing; three messages with topics)
+    publish_ms: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def after_publish_ms(self) -> np.ndarray:
+        """Per answered sample, ms from the end of its publishing to the receipt
+        of the answer: the latency without the driver's own publishing."""
+        ok = np.isfinite(self.recv_times)
+        if self.publish_ms.size != ok.size:
+            return np.zeros(0)
+        return self.latency_ms - self.publish_ms[ok]
 
     def pct(self, q: float) -> float:
         return float(np.percentile(self.latency_ms, q)) if self.latency_ms.size else math.nan
@@ -463,7 +478,9 @@ def run_stream(kind: str, rate: float, seconds: float, *, env: dict[str, str],
         sent=int(send.size),
         answered=int(ok.sum()), lost=int((~ok).sum()),
         latency_ms=(recv[ok] - send[ok]) * 1e3, send_times=send, recv_times=recv,
-        publisher_late_ms=(send - sched) * 1e3, target_cpu_s=cpu1 - cpu0,
+        publisher_late_ms=(send - sched) * 1e3,
+        publish_ms=(data['sent'] - send) * 1e3 if 'sent' in data else np.full(send.size, math.nan),
+        target_cpu_s=cpu1 - cpu0,
         stream_wall_s=last - meta['start'], drain_s=meta['drain_s'],
         duplicates=meta['duplicates'], discovery_s=meta['discovery_s'],
         diagnostics=[(t, v) for t, v in meta['diagnostics']], memory=memory,
@@ -703,6 +720,7 @@ def drive_main(argv: Sequence[str]) -> int:
     spin_until(lambda: False, 0.3)
 
     send = [math.nan] * n
+    sent = [math.nan] * n           # just after the sample's last message was published
     sched = [math.nan] * n
     period = 1.0 / rate
     start = clock() + 0.01
@@ -718,6 +736,7 @@ def drive_main(argv: Sequence[str]) -> int:
         sched[k] = target
         send[k] = clock()
         publish(warm + k)
+        sent[k] = clock()
         if now >= next_progress:
             got = sum(1 for r in recv if r == r)
             print(f'PROGRESS t={now - start:.0f}s sent={k + 1} answered={got} '
@@ -740,8 +759,8 @@ def drive_main(argv: Sequence[str]) -> int:
     meta = dict(start=start, end=end, duplicates=counts['dup'], discovery_s=discovery_s,
                 drain_s=(max(received) - streamed) if received else math.nan,
                 diagnostics=diagnostics)
-    np.savez(args.out, send=np.array(send), recv=np.array(recv), scheduled=np.array(sched),
-             meta=np.array(json.dumps(meta)))
+    np.savez(args.out, send=np.array(send), sent=np.array(sent), recv=np.array(recv),
+             scheduled=np.array(sched), meta=np.array(json.dumps(meta)))
     node.destroy_node()
     rclpy.try_shutdown(context=context)
     return 0
@@ -803,6 +822,11 @@ def echo_main(argv: Sequence[str]) -> int:
 # ----------------------------------------------------------------------------
 # The executor table (docs/node.md)
 # ----------------------------------------------------------------------------
+def _p99(values: np.ndarray) -> float:
+    values = values[np.isfinite(values)]
+    return float(np.percentile(values, 99)) if values.size else math.nan
+
+
 def table_main(argv: Sequence[str]) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     parser.add_argument('--rates', type=float, nargs='+', default=[200.0, 500.0])
@@ -828,9 +852,9 @@ def table_main(argv: Sequence[str]) -> int:
           f'ROS_DOMAIN_ID={env["ROS_DOMAIN_ID"]}, driver '
           f'{"message objects" if args.python_messages else "serialized"}')
     print('| target | executor | rate Hz | answered / sent | lost | latency median ms '
-          '| p90 ms | p99 ms | max ms | target CPU per setpoint ms (Python thread) '
-          '| load avg | steal % |')
-    print('|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|')
+          '| p90 ms | p99 ms | max ms | driver publishing p99 ms | p99 after publishing ms '
+          '| target CPU per setpoint ms (Python thread) | load avg | steal % |')
+    print('|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|')
     targets = ([('echo', 'topics')] if args.echo else []) + [('node', i) for i in args.inputs]
     for executor in args.executors:
         for rate in args.rates:
@@ -843,7 +867,9 @@ def table_main(argv: Sequence[str]) -> int:
                     name = kind if kind == 'echo' else f'node ({setpoint_input})'
                     print(f'| {name} | {executor} | {rate:g} | {r.answered} / {r.sent} '
                           f'| {r.lost} | {r.median:.2f} | {r.pct(90):.2f} | {r.p99:.2f} '
-                          f'| {r.max:.1f} | {r.cpu_ms_per_setpoint:.3f} ({main_ms:.3f}) '
+                          f'| {r.max:.1f} | {_p99(r.publish_ms):.2f} '
+                          f'| {_p99(r.after_publish_ms):.2f} '
+                          f'| {r.cpu_ms_per_setpoint:.3f} ({main_ms:.3f}) '
                           f'| {r.load[0]:.2f} | {r.steal_pct:.1f} |', flush=True)
     print(f'# load average {load_average()[0]:.2f} at end')
     return 0

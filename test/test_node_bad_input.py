@@ -61,21 +61,26 @@ BAD_INPUTS = [
 ]
 
 
-def test_each_bad_input_is_rejected_and_the_next_setpoint_answered(client, model):
+def reject_each_then_answer(client, model, bad_inputs, send_valid, stamp: int
+                            ) -> tuple[dict, dict]:
+    """Send a valid setpoint at ``stamp``, then for each (name, reason, send)
+    of ``bad_inputs`` the bad input followed by a valid setpoint
+    (``send_valid(client, stamp)``), checking that exactly the valid one is
+    answered, exactly. Returns the /diagnostics values before and after (once
+    every rejection is counted), having checked each reason's counter."""
     expected = fsd.solve(model, Q, QD, QDD)
-    before = client.wait_diagnostics(lambda v: 'rejected total' in v, timeout=3.0)
-    stamp = BASE
-    client.send(stamp, Q, QD, QDD, order='tap')                 # a valid start
-    assert client.wait_actuator(1)
+    before = client.wait_diagnostics(lambda v: 'rejected bad_setpoint' in v, timeout=3.0)
+    n = len(client.actuator)
+    send_valid(client, stamp)                                   # a valid start
+    assert client.wait_actuator(n + 1)
     last_valid = stamp
     expected_counts: dict[str, int] = {}
-    for name, reason, send in BAD_INPUTS:
+    for name, reason, send in bad_inputs:
         stamp += STEP
-        bad_stamp = stamp
         n = len(client.actuator)
-        send(client, bad_stamp, last_valid)
+        send(client, stamp, last_valid)
         stamp += STEP
-        client.send(stamp, Q, QD, QDD, order='tap')             # the next valid setpoint
+        send_valid(client, stamp)                               # the next valid setpoint
         assert client.wait_actuator(n + 1, timeout=3.0), f'{name}: valid setpoint not answered'
         client.spin_until(lambda: False, 0.02)
         answered = [m for _, m in client.actuator[n:]]
@@ -87,11 +92,17 @@ def test_each_bad_input_is_rejected_and_the_next_setpoint_answered(client, model
         expected_counts[reason] = expected_counts.get(reason, 0) + 1
 
     after = client.wait_diagnostics(
-        lambda v: int(v['rejected total']) >= int(before['rejected total']) + len(BAD_INPUTS),
+        lambda v: int(v['rejected total']) >= int(before['rejected total']) + len(bad_inputs),
         timeout=3.0)
     for reason, count in expected_counts.items():
         got = int(after[f'rejected {reason}']) - int(before[f'rejected {reason}'])
         assert got == count, f'counter rejected {reason}: {got} != {count}'
+    return before, after
+
+
+def test_each_bad_input_is_rejected_and_the_next_setpoint_answered(client, model):
+    before, after = reject_each_then_answer(
+        client, model, BAD_INPUTS, lambda c, s: c.send(s, Q, QD, QDD, order='tap'), BASE)
     # The twist and accel of a repeated / backwards setpoint are reported as
     # 'late' (they carry the stamp of an answered setpoint): 2 messages each.
     late = int(after['rejected late']) - int(before['rejected late'])
@@ -204,36 +215,9 @@ PLATFORM_BAD_INPUTS = [
 def test_each_bad_platform_setpoint_is_rejected_and_the_next_answered(client, model, node):
     """Each bad platform_setpoint is rejected with its counter (one rejection
     each, nothing published) and the next one, valid, is answered exactly."""
-    expected = fsd.solve(model, Q, QD, QDD)
-    before = client.wait_diagnostics(lambda v: 'rejected bad_setpoint' in v, timeout=3.0)
-    stamp = BASE + 30_000_000_000
-    n = len(client.actuator)
-    client.send_platform(stamp, PLATFORM)                       # a valid start
-    assert client.wait_actuator(n + 1)
-    last_valid = stamp
-    expected_counts: dict[str, int] = {}
-    for name, reason, send in PLATFORM_BAD_INPUTS:
-        stamp += STEP
-        n = len(client.actuator)
-        send(client, stamp, last_valid)
-        stamp += STEP
-        client.send_platform(stamp, PLATFORM)                   # the next valid setpoint
-        assert client.wait_actuator(n + 1, timeout=3.0), f'{name}: valid setpoint not answered'
-        client.spin_until(lambda: False, 0.02)
-        answered = [m for _, m in client.actuator[n:]]
-        assert [stamp_ns(m) for m in answered] == [stamp], \
-            f'{name}: expected one answer for the valid setpoint only'
-        np.testing.assert_allclose(answered[0].effort, expected.force, rtol=0, atol=1e-9,
-                                   err_msg=name)
-        last_valid = stamp
-        expected_counts[reason] = expected_counts.get(reason, 0) + 1
-
-    after = client.wait_diagnostics(
-        lambda v: int(v['rejected total']) >= int(before['rejected total'])
-        + len(PLATFORM_BAD_INPUTS), timeout=3.0)
-    for reason, count in expected_counts.items():
-        got = int(after[f'rejected {reason}']) - int(before[f'rejected {reason}'])
-        assert got == count, f'counter rejected {reason}: {got} != {count}'
+    before, after = reject_each_then_answer(
+        client, model, PLATFORM_BAD_INPUTS, lambda c, s: c.send_platform(s, PLATFORM),
+        BASE + 30_000_000_000)
     assert int(after['rejected total']) - int(before['rejected total']) \
         == len(PLATFORM_BAD_INPUTS)
     # every message counted as received, the malformed ones too

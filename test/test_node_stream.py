@@ -53,6 +53,19 @@ def received_since(client: Client, first: int):
     return [m for _, m in client.actuator[first:]]
 
 
+def answered_exactly(client: Client, model, first: int, stamps, q, qd, qdd):
+    """Wait for one actuator_states per stamp after the first ``first``; check
+    that nothing more arrives, the stamps and the forces (== solve_batch to
+    1e-9). Returns (messages, the batch solution)."""
+    assert client.wait_actuator(first + len(q))
+    client.spin_until(lambda: False, 0.1)   # nothing more may arrive
+    got = received_since(client, first)
+    assert [stamp_ns(m) for m in got] == [int(s) for s in stamps]
+    expected = fsd.solve_batch(model, q, qd, qdd)
+    np.testing.assert_allclose([list(m.effort) for m in got], expected.force, rtol=0, atol=1e-9)
+    return got, expected
+
+
 def test_paper_motions_at_200hz_match_solver(client, model):
     """Three paper motions, pose + twist + accel at 200 Hz: no loss, order,
     stamps, values == solver to 1e-9, joint states too."""
@@ -92,12 +105,7 @@ def test_any_delivery_order_gives_one_exact_solve_per_stamp(client, model, order
     stamps = Stamps.take(len(q))
     first = len(client.actuator)
     stream(client, stamps, q, qd, qdd, order=order)
-    assert client.wait_actuator(first + len(q))
-    client.spin_until(lambda: False, 0.1)   # nothing more may arrive
-    got = received_since(client, first)
-    assert [stamp_ns(m) for m in got] == [int(s) for s in stamps]
-    expected = fsd.solve_batch(model, q, qd, qdd)
-    np.testing.assert_allclose([list(m.effort) for m in got], expected.force, rtol=0, atol=1e-9)
+    answered_exactly(client, model, first, stamps, q, qd, qdd)
 
 
 @pytest.mark.parametrize('kinds, tolerance', [('pt', 0.05), ('p', 0.5)])
@@ -212,12 +220,7 @@ def test_platform_and_three_topic_setpoints_mixed(client, model):
             client.send(int(stamp), q[k], qd[k], qdd[k], order='tap')
         else:
             client.send_platform(int(stamp), [(q[k], qd[k], qdd[k])])
-    assert client.wait_actuator(first + len(q))
-    client.spin_until(lambda: False, 0.1)   # nothing more may arrive
-    got = received_since(client, first)
-    assert [stamp_ns(m) for m in got] == [int(s) for s in stamps]
-    expected = fsd.solve_batch(model, q, qd, qdd)
-    np.testing.assert_allclose([list(m.effort) for m in got], expected.force, rtol=0, atol=1e-9)
+    got, expected = answered_exactly(client, model, first, stamps, q, qd, qdd)
     np.testing.assert_allclose([list(m.position) for m in got], expected.length,
                                rtol=0, atol=1e-9)
 
