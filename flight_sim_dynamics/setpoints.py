@@ -763,11 +763,7 @@ class StampSynchroniser(Generic[P, R]):
         last = self._last_released
         if last is not None and stamp_ns <= last:
             if kind == POSE:
-                reason = STAMP_REPEATED if stamp_ns == last else STAMP_BACKWARDS
-                rejected.append(Rejected(reason, kind, stamp_ns,
-                                         f'pose stamp {_fmt_stamp(stamp_ns)} '
-                                         f'{"repeats" if stamp_ns == last else "precedes"} '
-                                         f'the last answered stamp {_fmt_stamp(last)}'))
+                rejected.append(_not_after_last(kind, stamp_ns, last))
             else:
                 rejected.append(Rejected(LATE, kind, stamp_ns,
                                          f'{kind} stamped {_fmt_stamp(stamp_ns)} arrived after '
@@ -821,11 +817,7 @@ class StampSynchroniser(Generic[P, R]):
         rejected: list[Rejected] = []
         last = self._last_released
         if last is not None and stamp_ns <= last:
-            repeated = stamp_ns == last
-            rejected.append(Rejected(STAMP_REPEATED if repeated else STAMP_BACKWARDS, kind,
-                                     stamp_ns, f'{kind} stamp {_fmt_stamp(stamp_ns)} '
-                                     f'{"repeats" if repeated else "precedes"} the last '
-                                     f'answered stamp {_fmt_stamp(last)}'))
+            rejected.append(_not_after_last(kind, stamp_ns, last))
             return released, rejected
         pending = self._pending
         if stamp_ns in pending or stamp_ns in self._discarded:
@@ -897,6 +889,17 @@ class StampSynchroniser(Generic[P, R]):
         else:
             self._release_through(oldest, released, rejected)
             self._release(entry, released, rejected)
+
+
+def _not_after_last(kind: str, stamp_ns: int, last: int) -> Rejected:
+    """The rejection of a setpoint (its pose, or a whole one) whose stamp is
+    not later than the last answered ``last``: ``stamp_repeated`` or
+    ``stamp_backwards``."""
+    repeated = stamp_ns == last
+    return Rejected(STAMP_REPEATED if repeated else STAMP_BACKWARDS, kind, stamp_ns,
+                    f'{kind} stamp {_fmt_stamp(stamp_ns)} '
+                    f'{"repeats" if repeated else "precedes"} the last answered stamp '
+                    f'{_fmt_stamp(last)}')
 
 
 def _fmt_stamp(stamp_ns: int) -> str:
