@@ -242,7 +242,23 @@ def test_qos_change_recreates_the_endpoints(client):
                              and client.pose_pub.get_subscription_count() > 0, 5.0)
     assert client.spin_until(lambda: client.twist_pub.get_subscription_count() > 0
                              and client.accel_pub.get_subscription_count() > 0, 5.0)
-    answer(client)
+    # These counts do not prove that our writers matched the node's *new*
+    # readers: its old best_effort readers matched our reliable writers too, and
+    # their removal and the new readers' arrival are seen one after the other.
+    # A volatile sample written before the match never reaches the new reader,
+    # so a setpoint is resent, with a fresh stamp, until one is answered.
+    sent = []
+    for _ in range(20):
+        n = len(client.actuator)
+        sent.append(Stamp.next())
+        client.send(sent[-1], Q, QD, QDD, order='tap')
+        if client.wait_actuator(n + 1, timeout=0.5):
+            break
+    assert len(client.actuator) > n, f'none of {len(sent)} setpoints answered'
+    msg = client.actuator[-1][1]
+    assert stamp_ns(msg) in sent
+    # and the node answers every setpoint from now on, the same forces
+    np.testing.assert_allclose(answer(client), msg.effort, rtol=0, atol=0)
 
 
 def test_invalid_params_file_refuses_to_start(tmp_path):
