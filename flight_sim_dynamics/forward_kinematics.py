@@ -19,7 +19,6 @@ central configuration), which is the one the machine uses.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Sequence
 

@@ -18,13 +18,16 @@ import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable, Mapping
+from typing import TYPE_CHECKING, Any, Iterable, Mapping
 
 import numpy as np
 import yaml
 
 from .errors import ParameterError
 from .model import BODY_NAMES, GEOMETRY_KEYS, Body, Friction, Geometry, Limits, Model
+
+if TYPE_CHECKING:  # effects imports this module
+    from .effects import Scene
 
 NODE_NAME = 'flight_sim_dynamics'
 PACKAGE_NAME = 'flight_sim_dynamics'
@@ -440,7 +443,7 @@ def validate(values: Mapping[str, Any], *, require_all: bool = True) -> dict[str
 
 
 def model_from_values(values: Mapping[str, Any], *, require_all: bool = True,
-                      scene: 'Scene | str | None' = None) -> Model:
+                      scene: Scene | str | None = None) -> Model:
     """Validate ``values`` (flat dotted names) and build the :class:`Model`.
 
     ``scene`` (a :class:`~.effects.Scene`, a scene name or path; None = the

@@ -18,7 +18,7 @@ import pytest
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.model import JOINT_NAMES, LEG_NAMES
 from flight_sim_dynamics.trajectories import paper_example
-from node_harness import PARAMS_FILE, Client, all_finite, stamp_ns
+from node_harness import Client, all_finite, stamp_ns
 from node_harness import client, model, node  # noqa: F401 - module fixtures
 
 RATE = 200.0
