@@ -324,8 +324,15 @@ def all_finite(msg: JointState) -> bool:
 @pytest.fixture(scope='module')
 def node():
     """The node as a user starts it (packaged params file), with a faster
-    diagnostics period (the tests wait for it)."""
-    proc = NodeProcess('-p', 'diagnostics.period:=0.25', params_file=PARAMS_FILE)
+    diagnostics period (the tests wait for it) and a longer ``sync.wait``.
+
+    With the packaged 0.05 s, a twist or acceleration that the shared host
+    delays by more than 50 ms after its pose is, by design, replaced by an
+    estimate (and counted ``late``): the exact-answer tests then fail on the
+    estimate (seen at 20-28 % hypervisor steal). 0.5 s keeps the design and
+    leaves only stalls ten times longer to chance."""
+    proc = NodeProcess('-p', 'diagnostics.period:=0.25', '-p', 'sync.wait:=0.5',
+                       params_file=PARAMS_FILE)
     yield proc
     proc.stop()
 
