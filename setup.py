@@ -18,7 +18,7 @@ package_name = 'flight_sim_dynamics'
 # with its Python code (same results, slower). -ffp-contract=off keeps the
 # operations the ones written (no fused multiply-add), like the Python code.
 kernel = Extension(
-    f'{package_name}._kernel', sources=['src/kernel.c'], optional=True,
+    f'{package_name}.core._kernel', sources=['src/kernel.c'], optional=True,
     extra_compile_args=['-O2', '-ffp-contract=off', '-fno-math-errno'])
 
 setup(
@@ -45,8 +45,8 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'flight-sim-dynamics = flight_sim_dynamics.cli:main',
-            'dynamics_node = flight_sim_dynamics.node:main',
+            'flight-sim-dynamics = flight_sim_dynamics.cli.main:main',
+            'dynamics_node = flight_sim_dynamics.ros.node:main',
         ],
     },
 )

@@ -65,8 +65,9 @@ for _p in (str(ROOT), str(ROOT / 'scripts')):
         sys.path.insert(0, _p)
 
 import flight_sim_dynamics as fsd  # noqa: E402
-from flight_sim_dynamics import bench, kernel  # noqa: E402
-from flight_sim_dynamics.cueing import PlannerSequence  # noqa: E402
+from flight_sim_dynamics.cli import bench  # noqa: E402
+from flight_sim_dynamics.core import kernel  # noqa: E402
+from flight_sim_dynamics.core.cueing import PlannerSequence  # noqa: E402
 
 import bench_node  # noqa: E402  (scripts/bench_node.py)
 
@@ -279,8 +280,9 @@ def section_batch(args: argparse.Namespace, rows: list[Row]) -> dict:
 # 3. CSV end to end
 # ----------------------------------------------------------------------------
 def section_csv(args: argparse.Namespace, rows: list[Row], workdir: Path) -> dict:
-    from flight_sim_dynamics import cli, csv_io
-    from flight_sim_dynamics.csv_io import TRAJECTORY_COLUMNS
+    from flight_sim_dynamics.cli import main as cli
+    from flight_sim_dynamics.cli import csv_io
+    from flight_sim_dynamics.cli.csv_io import TRAJECTORY_COLUMNS
 
     n = args.csv_rows
     log(f'3. CSV end to end: {n} rows, {args.csv_runs} runs')

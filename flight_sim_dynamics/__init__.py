@@ -11,13 +11,13 @@ Python API (model/data style)::
 
 The numerical core imports numpy only; rclpy is needed by the node alone.
 """
-from . import trajectories
-from .forward_kinematics import ForwardSolution, forward_kinematics
-from .kinematics import UnreachablePoseError
-from .model import JOINT_NAMES, LEG_NAMES, Model
-from .parameters import ParameterError, load_model
-from .solver import Solution, solve, solve_batch
-from .status import Status
+from .core import trajectories
+from .core.forward_kinematics import ForwardSolution, forward_kinematics
+from .core.kinematics import UnreachablePoseError
+from .core.model import JOINT_NAMES, LEG_NAMES, Model
+from .config.parameters import ParameterError, load_model
+from .core.solver import Solution, solve, solve_batch
+from .core.status import Status
 
 __all__ = ['load_model', 'solve', 'solve_batch', 'forward_kinematics', 'Model', 'Solution',
            'ForwardSolution', 'Status', 'ParameterError', 'UnreachablePoseError',

@@ -43,8 +43,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     from rclpy.serialization import serialize_message
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-    from flight_sim_dynamics.node import DynamicsNode
-    from flight_sim_dynamics.setpoints import (PLATFORM_DOF_NAMES, platform_setpoints,
+    from flight_sim_dynamics.ros.node import DynamicsNode
+    from flight_sim_dynamics.ros.setpoints import (PLATFORM_DOF_NAMES, platform_setpoints,
                                                read_joint_trajectory, rpy_to_quaternion)
 
     q, qd, qdd = (0.01, 0.02, 0.02), (0.1, 0.05, 0.02), (0.2, 0.1, 0.05)

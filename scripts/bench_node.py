@@ -104,8 +104,8 @@ def ros_env(domain_id: int | None = None) -> dict[str, str]:
 
 def node_qos_depth(params_file: Path = PARAMS_FILE) -> int:
     """``qos.depth`` of the node's parameter file (the node's default if absent)."""
-    from flight_sim_dynamics import parameters as prm
-    from flight_sim_dynamics.setpoints import NodeConfig
+    from flight_sim_dynamics.config import parameters as prm
+    from flight_sim_dynamics.ros.setpoints import NodeConfig
 
     values = prm.read_params_file(params_file) if params_file.is_file() else {}
     return NodeConfig.from_values({k: v for k, v in values.items()
@@ -120,7 +120,7 @@ def node_command(executor: str = 'events', params_file: Path | None = PARAMS_FIL
         cmd = [sys.executable, str(Path(__file__).resolve()), 'profiled-node',
                str(cprofile_out)]
     else:
-        cmd = [sys.executable, '-m', 'flight_sim_dynamics.node']
+        cmd = [sys.executable, '-m', 'flight_sim_dynamics.ros.node']
     cmd += ['--executor', executor, '--ros-args']
     if params_file is not None:
         cmd += ['--params-file', str(params_file)]
@@ -500,7 +500,7 @@ def stream_motion(rate: float) -> tuple[list, list, list]:
     """One period of the stream at ``rate`` Hz: the paper's general motion, its
     return to neutral, the motion-cueing sequence (flight_sim_dynamics.cueing.
     PlannerSequence), as lists of (surge, heave, roll) and derivatives."""
-    from flight_sim_dynamics.cueing import PlannerSequence
+    from flight_sim_dynamics.core.cueing import PlannerSequence
 
     seq = PlannerSequence(['general', 'cueing'], loop=True)
     n = int(round(seq.period * rate))
@@ -549,7 +549,7 @@ def drive_main(argv: Sequence[str]) -> int:
     from sensor_msgs.msg import JointState
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-    from flight_sim_dynamics.setpoints import PLATFORM_DOF_NAMES, rpy_to_quaternion
+    from flight_sim_dynamics.ros.setpoints import PLATFORM_DOF_NAMES, rpy_to_quaternion
 
     rate = args.rate
     n = int(round(args.seconds * rate))
@@ -781,7 +781,7 @@ def echo_main(argv: Sequence[str]) -> int:
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import JointState
 
-    from flight_sim_dynamics.node import make_executor, spin
+    from flight_sim_dynamics.ros.node import make_executor, spin
 
     own = rclpy.utilities.remove_ros_args(['bench_echo', *argv])[1:]
     p = argparse.ArgumentParser(prog='bench_node.py echo')
@@ -881,7 +881,7 @@ def profiled_node_main(argv: Sequence[str]) -> int:
     discovery stay out), stats written to OUT when it exits."""
     import cProfile
 
-    from flight_sim_dynamics import node
+    from flight_sim_dynamics.ros import node
 
     out, rest = argv[0], list(argv[1:])
     prof = cProfile.Profile()

@@ -16,8 +16,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from flight_sim_dynamics import parameters as prm  # noqa: E402
-from flight_sim_dynamics.model import BODY_NAMES  # noqa: E402
+from flight_sim_dynamics.config import parameters as prm  # noqa: E402
+from flight_sim_dynamics.core.model import BODY_NAMES  # noqa: E402
 
 TYPES = {'double': 'double', 'double_array': 'double[]', 'integer': 'int',
          'string': 'string', 'bool': 'bool'}

@@ -32,8 +32,9 @@ if str(ROOT) not in sys.path:  # run from a source checkout without installing
     sys.path.insert(0, str(ROOT))
 
 import flight_sim_dynamics as fsd  # noqa: E402
-from flight_sim_dynamics import cli, csv_io  # noqa: E402
-from flight_sim_dynamics.trajectories import PAPER_EXAMPLES  # noqa: E402
+from flight_sim_dynamics.cli import main as cli  # noqa: E402
+from flight_sim_dynamics.cli import csv_io  # noqa: E402
+from flight_sim_dynamics.core.trajectories import PAPER_EXAMPLES  # noqa: E402
 
 BEGIN = '<!-- reproduction-table:begin -->'
 END = '<!-- reproduction-table:end -->'

@@ -33,7 +33,7 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.setpoints import PLATFORM_DOF_NAMES, rpy_to_quaternion
+from flight_sim_dynamics.ros.setpoints import PLATFORM_DOF_NAMES, rpy_to_quaternion
 
 ROOT = Path(__file__).resolve().parent.parent
 PARAMS_FILE = ROOT / 'config' / 'flight_sim_dynamics.yaml'
@@ -50,7 +50,7 @@ class NodeProcess:
 
     def __init__(self, *ros_args: str, params_file: Path | None = PARAMS_FILE,
                  executor: str | None = None) -> None:
-        cmd = [sys.executable, '-m', 'flight_sim_dynamics.node']
+        cmd = [sys.executable, '-m', 'flight_sim_dynamics.ros.node']
         if executor:
             cmd += ['--executor', executor]
         cmd += ['--ros-args']

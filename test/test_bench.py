@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics import bench, cli
+from flight_sim_dynamics.cli import bench
+from flight_sim_dynamics.cli import main as cli
 
 PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
 

@@ -17,9 +17,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics import cli, csv_io
-from flight_sim_dynamics.csv_io import TRAJECTORY_COLUMNS
-from flight_sim_dynamics.trajectories import PAPER_EXAMPLES, paper_example, sample_times
+from flight_sim_dynamics.cli import main as cli
+from flight_sim_dynamics.cli import csv_io
+from flight_sim_dynamics.cli.csv_io import TRAJECTORY_COLUMNS
+from flight_sim_dynamics.core.trajectories import PAPER_EXAMPLES, paper_example, sample_times
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = fsd.load_model()
@@ -172,7 +173,7 @@ def test_solve_equals_solve_batch(tmp_path):
                      '--cond']) == 0
     header, res = read_plain(out)
     assert tuple(header) == cli.OUTPUT_COLUMNS + ('cond',) + cli.JOINT_COLUMNS
-    for name in fsd.model.JOINT_NAMES:
+    for name in fsd.JOINT_NAMES:
         assert name in header and f'{name}_rate' in header
     col = {name: j for j, name in enumerate(header)}
     sol = fsd.solve_batch(MODEL, data[:, 1:4], data[:, 4:7], data[:, 7:10])
@@ -184,7 +185,7 @@ def test_solve_equals_solve_batch(tmp_path):
     assert np.array_equal(res[:, col['cond']], sol.cond)
     assert np.array_equal(res[:, col['kinematic_condition']], sol.kinematic_condition)
     assert np.array_equal(res[:, col['jacobian_condition']], sol.jacobian_condition)
-    for j, name in enumerate(fsd.model.JOINT_NAMES):
+    for j, name in enumerate(fsd.JOINT_NAMES):
         assert np.array_equal(res[:, col[name]], sol.joints[:, j])
         assert np.array_equal(res[:, col[f'{name}_rate']], sol.joint_rates[:, j])
         assert np.array_equal(res[:, col[f'{name}_acc']], sol.joint_accelerations[:, j])
@@ -429,7 +430,7 @@ def test_plot_figure_contents():
 
 
 def cli_plotting():
-    from flight_sim_dynamics import plotting
+    from flight_sim_dynamics.cli import plotting
     return plotting
 
 
@@ -458,9 +459,9 @@ def test_plot_bad_format(tmp_path, capsys):
 # ----------------------------------------------------------------------------
 # Forwarded subcommands (node, demo-planner, demo)
 # ----------------------------------------------------------------------------
-@pytest.mark.parametrize('command, module', [('node', 'flight_sim_dynamics.node'),
-                                             ('demo-planner', 'flight_sim_dynamics.planner'),
-                                             ('demo', 'flight_sim_dynamics.demo')])
+@pytest.mark.parametrize('command, module', [('node', 'flight_sim_dynamics.ros.node'),
+                                             ('demo-planner', 'flight_sim_dynamics.ros.planner'),
+                                             ('demo', 'flight_sim_dynamics.cli.demo')])
 def test_forwarded_subcommands(monkeypatch, command, module):
     seen = []
     fake = types.ModuleType(module)
@@ -472,7 +473,7 @@ def test_forwarded_subcommands(monkeypatch, command, module):
 
 
 def test_forwarded_subcommand_exits(monkeypatch, capsys):
-    fake = types.ModuleType('flight_sim_dynamics.planner')
+    fake = types.ModuleType('flight_sim_dynamics.ros.planner')
 
     def main(argv):
         if argv == ['--help']:
@@ -480,14 +481,14 @@ def test_forwarded_subcommand_exits(monkeypatch, capsys):
         raise RuntimeError('no ROS graph')
 
     fake.main = main
-    monkeypatch.setitem(sys.modules, 'flight_sim_dynamics.planner', fake)
+    monkeypatch.setitem(sys.modules, 'flight_sim_dynamics.ros.planner', fake)
     assert cli.main(['demo-planner', '--help']) == 0
     assert cli.main(['demo-planner']) == 2
     assert 'no ROS graph' in one_error_line(capsys.readouterr().err)
 
 
 def test_forwarded_subcommand_unavailable(monkeypatch, capsys):
-    monkeypatch.setitem(sys.modules, 'flight_sim_dynamics.demo', None)   # import fails
+    monkeypatch.setitem(sys.modules, 'flight_sim_dynamics.cli.demo', None)   # import fails
     assert cli.main(['demo']) == 2
     assert 'demo' in one_error_line(capsys.readouterr().err)
 

@@ -28,8 +28,9 @@ import numpy as np
 import pytest
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics import cli, csv_io
-from flight_sim_dynamics.csv_io import TRAJECTORY_COLUMNS
+from flight_sim_dynamics.cli import main as cli
+from flight_sim_dynamics.cli import csv_io
+from flight_sim_dynamics.cli.csv_io import TRAJECTORY_COLUMNS
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = fsd.load_model()
@@ -323,7 +324,7 @@ def test_solve_imports_only_what_it_needs(tmp_path):
     t = np.arange(5) / 10.0
     q, qd, qdd = fsd.trajectories.paper_example('general', t)
     csv_io.write_csv(traj, TRAJECTORY_COLUMNS, np.column_stack([t, q, qd, qdd]))
-    code = ('import sys; from flight_sim_dynamics import cli; '
+    code = ('import sys; from flight_sim_dynamics.cli import main as cli; '
             f'rc = cli.main(["solve", {str(traj)!r}, "-o", {str(tmp_path / "o.csv")!r}]); '
             'print(sorted(m for m in sys.modules if m.startswith("flight_sim_dynamics") '
             'or m.startswith("matplotlib"))); sys.exit(rc)')

@@ -8,9 +8,10 @@ import yaml
 
 import flight_sim_dynamics as fsd
 import reference_model as ref
-from flight_sim_dynamics import dynamics
-from flight_sim_dynamics.effects import EFFECT_NAMES, Effects, SceneError, load_scene
-from flight_sim_dynamics.trajectories import paper_example
+from flight_sim_dynamics.core import dynamics
+from flight_sim_dynamics.core.effects import EFFECT_NAMES, Effects
+from flight_sim_dynamics.config.scenes import SceneError, load_scene
+from flight_sim_dynamics.core.trajectories import paper_example
 
 FULL = fsd.load_model()
 GROUPS = ('gravity', 'platform_inertia', 'leg_inertia', 'crank_inertia')
@@ -137,9 +138,9 @@ def test_power_balance_inside_each_scene(scene):
 def test_disabled_effects_are_not_computed():
     """Structural check that skipped effects are skipped: no motion is computed
     for a body without inertia, no body at all without weight or inertia."""
-    from flight_sim_dynamics.kinematics import factorize, inverse_geometry, pose_rate_columns
-    from flight_sim_dynamics.kinematics import solve_connectivity
-    from flight_sim_dynamics.vectors import backend
+    from flight_sim_dynamics.core.kinematics import factorize, inverse_geometry, pose_rate_columns
+    from flight_sim_dynamics.core.kinematics import solve_connectivity
+    from flight_sim_dynamics.core.vectors import backend
 
     def states(effects):
         model = FULL.with_effects(effects)
@@ -156,7 +157,7 @@ def test_disabled_effects_are_not_computed():
 
 # --- scene files ---------------------------------------------------------------------
 def test_packaged_scenes():
-    from flight_sim_dynamics.effects import available_scenes
+    from flight_sim_dynamics.config.scenes import available_scenes
     assert {'full', 'quasi_static', 'platform_only', 'payload'} <= set(available_scenes())
     assert load_scene('full').effects == Effects()
     assert load_scene('quasi_static').effects == Effects().only('gravity')

@@ -4,7 +4,8 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics import Status, forward_kinematics
+from flight_sim_dynamics import forward_kinematics
+from flight_sim_dynamics import Status
 
 MODEL = fsd.load_model()
 

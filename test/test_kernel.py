@@ -22,9 +22,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics import kernel
-from flight_sim_dynamics.effects import EFFECT_NAMES, Effects
-from flight_sim_dynamics.status import Status
+from flight_sim_dynamics.core import kernel
+from flight_sim_dynamics.core.effects import EFFECT_NAMES, Effects
+from flight_sim_dynamics.core.status import Status
 
 MODEL = fsd.load_model()
 PAYLOAD_MODEL = fsd.load_model(scene='payload')

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.trajectories import paper_example
+from flight_sim_dynamics.core.trajectories import paper_example
 from node_harness import PARAMS_FILE, Client, all_finite, stamp_ns
 from node_harness import client, model, node  # noqa: F401 - module fixtures
 

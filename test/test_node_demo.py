@@ -9,7 +9,7 @@ import pytest
 from node_harness import ROOT
 
 
-@pytest.mark.parametrize('module', ['node', 'planner', 'demo'])
+@pytest.mark.parametrize('module', ['ros.node', 'ros.planner', 'cli.demo'])
 def test_help(module):
     out = subprocess.run([sys.executable, '-m', f'flight_sim_dynamics.{module}', '--help'],
                          cwd=ROOT, capture_output=True, text=True, timeout=30)
@@ -19,7 +19,7 @@ def test_help(module):
 
 def test_demo_runs_and_plots(tmp_path):
     png = tmp_path / 'demo.png'
-    out = subprocess.run([sys.executable, '-m', 'flight_sim_dynamics.demo', '-o', str(png),
+    out = subprocess.run([sys.executable, '-m', 'flight_sim_dynamics.cli.demo', '-o', str(png),
                           '--motions', 'vertical', '--rate', '100'],
                          cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stdout + out.stderr

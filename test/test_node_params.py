@@ -18,9 +18,9 @@ from rcl_interfaces.srv import DescribeParameters, ListParameters
 from sensor_msgs.msg import JointState
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics import parameters as prm
-from flight_sim_dynamics.model import JOINT_NAMES, LEG_NAMES
-from flight_sim_dynamics.trajectories import paper_example
+from flight_sim_dynamics.config import parameters as prm
+from flight_sim_dynamics.core.model import JOINT_NAMES, LEG_NAMES
+from flight_sim_dynamics.core.trajectories import paper_example
 from node_harness import ROOT, Client, NodeProcess, stamp_ns
 
 Q, QD, QDD = (v[0] for v in paper_example('general', np.array([0.8])))
@@ -266,7 +266,7 @@ def test_invalid_params_file_refuses_to_start(tmp_path):
     bad.write_text((ROOT / 'config' / 'flight_sim_dynamics.yaml').read_text()
                    .replace('l6: 1.2 ', 'l6: 0.3 '))
     assert 'l6: 0.3' in bad.read_text()
-    proc = subprocess.run([sys.executable, '-m', 'flight_sim_dynamics.node',
+    proc = subprocess.run([sys.executable, '-m', 'flight_sim_dynamics.ros.node',
                            '--ros-args', '--params-file', str(bad)],
                           cwd=ROOT, capture_output=True, text=True, timeout=30)
     assert proc.returncode == 2

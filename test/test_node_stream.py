@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.model import JOINT_NAMES, LEG_NAMES
-from flight_sim_dynamics.trajectories import paper_example
+from flight_sim_dynamics.core.model import JOINT_NAMES, LEG_NAMES
+from flight_sim_dynamics.core.trajectories import paper_example
 from node_harness import Client, all_finite, stamp_ns
 from node_harness import client, model, node  # noqa: F401 - module fixtures
 
@@ -280,7 +280,7 @@ def test_demo_planner_process_drives_the_node(client):
 
     from node_harness import ROOT
     first = len(client.actuator)
-    proc = subprocess.Popen([sys.executable, '-m', 'flight_sim_dynamics.planner',
+    proc = subprocess.Popen([sys.executable, '-m', 'flight_sim_dynamics.ros.planner',
                              '--example', 'vertical', '--rate', '200', '--no-accel'],
                             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                             text=True)

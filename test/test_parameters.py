@@ -6,8 +6,8 @@ import pytest
 import yaml
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics import parameters
-from flight_sim_dynamics.parameters import ParameterError
+from flight_sim_dynamics.config import parameters
+from flight_sim_dynamics.config.parameters import ParameterError
 
 CONFIG = Path(__file__).resolve().parent.parent / 'config' / 'flight_sim_dynamics.yaml'
 

@@ -73,7 +73,7 @@ def test_report_has_every_part(quick_run):
         assert needed in md, needed
     # the solver profile says which implementation ran (the kernel: CI builds it)
     profile = md.split('### The solver', 1)[1]
-    from flight_sim_dynamics import kernel
+    from flight_sim_dynamics.core import kernel
     if kernel.enabled():
         assert 'ran the compiled kernel' in profile and 'one thread' in profile
     else:

@@ -9,11 +9,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from flight_sim_dynamics import parameters as prm
-from flight_sim_dynamics.model import Limits
-from flight_sim_dynamics.cueing import (CUEING_DURATION, MOTIONS, PlannerSequence,
+from flight_sim_dynamics.config import parameters as prm
+from flight_sim_dynamics.core.model import Limits
+from flight_sim_dynamics.core.cueing import (CUEING_DURATION, MOTIONS, PlannerSequence,
                                         motion, motion_cueing)
-from flight_sim_dynamics.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION,
+from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION,
                                            DUPLICATE, ERROR, LATE, NO_POSE, NON_FINITE, OK,
                                            OVERFLOW, PITCH, POSE, STAMP_BACKWARDS,
                                            STAMP_REPEATED, SWAY, TWIST, WARN, YAW,

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from rclpy.serialization import deserialize_message, serialize_message
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from flight_sim_dynamics.setpoints import (ABSURD_ACCELERATION, BAD_SETPOINT, CDR_LE, ERROR,
+from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, BAD_SETPOINT, CDR_LE, ERROR,
                                            NON_FINITE, PLATFORM, PLATFORM_DOF_NAMES,
                                            STAMP_BACKWARDS, STAMP_REPEATED, CycleStats,
                                            PlatformPoint, SetpointError, Trajectory,
@@ -60,7 +60,7 @@ def message(frame: str, sec: int, nanosec: int, names: list[str],
 
 def fields_of(msg: JointTrajectory) -> Trajectory:
     """The fields the reader must return, from the message object."""
-    from flight_sim_dynamics.node import _trajectory_fields
+    from flight_sim_dynamics.ros.node import _trajectory_fields
     return _trajectory_fields(msg)
 
 

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics import cli
-from flight_sim_dynamics import workspace as ws
+from flight_sim_dynamics.cli import main as cli
+from flight_sim_dynamics.cli import workspace as ws
 
 PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
 MODEL = fsd.load_model()

@@ -2,7 +2,7 @@
 
 ``src/kernel.c`` is a line-by-line transcription of :mod:`.kinematics`,
 :mod:`.dynamics` and the status rules of :mod:`.solver`, built as the
-extension module ``flight_sim_dynamics._kernel`` when the package is
+extension module ``flight_sim_dynamics.core._kernel`` when the package is
 installed (``pip install .``, ``colcon build``; ``python setup.py build_ext
 --inplace`` for the source tree). :func:`.solver.solve` and
 :func:`.solver.solve_batch` use it when it is there and fall back to the
@@ -36,7 +36,7 @@ else:
 
 #: Set FSD_REQUIRE_KERNEL=1 to make a missing kernel an error at import (CI, benchmarks).
 if _kernel is None and os.environ.get('FSD_REQUIRE_KERNEL') == '1':
-    raise ImportError(f'flight_sim_dynamics._kernel is required (FSD_REQUIRE_KERNEL=1) but '
+    raise ImportError(f'flight_sim_dynamics.core._kernel is required (FSD_REQUIRE_KERNEL=1) but '
                       f'cannot be imported: {IMPORT_ERROR}; build it with '
                       f'`python setup.py build_ext --inplace` or `pip install .`')
 
@@ -64,7 +64,7 @@ LOOPS = ('D', 'E', 'E2 on rod', 'A', 'B', 'C')
 
 if _kernel is not None and (_kernel.P_SIZE, _kernel.OUT_SIZE, _kernel.BODY_SIZE) != (
         P_SIZE, OUT_SIZE, BODY_SIZE):
-    raise ImportError('flight_sim_dynamics._kernel was built from another version of '
+    raise ImportError('flight_sim_dynamics.core._kernel was built from another version of '
                       'src/kernel.c; rebuild it')
 
 #: FSD_KERNEL=0 in the environment: solve with the Python code even when the

@@ -49,12 +49,12 @@ import numpy as np
 
 import flight_sim_dynamics as fsd
 
-from . import kernel
-from .cueing import step_sequence
-from .model import Model
-from .setpoints import ESTIMATORS, DerivativeEstimator
-from .trajectories import DURATION as PAPER_DURATION
-from .trajectories import PAPER_EXAMPLES, paper_example
+from ..core import kernel
+from ..core.cueing import step_sequence
+from ..core.model import Model
+from ..ros.setpoints import ESTIMATORS, DerivativeEstimator
+from ..core.trajectories import DURATION as PAPER_DURATION
+from ..core.trajectories import PAPER_EXAMPLES, paper_example
 
 # ----------------------------------------------------------------------------
 # The violent motion
@@ -131,7 +131,7 @@ class Variant:
 def variants() -> list[Variant]:
     """The packaged scenes, then ``full`` without each of its effects, then
     ``full`` with each effect it lacks that adds no body (friction)."""
-    from .effects import available_scenes, load_scene
+    from ..config.scenes import available_scenes, load_scene
 
     full = fsd.load_model(scene='full')
     out = [Variant('full', REFERENCE, full, load_scene('full').description)]

@@ -28,10 +28,10 @@ from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from .cueing import MOTIONS, PlannerSequence
-from .parameters import default_params_path
-from .planner import PlannerNode, setpoint_qos, spin_until
-from .setpoints import LEVEL_NAMES
+from ..core.cueing import MOTIONS, PlannerSequence
+from ..config.parameters import default_params_path
+from ..ros.planner import PlannerNode, setpoint_qos, spin_until
+from ..ros.setpoints import LEVEL_NAMES
 
 
 class Monitor(Node):
@@ -75,7 +75,7 @@ def start_node(log_path: Path, params_file: Path) -> subprocess.Popen:
     env['PYTHONPATH'] = os.pathsep.join(filter(None, [package_root, env.get('PYTHONPATH')]))
     env['PYTHONUNBUFFERED'] = '1'
     log = open(log_path, 'w')
-    return subprocess.Popen([sys.executable, '-m', 'flight_sim_dynamics.node',
+    return subprocess.Popen([sys.executable, '-m', 'flight_sim_dynamics.ros.node',
                              '--ros-args', '--params-file', str(params_file)],
                             stdout=log, stderr=subprocess.STDOUT, env=env,
                             start_new_session=True)

@@ -1,52 +1,19 @@
-"""Effects and scenes: simulate only what a scene calls for.
-
-An :class:`Effects` set switches each physical effect on or off. A disabled
-effect is *skipped* by the solver (its terms are never computed), not
-computed and multiplied by zero:
-
-================== ==========================================================
-gravity            weight of every simulated body (eq. 19)
-platform_inertia   inertia wrench of the platform (translation and rotation)
-payload            the cab and occupants on the platform: an extra rigid body
-                   (``payload.*`` parameters), weight and inertia
-leg_inertia        inertia wrenches of the bodies of chains A, B, C
-                   (cylinders, pistons and the rod A3G)
-crank_inertia      inertia wrenches of cranks D and E
-velocity_products  centrifugal and Coriolis terms (the velocity-product parts
-                   of eq. 17 and 18); off = the forces of the same
-                   accelerations from rest
-friction           actuator friction: viscous plus Coulomb (smoothed by
-                   tanh(rate / friction.smoothing_velocity)), per actuator
-================== ==========================================================
-
-A *scene* is a named set of effects plus optional parameter overrides, kept
-as a YAML file in ``config/scenes/`` (or anywhere, given by path)::
-
-    description: full model plus a cab and one occupant
-    effects: {gravity: true, platform_inertia: true, payload: true,
-              leg_inertia: true, crank_inertia: true,
-              velocity_products: true, friction: false}
-    parameters:          # optional: overrides of model parameters
-      payload: {mass: 140.0}
-
-Every effect must be listed: a scene says what it simulates, nothing is
-inherited silently.
-"""
+"""Scenes: a named set of effects plus optional parameter overrides, read from
+YAML (``config/scenes/*.yaml`` or any path). See :mod:`..core.effects`."""
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
 import yaml
 
+from ..core.effects import EFFECT_NAMES, Effects
 from .errors import ParameterError
+from .files import default_params_path, flatten
 
-EFFECT_NAMES = ('gravity', 'platform_inertia', 'payload', 'leg_inertia', 'crank_inertia',
-                'velocity_products', 'friction')
 DEFAULT_SCENE = 'full'
-
 
 class SceneError(ParameterError):
     """A scene file is missing, malformed or names an unknown effect. A
@@ -60,37 +27,6 @@ class SceneError(ParameterError):
 
 
 @dataclass(frozen=True)
-class Effects:
-    """Which physical effects the solver computes. Defaults: the paper's model."""
-
-    gravity: bool = True
-    platform_inertia: bool = True
-    payload: bool = False
-    leg_inertia: bool = True
-    crank_inertia: bool = True
-    velocity_products: bool = True
-    friction: bool = False
-
-    @property
-    def any_inertia(self) -> bool:
-        """True when some inertia wrench is computed (accelerations are needed)."""
-        return self.platform_inertia or self.payload or self.leg_inertia or self.crank_inertia
-
-    def only(self, *names: str) -> 'Effects':
-        """The effects set with exactly ``names`` enabled."""
-        unknown = set(names) - set(EFFECT_NAMES)
-        if unknown:
-            raise ValueError(f"unknown effect(s): {', '.join(sorted(unknown))}")
-        return Effects(**{name: name in names for name in EFFECT_NAMES})
-
-    def without(self, *names: str) -> 'Effects':
-        return replace(self, **{name: False for name in names})
-
-    def enabled(self) -> tuple[str, ...]:
-        return tuple(f.name for f in fields(self) if getattr(self, f.name))
-
-
-@dataclass(frozen=True)
 class Scene:
     name: str
     description: str
@@ -101,7 +37,6 @@ class Scene:
 
 def scenes_dir() -> Path:
     """The packaged scenes folder (next to the packaged parameter file)."""
-    from .parameters import default_params_path
     return default_params_path().parent / 'scenes'
 
 
@@ -123,8 +58,6 @@ def scene_path(scene: str | os.PathLike[str]) -> Path:
 
 def load_scene(scene: str | os.PathLike[str] | None = None) -> Scene:
     """Read and validate a scene (None: the ``full`` scene, the paper's model)."""
-    from .parameters import flatten
-
     path = scene_path(DEFAULT_SCENE if scene is None else scene)
     name = path.stem
     try:

@@ -26,7 +26,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.time import Time
 
-from .cueing import MOTIONS, PlannerSequence
+from ..core.cueing import MOTIONS, PlannerSequence
 from .setpoints import rpy_to_quaternion
 
 ALL = 'all'

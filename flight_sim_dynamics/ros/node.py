@@ -56,9 +56,9 @@ from trajectory_msgs.msg import JointTrajectory
 
 import flight_sim_dynamics as fsd
 
-from . import parameters as prm
-from .model import JOINT_NAMES, LEG_NAMES, Model
-from .status import Status
+from ..config import parameters as prm
+from ..core.model import JOINT_NAMES, LEG_NAMES, Model
+from ..core.status import Status
 from .setpoints import (ACCEL, BAD_SETPOINT, CDR_BE, CDR_LE, ERROR, NON_FINITE_OUTPUT,
                         PLATFORM, POSE, SOLVER_ERROR, TWIST, UNREACHABLE, WARN, CycleStats,
                         DerivativeEstimator, LogThrottle, NodeConfig, PoseInput, RateInput,

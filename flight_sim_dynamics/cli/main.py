@@ -27,7 +27,7 @@ import numpy as np
 
 from . import csv_io
 from .csv_io import TRAJECTORY_COLUMNS, CsvError
-from .model import JOINT_NAMES
+from ..core.model import JOINT_NAMES
 
 PROG = 'flight-sim-dynamics'
 DEFAULT_RATE_HZ = 100.0
@@ -69,7 +69,7 @@ class _Parser(argparse.ArgumentParser):
 # example
 # ----------------------------------------------------------------------------
 def _configure_example(p: argparse.ArgumentParser) -> None:
-    from .trajectories import PAPER_EXAMPLES
+    from ..core.trajectories import PAPER_EXAMPLES
 
     p.add_argument('name', choices=tuple(PAPER_EXAMPLES),
                    help='which of the paper\'s three motions (eq. 6): vertical (Figs. 3-4), '
@@ -83,7 +83,7 @@ def _configure_example(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_example(args: argparse.Namespace) -> int:
-    from .trajectories import DURATION, paper_example, sample_times
+    from ..core.trajectories import DURATION, paper_example, sample_times
 
     rate = args.rate
     if not (math.isfinite(rate) and rate > 0):
@@ -127,7 +127,7 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
 def load_model(params: str | None, scene: str | None = None):
     """The model from ``--params`` (None: packaged defaults) and ``--scene``."""
     import flight_sim_dynamics as fsd
-    from .effects import SceneError
+    from ..config.scenes import SceneError
 
     if params is not None and not os.path.isfile(params):
         raise CliError(f"--params {params}: no such file")
@@ -346,10 +346,10 @@ def cmd_plot(args: argparse.Namespace) -> int:
 # (ROS 2 parts: imported only when used, so the CLI works without rclpy).
 # ----------------------------------------------------------------------------
 FORWARDED: dict[str, tuple[str, str]] = {
-    'node': ('flight_sim_dynamics.node', 'run the ROS 2 inverse-dynamics node '
+    'node': ('flight_sim_dynamics.ros.node', 'run the ROS 2 inverse-dynamics node '
              '(e.g. node --ros-args --params-file FILE)'),
-    'demo-planner': ('flight_sim_dynamics.planner', 'run the demo set-point planner node'),
-    'demo': ('flight_sim_dynamics.demo', 'run the end-to-end ROS 2 demo'),
+    'demo-planner': ('flight_sim_dynamics.ros.planner', 'run the demo set-point planner node'),
+    'demo': ('flight_sim_dynamics.cli.demo', 'run the end-to-end ROS 2 demo'),
 }
 
 
@@ -403,10 +403,10 @@ SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
                 _configure_forward, cmd_forward),
     'bench': ('time per cycle against force error for every scene and single-effect variant, '
               'and the cost of estimating missing accelerations (writes scenes.md, scenes.png)',
-              *_lazy('flight_sim_dynamics.bench')),
+              *_lazy('flight_sim_dynamics.cli.bench')),
     'workspace': ('map the reachable (surge, heave) region per roll angle, coloured by cond(Q), '
                   'with stroke limits, singular curves and where slider E2 would leave the rod',
-                  *_lazy('flight_sim_dynamics.workspace')),
+                  *_lazy('flight_sim_dynamics.cli.workspace')),
 }
 
 

@@ -57,8 +57,8 @@ import numpy as np
 
 import flight_sim_dynamics as fsd
 
-from .model import Model
-from .trajectories import PAPER_EXAMPLES, paper_example, sample_times
+from ..core.model import Model
+from ..core.trajectories import PAPER_EXAMPLES, paper_example, sample_times
 
 #: Default view: the whole reachable set with margin (surge min, max, heave min, max; m).
 DEFAULT_RANGE = (-3.0, 1.2, -3.7, 1.5)

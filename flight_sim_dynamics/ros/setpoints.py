@@ -30,8 +30,8 @@ import struct
 from dataclasses import dataclass
 from typing import Any, Generic, Iterable, Mapping, NamedTuple, Sequence, TypeVar
 
-from .model import Limits
-from .parameters import NODE_PARAMETERS, SPECS, check_value
+from ..core.model import Limits
+from ..config.parameters import NODE_PARAMETERS, SPECS, check_value
 
 # ----------------------------------------------------------------------------
 # Rejection reasons (diagnostics counters). A *rejected* setpoint is not
