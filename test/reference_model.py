@@ -2,7 +2,7 @@
 
 This module is a *second* implementation of the mechanism of Staicu,
 Ocnarescu and Ungureanu (2013), written from the plain-vector description in
-``shared/design/mechanism.md`` and the body-frame conventions of the header
+``docs/design/mechanism.md`` and the body-frame conventions of the header
 of ``config/flight_sim_dynamics.yaml`` only.  It shares no code, no
 intermediate quantities and no method with the production solver in
 ``flight_sim_dynamics/`` (which follows the paper's recursive matrix method:
