@@ -1,0 +1,20 @@
+"""The README's Python code blocks run verbatim (a newcomer copies them)."""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+README = Path(__file__).resolve().parent.parent / 'README.md'
+BLOCKS = re.findall(r'```python\n(.*?)```', README.read_text(), re.S)
+
+
+def test_the_readme_has_python_blocks():
+    assert BLOCKS, 'no ```python block found in README.md'
+
+
+@pytest.mark.parametrize('index', range(len(BLOCKS)))
+def test_readme_python_block_runs(index, capsys):
+    exec(compile(BLOCKS[index], f'README.md python block {index + 1}', 'exec'), {})
+    assert 'ok' in capsys.readouterr().out
