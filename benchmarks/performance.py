@@ -67,7 +67,7 @@ for _p in (str(ROOT), str(ROOT / 'scripts')):
 import flight_sim_dynamics as fsd  # noqa: E402
 from flight_sim_dynamics.cli import bench  # noqa: E402
 from flight_sim_dynamics.core import kernel  # noqa: E402
-from flight_sim_dynamics.core.cueing import PlannerSequence  # noqa: E402
+from flight_sim_dynamics.core.motions import PlannerSequence  # noqa: E402
 
 import bench_node  # noqa: E402  (scripts/bench_node.py)
 

@@ -500,7 +500,7 @@ def stream_motion(rate: float) -> tuple[list, list, list]:
     """One period of the stream at ``rate`` Hz: the paper's general motion, its
     return to neutral, the motion-cueing sequence (flight_sim_dynamics.cueing.
     PlannerSequence), as lists of (surge, heave, roll) and derivatives."""
-    from flight_sim_dynamics.core.cueing import PlannerSequence
+    from flight_sim_dynamics.core.motions import PlannerSequence
 
     seq = PlannerSequence(['general', 'cueing'], loop=True)
     n = int(round(seq.period * rate))

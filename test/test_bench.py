@@ -77,25 +77,6 @@ def test_variants_cover_scenes_and_single_effects():
     assert keys['payload'].kind == bench.ADDS
 
 
-def test_violent_motion_is_violent_reachable_and_exact():
-    t = np.arange(3001) / 1000.0
-    q, qd, qdd = bench.violent_motion(t)
-    assert np.abs(qdd[:, :2]).max() > 0.9 * 9.81          # about 1 g
-    assert np.abs(qdd[:, 2]).max() > 15.0                  # about 20 rad/s^2
-    assert np.abs(q[:, :2]).max() <= 0.1 + 1e-12
-    assert np.abs(q[:, 2]).max() <= 0.3 + 1e-12
-    for k in (0, -1):                                      # from rest to rest
-        assert np.abs(q[k]).max() < 1e-12 and np.abs(qd[k]).max() < 1e-12
-    sol = fsd.solve_batch(fsd.load_model(), q, qd, qdd)    # reachable: older solvers raise,
-    for status in np.atleast_1d(getattr(sol, 'status', [])):   # newer ones say so per sample
-        assert str(status) not in ('unreachable', 'invalid_input')
-    assert np.isfinite(sol.force).all()
-    h = t[1] - t[0]
-    np.testing.assert_allclose(np.gradient(q, h, axis=0)[1:-1], qd[1:-1], atol=2e-3)
-    # (the jerk jumps where a step starts or ends: central differences are off there)
-    np.testing.assert_allclose(np.gradient(qd, h, axis=0)[1:-1], qdd[1:-1], atol=0.5)
-
-
 def test_estimated_accelerations_get_better_with_rate():
     full = fsd.load_model()
     ms = bench.motion_set(full, 100.0)

@@ -50,7 +50,7 @@ import numpy as np
 import flight_sim_dynamics as fsd
 
 from ..core import kernel
-from ..core.cueing import step_sequence
+from ..core.motions import step_sequence
 from ..core.model import Model
 from ..ros.setpoints import ESTIMATORS, DerivativeEstimator
 from ..core.trajectories import DURATION as PAPER_DURATION
