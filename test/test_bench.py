@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.cli import bench
+from flight_sim_dynamics.cli import bench as bench_command
+from flight_sim_dynamics.cli import bench_cases as bench
 from flight_sim_dynamics.cli import main as cli
 
 PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
@@ -18,7 +19,7 @@ PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
 @pytest.fixture(scope='module')
 def quick_run(tmp_path_factory):
     out = tmp_path_factory.mktemp('bench')
-    rc = bench.main(['--quick', '--out-dir', str(out)])
+    rc = bench_command.main(['--quick', '--out-dir', str(out)])
     return rc, out
 
 
