@@ -107,3 +107,16 @@ def test_sign_test():
     assert bench.sign_test(np.array([1.0, -1.0] * 10)) == 1.0
     assert bench.sign_test(np.zeros(5)) == 1.0
     assert abs(bench.sign_test(np.array([1.0] * 9 + [-1.0])) - 22 / 1024) < 1e-12
+
+
+def test_estimation_benchmark_runs_the_bench_study_on_planner_motions():
+    from benchmarks import estimation
+
+    rows = estimation.rows([50.0, 200.0], 0.1, ['cueing'])
+    assert len(rows) == 2 * 2 * 2                      # rates x streams x estimators
+    by = {(r[1], r[2], r[3]): r for r in rows}
+    for stream in ('pose+twist', 'pose only'):
+        for method in ('backward', 'backward2'):
+            slow, fast = by[(50.0, stream, method)], by[(200.0, stream, method)]
+            assert fast[4] < slow[4] and fast[7] < slow[7]      # force, acceleration error
+            assert 0.0 < fast[6] <= fast[4] and fast[5] > 0.0     # RMS <= max, % given
