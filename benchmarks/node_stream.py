@@ -434,7 +434,8 @@ def run_stream(kind: str, rate: float, seconds: float, *, env: dict[str, str],
     ok = np.isfinite(recv)
     last = max(float(np.nanmax(send)), float(recv[ok].max()) if ok.any() else -math.inf)
     result = StreamResult(
-        kind=kind, executor=executor, setpoint_input=setpoint_input, rate=rate, depth=depth, seconds=seconds,
+        kind=kind, executor=executor, setpoint_input=setpoint_input, rate=rate, depth=depth,
+        seconds=seconds,
         sent=int(send.size),
         answered=int(ok.sum()), lost=int((~ok).sum()),
         latency_ms=(recv[ok] - send[ok]) * 1e3, send_times=send, recv_times=recv,

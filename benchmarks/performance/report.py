@@ -150,7 +150,8 @@ def markdown(res: dict, rows: list[Row], argv: Sequence[str], started: float,
           f'through the {s["n_states"]} samples (100 Hz) of the paper\'s general motion, its '
           f'return to neutral and the motion-cueing sequence (`cueing.PlannerSequence`); '
           f'{s["full"]["n"]} calls per scene, each timed alone with `perf_counter_ns`, the two '
-          f'scenes interleaved call by call (`bench_cases.time_cases`, blocks of {res["args"]["block"]}'
+          f'scenes interleaved call by call (`bench_cases.time_cases`, blocks of '
+          f'{res["args"]["block"]}'
           f'). "typical block p99" = median over the blocks of each block\'s p99 (less swayed by '
           f'one burst of load). Load average {s["load"][0]:.2f} -> {s["load"][1]:.2f}.\n\n')
         trows = []
@@ -168,7 +169,8 @@ def markdown(res: dict, rows: list[Row], argv: Sequence[str], started: float,
           f'{s["cond"]["p99"]:.0f} us. It is computed only on demand (a cached property); the '
           f'per-cycle path computes only the cheap estimates `kinematic_condition` (from the '
           f'block factorisation of Q it already has) and `jacobian_condition` (Frobenius, from '
-          f'the 3 x 3 Jacobian and its inverse), whose cost is in the solve time above. The node reads `sol.cond` once per diagnostics '
+          f'the 3 x 3 Jacobian and its inverse), whose cost is in the solve time above. '
+          f'The node reads `sol.cond` once per diagnostics '
           f'period.\n\n')
 
     if 'batch' in res:
@@ -199,6 +201,8 @@ def markdown(res: dict, rows: list[Row], argv: Sequence[str], started: float,
 
     if 'node' in res:
         n = res['node']
+        keeps_up_ms = (1e3 * node_stream.KEEPS_UP_QUEUE_FRACTION * res.get('depth', 100)
+                       / res['args']['rate'])
         w('## 4. Node latency\n\n')
         w(f'{len(n["rounds"])} round(s), each of three streams of '
           f'{res["args"]["node_seconds"]:g} s at {res["args"]["rate"]:g} Hz one after the '
@@ -210,11 +214,13 @@ def markdown(res: dict, rows: list[Row], argv: Sequence[str], started: float,
           'stolen every process on it stalls, whatever it runs). The criterion does not look '
           'at the latencies judged; every round is in the table.\n\n')
         w('Each target is its own process, started fresh: the bare rclpy echo '
-          '(`python -m benchmarks.bench_node echo`: PoseStamped in, one reused JointState out with the '
+          '(`python -m benchmarks.bench_node echo`: PoseStamped in, one reused JointState out '
+          'with the '
           f'pose\'s stamp, `{res["args"]["executor"]}` executor, nothing else) and the node '
           f'(`python -m flight_sim_dynamics.ros.node --executor {res["args"]["executor"]} '
           '--ros-args --params-file config/flight_sim_dynamics.yaml`). A driver process '
-          '(`python -m benchmarks.bench_node drive`, EventsExecutor) publishes, per sample, a pose, a '
+          '(`python -m benchmarks.bench_node drive`, EventsExecutor) publishes, per sample, '
+          'a pose, a '
           'twist and an acceleration with one stamp (the stream of section 1, reliable, '
           f'KEEP_LAST depth {res.get("depth", 100)} = the node\'s `qos.depth`) on a fixed '
           'schedule (or one JointTrajectory), and receives `actuator_states`. Latency = '
@@ -230,7 +236,7 @@ def markdown(res: dict, rows: list[Row], argv: Sequence[str], started: float,
           'target process (all its threads: Python and DDS) over the stream / answered '
           f'setpoints. A stream "keeps up" when nothing is lost and its p99 stays below half '
           f'the time a full queue stands for ({node_stream.KEEPS_UP_QUEUE_FRACTION:g} x depth '
-          f'/ rate: {1e3 * node_stream.KEEPS_UP_QUEUE_FRACTION * res.get("depth", 100) / res["args"]["rate"]:g}'
+          f'/ rate: {keeps_up_ms:g}'
           f' ms at {res["args"]["rate"]:g} Hz). Before each stream 20+ warm-up samples are '
           'answered (not counted).\n\n')
         w(stream_table(n['runs']) + '\n\n')
@@ -389,7 +395,8 @@ def markdown(res: dict, rows: list[Row], argv: Sequence[str], started: float,
             cp = pn['cprofile']
             run = cp['run']
             w(f'### The node under load: cProfile\n\nThe node run through `python -m '
-              f'benchmarks.bench_node profiled-node` (cProfile enabled by SIGUSR1 when the measured '
+              f'benchmarks.bench_node profiled-node` (cProfile enabled by SIGUSR1 when the '
+              f'measured '
               f'stream starts, so imports, start-up and discovery are left out; stats written '
               f'when it stops) at {run["rate"]:g} Hz, a rate it sustains under the profiler '
               f'({cp["answered"]} / {cp["sent"]} answered, {run["lost"]} lost). '

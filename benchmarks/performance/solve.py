@@ -15,6 +15,9 @@ from pathlib import Path
 import numpy as np
 
 import flight_sim_dynamics as fsd
+from flight_sim_dynamics.cli import csv_io
+from flight_sim_dynamics.cli import main as cli
+from flight_sim_dynamics.cli.csv_io import TRAJECTORY_COLUMNS
 from flight_sim_dynamics.cli import bench_cases
 
 
@@ -122,10 +125,6 @@ def section_batch(args: argparse.Namespace, rows: list[Row]) -> dict:
 # 3. CSV end to end
 # ----------------------------------------------------------------------------
 def section_csv(args: argparse.Namespace, rows: list[Row], workdir: Path) -> dict:
-    from flight_sim_dynamics.cli import main as cli
-    from flight_sim_dynamics.cli import csv_io
-    from flight_sim_dynamics.cli.csv_io import TRAJECTORY_COLUMNS
-
     n = args.csv_rows
     log(f'3. CSV end to end: {n} rows, {args.csv_runs} runs')
     q, qd, qdd = tiled(sequence_states(1000.0), n)

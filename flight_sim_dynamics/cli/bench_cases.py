@@ -274,7 +274,8 @@ def time_cases(cases: dict[str, Case], cycles: int, block: int, warmup: int,
     """Time every case for ``cycles`` calls, each call timed alone. The cases
     are interleaved call by call (state k: one call of every case, in a random
     order drawn anew for each k, so that no case always follows the same
-    other one), so a burst of load from other processes hits them all alike; the statistics are also kept per block of ``block`` states, whose
+    other one), so a burst of load from other processes hits them all alike; the
+    statistics are also kept per block of ``block`` states, whose
     medians pair the cases over the same stretch of time."""
     clock = time.perf_counter_ns
     names = list(cases)

@@ -58,6 +58,8 @@ from ..core.model import Model
 from ..core.workspace import (DEFAULT_RANGE, DEFAULT_ZOOM, KINDS, LEGS, LineRanges,
                               MotionReport, RollResult, boundary_shares, near_singular_share,
                               paper_motions, sample_roll)
+from .csv_io import atomic_output
+from .plotting import output_format
 
 #: Default roll angles, degrees (negative ones mirror these: legs B and C exchanged).
 DEFAULT_ROLLS = (0.0, 15.0, 30.0, 45.0)
@@ -259,8 +261,6 @@ def configure(p: argparse.ArgumentParser) -> None:
 
 
 def _check(args: argparse.Namespace) -> None:
-    from .plotting import output_format
-
     output_format(args.output)
     if not 20 <= args.resolution <= 2000:
         raise ValueError(f'--resolution must be between 20 and 2000, got {args.resolution}')
@@ -316,8 +316,6 @@ def run(args: argparse.Namespace) -> int:
     plot(results, model, args.output, args)
     print('\n'.join(summary_lines(results, motions, model)))
     if args.markdown:
-        from .csv_io import atomic_output
-
         text = markdown(results, motions, model, args, args.output, args.markdown)
         with atomic_output(args.markdown) as f:
             f.write(text.encode())
