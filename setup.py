@@ -24,7 +24,8 @@ kernel = Extension(
 setup(
     name=package_name,
     version='0.1.0',
-    packages=find_packages(exclude=['test', 'test.*']),
+    packages=find_packages(exclude=['test', 'test.*', 'benchmarks', 'benchmarks.*',
+                                    'scripts', 'scripts.*']),
     ext_modules=[kernel],
     data_files=[
         ('share/ament_index/resource_index/packages',

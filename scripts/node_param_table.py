@@ -2,8 +2,10 @@
 """Print the node's parameters as Markdown tables, from parameters.SPECS
 (the same schema the node declares its ParameterDescriptors from).
 
-    python scripts/node_param_table.py            # node parameters + model parameters
-    python scripts/node_param_table.py --node     # node parameters only
+    python -m scripts.node_param_table            # node parameters + model parameters
+    python -m scripts.node_param_table --node     # node parameters only
+
+(from the repository root).
 
 The per-body rows (bodies.<body>.mass/com/inertia) are folded into one row
 each, with the body names listed once.
@@ -12,12 +14,10 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
+from typing import Sequence
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-from flight_sim_dynamics.config import parameters as prm  # noqa: E402
-from flight_sim_dynamics.core.model import BODY_NAMES  # noqa: E402
+from flight_sim_dynamics.config import parameters as prm
+from flight_sim_dynamics.core.model import BODY_NAMES
 
 TYPES = {'double': 'double', 'double_array': 'double[]', 'integer': 'int',
          'string': 'string', 'bool': 'bool'}
@@ -70,10 +70,11 @@ def table(specs: list[prm.ParamSpec]) -> list[str]:
     return lines
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog='python -m scripts.node_param_table',
+                                     description=__doc__.split('\n\n')[0])
     parser.add_argument('--node', action='store_true', help='node parameters only')
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     print('\n'.join(table(list(prm.NODE_PARAMETERS))))
     if not args.node:
         print()

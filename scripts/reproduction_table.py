@@ -2,9 +2,11 @@
 """Reproduce the paper's three examples with the command line and tabulate
 the peak actuator forces and powers.
 
-    python scripts/reproduction_table.py                  # print the tables
-    python scripts/reproduction_table.py --figures docs   # also write docs/<example>.png
-    python scripts/reproduction_table.py --figures docs --update docs/reproduction.md
+    python -m scripts.reproduction_table                  # print the tables
+    python -m scripts.reproduction_table --figures docs   # also write docs/<example>.png
+    python -m scripts.reproduction_table --figures docs --update docs/reproduction.md
+
+(from the repository root).
 
 For each example (vertical, rectilinear, general) this runs exactly the
 documented commands, through ``flight_sim_dynamics.cli.main``:
@@ -27,14 +29,10 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:  # run from a source checkout without installing
-    sys.path.insert(0, str(ROOT))
-
-import flight_sim_dynamics as fsd  # noqa: E402
-from flight_sim_dynamics.cli import main as cli  # noqa: E402
-from flight_sim_dynamics.cli import csv_io  # noqa: E402
-from flight_sim_dynamics.core.trajectories import PAPER_EXAMPLES  # noqa: E402
+import flight_sim_dynamics as fsd
+from flight_sim_dynamics.cli import csv_io
+from flight_sim_dynamics.cli import main as cli
+from flight_sim_dynamics.core.trajectories import PAPER_EXAMPLES
 
 BEGIN = '<!-- reproduction-table:begin -->'
 END = '<!-- reproduction-table:end -->'
@@ -62,7 +60,9 @@ def reproduce(work: Path, figures: Path | None, rate: float | None
         if figures is not None:
             figures.mkdir(parents=True, exist_ok=True)
             run(['plot', str(out), '-o', str(figures / f'{name}.png')])
-        tables[name] = csv_io.read_csv(out, required=cli.PLOT_COLUMNS, allow_extra=True)
+        # the solve output has a text column (status) besides the numbers
+        tables[name] = csv_io.read_csv(out, required=cli.PLOT_COLUMNS, allow_extra=True,
+                                       text_columns=('status',))
         traj_table = csv_io.read_csv(traj, required=csv_io.TRAJECTORY_COLUMNS)
         poses[name] = np.column_stack([traj_table[c] for c in ('surge', 'heave', 'roll')])
     return tables, poses
@@ -131,7 +131,8 @@ def update(path: Path, text: str) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser = argparse.ArgumentParser(prog='python -m scripts.reproduction_table',
+                                     description=__doc__.split('\n\n')[0])
     parser.add_argument('--figures', type=Path, default=None, metavar='DIR',
                         help='also plot each example to DIR/<example>.png')
     parser.add_argument('--work', type=Path, default=None, metavar='DIR',

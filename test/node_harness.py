@@ -1,7 +1,8 @@
 """Launch-free harness of the node tests (test/test_node_*.py).
 
-* :class:`NodeProcess` starts ``python -m flight_sim_dynamics.node`` as a
-  separate process, as a user starts it, and always stops it.
+* :class:`NodeProcess` starts ``python -m flight_sim_dynamics.ros.node`` as a
+  separate process, as a user starts it (``ros.process.start_node``), and
+  always stops it.
 * :class:`Client` is the test's own ROS 2 participant (its own rclpy
   context): setpoint publishers, output subscriptions, parameter-service
   clients, and waits with deadlines (never blind sleeps).
@@ -10,9 +11,6 @@ from __future__ import annotations
 
 import math
 import os
-import signal
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -33,6 +31,7 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 import flight_sim_dynamics as fsd
+from flight_sim_dynamics.ros.process import node_command, start_node, stop_node
 from flight_sim_dynamics.ros.setpoints import PLATFORM_DOF_NAMES, rpy_to_quaternion
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -50,23 +49,11 @@ class NodeProcess:
 
     def __init__(self, *ros_args: str, params_file: Path | None = PARAMS_FILE,
                  executor: str | None = None) -> None:
-        cmd = [sys.executable, '-m', 'flight_sim_dynamics.ros.node']
-        if executor:
-            cmd += ['--executor', executor]
-        cmd += ['--ros-args']
-        if params_file is not None:
-            cmd += ['--params-file', str(params_file)]
-        cmd += list(ros_args)
-        self.cmd = cmd
+        self.cmd = node_command(params_file, ros_args, executor=executor)
         self.log = tempfile.NamedTemporaryFile('w+', prefix='fsd_node_', suffix='.log',
                                                delete=False)
-        env = dict(os.environ)
-        env['PYTHONPATH'] = os.pathsep.join(filter(None, [str(ROOT), env.get('PYTHONPATH')]))
-        env['PYTHONUNBUFFERED'] = '1'
-        env.setdefault('RCUTILS_LOGGING_BUFFERED_STREAM', '0')
         self._final_output: str | None = None
-        self.proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=self.log,
-                                     stderr=subprocess.STDOUT, start_new_session=True)
+        self.proc = start_node(params_file, ros_args, self.log, executor=executor, cwd=ROOT)
 
     def alive(self) -> bool:
         return self.proc.poll() is None
@@ -84,13 +71,7 @@ class NodeProcess:
 
     def stop(self, timeout: float = 5.0) -> int:
         """SIGINT (as Ctrl-C), then SIGKILL if it does not exit in ``timeout`` s."""
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(timeout)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(5)
+        stop_node(self.proc, timeout)
         if self._final_output is None:
             self._final_output = self.output()
             self.log.close()

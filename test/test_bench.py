@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.cli import bench
+from flight_sim_dynamics.cli import bench as bench_command
+from flight_sim_dynamics.cli import bench_cases as bench
 from flight_sim_dynamics.cli import main as cli
 
 PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
@@ -18,7 +19,7 @@ PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
 @pytest.fixture(scope='module')
 def quick_run(tmp_path_factory):
     out = tmp_path_factory.mktemp('bench')
-    rc = bench.main(['--quick', '--out-dir', str(out)])
+    rc = bench_command.main(['--quick', '--out-dir', str(out)])
     return rc, out
 
 
@@ -77,25 +78,6 @@ def test_variants_cover_scenes_and_single_effects():
     assert keys['payload'].kind == bench.ADDS
 
 
-def test_violent_motion_is_violent_reachable_and_exact():
-    t = np.arange(3001) / 1000.0
-    q, qd, qdd = bench.violent_motion(t)
-    assert np.abs(qdd[:, :2]).max() > 0.9 * 9.81          # about 1 g
-    assert np.abs(qdd[:, 2]).max() > 15.0                  # about 20 rad/s^2
-    assert np.abs(q[:, :2]).max() <= 0.1 + 1e-12
-    assert np.abs(q[:, 2]).max() <= 0.3 + 1e-12
-    for k in (0, -1):                                      # from rest to rest
-        assert np.abs(q[k]).max() < 1e-12 and np.abs(qd[k]).max() < 1e-12
-    sol = fsd.solve_batch(fsd.load_model(), q, qd, qdd)    # reachable: older solvers raise,
-    for status in np.atleast_1d(getattr(sol, 'status', [])):   # newer ones say so per sample
-        assert str(status) not in ('unreachable', 'invalid_input')
-    assert np.isfinite(sol.force).all()
-    h = t[1] - t[0]
-    np.testing.assert_allclose(np.gradient(q, h, axis=0)[1:-1], qd[1:-1], atol=2e-3)
-    # (the jerk jumps where a step starts or ends: central differences are off there)
-    np.testing.assert_allclose(np.gradient(qd, h, axis=0)[1:-1], qdd[1:-1], atol=0.5)
-
-
 def test_estimated_accelerations_get_better_with_rate():
     full = fsd.load_model()
     ms = bench.motion_set(full, 100.0)
@@ -125,3 +107,16 @@ def test_sign_test():
     assert bench.sign_test(np.array([1.0, -1.0] * 10)) == 1.0
     assert bench.sign_test(np.zeros(5)) == 1.0
     assert abs(bench.sign_test(np.array([1.0] * 9 + [-1.0])) - 22 / 1024) < 1e-12
+
+
+def test_estimation_benchmark_runs_the_bench_study_on_planner_motions():
+    from benchmarks import estimation
+
+    rows = estimation.rows([50.0, 200.0], 0.1, ['cueing'])
+    assert len(rows) == 2 * 2 * 2                      # rates x streams x estimators
+    by = {(r[1], r[2], r[3]): r for r in rows}
+    for stream in ('pose+twist', 'pose only'):
+        for method in ('backward', 'backward2'):
+            slow, fast = by[(50.0, stream, method)], by[(200.0, stream, method)]
+            assert fast[4] < slow[4] and fast[7] < slow[7]      # force, acceleration error
+            assert 0.0 < fast[6] <= fast[4] and fast[5] > 0.0     # RMS <= max, % given

@@ -1,5 +1,5 @@
 """Unit tests of the rclpy-free setpoint helpers (flight_sim_dynamics.setpoints)
-and of the planner motions (flight_sim_dynamics.cueing)."""
+and of the planner motions (flight_sim_dynamics.core.motions)."""
 from __future__ import annotations
 
 import math
@@ -11,8 +11,9 @@ from hypothesis import strategies as st
 
 from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.core.model import Limits
-from flight_sim_dynamics.core.cueing import (CUEING_DURATION, MOTIONS, PlannerSequence,
-                                        motion, motion_cueing)
+from flight_sim_dynamics.core.motions import PLANNER_MOTIONS as MOTIONS
+from flight_sim_dynamics.core.motions import (CUEING_DURATION, PlannerSequence, motion,
+                                              motion_cueing)
 from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION,
                                            DUPLICATE, ERROR, LATE, NO_POSE, NON_FINITE, OK,
                                            OVERFLOW, PITCH, POSE, STAMP_BACKWARDS,

@@ -15,7 +15,7 @@ import pytest
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.cli import main as cli
-from flight_sim_dynamics.cli import workspace as ws
+from flight_sim_dynamics.core import workspace as ws
 
 PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
 MODEL = fsd.load_model()
@@ -250,3 +250,19 @@ def test_reachable_interval_through_centre_holds_the_paper_motions():
     assert heave.lo < 0.0 < 2 * y < heave.hi
     assert ws.general_pose_at_roll(30.0) == pytest.approx((0.1, 0.2))
     assert ws.general_pose_at_roll(45.0) is None
+
+
+def test_bounds_are_shares_of_each_boundary_and_the_reachable_one_ignores_roll():
+    from flight_sim_dynamics.cli.workspace import bounds
+
+    results = [ws.sample_roll(MODEL, roll, ws.DEFAULT_RANGE, ws.DEFAULT_ZOOM, 40, False)
+               for roll in (0.0, 30.0)]
+    rows = bounds(results, MODEL)
+    assert [r[0] for r in rows] == ['+0 deg', '+30 deg']
+    assert rows[0][1] == rows[1][1]                    # roll moves legs B and C only
+    for which, rm in ((ws.KINDS[0], results[0].overview), (ws.KINDS[1], results[0].zoom)):
+        shares = ws.boundary_shares(MODEL, rm, which)
+        assert sum(shares.values()) == pytest.approx(1.0)
+    assert 'loop D' in rows[0][1] and 'stroke' in rows[0][2]
+    share = ws.near_singular_share(results[1].zoom)
+    assert 0.0 <= share <= 1.0 and rows[1][3].endswith(' %')

@@ -15,9 +15,6 @@
 from __future__ import annotations
 
 import argparse
-import os
-import signal
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -28,9 +25,11 @@ from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from ..core.cueing import MOTIONS, PlannerSequence
+from ..core.motions import PLANNER_MOTIONS as MOTIONS
+from ..core.motions import PlannerSequence
 from ..config.parameters import default_params_path
 from ..ros.planner import PlannerNode, setpoint_qos, spin_until
+from ..ros.process import start_node, stop_node
 from ..ros.setpoints import LEVEL_NAMES
 
 
@@ -68,27 +67,28 @@ class Monitor(Node):
                     f'{name} ({status.message})'
 
 
-def start_node(log_path: Path, params_file: Path) -> subprocess.Popen:
-    """The node as a user starts it, in its own process group."""
-    env = dict(os.environ)
-    package_root = str(Path(__file__).resolve().parent.parent)
-    env['PYTHONPATH'] = os.pathsep.join(filter(None, [package_root, env.get('PYTHONPATH')]))
-    env['PYTHONUNBUFFERED'] = '1'
-    log = open(log_path, 'w')
-    return subprocess.Popen([sys.executable, '-m', 'flight_sim_dynamics.ros.node',
-                             '--ros-args', '--params-file', str(params_file)],
-                            stdout=log, stderr=subprocess.STDOUT, env=env,
-                            start_new_session=True)
+class LiveSummary:
+    """The demo's one line per second: receive rate since the previous line,
+    last forces A/B/C, node status."""
 
+    def __init__(self, now: float) -> None:
+        self.start = self.last_time = now
+        self.last_count = 0
+        self.printed = 0
 
-def stop_node(proc: subprocess.Popen) -> None:
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(5)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait(5)
+    def line(self, now: float, count: int, forces: Sequence[float] | None, status: str,
+             final: bool = False) -> str | None:
+        """The next line; None for a ``final`` one when nothing arrived since the
+        previous line (it would repeat that line at a rate of 0 Hz)."""
+        if final and self.printed and count == self.last_count:
+            return None
+        self.printed += 1
+        rate = (count - self.last_count) / (now - self.last_time) if now > self.last_time else 0.0
+        self.last_time, self.last_count = now, count
+        text = ('  '.join(f'{f:7.2f}' for f in forces) if forces
+                else '   -      -      -  ')
+        return (f'[demo] t={now - self.start:5.1f} s  rate {rate:6.1f} Hz  '
+                f'forces A/B/C {text} N  status {status}')
 
 
 def plot(monitor: Monitor, sequence: PlannerSequence, t0_ns: int, path: Path) -> None:
@@ -151,7 +151,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     sequence = PlannerSequence(args.motions)
     print(f'[demo] starting the node: dynamics_node --ros-args --params-file {params_file}')
     print(f'[demo] node log: {log_path}')
-    node_proc = start_node(log_path, params_file)
+    node_proc = start_node(params_file, log=log_path)
     context = rclpy.Context()
     rclpy.init(args=['demo', *argv], context=context)
     from rclpy.experimental import EventsExecutor
@@ -171,28 +171,24 @@ def main(argv: Sequence[str] | None = None) -> int:
               f'{sequence.period:.1f} s')
         planner.start()
         t0_ns = planner._t0_ns
-        start = time.monotonic()
-        last_print, last_count = start, 0
+        live = LiveSummary(time.monotonic())
 
-        def summary() -> None:
-            nonlocal last_print, last_count
-            now = time.monotonic()
-            rate = (len(monitor.stamps) - last_count) / (now - last_print)
-            last_print, last_count = now, len(monitor.stamps)
-            forces = ('  '.join(f'{f:7.2f}' for f in monitor.effort[-1])
-                      if monitor.effort else '   -      -      -  ')
-            print(f'[demo] t={now - start:5.1f} s  rate {rate:6.1f} Hz  '
-                  f'forces A/B/C {forces} N  status {monitor.status}', flush=True)
+        def summary(final: bool = False) -> None:
+            text = live.line(time.monotonic(), len(monitor.stamps),
+                             monitor.effort[-1] if monitor.effort else None, monitor.status,
+                             final)
+            if text is not None:
+                print(text, flush=True)
 
         while not planner.done:
-            spin_until(executor, lambda: planner.done or time.monotonic() - last_print >= 1.0)
+            spin_until(executor, lambda: planner.done or time.monotonic() - live.last_time >= 1.0)
             if node_proc.poll() is not None:
                 print('[demo] the node exited; its log:\n' + log_path.read_text()[-2000:])
                 return 1
-            if time.monotonic() - last_print >= 1.0:
+            if time.monotonic() - live.last_time >= 1.0:
                 summary()
         spin_until(executor, lambda: len(monitor.stamps) >= planner.sent, timeout=5.0)
-        summary()
+        summary(final=True)
         received = len(monitor.stamps)
         latency = sorted((r - s) * 1e-6 for r, s in zip(monitor.received_at, monitor.stamps))
         lat = (f'latency stamp->received median {latency[len(latency) // 2]:.1f} ms, '

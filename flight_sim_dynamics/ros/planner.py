@@ -26,7 +26,8 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.time import Time
 
-from ..core.cueing import MOTIONS, PlannerSequence
+from ..core.motions import PLANNER_MOTIONS as MOTIONS
+from ..core.motions import PlannerSequence
 from .setpoints import rpy_to_quaternion
 
 ALL = 'all'
@@ -46,7 +47,7 @@ def setpoint_qos(depth: int = 100) -> QoSProfile:
 
 
 class PlannerNode(Node):
-    """Publishes a :class:`~.cueing.PlannerSequence` at a fixed rate.
+    """Publishes a :class:`~flight_sim_dynamics.core.motions.PlannerSequence` at a fixed rate.
 
     ``on_sample(stamp_ns, label)`` is called after each published sample;
     ``done`` becomes True when a non-looping sequence has been sent.

@@ -6,7 +6,7 @@ is what the node's Python does per setpoint (read, check, synchronise,
 estimate, solve, fill and publish both outputs, bookkeeping) and nothing of
 the executor's taking and dispatching.
 
-    python scripts/bench_callbacks.py [--setpoints 5000] [--repeat 4]
+    python -m benchmarks.bench_callbacks [--setpoints 5000] [--repeat 4]
 
 Prints, per repeat, microseconds per setpoint for the three topics (pose +
 twist + accel callbacks) and for one ``platform_setpoint`` JointTrajectory,
@@ -22,30 +22,27 @@ import random
 import struct
 import sys
 import time
-from pathlib import Path
 from typing import Sequence
 
-ROOT = Path(__file__).resolve().parent.parent
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
+import rclpy
+from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
+from rclpy.serialization import serialize_message
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from flight_sim_dynamics.ros.node import DynamicsNode
+from flight_sim_dynamics.ros.setpoints import (PLATFORM_DOF_NAMES, platform_setpoints,
+                                               read_joint_trajectory, rpy_to_quaternion)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    p = argparse.ArgumentParser(prog='python -m benchmarks.bench_callbacks',
+                                description=__doc__.split('\n\n')[0])
     p.add_argument('--setpoints', type=int, default=5000)
     p.add_argument('--repeat', type=int, default=4)
     args = p.parse_args(argv)
     os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(101, 200)))
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
-    import rclpy
-    from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
-    from rclpy.serialization import serialize_message
-    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
-
-    from flight_sim_dynamics.ros.node import DynamicsNode
-    from flight_sim_dynamics.ros.setpoints import (PLATFORM_DOF_NAMES, platform_setpoints,
-                                               read_joint_trajectory, rpy_to_quaternion)
 
     q, qd, qdd = (0.01, 0.02, 0.02), (0.1, 0.05, 0.02), (0.2, 0.1, 0.05)
     pose, twist, accel = PoseStamped(), TwistStamped(), AccelStamped()

@@ -1,0 +1,6 @@
+"""``python -m benchmarks.performance``."""
+import sys
+
+from .run import main
+
+sys.exit(main())

@@ -1,0 +1,74 @@
+"""Start and stop the node as a separate process, as a user starts it.
+
+One place for the demo (:mod:`flight_sim_dynamics.cli.demo`), the node
+benchmarks (``benchmarks/``) and the node tests (``test/node_harness.py``).
+No rclpy here: the parent only needs ``subprocess``.
+"""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+from typing import IO, Sequence
+
+NODE_MODULE = 'flight_sim_dynamics.ros.node'
+#: The directory holding the imported flight_sim_dynamics (a source tree or
+#: site-packages): the child imports this very package, not another install.
+PACKAGE_PARENT = str(Path(__file__).resolve().parents[2])
+
+
+def node_env(env: dict[str, str] | None = None) -> dict[str, str]:
+    """The environment of a node process: ``env`` (default: this process's),
+    with this package importable first and unbuffered output (its log is
+    complete when it is read)."""
+    out = dict(os.environ if env is None else env)
+    out['PYTHONPATH'] = os.pathsep.join(filter(None, [PACKAGE_PARENT, out.get('PYTHONPATH')]))
+    out['PYTHONUNBUFFERED'] = '1'
+    out.setdefault('RCUTILS_LOGGING_BUFFERED_STREAM', '0')
+    return out
+
+
+def node_command(params_file: Path | str | None = None, ros_args: Sequence[str] = (), *,
+                 executor: str | None = None, launcher: Sequence[str] | None = None
+                 ) -> list[str]:
+    """``python -m flight_sim_dynamics.ros.node [--executor E] --ros-args
+    [--params-file FILE] ROS_ARGS``; ``launcher`` replaces the first part (for
+    example a profiling wrapper that runs the node's ``main``)."""
+    cmd = list(launcher) if launcher is not None else [sys.executable, '-m', NODE_MODULE]
+    if executor:
+        cmd += ['--executor', executor]
+    cmd.append('--ros-args')
+    if params_file is not None:
+        cmd += ['--params-file', str(params_file)]
+    return cmd + list(ros_args)
+
+
+def start_node(params_file: Path | str | None, ros_args: Sequence[str] = (),
+               log: Path | str | IO[str] | None = None, *, executor: str | None = None,
+               launcher: Sequence[str] | None = None, env: dict[str, str] | None = None,
+               cwd: Path | str | None = None) -> subprocess.Popen:
+    """Start the node (see :func:`node_command`) in its own session, so that a
+    Ctrl-C meant for the caller does not reach it too; its standard output and
+    error go to ``log`` (a path, written anew, or an open file; None: discarded).
+    Stop it with :func:`stop_node`."""
+    cmd = node_command(params_file, ros_args, executor=executor, launcher=launcher)
+    kwargs = dict(stderr=subprocess.STDOUT, env=node_env(env), cwd=cwd, start_new_session=True)
+    if isinstance(log, (str, Path)):
+        with open(log, 'w') as out:          # the child keeps its own copy of the descriptor
+            return subprocess.Popen(cmd, stdout=out, **kwargs)
+    return subprocess.Popen(cmd, stdout=subprocess.DEVNULL if log is None else log, **kwargs)
+
+
+def stop_node(proc: subprocess.Popen, timeout: float = 5.0) -> int | None:
+    """SIGINT (as Ctrl-C: the node shuts down cleanly), then SIGKILL if it has
+    not exited after ``timeout`` s; returns its exit status."""
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(timeout)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(5)
+    return proc.returncode
