@@ -57,7 +57,8 @@ class UnreachablePoseError(ValueError):
 
 
 class GeometryError(ValueError):
-    """The geometry itself cannot close its loops at the central configuration."""
+    """The geometry itself cannot close its loops (eq. 7) at the central
+    configuration."""
 
     def __init__(self, key: str, reason: str) -> None:
         self.key = key
@@ -84,7 +85,8 @@ _CULPRIT_KEY = {'D': 'l5', 'E': 'l6', 'E2 on rod': 'l6', 'A': 's_A', 'B': 'd5', 
 # ----------------------------------------------------------------------------
 @dataclass
 class Geometric:
-    """Positions for one pose (float components) or a batch (array components)."""
+    """Positions of eq. (5)-(8) for one pose (float components) or a batch
+    (array components)."""
 
     xp: SimpleNamespace  # elementary functions matching the components
     G: Vec               # characteristic point of the platform
@@ -278,7 +280,9 @@ class Connectivity:
 
 
 def factorize(model: Model, g: Geometric) -> Connectivity:
-    """The per-pose factors of Q used by :func:`solve_connectivity`."""
+    """The per-pose factors of the connectivity matrix Q of eq. (11)-(12) used by
+    :func:`solve_connectivity` (the pivot columns of its blocks, the
+    determinants of loops D and E)."""
     geom = model.geometry
     D1 = (geom.d2 + geom.d3, 0.0, 0.0)
     E1 = (geom.d2, 0.0, 0.0)

@@ -43,7 +43,7 @@ _A, _B, _C = ACTUATED_JOINTS
 
 @dataclass(frozen=True)
 class Solution:
-    """Result of a solve. Leg quantities are ordered A, B, C. For
+    """Result of a solve (eq. 5-23). Leg quantities are ordered A, B, C. For
     :func:`solve_batch` every field has a leading axis of N samples."""
 
     length: np.ndarray                # leg length, joint centre to joint centre, m
