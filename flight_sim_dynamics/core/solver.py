@@ -205,6 +205,7 @@ _CHECKED = ('length', 'stroke', 'rate', 'acceleration', 'force', 'power', 'joint
             'joint_rates', 'joint_accelerations')
 _CONDITIONS = ('kinematic_condition', 'jacobian_condition')
 _STATUS_ARRAY = np.array(BY_SEVERITY, dtype=object)
+_KERNEL_STATUS_ARRAY = np.array(kernel.STATUS_BY_CODE if kernel.OUT else (), dtype=object)
 
 
 def _status(model: Model, r: dict, xp: SimpleNamespace, bad_input: Scalar = -1,
@@ -366,7 +367,7 @@ def _batch_from_rows(model: Model, rows: np.ndarray, arrays: tuple) -> Solution:
     return _new_solution(_rows=rows, beta=rows[:, kernel.O_BETA],
                          kinematic_condition=rows[:, kernel.O_KIN],
                          jacobian_condition=rows[:, kernel.O_JAC],
-                         status=np.array(kernel.STATUS_BY_CODE, dtype=object)[code],
+                         status=_KERNEL_STATUS_ARRAY[code],
                          detail=tuple(detail), model=model, pose=arrays[0])
 
 
