@@ -13,7 +13,7 @@ from setuptools import Extension, find_packages, setup
 
 package_name = 'flight_sim_dynamics'
 
-# The compiled kernel (src/kernel.c, see flight_sim_dynamics/kernel.py).
+# The compiled kernel (src/kernel.c, see flight_sim_dynamics/core/kernel.py and docs/kernel.md).
 # optional=True: without a C compiler the package still installs and solves
 # with its Python code (same results, slower). -ffp-contract=off keeps the
 # operations the ones written (no fused multiply-add), like the Python code.

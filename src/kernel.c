@@ -1,9 +1,9 @@
 /*
- * flight_sim_dynamics._kernel: the solver's scalar path (paper eq. 5-23) as
+ * flight_sim_dynamics.core._kernel: the solver's scalar path (paper eq. 5-23) as
  * straight-line C, for one control cycle (solve) or a batch (solve_batch).
  *
  * This is a transcription of the Python modules kinematics.py and
- * dynamics.py (and the status rules of solver.py), line by line and in the
+ * dynamics.py (and the status rule of status.py), line by line and in the
  * same order of operations, so that the two agree to round-off; the Python
  * code is the reference (it is itself checked against an independent
  * implementation in test/reference_model.py), and the test suite checks this
@@ -11,12 +11,12 @@
  * poses, unreachable poses, singular poses and garbage input
  * (test/test_kernel.py). Function names follow the Python ones.
  *
- * The model arrives as a packed array of doubles (flight_sim_dynamics/
- * kernel.py, pack_model: the layout is the P_* offsets below) and a bit set
+ * The model arrives as a packed array of doubles (core/kernel.py, pack_model,
+ * in the layout PACKED_MODEL below, which this module exports) and a bit set
  * of effects; a disabled effect is skipped, as in the Python code.
  *
- * Results: one row of OUT_SIZE doubles per sample (offsets O_* below, the
- * same as kernel.py's), including the status code and its detail code.
+ * Results: one row of OUT_SIZE doubles per sample (RESULT_ROW below, also
+ * exported), including the status code and its info (status.sample_status).
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -24,42 +24,86 @@
 #include <math.h>
 #include <string.h>
 
-/* ---- layout of the packed model (kernel.py keeps the same numbers) ---- */
-enum {
-    P_D1 = 0, P_D2, P_D3, P_D4, P_D5, P_L1, P_L2, P_L3, P_L4, P_L5, P_L6,
-    P_B, P_H, P_HG, P_SA, P_SB, P_SC,           /* geometry, GEOMETRY_KEYS order */
-    P_L0 = 17,                                   /* 3: leg lengths at zero stroke */
-    P_ZERO = 20,                                 /* 12: central joint values */
-    P_GRAVITY = 32,
-    P_BODIES = 33,                               /* 11 x 13: mass, com[3], inertia[9] */
-    BODY_SIZE = 13,
-    P_VISCOUS = 33 + 11 * 13,                    /* 176: 3 */
-    P_COULOMB = P_VISCOUS + 3,                   /* 179: 3 */
-    P_SMOOTHING = P_COULOMB + 3,                 /* 182 */
-    P_LIMITS = P_SMOOTHING + 1,                  /* 183: stroke_min, stroke_max,
-                                                    max_speed, max_force,
-                                                    max_kinematic_condition,
-                                                    max_jacobian_condition */
-    P_SIZE = P_LIMITS + 6                        /* 189 */
-};
+/*
+ * The contracts with the Python side are declared here, once each, as
+ * X-macro lists: the enum the C code uses and the table the module exports
+ * (PyInit__kernel) come from the same line. core/kernel.py reads the exported
+ * tables (it packs the model by the names below and reads result rows by the
+ * offsets below) and checks the names against the package's own lists
+ * (model.BODY_NAMES, effects.EFFECT_NAMES, kinematics.LOOPS, status.Status).
+ */
+#define AS_ENUM(id, name) id,
+#define AS_NAME(id, name) name,
+/* id, id_END = id + size - 1: the next id follows the last double of this one */
+#define AS_OFFSET(id, name, size) id, id##_END = id + (size) - 1,
+#define AS_FIELD(id, name, size) {name, id, size},
 
-/* body indices: BODY_NAMES order, then the payload */
-enum { CYL_A, PIS_A, ROD, PLATFORM, CYL_B, PIS_B, CYL_C, PIS_C, CRANK_D, CRANK_E, PAYLOAD,
-       N_BODIES };
+/* bodies with mass: the model's bodies (model.BODY_NAMES, any order), then the payload */
+#define BODY_LIST(X) \
+    X(CYL_A, "cylinder_a") X(PIS_A, "piston_a") X(ROD, "rod") X(PLATFORM, "platform") \
+    X(CYL_B, "cylinder_b") X(PIS_B, "piston_b") X(CYL_C, "cylinder_c") X(PIS_C, "piston_c") \
+    X(CRANK_D, "crank_d") X(CRANK_E, "crank_e") X(PAYLOAD, "payload")
+enum { BODY_LIST(AS_ENUM) N_BODIES };
 
-/* effects bits (kernel.py: EFFECT_BITS) */
-enum { E_GRAVITY = 1, E_PLATFORM = 2, E_PAYLOAD = 4, E_LEG = 8, E_CRANK = 16, E_VP = 32,
-       E_FRICTION = 64, E_HAS_PAYLOAD = 128 };
+/* one body in the packed model: attributes of model.Body */
+#define BODY_ROW(X) X(B_MASS, "mass", 1) X(B_COM, "com", 3) X(B_INERTIA, "inertia", 9)
+enum { BODY_ROW(AS_OFFSET) BODY_SIZE };
 
-/* ---- layout of one result row ---- */
-enum {
-    O_LENGTH = 0, O_STROKE = 3, O_RATE = 6, O_ACCELERATION = 9, O_FORCE = 12, O_POWER = 15,
-    O_JOINTS = 18, O_JOINT_RATES = 30, O_JOINT_ACCELERATIONS = 42, O_JACOBIAN = 54,
-    O_BETA = 63, O_KIN = 64, O_JAC = 65, O_STATUS = 66, O_INFO = 67, OUT_SIZE = 68
-};
+/* the packed model (kernel.pack_model): attribute paths of model.Model, sizes */
+#define PACKED_MODEL(X) \
+    X(P_D1, "geometry.d1", 1) X(P_D2, "geometry.d2", 1) X(P_D3, "geometry.d3", 1) \
+    X(P_D4, "geometry.d4", 1) X(P_D5, "geometry.d5", 1) X(P_L1, "geometry.l1", 1) \
+    X(P_L2, "geometry.l2", 1) X(P_L3, "geometry.l3", 1) X(P_L4, "geometry.l4", 1) \
+    X(P_L5, "geometry.l5", 1) X(P_L6, "geometry.l6", 1) X(P_B, "geometry.b", 1) \
+    X(P_H, "geometry.h", 1) X(P_HG, "geometry.h_G", 1) X(P_SA, "geometry.s_A", 1) \
+    X(P_SB, "geometry.s_B", 1) X(P_SC, "geometry.s_C", 1) \
+    X(P_L0, "geometry.L0", 3)                   /* leg lengths at zero stroke */ \
+    X(P_ZERO, "central.joint_zero", 12)         /* joint values at q = 0 */ \
+    X(P_GRAVITY, "gravity", 1) \
+    X(P_BODIES, "bodies", N_BODIES * BODY_SIZE) /* BODY_LIST order, BODY_ROW each */ \
+    X(P_VISCOUS, "friction.viscous", 3) \
+    X(P_COULOMB, "friction.coulomb", 3) \
+    X(P_SMOOTHING, "friction.smoothing_velocity", 1) \
+    X(P_STROKE_MIN, "limits.stroke_min", 1) X(P_STROKE_MAX, "limits.stroke_max", 1) \
+    X(P_MAX_SPEED, "limits.max_speed", 1) X(P_MAX_FORCE, "limits.max_force", 1) \
+    X(P_MAX_KIN, "limits.max_kinematic_condition", 1) \
+    X(P_MAX_JAC, "limits.max_jacobian_condition", 1)
+enum { PACKED_MODEL(AS_OFFSET) P_SIZE };
 
-/* status codes = severity (status.py) */
-enum { S_OK = 0, S_LIMIT = 1, S_NEAR_SINGULAR = 2, S_UNREACHABLE = 3, S_INVALID = 4 };
+/* effects bits (effects.EFFECT_NAMES, any order); E_HAS_PAYLOAD: the model has one */
+#define EFFECT_LIST(X) \
+    X(E_GRAVITY, "gravity") X(E_PLATFORM, "platform_inertia") X(E_PAYLOAD, "payload") \
+    X(E_LEG, "leg_inertia") X(E_CRANK, "crank_inertia") X(E_VP, "velocity_products") \
+    X(E_FRICTION, "friction")
+#define AS_INDEX(id, name) id##_INDEX,
+#define AS_BIT(id, name) id = 1 << id##_INDEX,
+enum { EFFECT_LIST(AS_INDEX) N_EFFECTS };
+enum { EFFECT_LIST(AS_BIT) E_HAS_PAYLOAD = 1 << N_EFFECTS };
+
+/* one result row: Solution fields, then the status code and its info */
+#define RESULT_ROW(X) \
+    X(O_LENGTH, "length", 3) X(O_STROKE, "stroke", 3) X(O_RATE, "rate", 3) \
+    X(O_ACCELERATION, "acceleration", 3) X(O_FORCE, "force", 3) X(O_POWER, "power", 3) \
+    X(O_JOINTS, "joints", 12) X(O_JOINT_RATES, "joint_rates", 12) \
+    X(O_JOINT_ACCELERATIONS, "joint_accelerations", 12) X(O_JACOBIAN, "jacobian", 9) \
+    X(O_BETA, "beta", 1) X(O_KIN, "kinematic_condition", 1) \
+    X(O_JAC, "jacobian_condition", 1) X(O_STATUS, "status", 1) X(O_INFO, "info", 1)
+enum { RESULT_ROW(AS_OFFSET) OUT_SIZE };
+
+/* status codes, by severity (status.py: SEVERITY) */
+#define STATUS_LIST(X) \
+    X(S_OK, "ok") X(S_LIMIT, "limit") X(S_NEAR_SINGULAR, "near_singular") \
+    X(S_UNREACHABLE, "unreachable") X(S_INVALID, "invalid_input")
+enum { STATUS_LIST(AS_ENUM) N_STATUS };
+
+/* the loops in the order they are checked (kinematics.LOOPS) */
+#define LOOP_LIST(X) \
+    X(LOOP_D, "D") X(LOOP_E, "E") X(LOOP_E2, "E2 on rod") X(LOOP_A, "A") X(LOOP_B, "B") \
+    X(LOOP_C, "C")
+enum { LOOP_LIST(AS_ENUM) N_LOOPS };
+
+/* info of an invalid sample whose results overflow (status.RESULTS_NOT_FINITE) */
+#define RESULTS_NOT_FINITE (-1)
 
 typedef struct { double x, y, z; } v3;
 
@@ -119,9 +163,6 @@ typedef struct {
     double raw[12];
     int failed;          /* -1, or the first loop that cannot close (LOOP order) */
 } geometric;
-
-/* loops in the order of kinematics.closure's `valid` (kernel.py: LOOPS) */
-enum { LOOP_D, LOOP_E, LOOP_E2, LOOP_A, LOOP_B, LOOP_C };
 
 static void unit_leg(v3 P4, v3 P1, double *L, v3 *d, double *h, v3 *e2)
 {
@@ -327,7 +368,7 @@ static void add_body(body_state *s, const double *body, axes3 R, v3 origin, v3 o
                      v3 ref, v3 acc_ref, int vp)
 {
     s->R = R;
-    s->com = add(origin, from_frame(&R, vec(body[1], body[2], body[3])));
+    s->com = add(origin, from_frame(&R, vec(body[B_COM], body[B_COM + 1], body[B_COM + 2])));
     if (!s->moving)
         return;
     v3 rho = sub(s->com, ref);
@@ -432,7 +473,7 @@ static void body_states(const double *P, int fx, const geometric *g, const doubl
 static void required_wrench(const body_state *s, const double *body, double gravity, v3 about,
                             int vp, v3 *F, v3 *M)
 {
-    double m = body[0];
+    double m = body[B_MASS];
     if (!s->moving) {
         *F = vec(0.0, m * gravity, 0.0);
         *M = cross(sub(s->com, about), *F);
@@ -440,7 +481,7 @@ static void required_wrench(const body_state *s, const double *body, double grav
     }
     v3 a = s->acc;
     *F = vec(m * a.x, m * (a.y + gravity), m * a.z);
-    const double *I = body + 4;
+    const double *I = body + B_INERTIA;
     v3 moment_body = mat_vec(I, to_frame(&s->R, s->eps));
     if (vp) {
         v3 w = to_frame(&s->R, s->omega);
@@ -523,7 +564,51 @@ static double condition_2x2(v3 a, v3 b)
 }
 
 /* ------------------------------------------------------------------------ */
-/* One sample: solver._solve plus the status rules of solver._solve_chunk    */
+/* The status rule (status.sample_status): code and info of one sample, the */
+/* worst that applies. A solve that stops at 1 (bad input) or 2 (open loop) */
+/* passes no results (finite, zero conditions, zero legs).                  */
+/* ------------------------------------------------------------------------ */
+static const double NO_LEGS[3] = {0.0, 0.0, 0.0};
+
+static int sample_status(const double *P, int bad_input, int open_loop, int finite, double kin,
+                         double jac, const double *stroke, const double *rate,
+                         const double *force, double *info)
+{
+    int near = !((kin <= P[P_MAX_KIN]) && (jac <= P[P_MAX_JAC]));
+    int over = 0;
+    for (int m = 0; m < 3; m++)
+        over |= (stroke[m] < P[P_STROKE_MIN]) | (stroke[m] > P[P_STROKE_MAX])
+                | (fabs(rate[m]) > P[P_MAX_SPEED]) | (fabs(force[m]) > P[P_MAX_FORCE]);
+    int code = over ? S_LIMIT : S_OK;
+    *info = 0.0;
+    if (!finite) {                       /* 4: results overflow without a singularity */
+        code = S_INVALID;
+        *info = RESULTS_NOT_FINITE;
+    }
+    if (near) {                          /* 3: info 0 = exact singularity */
+        code = S_NEAR_SINGULAR;
+        *info = finite;
+    }
+    if (open_loop >= 0) {                /* 2 */
+        code = S_UNREACHABLE;
+        *info = open_loop;
+    }
+    if (bad_input >= 0) {                /* 1 */
+        code = S_INVALID;
+        *info = bad_input;
+    }
+    return code;
+}
+
+/* a sample stopped before any result: the row stays 0 */
+static void stop(const double *P, int bad_input, int open_loop, double *out)
+{
+    out[O_STATUS] = sample_status(P, bad_input, open_loop, 1, 0.0, 0.0, NO_LEGS, NO_LEGS,
+                                  NO_LEGS, &out[O_INFO]);
+}
+
+/* ------------------------------------------------------------------------ */
+/* One sample: solver._solve, then the status rule                           */
 /* ------------------------------------------------------------------------ */
 static const int ACTUATED[3] = {1, 5, 8};
 
@@ -531,12 +616,11 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
                       const double *qdd, double *out)
 {
     memset(out, 0, OUT_SIZE * sizeof(double));
-    /* non-finite input: nothing is computed */
+    /* non-finite input: nothing is computed (status.first_bad_input) */
     for (int i = 0; i < 9; i++) {
         double v = i < 3 ? q[i] : i < 6 ? qd[i - 3] : qdd[i - 6];
         if (!isfinite(v)) {
-            out[O_STATUS] = S_INVALID;
-            out[O_INFO] = i;
+            stop(P, i, -1, out);
             return;
         }
     }
@@ -545,8 +629,7 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
     double cols[3][12], K[3][12], V[12], S[12], Gamma[12], Gdyn[12], tau[12];
     inverse_geometry(P, q, &g);                                   /* eq. (5)-(8) */
     if (g.failed >= 0) {
-        out[O_STATUS] = S_UNREACHABLE;
-        out[O_INFO] = g.failed;
+        stop(P, -1, g.failed, out);
         return;
     }
     factorize(P, &g, &f);                                         /* eq. (12) */
@@ -630,35 +713,25 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
     for (int i = 0; i < 3; i++)
         for (int k = 0; k < 3; k++)
             out[O_JACOBIAN + 3 * i + k] = J[i][k];
-    /* status (solver._solve_chunk): worst that applies */
-    int results_finite = isfinite(kin) && isfinite(jac);
+    /* the status rule (status.all_finite: results and conditions, not beta) */
+    int finite = isfinite(kin) && isfinite(jac);
     for (int i = 0; i < O_JACOBIAN; i++)
-        results_finite = results_finite && isfinite(out[i]);
-    const double *lim = P + P_LIMITS;
-    int near = !((kin <= lim[4]) && (jac <= lim[5]));
-    int over = 0;
-    for (int m = 0; m < 3; m++) {
-        double s = out[O_STROKE + m];
-        over |= (s < lim[0]) | (s > lim[1]) | (fabs(rate[m]) > lim[2])
-                | (fabs(force[m]) > lim[3]);
-    }
-    int code = over ? S_LIMIT : S_OK;
-    if (near)
-        code = S_NEAR_SINGULAR;
-    if (!results_finite && !near) {
+        finite = finite && isfinite(out[i]);
+    double info;
+    int code = sample_status(P, -1, -1, finite, kin, jac, out + O_STROKE, rate, force, &info);
+    /* no NaN or infinity with any status (solver._clean) */
+    if (code >= S_UNREACHABLE) {
         memset(out, 0, OUT_SIZE * sizeof(double));
-        out[O_STATUS] = S_INVALID;
-        out[O_INFO] = -1;                    /* results not finite: input too large */
-        return;
+    } else {
+        for (int i = 0; i < O_BETA; i++)
+            if (!isfinite(out[i]))
+                out[i] = 0.0;
+        out[O_BETA] = isfinite(g.beta) ? g.beta : 0.0;
+        out[O_KIN] = isfinite(kin) ? kin : DBL_MAX;
+        out[O_JAC] = isfinite(jac) ? jac : DBL_MAX;
     }
-    for (int i = 0; i < O_BETA; i++)         /* no NaN or infinity with any status */
-        if (!isfinite(out[i]))
-            out[i] = 0.0;
-    out[O_BETA] = isfinite(g.beta) ? g.beta : 0.0;
-    out[O_KIN] = isfinite(kin) ? kin : DBL_MAX;
-    out[O_JAC] = isfinite(jac) ? jac : DBL_MAX;
     out[O_STATUS] = code;
-    out[O_INFO] = results_finite;            /* near_singular: 0 = exact singularity */
+    out[O_INFO] = info;
 }
 
 /* ------------------------------------------------------------------------ */
@@ -781,6 +854,52 @@ static struct PyModuleDef module = {
     "Compiled scalar path of the flight_sim_dynamics solver (see kernel.py).", -1, methods
 };
 
+/* the declarations at the top, as Python objects (read by core/kernel.py) */
+typedef struct { const char *name; int offset, size; } field;
+#define AS_BIT_FIELD(id, name) {name, id, 1},
+static const field PACKED_FIELDS[] = { PACKED_MODEL(AS_FIELD) };
+static const field BODY_FIELDS[] = { BODY_ROW(AS_FIELD) };
+static const field RESULT_FIELDS[] = { RESULT_ROW(AS_FIELD) };
+static const field EFFECT_FIELDS[] = { EFFECT_LIST(AS_BIT_FIELD) };
+static const char *const BODY_NAMES[] = { BODY_LIST(AS_NAME) };
+static const char *const STATUS_NAMES[] = { STATUS_LIST(AS_NAME) };
+static const char *const LOOP_NAMES[] = { LOOP_LIST(AS_NAME) };
+#define COUNT(a) (sizeof (a) / sizeof (a)[0])
+
+/* {name: (offset, size)}, or with bits_only {name: bit} */
+static PyObject *fields_dict(const field *f, size_t n, int bits_only)
+{
+    PyObject *d = PyDict_New();
+    for (size_t i = 0; d != NULL && i < n; i++) {
+        PyObject *v = bits_only ? PyLong_FromLong(f[i].offset)
+                                : Py_BuildValue("(ii)", f[i].offset, f[i].size);
+        if (v == NULL || PyDict_SetItemString(d, f[i].name, v) < 0)
+            Py_CLEAR(d);
+        Py_XDECREF(v);
+    }
+    return d;
+}
+
+static PyObject *names_tuple(const char *const *names, size_t n)
+{
+    PyObject *t = PyTuple_New((Py_ssize_t)n);
+    for (size_t i = 0; t != NULL && i < n; i++) {
+        PyObject *v = PyUnicode_FromString(names[i]);
+        if (v == NULL)
+            Py_CLEAR(t);
+        else
+            PyTuple_SET_ITEM(t, (Py_ssize_t)i, v);
+    }
+    return t;
+}
+
+static int add_object(PyObject *m, const char *name, PyObject *value)
+{
+    int rc = value == NULL ? -1 : PyModule_AddObjectRef(m, name, value);
+    Py_XDECREF(value);
+    return rc;
+}
+
 PyMODINIT_FUNC PyInit__kernel(void)
 {
     PyObject *m = PyModule_Create(&module);
@@ -788,7 +907,16 @@ PyMODINIT_FUNC PyInit__kernel(void)
         return NULL;
     if (PyModule_AddIntConstant(m, "P_SIZE", P_SIZE) < 0
             || PyModule_AddIntConstant(m, "OUT_SIZE", OUT_SIZE) < 0
-            || PyModule_AddIntConstant(m, "BODY_SIZE", BODY_SIZE) < 0) {
+            || PyModule_AddIntConstant(m, "BODY_SIZE", BODY_SIZE) < 0
+            || PyModule_AddIntConstant(m, "HAS_PAYLOAD", E_HAS_PAYLOAD) < 0
+            || PyModule_AddIntConstant(m, "RESULTS_NOT_FINITE", RESULTS_NOT_FINITE) < 0
+            || add_object(m, "PACKED", fields_dict(PACKED_FIELDS, COUNT(PACKED_FIELDS), 0)) < 0
+            || add_object(m, "BODY_ROW", fields_dict(BODY_FIELDS, COUNT(BODY_FIELDS), 0)) < 0
+            || add_object(m, "OUT", fields_dict(RESULT_FIELDS, COUNT(RESULT_FIELDS), 0)) < 0
+            || add_object(m, "EFFECTS", fields_dict(EFFECT_FIELDS, COUNT(EFFECT_FIELDS), 1)) < 0
+            || add_object(m, "BODIES", names_tuple(BODY_NAMES, COUNT(BODY_NAMES))) < 0
+            || add_object(m, "STATUS", names_tuple(STATUS_NAMES, COUNT(STATUS_NAMES))) < 0
+            || add_object(m, "LOOPS", names_tuple(LOOP_NAMES, COUNT(LOOP_NAMES))) < 0) {
         Py_DECREF(m);
         return NULL;
     }

@@ -17,21 +17,24 @@ Coriolis terms.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 from .effects import Effects
 from .kinematics import Z0, Geometric
-from .model import ACTUATED_JOINTS, Body, Model
+from .model import ACTUATED_JOINTS, BODY_NAMES, Body, Model
 from .vectors import (Scalar, Vec, add, axpy, cross, dot, from_frame, mat_vec, scale, sub,
                       to_frame, zx)
 
-LEG_BODIES = ('cylinder_a', 'piston_a', 'rod', 'cylinder_b', 'piston_b', 'cylinder_c',
-              'piston_c')
+#: Bodies moved by each inertia effect: the cranks, the platform (with the
+#: payload, which is not one of the model's BODY_NAMES), and the rest of
+#: BODY_NAMES, the bodies of chains A, B, C (leg_inertia).
 CRANK_BODIES = ('crank_d', 'crank_e')
 PLATFORM_BODIES = ('platform', 'payload')
+LEG_BODIES = tuple(name for name in BODY_NAMES if name not in CRANK_BODIES + PLATFORM_BODIES)
 
 
 def inertial_bodies(effects: Effects) -> frozenset[str]:
-    """The bodies whose inertia wrench the effects call for."""
+    """The bodies whose inertia wrench (eq. 18) the effects call for."""
     names: set[str] = set()
     if effects.platform_inertia:
         names.add('platform')
@@ -274,10 +277,10 @@ def actuator_forces(tau: list, tau_43: Scalar, Vv: list, roll_v: list) -> list:
             + roll_v[a] * tau_43 for a in range(3)]
 
 
-def friction_forces(model: Model, rate: tuple, xp) -> list:
-    """Actuator friction (effect 'friction'): viscous x rate + Coulomb x
-    tanh(rate / smoothing velocity), per actuator; it adds to the force the
-    actuator must give."""
+def friction_forces(model: Model, rate: tuple, xp: SimpleNamespace) -> list:
+    """Actuator friction (effect 'friction'; not in the paper, added to the
+    force of eq. 23): viscous x rate + Coulomb x tanh(rate / smoothing
+    velocity), per actuator; it adds to the force the actuator must give."""
     fr = model.friction
     return [fr.viscous[i] * rate[i] + fr.coulomb[i] * xp.tanh(rate[i] / fr.smoothing_velocity)
             for i in range(3)]

@@ -37,14 +37,13 @@ from __future__ import annotations
 from dataclasses import dataclass, fields, replace
 
 
-EFFECT_NAMES = ('gravity', 'platform_inertia', 'payload', 'leg_inertia', 'crank_inertia',
-                'velocity_products', 'friction')
-
-
 
 @dataclass(frozen=True)
 class Effects:
-    """Which physical effects the solver computes. Defaults: the paper's model."""
+    """Which physical effects the solver computes. Defaults: the paper's model.
+    Its fields are the list of effects (:data:`EFFECT_NAMES`): adding an effect
+    is adding a field here and its terms in :mod:`.dynamics` (and in
+    src/kernel.c, whose exported list is checked against this one)."""
 
     gravity: bool = True
     platform_inertia: bool = True
@@ -67,9 +66,15 @@ class Effects:
         return Effects(**{name: name in names for name in EFFECT_NAMES})
 
     def without(self, *names: str) -> 'Effects':
+        """The effects set with ``names`` disabled."""
         return replace(self, **{name: False for name in names})
 
     def enabled(self) -> tuple[str, ...]:
-        return tuple(f.name for f in fields(self) if getattr(self, f.name))
+        """Names of the enabled effects."""
+        return tuple(name for name in EFFECT_NAMES if getattr(self, name))
+
+
+#: The effects, in the order of the fields of :class:`Effects` (declared there only).
+EFFECT_NAMES = tuple(f.name for f in fields(Effects))
 
 

@@ -1,30 +1,39 @@
 """The compiled kernel: the solver's scalar path (eq. 5-23) as straight-line C.
 
 ``src/kernel.c`` is a line-by-line transcription of :mod:`.kinematics`,
-:mod:`.dynamics` and the status rules of :mod:`.solver`, built as the
+:mod:`.dynamics` and the status rule of :mod:`.status`, built as the
 extension module ``flight_sim_dynamics.core._kernel`` when the package is
 installed (``pip install .``, ``colcon build``; ``python setup.py build_ext
 --inplace`` for the source tree). :func:`.solver.solve` and
 :func:`.solver.solve_batch` use it when it is there and fall back to the
 Python code (the reference: same equations, same results to round-off,
-slower) when it is not; ``use_kernel(False)`` forces the Python code, and so
-does FSD_KERNEL=0 in the environment.
+slower; see docs/kernel.md) when it is not; ``use_kernel(False)`` forces the
+Python code, and so does FSD_KERNEL=0 in the environment.
 
-The model goes to C once, packed into an array of doubles by
-:func:`pack_model` (cached on the model), with the scene's effects as a bit
-set (:func:`effect_bits`). One solve fills a row of ``OUT_SIZE`` doubles
-whose layout is :data:`OUT`.
+Every contract between the two sides is declared once, in the C source, and
+exported by the extension: the packed model (:data:`PACKED`: attribute path
+of :class:`.model.Model` -> (offset, size); one body: :data:`BODY_ROW`), the
+result row (:data:`OUT`), the effect bits (:data:`EFFECTS`), the bodies,
+loops and statuses in the kernel's order. This module reads them and checks
+the names against the package's own lists (:data:`.model.BODY_NAMES`,
+:data:`.effects.EFFECT_NAMES`, :data:`.kinematics.LOOPS`, :class:`.status.Status`);
+the Python code needs none of them.
 """
 from __future__ import annotations
 
 import os
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
+from operator import attrgetter
+from types import ModuleType
 from typing import Iterator
 
 import numpy as np
 
-from .model import BODY_NAMES, GEOMETRY_KEYS, Model
+from .effects import EFFECT_NAMES
+from .kinematics import LOOPS
+from .model import BODY_NAMES, Body, Model
+from .status import RESULTS_NOT_FINITE, Status
 
 try:
     from . import _kernel
@@ -34,38 +43,66 @@ except ImportError as exc:      # not built (no compiler at install time)
 else:
     IMPORT_ERROR = None
 
+
+def contract_problems(module: ModuleType) -> list[str]:
+    """How the declarations a built kernel exports disagree with this package
+    (empty when they agree): a kernel built from another src/kernel.c, or one
+    that lacks a body or an effect the Python code has."""
+    problems = []
+    for what, theirs, ours in (('effects', set(module.EFFECTS), set(EFFECT_NAMES)),
+                               ('bodies', set(module.BODIES), set(BODY_NAMES) | {'payload'}),
+                               ('statuses', set(module.STATUS), {s.value for s in Status})):
+        if theirs - ours or (ours - theirs and what != 'statuses'):
+            problems.append(f'{what}: the kernel has {sorted(theirs - ours)} more and '
+                            f'{sorted(ours - theirs)} fewer than the Python code')
+    if tuple(module.LOOPS) != LOOPS:
+        problems.append(f'loop order {module.LOOPS} != kinematics.LOOPS {LOOPS}')
+    if module.RESULTS_NOT_FINITE != RESULTS_NOT_FINITE:
+        problems.append('status.RESULTS_NOT_FINITE differs')
+    for name, table, size in (('PACKED', module.PACKED, module.P_SIZE),
+                              ('BODY_ROW', module.BODY_ROW, module.BODY_SIZE),
+                              ('OUT', module.OUT, module.OUT_SIZE)):
+        spans = sorted(table.values())
+        if [o for o, _ in spans] != [0] + [o + n for o, n in spans[:-1]] or sum(
+                n for _, n in spans) != size:
+            problems.append(f'{name} does not cover its {size} doubles exactly once')
+    return problems
+
+
+def _problems_of(module: ModuleType) -> list[str]:
+    try:
+        return contract_problems(module)
+    except AttributeError as exc:       # built before the kernel exported its declarations
+        return [str(exc)]
+
+
+if _kernel is not None and _problems_of(_kernel):
+    IMPORT_ERROR = ('flight_sim_dynamics.core._kernel was built from another version of '
+                    'src/kernel.c (' + '; '.join(_problems_of(_kernel)) + '); rebuild it')
+    _kernel = None
+    if os.environ.get('FSD_KERNEL') != '0':
+        raise ImportError(IMPORT_ERROR + ', or set FSD_KERNEL=0 to use the Python code')
+
 #: Set FSD_REQUIRE_KERNEL=1 to make a missing kernel an error at import (CI, benchmarks).
 if _kernel is None and os.environ.get('FSD_REQUIRE_KERNEL') == '1':
     raise ImportError(f'flight_sim_dynamics.core._kernel is required (FSD_REQUIRE_KERNEL=1) but '
                       f'cannot be imported: {IMPORT_ERROR}; build it with '
                       f'`python setup.py build_ext --inplace` or `pip install .`')
 
-#: Size of the packed model and of one result row (as in src/kernel.c).
-P_SIZE = 189
-OUT_SIZE = 68
-BODY_SIZE = 13
-
-#: Result row layout: field -> slice (src/kernel.c O_*).
-OUT = {
-    'length': slice(0, 3), 'stroke': slice(3, 6), 'rate': slice(6, 9),
-    'acceleration': slice(9, 12), 'force': slice(12, 15), 'power': slice(15, 18),
-    'joints': slice(18, 30), 'joint_rates': slice(30, 42),
-    'joint_accelerations': slice(42, 54), 'jacobian': slice(54, 63),
-}
-O_BETA, O_KIN, O_JAC, O_STATUS, O_INFO = 63, 64, 65, 66, 67
-
-#: Effects bits (src/kernel.c E_*); HAS_PAYLOAD: the model has a payload body.
-EFFECT_BITS = {'gravity': 1, 'platform_inertia': 2, 'payload': 4, 'leg_inertia': 8,
-               'crank_inertia': 16, 'velocity_products': 32, 'friction': 64}
-HAS_PAYLOAD = 128
-
-#: Loops in the order the kernel reports the first one that cannot close.
-LOOPS = ('D', 'E', 'E2 on rod', 'A', 'B', 'C')
-
-if _kernel is not None and (_kernel.P_SIZE, _kernel.OUT_SIZE, _kernel.BODY_SIZE) != (
-        P_SIZE, OUT_SIZE, BODY_SIZE):
-    raise ImportError('flight_sim_dynamics.core._kernel was built from another version of '
-                      'src/kernel.c; rebuild it')
+if _kernel is not None:
+    P_SIZE, OUT_SIZE, BODY_SIZE = _kernel.P_SIZE, _kernel.OUT_SIZE, _kernel.BODY_SIZE
+    PACKED, BODY_ROW, EFFECTS, HAS_PAYLOAD = (_kernel.PACKED, _kernel.BODY_ROW, _kernel.EFFECTS,
+                                              _kernel.HAS_PAYLOAD)
+    #: The kernel's order of the bodies in the packed model.
+    BODIES = _kernel.BODIES
+    #: Result row layout: field -> slice (one number: its offset).
+    OUT = {name: slice(o, o + n) if n > 1 else o for name, (o, n) in _kernel.OUT.items()}
+    O_BETA, O_KIN, O_JAC, O_STATUS, O_INFO = (OUT[name] for name in (
+        'beta', 'kinematic_condition', 'jacobian_condition', 'status', 'info'))
+    #: Status of each kernel code.
+    STATUS_BY_CODE = tuple(Status(name) for name in _kernel.STATUS)
+else:   # the Python code runs without any of them
+    OUT = {}
 
 #: FSD_KERNEL=0 in the environment: solve with the Python code even when the
 #: kernel is built (inherited by subprocesses: the node, the command line).
@@ -98,37 +135,37 @@ def use_kernel(on: bool) -> Iterator[None]:
         _enabled = before
 
 
-def _body_row(body) -> list[float]:
-    return [float(body.mass), *map(float, body.com), *map(float, np.ravel(body.inertia))]
+def _body_row(body: Body | None) -> np.ndarray:
+    """One body as the kernel reads it (:data:`BODY_ROW`); zeros for no body."""
+    row = np.zeros(BODY_SIZE)
+    if body is not None:
+        for name, (offset, size) in BODY_ROW.items():
+            row[offset:offset + size] = np.ravel(getattr(body, name))
+    return row
 
 
 def pack_model(model: Model) -> np.ndarray:
-    """The model as the kernel reads it (src/kernel.c P_*): geometry, leg
-    lengths at zero stroke, central joint values, gravity, the 10 bodies and
-    the payload (mass, centre of mass, inertia), friction, limits."""
-    geom = model.geometry
-    values: list[float] = [float(getattr(geom, key)) for key in GEOMETRY_KEYS]
-    values += [float(x) for x in geom.L0]
-    values += [float(x) for x in model.central.joint_zero]
-    values.append(float(model.gravity))
-    for name in BODY_NAMES:
-        values += _body_row(model.bodies[name])
-    values += _body_row(model.payload) if model.payload is not None else [0.0] * BODY_SIZE
-    fr = model.friction
-    values += [*map(float, fr.viscous), *map(float, fr.coulomb), float(fr.smoothing_velocity)]
-    lim = model.limits
-    values += [float(lim.stroke_min), float(lim.stroke_max), float(lim.max_speed),
-               float(lim.max_force), float(lim.max_kinematic_condition),
-               float(lim.max_jacobian_condition)]
-    packed = np.array(values, dtype=np.float64)
-    assert packed.shape == (P_SIZE,), packed.shape
+    """The model as the kernel reads it: every attribute path of
+    :data:`PACKED` (geometry, leg lengths at zero stroke, central joint values,
+    gravity, friction, limits) at its offset, and the bodies in the kernel's
+    order (:data:`BODIES`; the payload, when the model has none, as zeros)."""
+    packed = np.zeros(P_SIZE)
+    for path, (offset, size) in PACKED.items():
+        if path == 'bodies':
+            value = np.concatenate([_body_row(model.payload if name == 'payload'
+                                              else model.bodies[name]) for name in BODIES])
+        else:
+            value = np.ravel(np.asarray(attrgetter(path)(model), dtype=np.float64))
+        if value.shape != (size,):
+            raise ValueError(f'model.{path} has {value.size} numbers, the kernel reads {size}')
+        packed[offset:offset + size] = value
     packed.flags.writeable = False
     return packed
 
 
 def effect_bits(model: Model) -> int:
-    """The scene's effects as the kernel's bit set."""
-    bits = sum(bit for name, bit in EFFECT_BITS.items() if getattr(model.effects, name))
+    """The scene's effects as the kernel's bit set (:data:`EFFECTS`)."""
+    bits = sum(bit for name, bit in EFFECTS.items() if getattr(model.effects, name))
     return bits | (HAS_PAYLOAD if model.payload is not None else 0)
 
 

@@ -57,7 +57,8 @@ class UnreachablePoseError(ValueError):
 
 
 class GeometryError(ValueError):
-    """The geometry itself cannot close its loops at the central configuration."""
+    """The geometry itself cannot close its loops (eq. 7) at the central
+    configuration."""
 
     def __init__(self, key: str, reason: str) -> None:
         self.key = key
@@ -72,6 +73,10 @@ LOOP_REASONS = {
     'B': 'leg B is degenerate (zero length, or along the U-joint axis z0)',
     'C': 'leg C is degenerate (zero length, or along the U-joint axis z0)',
 }
+#: The loops in the order they are checked: a pose is reported unreachable
+#: by the first of them that cannot close (the solver's status rule and the
+#: kernel, which exports its own order and is checked against this one).
+LOOPS = tuple(LOOP_REASONS)
 _CULPRIT_KEY = {'D': 'l5', 'E': 'l6', 'E2 on rod': 'l6', 'A': 's_A', 'B': 'd5', 'C': 'd5'}
 
 
@@ -80,7 +85,8 @@ _CULPRIT_KEY = {'D': 'l5', 'E': 'l6', 'E2 on rod': 'l6', 'A': 's_A', 'B': 'd5', 
 # ----------------------------------------------------------------------------
 @dataclass
 class Geometric:
-    """Positions for one pose (float components) or a batch (array components)."""
+    """Positions of eq. (5)-(8) for one pose (float components) or a batch
+    (array components)."""
 
     xp: SimpleNamespace  # elementary functions matching the components
     G: Vec               # characteristic point of the platform
@@ -207,8 +213,8 @@ def central_configuration(geom: Geometry) -> CentralConfiguration:
             g = closure(geom, (0.0, 0.0, 0.0), xp)
         except (ZeroDivisionError, ValueError) as exc:
             raise GeometryError('h', f'degenerate geometry ({exc})') from None
-    for loop, ok in g.valid.items():
-        if not ok:
+    for loop in LOOPS:
+        if not g.valid[loop]:
             raise GeometryError(_CULPRIT_KEY[loop], LOOP_REASONS[loop])
     raw = np.array(g.raw, dtype=float)
     if not np.all(np.isfinite(raw)):
@@ -233,9 +239,9 @@ def inverse_geometry(model: Model, q: tuple[Scalar, Scalar, Scalar],
             g = closure(model.geometry, q, xp)
         except (ZeroDivisionError, ValueError):
             raise UnreachablePoseError('A', 'degenerate leg geometry') from None
-    for loop, ok in g.valid.items():
-        if check and not xp.all(ok):
-            raise UnreachablePoseError(loop, LOOP_REASONS[loop], xp.first_false(ok))
+    for loop in LOOPS:
+        if check and not xp.all(g.valid[loop]):
+            raise UnreachablePoseError(loop, LOOP_REASONS[loop], xp.first_false(g.valid[loop]))
     zero = model.central.joint_zero
     raw = [v - z for v, z in zip(g.raw, zero)]
     for i in _ANGLES:   # wrap the angle differences into (-pi, pi]
@@ -274,7 +280,9 @@ class Connectivity:
 
 
 def factorize(model: Model, g: Geometric) -> Connectivity:
-    """The per-pose factors of Q used by :func:`solve_connectivity`."""
+    """The per-pose factors of the connectivity matrix Q of eq. (11)-(12) used by
+    :func:`solve_connectivity` (the pivot columns of its blocks, the
+    determinants of loops D and E)."""
     geom = model.geometry
     D1 = (geom.d2 + geom.d3, 0.0, 0.0)
     E1 = (geom.d2, 0.0, 0.0)

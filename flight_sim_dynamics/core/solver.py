@@ -5,7 +5,9 @@ accelerations and inverse dynamics (paper eq. 5-23) for one pose or a batch.
 return a :class:`Solution`. Both run the compiled kernel (:mod:`.kernel`,
 ``src/kernel.c``: this module's :func:`_solve` transcribed to C) when it is
 built, else the Python code below, which is the reference: it runs on plain
-floats for one cycle and on numpy columns for a batch (:mod:`.vectors`).
+floats for one cycle and on numpy columns for a batch (:mod:`.vectors`). The
+status of every sample comes from one rule, :func:`.status.sample_status`,
+in all three paths (the kernel transcribes it).
 
 >>> import flight_sim_dynamics as fsd
 >>> model = fsd.load_model()
@@ -19,6 +21,7 @@ import math
 import numbers
 from dataclasses import dataclass, field
 from functools import cached_property
+from types import SimpleNamespace
 from typing import Sequence
 
 import numpy as np
@@ -26,12 +29,12 @@ import numpy as np
 from . import kernel
 from .dynamics import (actuator_forces, actuator_jacobian, body_states, friction_forces,
                        joint_forces, virtual_velocities)
-from .kinematics import (LOOP_REASONS, Geometric, UnreachablePoseError, acceleration_column,
-                         connectivity_matrix, factorize, inverse_geometry, pose_rate_columns,
-                         solve_connectivity)
+from .kinematics import (Connectivity, Geometric, acceleration_column, connectivity_matrix,
+                         factorize, inverse_geometry, pose_rate_columns, solve_connectivity)
 from .model import ACTUATED_JOINTS, Model
-from .status import BY_SEVERITY, SEVERITY, SINGULAR, Status, condition_2x2
-from .vectors import backend
+from .status import (BY_SEVERITY, SEVERITY, SINGULAR, Status, all_finite, condition_2x2,
+                     describe, first_bad_input, first_open_loop, sample_status)
+from .vectors import Scalar, backend
 
 _SCALAR, _ARRAY = backend(False), backend(True)
 
@@ -40,7 +43,7 @@ _A, _B, _C = ACTUATED_JOINTS
 
 @dataclass(frozen=True)
 class Solution:
-    """Result of a solve. Leg quantities are ordered A, B, C. For
+    """Result of a solve (eq. 5-23). Leg quantities are ordered A, B, C. For
     :func:`solve_batch` every field has a leading axis of N samples."""
 
     length: np.ndarray                # leg length, joint centre to joint centre, m
@@ -110,9 +113,10 @@ class Solution:
 
 
 class _RowView:
-    """Field of a kernel solution: a view of its result row(s) (src/kernel.c O_*
-    layout), made on first access and then kept in the instance (a non-data
-    descriptor, like functools.cached_property without its lock)."""
+    """Field of a kernel solution: a view of its result row(s) (the layout the
+    kernel exports, :data:`.kernel.OUT`), made on first access and then kept in
+    the instance (a non-data descriptor, like functools.cached_property without
+    its lock)."""
 
     def __init__(self, name: str) -> None:
         self.name = name
@@ -135,29 +139,17 @@ class _KernelSolution(Solution):
 
 
 for _name in kernel.OUT:
-    setattr(_KernelSolution, _name, _RowView(_name))
+    if _name in Solution.__dataclass_fields__:
+        setattr(_KernelSolution, _name, _RowView(_name))
 _KernelSolution.__qualname__ = _KernelSolution.__name__ = 'Solution'
 
 
-_FIELD_NAMES = ('q', 'qd', 'qdd')
-_COORDINATES = ('surge', 'heave', 'roll')
-
-
-def _input_problem(q: tuple, qd: tuple, qdd: tuple) -> str:
-    """Which field of a single-cycle input is not finite ('' if none)."""
-    for name, values in zip(_FIELD_NAMES, (q, qd, qdd)):
-        for i, v in enumerate(values):
-            if not math.isfinite(v):
-                return f'{name}[{i}] ({_COORDINATES[i]}) is not finite ({v})'
-    return ''
-
-
-def kinematic_condition(g: Geometric, f, xp) -> object:
-    """Condition of Q from its block factorisation: the largest exact 2-norm
-    condition number of the pivot blocks (loops A, B, C: orthogonal columns of
-    norms L, 1 and L h, L, 1; loops D, E: 2x2). Q is singular exactly when one
-    of them is, so this tracks the approach of a kinematic singularity at a
-    fraction of the cost of an SVD (sol.cond gives the exact cond(Q))."""
+def kinematic_condition(g: Geometric, f: Connectivity, xp: SimpleNamespace) -> Scalar:
+    """Condition of Q (eq. 11-12) from its block factorisation: the largest exact
+    2-norm condition number of the pivot blocks (loops A, B, C: orthogonal
+    columns of norms L, 1 and L h, L, 1; loops D, E: 2x2). Q is singular exactly
+    when one of them is, so this tracks the approach of a kinematic singularity
+    at a fraction of the cost of an SVD (sol.cond gives the exact cond(Q))."""
     LA, LB, LC = g.length
     one = 1.0
     return xp.maximum(xp.maximum(LA, one) / xp.minimum(LA, one),
@@ -166,10 +158,11 @@ def kinematic_condition(g: Geometric, f, xp) -> object:
                       condition_2x2(f.aD, f.bD, xp), condition_2x2(f.aE, g.l, xp))
 
 
-def jacobian_condition(model: Model, J: list, Jinv: list, xp) -> object:
+def jacobian_condition(model: Model, J: list, Jinv: list, xp: SimpleNamespace) -> Scalar:
     """Frobenius condition number |J_s| |J_s^-1| of the actuator Jacobian dL/dq
-    with its roll column scaled by c = b/2 (m/rad), so that the three columns
-    are lengths: J_s = J diag(1, 1, 1/c). Within a factor 3 of the 2-norm one."""
+    (the actuated rows of eq. 11) with its roll column scaled by c = b/2 (m/rad),
+    so that the three columns are lengths: J_s = J diag(1, 1, 1/c). Within a
+    factor 3 of the 2-norm one."""
     c = 0.5 * model.geometry.b
     nJ = sum(r[0] * r[0] + r[1] * r[1] + (r[2] / c) * (r[2] / c) for r in J)
     nI = sum(Jinv[0][j] * Jinv[0][j] + Jinv[1][j] * Jinv[1][j]
@@ -177,10 +170,10 @@ def jacobian_condition(model: Model, J: list, Jinv: list, xp) -> object:
     return xp.sqrt(nJ * nI)
 
 
-def _solve(model: Model, q: tuple, qd: tuple, qdd: tuple, xp) -> dict:
-    """The paper's method for components q, qd, qdd (floats or arrays). Returns
-    the raw results (lists of components)."""
-    g = inverse_geometry(model, q, xp, check=not xp.batch)               # eq. (5)-(8)
+def _solve(model: Model, g: Geometric, qd: tuple, qdd: tuple, xp: SimpleNamespace) -> dict:
+    """The paper's method (eq. 11-23) for the positions g of eq. (5)-(8) and the
+    components of qd, qdd (floats or arrays). Returns the raw results (lists of
+    components)."""
     f = factorize(model, g)                                              # Q, eq. (12)
     K = tuple(solve_connectivity(g, f, P) for P in pose_rate_columns(g))  # Q^-1 P per unit rate
     V = [K[0][j] * qd[0] + K[1][j] * qd[1] + K[2][j] * qd[2] for j in range(12)]  # eq. (11)
@@ -199,7 +192,7 @@ def _solve(model: Model, q: tuple, qd: tuple, qdd: tuple, xp) -> dict:
     rate = (V[_A], V[_B], V[_C])
     if effects.friction:
         force = [fi + ff for fi, ff in zip(force, friction_forces(model, rate, xp))]
-    return dict(g=g, length=g.length, stroke=(g.raw[_A], g.raw[_B], g.raw[_C]), rate=rate,
+    return dict(length=g.length, stroke=(g.raw[_A], g.raw[_B], g.raw[_C]), rate=rate,
                 acceleration=(Gamma[_A], Gamma[_B], Gamma[_C]), force=force,
                 power=[fi * ri for fi, ri in zip(force, rate)], joints=g.raw,
                 joint_rates=V, joint_accelerations=Gamma, beta=g.beta, jacobian=J,
@@ -207,29 +200,35 @@ def _solve(model: Model, q: tuple, qd: tuple, qdd: tuple, xp) -> dict:
                 jacobian_condition=jacobian_condition(model, J, Jinv, xp))
 
 
-def _limit_detail(model: Model, stroke, rate, force) -> str:
-    """Which limits one sample exceeds ('' if none)."""
-    lim = model.limits
-    out = []
-    for i, leg in enumerate('ABC'):
-        if not lim.stroke_min <= stroke[i] <= lim.stroke_max:
-            out.append(f'stroke {leg} {stroke[i]:.4g} m outside '
-                       f'[{lim.stroke_min:g}, {lim.stroke_max:g}] m')
-        if abs(rate[i]) > lim.max_speed:
-            out.append(f'speed {leg} {abs(rate[i]):.4g} m/s > {lim.max_speed:g} m/s')
-        if abs(force[i]) > lim.max_force:
-            out.append(f'force {leg} {abs(force[i]):.4g} N > {lim.max_force:g} N')
-    return '; '.join(out)
+#: Result fields whose finiteness the status rule checks (with the conditions).
+_CHECKED = ('length', 'stroke', 'rate', 'acceleration', 'force', 'power', 'joints',
+            'joint_rates', 'joint_accelerations')
+_CONDITIONS = ('kinematic_condition', 'jacobian_condition')
+_STATUS_ARRAY = np.array(BY_SEVERITY, dtype=object)
+_KERNEL_STATUS_ARRAY = np.array(kernel.STATUS_BY_CODE if kernel.OUT else (), dtype=object)
 
 
-def _singular_detail(model: Model, kin: float, jac: float) -> str:
-    lim = model.limits
-    out = []
-    if not kin <= lim.max_kinematic_condition:
-        out.append(f'kinematic condition {kin:.3g} > {lim.max_kinematic_condition:g}')
-    if not jac <= lim.max_jacobian_condition:
-        out.append(f'actuator Jacobian condition {jac:.3g} > {lim.max_jacobian_condition:g}')
-    return '; '.join(out)
+def _status(model: Model, r: dict, xp: SimpleNamespace, bad_input: Scalar = -1,
+            open_loop: Scalar = -1) -> tuple[Scalar, Scalar]:
+    """(code, info) of the results r by the status rule (:func:`.status.sample_status`)."""
+    kin, jac = r['kinematic_condition'], r['jacobian_condition']
+    finite = all_finite([v for name in _CHECKED for v in r[name]] + [kin, jac], xp)
+    return sample_status(model.limits, xp, bad_input, open_loop, finite, kin, jac,
+                         r['stroke'], r['rate'], r['force'])
+
+
+def _clean(fields: dict, code: np.ndarray | int) -> dict:
+    """No NaN or infinity with any status (the rule's last step, as in
+    src/kernel.c): every number of a void sample (unreachable, invalid input)
+    is 0, any other non-finite number 0, a non-finite condition SINGULAR."""
+    void = np.asarray(code) >= SEVERITY[Status.UNREACHABLE]
+    out = {}
+    for name, value in fields.items():
+        if name in _CONDITIONS:
+            value = np.where(np.isfinite(value), value, SINGULAR)
+        mask = np.reshape(void, void.shape + (1,) * (np.ndim(value) - void.ndim))
+        out[name] = np.where(mask | ~np.isfinite(value), 0.0, value)
+    return out
 
 
 def _new_solution(**values: object) -> Solution:
@@ -241,17 +240,17 @@ def _new_solution(**values: object) -> Solution:
     return sol
 
 
-def _zero_solution(model: Model, status: Status, detail: str, pose: tuple) -> Solution:
+def _void_solution(model: Model, code: int, info: int, inputs: tuple) -> Solution:
+    """A single solve stopped by the rule before any result (invalid input,
+    unreachable pose): every number 0."""
     z3, z12 = np.zeros(3), np.zeros(12)
-    return _new_solution(length=z3, stroke=z3.copy(), rate=z3.copy(), acceleration=z3.copy(),
-                         force=z3.copy(), power=z3.copy(), joints=z12, joint_rates=z12.copy(),
-                         joint_accelerations=z12.copy(), beta=0.0, jacobian=np.zeros((3, 3)),
-                         kinematic_condition=0.0, jacobian_condition=0.0, status=status,
-                         detail=detail, model=model, pose=pose)
-
-
-def _pack_single(values: Sequence[float]) -> np.ndarray:
-    return np.array(values, dtype=float)
+    status = BY_SEVERITY[code]
+    return _new_solution(
+        length=z3, stroke=z3.copy(), rate=z3.copy(), acceleration=z3.copy(), force=z3.copy(),
+        power=z3.copy(), joints=z12, joint_rates=z12.copy(), joint_accelerations=z12.copy(),
+        beta=0.0, jacobian=np.zeros((3, 3)), kinematic_condition=0.0, jacobian_condition=0.0,
+        status=status, detail=describe(status, info, model.limits, inputs, z3, z3, z3, 0.0, 0.0),
+        model=model, pose=inputs[0])
 
 
 def _pack_batch(values: Sequence[np.ndarray | float]) -> np.ndarray:
@@ -260,9 +259,10 @@ def _pack_batch(values: Sequence[np.ndarray | float]) -> np.ndarray:
 
 def solve(model: Model, q: Sequence[float], qd: Sequence[float],
           qdd: Sequence[float]) -> Solution:
-    """Solve one control cycle: q, qd, qdd are 3 floats each (surge m, heave m,
-    roll rad, and their derivatives). Leg fields are arrays of 3 (A, B, C), joint
-    fields arrays of 12; ``beta``, ``cond`` and the conditions are floats.
+    """Solve one control cycle (eq. 5-23): q, qd, qdd are 3 floats each (surge m,
+    heave m, roll rad, and their derivatives). Leg fields are arrays of 3
+    (A, B, C), joint fields arrays of 12; ``beta``, ``cond`` and the conditions
+    are floats.
 
     Never raises for a bad pose or bad numbers: ``sol.status`` says what
     happened (:mod:`.status`), ``sol.detail`` why. Only input that is not three
@@ -270,92 +270,69 @@ def solve(model: Model, q: Sequence[float], qd: Sequence[float],
     q3, qd3, qdd3 = _three('q', q), _three('qd', qd), _three('qdd', qdd)
     if kernel._enabled:
         out, (code, info, beta, kin, jac) = kernel.solve_row(model, q3, qd3, qdd3)
-        return _new_solution(   # the array fields are views of `out` (Solution.__getattr__)
+        status = kernel.STATUS_BY_CODE[code]
+        return _new_solution(   # the array fields are views of `out` (_RowView)
             _rows=out, beta=beta, kinematic_condition=kin, jacobian_condition=jac,
-            status=_STATUS_BY_CODE[code],
-            detail=_detail(model, code, info, out, (q3, qd3, qdd3)) if code else '',
+            status=status, detail=_kernel_detail(model, status, info, out, (q3, qd3, qdd3)),
             model=model, pose=q3)
-    return _solve_python(model, q3, qd3, qdd3)
+    return _solve_floats(model, q3, qd3, qdd3)
 
 
-def _detail(model: Model, code: int, info: float, row: np.ndarray, inputs: tuple) -> str:
-    """The detail of a kernel status (src/kernel.c, solve_one) for one sample."""
-    if code == 4:
-        return _input_problem(*inputs) if info >= 0 else 'results are not finite: input too large'
-    if code == 3:
-        loop = kernel.LOOPS[int(info)]
-        return f'loop {loop}: {LOOP_REASONS[loop]}'
-    if code == 2:
-        if not info:
-            return 'exact singularity: non-finite results set to 0'
-        return _singular_detail(model, row[kernel.O_KIN], row[kernel.O_JAC])
-    return _limit_detail(model, row[3:6], row[6:9], row[12:15])
+def _kernel_detail(model: Model, status: Status, info: float, row: np.ndarray,
+                   inputs: tuple) -> str:
+    """:func:`.status.describe` of one kernel result row."""
+    if status is Status.OK:
+        return ''
+    out = kernel.OUT
+    return describe(status, info, model.limits, inputs, row[out['stroke']], row[out['rate']],
+                    row[out['force']], row[kernel.O_KIN], row[kernel.O_JAC])
 
 
-def _solve_python(model: Model, q3: tuple, qd3: tuple, qdd3: tuple) -> Solution:
-    """One cycle with the Python reference code (no kernel)."""
-    problem = _input_problem(q3, qd3, qdd3)
-    if problem:
-        return _zero_solution(model, Status.INVALID_INPUT, problem, q3)
+def _solve_floats(model: Model, q: tuple, qd: tuple, qdd: tuple) -> Solution:
+    """One cycle with the Python code on plain floats (no numpy call per
+    operation). Float arithmetic raises where IEEE arithmetic carries on (a
+    division by zero at an exact singularity, a domain error for absurd
+    input): such a sample goes to the array code, so that every path gives
+    the verdict of the same rule on the same numbers."""
+    inputs = (q, qd, qdd)
+    bad = first_bad_input(q + qd + qdd, _SCALAR)
+    if bad >= 0:
+        return _void_solution(model, *sample_status(model.limits, _SCALAR, bad_input=bad),
+                              inputs)
     try:
-        r = _solve(model, q3, qd3, qdd3, _SCALAR)
-    except UnreachablePoseError as exc:
-        return _zero_solution(model, Status.UNREACHABLE, f'loop {exc.loop}: {exc.reason}', q3)
-    except (ZeroDivisionError, OverflowError):
-        return _zero_solution(model, Status.NEAR_SINGULAR,
-                              'exact singularity: a pivot of Q or the actuator Jacobian is '
-                              'singular; nothing can be computed (all set to 0)', q3)
-    kin, jac = r['kinematic_condition'], r['jacobian_condition']
-    near = not (kin <= model.limits.max_kinematic_condition
-                and jac <= model.limits.max_jacobian_condition)
-    r['jacobian'] = [v for row in r['jacobian'] for v in row]
-    finite = all(math.isfinite(v) for name in _SINGLE_FIELDS for v in r[name])
-    status, detail = Status.OK, ''
-    if not finite:
-        if not near:
-            return _zero_solution(model, Status.INVALID_INPUT,
-                                  'results are not finite: input too large', q3)
-        for name in _SINGLE_FIELDS:    # no NaN or infinity with any status
-            r[name] = [v if math.isfinite(v) else 0.0 for v in r[name]]
-        status, detail = Status.NEAR_SINGULAR, 'exact singularity: non-finite results set to 0'
-    elif near:
-        status, detail = Status.NEAR_SINGULAR, _singular_detail(model, kin, jac)
-    else:
-        detail = _limit_detail(model, r['stroke'], r['rate'], r['force'])
-        if detail:
-            status = Status.LIMIT
-    pack = _pack_single
-    beta = r['beta'] if math.isfinite(r['beta']) else 0.0
-    return _new_solution(
-        length=pack(r['length']), stroke=pack(r['stroke']), rate=pack(r['rate']),
-        acceleration=pack(r['acceleration']), force=pack(r['force']), power=pack(r['power']),
-        joints=pack(r['joints']), joint_rates=pack(r['joint_rates']),
-        joint_accelerations=pack(r['joint_accelerations']), beta=float(beta),
-        jacobian=pack(r['jacobian']).reshape(3, 3),
-        kinematic_condition=_finite(kin), jacobian_condition=_finite(jac),
-        status=status, detail=detail, model=model, pose=q3, geometric=r['g'])
+        g = inverse_geometry(model, q, _SCALAR, check=False)                # eq. (5)-(8)
+        loop = first_open_loop(g.valid, _SCALAR)
+        if loop >= 0:
+            return _void_solution(
+                model, *sample_status(model.limits, _SCALAR, open_loop=loop), inputs)
+        r = _solve(model, g, qd, qdd, _SCALAR)
+    except (ArithmeticError, ValueError):
+        batch = _solve_arrays(model, *(np.array([x], dtype=float) for x in inputs))
+        return _new_solution(
+            **{name: getattr(batch, name)[0] for name in _CHECKED + ('jacobian',)},
+            **{name: float(getattr(batch, name)[0]) for name in ('beta',) + _CONDITIONS},
+            status=batch.status[0], detail=batch.detail[0], model=model, pose=q)
+    code, info = _status(model, r, _SCALAR)
+    fields = {name: np.array(r[name], dtype=float) for name in _CHECKED + ('jacobian',)}
+    fields.update({name: r[name] for name in ('beta',) + _CONDITIONS})
+    if code >= SEVERITY[Status.NEAR_SINGULAR]:      # the only codes with non-finite results
+        fields = _clean(fields, code)
+    fields.update({name: float(fields[name]) for name in ('beta',) + _CONDITIONS})
+    status = BY_SEVERITY[code]
+    detail = '' if status is Status.OK else describe(
+        status, info, model.limits, inputs, fields['stroke'], fields['rate'], fields['force'],
+        fields['kinematic_condition'], fields['jacobian_condition'])
+    return _new_solution(**fields, status=status, detail=detail, model=model, pose=q,
+                         geometric=None if code >= SEVERITY[Status.UNREACHABLE] else g)
 
 
-_SINGLE_FIELDS = ('length', 'stroke', 'rate', 'acceleration', 'force', 'power', 'joints',
-                  'joint_rates', 'joint_accelerations', 'jacobian')
-
-
-def _finite(x: float) -> float:
-    return float(x) if math.isfinite(x) else SINGULAR
-
-
-_FIELDS_3 = ('length', 'stroke', 'rate', 'acceleration', 'force', 'power')
-_FIELDS_12 = ('joints', 'joint_rates', 'joint_accelerations')
-_STATUS_BY_CODE = tuple(BY_SEVERITY)
-_STATUS_ARRAY = np.array(BY_SEVERITY, dtype=object)
-_BATCH_ARRAYS = ('jacobian', 'beta', 'kinematic_condition', 'jacobian_condition', 'status')
 #: Samples per piece of a long batch in the Python code (the working set of a
 #: piece stays in cache).
 BATCH_CHUNK = 8192
 
 
 def solve_batch(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> Solution:
-    """Inverse kinematics and dynamics for N samples at once, vectorised.
+    """Inverse kinematics and dynamics (eq. 5-23) for N samples at once, vectorised.
 
     q, qd, qdd: (N, 3) arrays of (surge m, heave m, roll rad) and their first and
     second time derivatives. Fields of the result have a leading N axis;
@@ -369,13 +346,13 @@ def solve_batch(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) ->
     if kernel._enabled:
         return _batch_from_rows(model, kernel.solve_rows(model, *arrays), arrays)
     if n > BATCH_CHUNK:     # cache-sized pieces: about twice as fast for long batches
-        parts = [_solve_chunk(model, *(a[i:i + BATCH_CHUNK] for a in arrays))
+        parts = [_solve_arrays(model, *(a[i:i + BATCH_CHUNK] for a in arrays))
                  for i in range(0, n, BATCH_CHUNK)]
         fields = {name: np.concatenate([getattr(p, name) for p in parts])
-                  for name in _FIELDS_3 + _FIELDS_12 + _BATCH_ARRAYS}
+                  for name in _CHECKED + ('jacobian', 'beta', 'status') + _CONDITIONS}
         return _new_solution(**fields, detail=sum((p.detail for p in parts), ()), model=model,
                              pose=arrays[0], geometric=tuple(p.geometric for p in parts))
-    return _solve_chunk(model, *arrays)
+    return _solve_arrays(model, *arrays)
 
 
 def _batch_from_rows(model: Model, rows: np.ndarray, arrays: tuple) -> Solution:
@@ -385,77 +362,43 @@ def _batch_from_rows(model: Model, rows: np.ndarray, arrays: tuple) -> Solution:
     info = rows[:, kernel.O_INFO]
     detail = [''] * n
     for i in np.flatnonzero(code):
-        detail[i] = _detail(model, int(code[i]), info[i], rows[i],
-                            tuple(tuple(a[i].tolist()) for a in arrays))
+        detail[i] = _kernel_detail(model, kernel.STATUS_BY_CODE[code[i]], info[i], rows[i],
+                                   tuple(a[i].tolist() for a in arrays))
     return _new_solution(_rows=rows, beta=rows[:, kernel.O_BETA],
                          kinematic_condition=rows[:, kernel.O_KIN],
                          jacobian_condition=rows[:, kernel.O_JAC],
-                         status=_STATUS_ARRAY[code], detail=tuple(detail), model=model,
-                         pose=arrays[0])
+                         status=_KERNEL_STATUS_ARRAY[code],
+                         detail=tuple(detail), model=model, pose=arrays[0])
 
 
-def _solve_chunk(model: Model, *arrays: np.ndarray) -> Solution:
+def _solve_arrays(model: Model, *arrays: np.ndarray) -> Solution:
+    """N samples ((N, 3) arrays q, qd, qdd) with the Python code on numpy
+    columns: every sample is computed (IEEE arithmetic, no exceptions) and the
+    status rule picks, per sample, what its numbers are worth."""
     n = arrays[0].shape[0]
-    finite = np.ones(n, dtype=bool)
-    for arr in arrays:
-        finite &= np.isfinite(arr).all(axis=1)
-    columns = [tuple(np.ascontiguousarray(np.where(finite[:, None], arr, 0.0).T))
-               for arr in arrays]
+    columns = [tuple(a.T) for a in arrays]
+    bad = np.broadcast_to(first_bad_input(sum(columns, ()), _ARRAY), (n,))
+    columns = [tuple(np.ascontiguousarray(np.where(bad[:, None] < 0, a, 0.0).T))
+               for a in arrays]
     with np.errstate(all='ignore'):
-        r = _solve(model, *columns, _ARRAY)
-    g = r['g']
-    out = {name: _pack_batch(r[name]) for name in _FIELDS_3 + _FIELDS_12}
-    out['jacobian'] = np.stack([_pack_batch(row) for row in r['jacobian']], axis=-2)
-    beta = np.broadcast_to(r['beta'], (n,)).astype(float)
-    kin = np.broadcast_to(r['kinematic_condition'], (n,)).astype(float)
-    jac = np.broadcast_to(r['jacobian_condition'], (n,)).astype(float)
-    lim = model.limits
-    reachable = np.ones(n, dtype=bool)
-    failed_loop = np.full(n, '', dtype=object)
-    for loop, ok in g.valid.items():
-        bad = ~np.broadcast_to(ok, (n,)) & reachable
-        failed_loop[bad] = loop
-        reachable &= ~bad
-    results_finite = np.ones(n, dtype=bool)
-    for name in _FIELDS_3 + _FIELDS_12:
-        results_finite &= np.isfinite(out[name]).all(axis=1)
-    results_finite &= np.isfinite(kin) & np.isfinite(jac)
-    near = ~((kin <= lim.max_kinematic_condition) & (jac <= lim.max_jacobian_condition))
-    stroke, rate, force = out['stroke'], out['rate'], out['force']
-    over = ((stroke < lim.stroke_min) | (stroke > lim.stroke_max)
-            | (np.abs(rate) > lim.max_speed) | (np.abs(force) > lim.max_force)).any(axis=1)
-    code = np.where(over, 1, 0)
-    code = np.where(near, 2, code)
-    code = np.where(~results_finite & ~near, 4, code)
-    code = np.where(~reachable, 3, code)
-    code = np.where(~finite, 4, code).astype(np.int8)
-    # no NaN or infinity with any status: rows without meaning are zero
-    void = code >= 3
-    for name in _FIELDS_3 + _FIELDS_12 + ('jacobian',):
-        arr = out[name]
-        arr[void] = 0.0
-        arr[~np.isfinite(arr)] = 0.0
-    beta = np.where(void | ~np.isfinite(beta), 0.0, beta)
-    kin = np.where(void, 0.0, np.where(np.isfinite(kin), kin, SINGULAR))
-    jac = np.where(void, 0.0, np.where(np.isfinite(jac), jac, SINGULAR))
+        g = inverse_geometry(model, columns[0], _ARRAY, check=False)      # eq. (5)-(8)
+        r = _solve(model, g, columns[1], columns[2], _ARRAY)
+    code, info = _status(model, r, _ARRAY, bad, first_open_loop(g.valid, _ARRAY))
+    code = np.broadcast_to(code, (n,)).astype(np.int8)
+    info = np.broadcast_to(info, (n,))
+    fields = {name: _pack_batch(r[name]) for name in _CHECKED}
+    fields['jacobian'] = np.stack([_pack_batch(row) for row in r['jacobian']], axis=-2)
+    fields.update({name: np.broadcast_to(r[name], (n,)).astype(float)
+                   for name in ('beta',) + _CONDITIONS})
+    fields = _clean(fields, code)
     detail = [''] * n
     for i in np.flatnonzero(code):
-        c = code[i]
-        if c == 4 and not finite[i]:
-            detail[i] = _input_problem(*(tuple(a[i]) for a in arrays))
-        elif c == 4:
-            detail[i] = 'results are not finite: input too large'
-        elif c == 3:
-            loop = failed_loop[i]
-            detail[i] = f'loop {loop}: {LOOP_REASONS[loop]}'
-        elif c == 2:
-            detail[i] = (_singular_detail(model, kin[i], jac[i]) if results_finite[i]
-                         else 'exact singularity: non-finite results set to 0')
-        else:
-            detail[i] = _limit_detail(model, stroke[i], rate[i], force[i])
-    return _new_solution(**out, beta=beta, kinematic_condition=kin, jacobian_condition=jac,
-                         status=_STATUS_ARRAY[code], detail=tuple(detail), model=model,
-                         pose=arrays[0], geometric=g)
+        detail[i] = describe(BY_SEVERITY[code[i]], info[i], model.limits,
+                             tuple(a[i].tolist() for a in arrays), fields['stroke'][i],
+                             fields['rate'][i], fields['force'][i],
+                             fields['kinematic_condition'][i], fields['jacobian_condition'][i])
+    return _new_solution(**fields, status=_STATUS_ARRAY[code], detail=tuple(detail),
+                         model=model, pose=arrays[0], geometric=g)
 
 
 def _three(name: str, value: Sequence[float]) -> tuple[float, float, float]:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import functools
 import math
+import operator
 from types import SimpleNamespace
 from typing import Tuple, Union
 
@@ -71,11 +72,23 @@ def mat_vec(m: np.ndarray, c: Vec) -> Vec:
             m[2][0] * c[0] + m[2][1] * c[1] + m[2][2] * c[2])
 
 
+def _nan_max(*values: float) -> float:
+    """max() that returns NaN if any value is NaN, like numpy.maximum and the
+    kernel's nmax (Python's max keeps or drops a NaN depending on its place)."""
+    return math.nan if any(v != v for v in values) else max(values)
+
+
+def _nan_min(*values: float) -> float:
+    """min() that returns NaN if any value is NaN (see _nan_max)."""
+    return math.nan if any(v != v for v in values) else min(values)
+
+
 _SCALAR = SimpleNamespace(
     sqrt=math.sqrt, sin=math.sin, cos=math.cos, atan2=math.atan2, hypot=math.hypot,
-    tanh=math.tanh, abs=abs, maximum=max, minimum=min,
+    tanh=math.tanh, abs=abs, maximum=_nan_max, minimum=_nan_min,
     clip0=lambda x: x if x > 0.0 else 0.0,
     where=lambda cond, a, b: a if cond else b,
+    isfinite=math.isfinite, logical_not=operator.not_,
     all=bool, first_false=lambda ok: None, batch=False)
 
 
@@ -90,7 +103,8 @@ _ARRAY = SimpleNamespace(
     maximum=lambda *a: functools.reduce(np.maximum, a),
     minimum=lambda *a: functools.reduce(np.minimum, a),
     clip0=lambda x: np.maximum(x, 0.0),
-    where=np.where, all=np.all, first_false=_first_false, batch=True)
+    where=np.where, isfinite=np.isfinite, logical_not=np.logical_not,
+    all=np.all, first_false=_first_false, batch=True)
 
 
 def backend(batch: bool) -> SimpleNamespace:
