@@ -57,12 +57,14 @@ class CsvError(ValueError):
 @dataclass(frozen=True)
 class Table:
     """A parsed CSV file: ``data[i, j]`` is the value of column ``names[j]`` in
-    data row ``i``, read from line ``lines[i]`` of the file."""
+    data row ``i``, read from line ``lines[i]`` of the file; ``skipped``: the
+    columns of the file not read (``skip_extra``)."""
 
     path: str
     names: tuple[str, ...]
     data: np.ndarray      # (N, ncol) float64
     lines: np.ndarray     # (N,) int, 1-based line numbers (header = 1)
+    skipped: tuple[str, ...] = ()     # columns of the file left out (skip_extra)
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.data[:, self.names.index(name)]
@@ -132,9 +134,12 @@ def parse_header(raw: bytes, path: str, *, required: Sequence[str],
                            f'expected exactly the columns {expected} (any order)',
                            path=path, line=1, column=j0 + 1, name=unknown[0][1])
     if missing:
+        near = [f"'{n}' (column {j + 1}){_did_you_mean(n, missing)}"
+                for j, n in enumerate(names) if n not in required and _did_you_mean(n, missing)]
         raise CsvError(f'missing column{"s" if len(missing) > 1 else ""} '
                        f"{', '.join(repr(m) for m in missing)}; "
-                       f'the header must name {expected} (any order)', path=path, line=1)
+                       f'the header must name {expected} (any order)'
+                       + (f"; it has {', '.join(near)}" if near else ''), path=path, line=1)
     return names
 
 
@@ -149,22 +154,26 @@ def _did_you_mean(name: str, candidates: Sequence[str]) -> str:
 
 
 def read_csv(path: str | os.PathLike[str], *, required: Sequence[str],
-             allow_extra: bool = False, text_columns: Sequence[str] = ()) -> Table:
+             allow_extra: bool = False, text_columns: Sequence[str] = (),
+             skip_extra: bool = False) -> Table:
     """Read a numeric CSV file with a header naming at least ``required``
-    (exactly those, in any order, unless ``allow_extra``).
+    (exactly those, in any order, unless ``allow_extra`` or ``skip_extra``).
 
     Raises :class:`CsvError` naming the line and column of the first problem.
     """
     display = _display(path)
     data = read_bytes(path)
     return parse_csv(data, display, required=required, allow_extra=allow_extra,
-                     text_columns=text_columns)
+                     text_columns=text_columns, skip_extra=skip_extra)
 
 
 def parse_csv(data: bytes, path: str = '<input>', *, required: Sequence[str],
-              allow_extra: bool = False, text_columns: Sequence[str] = ()) -> Table:
+              allow_extra: bool = False, text_columns: Sequence[str] = (),
+              skip_extra: bool = False) -> Table:
     """:func:`read_csv` on the bytes of a file. Columns named in ``text_columns``
-    (words such as ``status``) are skipped, not parsed as numbers."""
+    (words such as ``status``) are skipped, not parsed as numbers; with
+    ``skip_extra`` so is every column not in ``required`` (any content), and
+    ``Table.skipped`` names them. Errors name the file's own column numbers."""
     if data.startswith(b'\xef\xbb\xbf'):
         data = data[3:]
     if not data or data.isspace():
@@ -172,32 +181,37 @@ def parse_csv(data: bytes, path: str = '<input>', *, required: Sequence[str],
                        f"{','.join(required)} and rows of numbers", path=path, line=1)
     end = data.find(b'\n')
     header = data if end < 0 else data[:end]
-    names = parse_header(header, path, required=required, allow_extra=allow_extra)
-    skip = [j for j, name in enumerate(names) if name in text_columns]
-    # Trailing blank lines at the end of the file are fine; any other blank
-    # line is a row with every value missing.
-    if skip:
-        keep = [j for j in range(len(names)) if j not in skip]
-        names = tuple(names[j] for j in keep)
-        body = b'\n'.join(b','.join(f for j, f in enumerate(line.split(b',')) if j not in skip)
-                          for line in (data[end + 1:] if end >= 0 else b'').split(b'\n'))
-        body = body.rstrip(_BLANK)
-    else:       # one copy of the rows, without the trailing blanks
-        body = data[end + 1:_content_end(data)] if end >= 0 else b''
-    ncol = len(names)
+    all_names = parse_header(header, path, required=required,
+                             allow_extra=allow_extra or skip_extra)
+    skip = frozenset(j for j, name in enumerate(all_names)
+                     if name in text_columns or (skip_extra and name not in required))
+    keep = [j for j in range(len(all_names)) if j not in skip]
+    names = tuple(all_names[j] for j in keep)
+    # one copy of the rows, without the trailing blank lines (they are fine;
+    # any other blank line is a row with every value missing)
+    body = data[end + 1:_content_end(data)] if end >= 0 else b''
     if not body:
         raise CsvError('no data rows after the header', path=path, line=2)
     nrows = _count(body, b'\n') + 1
-    values = _parse_fast(body, nrows, ncol)
+    values = None
+    if skip:
+        rows = [line.split(b',') for line in body.split(b'\n')]
+        if all(len(cells) == len(all_names) for cells in rows):
+            kept = b'\n'.join(b','.join(cells[j] for j in keep) for cells in rows)
+            values = _parse_fast(kept, nrows, len(keep))
+    else:
+        values = _parse_fast(body, nrows, len(keep))
     if values is None:
-        values = _parse_slow(body, names, path)  # raises on the first bad cell
+        values = _parse_slow(body, all_names, path, skip)  # raises on the first bad cell
     bad = ~np.isfinite(values)
     if bad.any():  # e.g. 1e999: a valid literal, but not a finite double
         i, j = np.argwhere(bad)[0]
-        cell = body.split(b'\n')[i].split(b',')[j].decode().strip()
+        cell = body.split(b'\n')[i].split(b',')[keep[j]].decode().strip()
         raise CsvError(f"'{cell}' is not a finite number", path=path, line=int(i) + 2,
-                       column=int(j) + 1, name=names[j])
-    return Table(path=path, names=names, data=values, lines=np.arange(2, nrows + 2))
+                       column=keep[j] + 1, name=names[j])
+    skipped = tuple(all_names[j] for j in sorted(skip) if all_names[j] not in text_columns)
+    return Table(path=path, names=names, data=values, lines=np.arange(2, nrows + 2),
+                 skipped=skipped)
 
 
 def _content_end(data: bytes) -> int:
@@ -235,11 +249,14 @@ def _parse_fast(body: bytes, nrows: int, ncol: int) -> np.ndarray | None:
     return values
 
 
-def _parse_slow(body: bytes, names: Sequence[str], path: str) -> np.ndarray:
-    """Line-by-line parse that raises CsvError at the first malformed cell."""
+def _parse_slow(body: bytes, names: Sequence[str], path: str,
+                skip: frozenset[int] = frozenset()) -> np.ndarray:
+    """Line-by-line parse that raises CsvError at the first malformed cell;
+    the columns in ``skip`` (0-based) may hold anything and are left out."""
     ncol = len(names)
+    keep = [j for j in range(ncol) if j not in skip]
     rows = body.split(b'\n')
-    out = np.empty((len(rows), ncol))
+    out = np.empty((len(rows), len(keep)))
     for i, raw in enumerate(rows):
         line = i + 2
         try:
@@ -249,7 +266,10 @@ def _parse_slow(body: bytes, names: Sequence[str], path: str) -> np.ndarray:
         if not text.strip():
             raise CsvError(f'empty line; expected {ncol} values', path=path, line=line)
         cells = text.split(',')
-        for j, cell in enumerate(cells[:ncol]):
+        for k, j in enumerate(keep):
+            if j >= len(cells):
+                break
+            cell = cells[j]
             shown = cell.strip()
             if not shown:
                 raise CsvError('missing value', path=path, line=line, column=j + 1,
@@ -264,7 +284,7 @@ def _parse_slow(body: bytes, names: Sequence[str], path: str) -> np.ndarray:
                 else:
                     msg = f"'{shown}' is not a number"
                 raise CsvError(msg, path=path, line=line, column=j + 1, name=names[j])
-            out[i, j] = value
+            out[i, k] = value
         if len(cells) < ncol:
             raise CsvError(f'missing value (the row has {len(cells)} values, '
                            f'the header {ncol} columns)', path=path, line=line,
