@@ -107,8 +107,8 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
                           'columns are ignored (named in a note on standard error)')
     p.add_argument('-o', '--output', required=True, metavar='CSV_OR_NPZ',
                    help="results to write ('-' for standard output): "
-                        + ','.join(OUTPUT_COLUMNS) + ',status (ok, limit, near_singular, '
-                        'unreachable, invalid_input). A name ending in .npz writes numpy\'s '
+                        + ','.join(OUTPUT_COLUMNS) + ',status (a word per row: ok, or the '
+                        'flight_sim_dynamics.Status that says why not). A name ending in .npz writes numpy\'s '
                         'binary .npz instead of CSV (the fast choice for large batches): one '
                         'float64 array per column, status as strings, and names, the column '
                         'order; read it with numpy.load')
