@@ -36,8 +36,11 @@ setup(
             sorted(glob('config/scenes/*.yaml'))),
     ],
     python_requires='>=3.10',
-    install_requires=['setuptools', 'numpy', 'PyYAML', 'matplotlib'],
-    extras_require={'test': ['pytest', 'hypothesis']},
+    # matplotlib is optional: only plot, bench and workspace draw figures
+    # (pip install '.[plot]'); the library and the node never import it.
+    install_requires=['setuptools', 'numpy', 'PyYAML'],
+    extras_require={'plot': ['matplotlib'],
+                    'test': ['pytest', 'hypothesis', 'matplotlib']},
     zip_safe=False,
     maintainer='flight_sim_dynamics maintainers',
     maintainer_email='flight_sim_dynamics@example.com',

@@ -30,7 +30,6 @@ from hypothesis import strategies as st
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.cli import main as cli
 from flight_sim_dynamics.cli import csv_io
-from flight_sim_dynamics import Status
 from flight_sim_dynamics.cli.csv_io import TRAJECTORY_COLUMNS
 
 MODEL = fsd.load_model()

@@ -1,12 +1,11 @@
 """The fast paths of the CSV layer and of ``solve``'s glue, against plain
-references (issue 6: a 100,000-row file through ``solve`` in under 2 s):
+references (issue 6: a 100,000-row file through ``solve`` in under 2 s,
+measured by benchmarks/csv_output.py):
 
-* writing: the vectorised formatter gives, byte for byte, the text a plain
-  per-value reference gives (16 significant digits when they read back
-  exactly, not by a tie, else 17; '%.17g' layout; '%.17g' itself outside
-  1e-250..1e250),
-  and extreme values (subnormals, -0.0, 1e308, integers, many digits, both
-  sides of the vectorised range) read back bit for bit through read_csv;
+* writing: every value is written as a plain per-value reference gives it
+  (the shortest decimal that reads back exactly, the nearest such; repr's
+  layout; no '.0' on integral values), and extreme values (subnormals, -0.0,
+  1e308, integers, many digits) read back bit for bit through read_csv;
   blocks, text columns (long, non-ASCII, NUL) and empty tables;
 * reading: the fast parser (numpy's C parser plus a count of commas) agrees
   with the line-by-line scan on whole files, ragged and blank rows included;
@@ -17,11 +16,10 @@ references (issue 6: a 100,000-row file through ``solve`` in under 2 s):
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 import os
 import subprocess
 import sys
-from decimal import ROUND_HALF_DOWN, ROUND_HALF_EVEN, Context, Decimal
-from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -39,40 +37,38 @@ MODEL = fsd.load_model()
 # ----------------------------------------------------------------------------
 # Writing
 # ----------------------------------------------------------------------------
-def reads_back_safely(text: str, x: float) -> bool:
-    """The decimal ``text`` lies strictly within half the gap from ``x`` to the
-    neighbouring double on its side (with the writer's 1e-9 relative margin):
-    it reads back as x, and not by round-half-even on an exact tie."""
-    d = Fraction(text) - Fraction(x)
-    neighbour = math.nextafter(x, math.inf if d >= 0 else 0.0)
-    return abs(d) < abs(Fraction(neighbour) - Fraction(x)) / 2 * (1 - Fraction(1, 10 ** 9))
-
-
-def rounded(x: float, digits: int, rounding: str) -> str:
-    """The exact value of x rounded to ``digits`` significant digits, as d.ddde+X."""
-    return f'{Context(prec=digits, rounding=rounding).plus(Decimal(x)):.{digits - 1}e}'
+def shortest_decimal(x: float) -> tuple[str, int]:
+    """(digits, decimal exponent) of the decimal with the fewest significant
+    digits that reads back as x > 0, the nearest to x among those (a tie to
+    the even last digit): for each
+    number of digits k, the correctly rounded one and its two neighbours (next
+    to a power of two the gaps below and above x differ)."""
+    for k in range(1, 18):
+        mantissa, exponent = f'{x:.{k - 1}e}'.split('e')
+        m, p = int(mantissa.replace('.', '')), int(exponent) - (k - 1)
+        fits = [c for c in (m - 1, m, m + 1)
+                if c > 0 and float(f'{c}e{p}') == x]
+        if fits:
+            best = min(fits, key=lambda c: (abs(Fraction(c) * Fraction(10) ** p - Fraction(x)),
+                                            c % 2))     # a tie: the even digit
+            digits = str(best)
+            return digits.rstrip('0'), p + len(digits) - 1
+    raise AssertionError(x)
 
 
 def reference_text(v: float) -> str:
-    """The text of one value, plainly: its 16 significant digits (an exact tie
-    rounded down) if they read back safely (above), else its 17 (ties to
-    even); '%.17g' outside 1e-250..1e250; '%g' layout (fixed notation for
-    decimal exponents -4..16)."""
+    """The text of one value, plainly: the shortest decimal that reads back as
+    v (above); fixed notation for decimal exponents -4..15, else d.ddde+XX
+    (repr's layout); an integral value without a fraction."""
     if v != v:
         return 'nan'
+    if math.isinf(v):
+        return '-inf' if v < 0 else 'inf'
     sign = '-' if math.copysign(1.0, v) < 0 else ''
     if v == 0:
         return sign + '0'
-    if not 1e-250 <= abs(v) <= 1e250:
-        return sign + '%.17g' % abs(v)
-    text = rounded(abs(v), 16, ROUND_HALF_DOWN)
-    if not reads_back_safely(text, abs(v)):
-        text = rounded(abs(v), 17, ROUND_HALF_EVEN)
-        assert Decimal(text) == Decimal('%.16e' % abs(v))     # Python's own 17 digits
-    mantissa, exponent = text.split('e')
-    e = int(exponent)
-    digits = mantissa.replace('.', '').rstrip('0')
-    if 0 <= e <= 16:
+    digits, e = shortest_decimal(abs(v))
+    if 0 <= e < 16:
         whole, frac = digits.ljust(e + 1, '0')[:e + 1], digits[e + 1:]
         return sign + whole + ('.' + frac if frac else '')
     if -4 <= e < 0:
@@ -106,11 +102,12 @@ def extreme_values() -> np.ndarray:
 
 def test_format_values_match_the_plain_reference():
     values = np.concatenate([extreme_values(), [np.inf, -np.inf, np.nan]])
-    chars, keep = csv_io.format_values(values)
-    for i, v in enumerate(values):
-        text = chars[i, :-1][keep[i, :-1]].tobytes().decode()
-        assert text == reference_text(float(v)), (repr(float(v)), text)
-    assert np.all(chars[:, -1] == ord(',')) and keep[:, -1].all()
+    table = csv_io.format_table(values.reshape(-1, 1)).decode().split('\n')
+    assert table[-1] == '' and len(table) == values.size + 1
+    for v, text in zip(values, table[:-1]):
+        assert text == reference_text(float(v)) == csv_io.format_value(v), (repr(float(v)), text)
+    row = csv_io.format_table(values[:5].reshape(1, -1)).decode()
+    assert row == ','.join(reference_text(float(v)) for v in values[:5]) + '\n'
 
 
 @pytest.mark.parametrize('ncol', [1, 3, 22])

@@ -3,8 +3,8 @@
 Subcommands::
 
     flight-sim-dynamics example {vertical,rectilinear,general} [--rate HZ] -o traj.csv
-    flight-sim-dynamics solve traj.csv -o out.csv [--params FILE] [--joints]
-    flight-sim-dynamics plot out.csv -o fig.png [--title TEXT]
+    flight-sim-dynamics solve traj.csv -o out.csv|out.npz [--params FILE] [--joints]
+    flight-sim-dynamics plot out.csv|out.npz -o fig.png [--title TEXT]
     flight-sim-dynamics node ...           # the ROS 2 node (needs rclpy)
     flight-sim-dynamics demo-planner ...   # the demo set-point planner (needs rclpy)
     flight-sim-dynamics demo ...           # the end-to-end demo (needs rclpy)
@@ -25,7 +25,10 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from . import csv_io
+import flight_sim_dynamics as fsd
+
+from . import csv_io, npz_io
+from .common import CliError, load_model, write_table
 from .csv_io import TRAJECTORY_COLUMNS, CsvError
 from ..core.model import JOINT_NAMES
 
@@ -52,10 +55,6 @@ PLOT_COLUMNS: tuple[str, ...] = ('t',) + tuple(_per_leg('force') + _per_leg('pow
 UNITS = {'t': 's', 'length': 'm', 'stroke': 'm', 'rate': 'm/s', 'acceleration': 'm/s^2',
          'force': 'N', 'power': 'W', 'beta': 'rad', 'cond': '1', 'kinematic_condition': '1',
          'jacobian_condition': '1'}
-
-
-class CliError(Exception):
-    """A user error: printed as ``error: <message>``, exit status 2."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -104,10 +103,15 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
     p.add_argument('input', metavar='TRAJ_CSV',
                    help="trajectory CSV ('-' for standard input) with the header "
                         + ','.join(TRAJECTORY_COLUMNS)
-                        + ' in any order (SI units: s, m, rad and their rates)')
-    p.add_argument('-o', '--output', required=True, metavar='CSV',
-                   help="result CSV to write ('-' for standard output): "
-                        + ','.join(OUTPUT_COLUMNS))
+                        + ' in any order (SI units: s, m, rad and their rates); other '
+                          'columns are ignored (named in a note on standard error)')
+    p.add_argument('-o', '--output', required=True, metavar='CSV_OR_NPZ',
+                   help="results to write ('-' for standard output): "
+                        + ','.join(OUTPUT_COLUMNS) + ',status (a word per row: ok, or the '
+                        'flight_sim_dynamics.Status that says why not). A name ending in .npz writes numpy\'s '
+                        'binary .npz instead of CSV (the fast choice for large batches): one '
+                        'float64 array per column, status as strings, and names, the column '
+                        'order; read it with numpy.load')
     p.add_argument('--params', metavar='YAML', default=None,
                    help='parameter file (ROS 2 format, see config/flight_sim_dynamics.yaml); '
                         'default: the packaged parameters (the paper\'s values)')
@@ -124,27 +128,10 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
                         '(<name>_rate) and accelerations (<name>_acc)')
 
 
-def load_model(params: str | None, scene: str | None = None):
-    """The model from ``--params`` (None: packaged defaults) and ``--scene``."""
-    import flight_sim_dynamics as fsd
-    from ..config.scenes import SceneError
-
-    if params is not None and not os.path.isfile(params):
-        raise CliError(f"--params {params}: no such file")
-    try:
-        return fsd.load_model(params, scene=scene)
-    except fsd.ParameterError as exc:
-        raise CliError(f"--params {params or '(packaged defaults)'}: {exc}") from None
-    except SceneError as exc:
-        raise CliError(f'--scene: {exc}') from None
-
-
 def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond: bool = False
                 ) -> tuple[tuple[str, ...], np.ndarray, list[str]]:
     """Solve every row of a trajectory table; returns (column names, data,
     status of each row)."""
-    import flight_sim_dynamics as fsd
-
     col = {name: j for j, name in enumerate(table.names)}
     data = table.data
 
@@ -235,66 +222,13 @@ def report_statuses(table: csv_io.Table, sol, words: np.ndarray | None = None) -
 
 def cmd_solve(args: argparse.Namespace) -> int:
     model = load_model(args.params, args.scene)
-    table = csv_io.read_csv(args.input, required=TRAJECTORY_COLUMNS)
+    table = csv_io.read_csv(args.input, required=TRAJECTORY_COLUMNS, skip_extra=True)
+    if table.skipped:
+        print(f"note: {table.path}: ignoring column{'s' if len(table.skipped) > 1 else ''} "
+              f"{', '.join(repr(n) for n in table.skipped)}; solve reads "
+              + ','.join(TRAJECTORY_COLUMNS), file=sys.stderr)
     names, data, status = solve_table(model, table, joints=args.joints, exact_cond=args.cond)
-    csv_io.write_csv(args.output, names, data, text=('status', status))
-    return 0
-
-
-# ----------------------------------------------------------------------------
-# forward
-# ----------------------------------------------------------------------------
-LENGTH_COLUMNS = ('length_a', 'length_b', 'length_c')
-POSE_COLUMNS = ('surge', 'heave', 'roll')
-
-
-def _configure_forward(p: argparse.ArgumentParser) -> None:
-    p.add_argument('lengths', nargs='*', type=float, metavar='L',
-                   help='three leg lengths L_A L_B L_C (m, joint centre to joint centre)')
-    p.add_argument('--csv', metavar='CSV', default=None,
-                   help="instead: a CSV with columns length_a,length_b,length_c, e.g. the "
-                        "output of solve (a column t is copied through, others ignored); "
-                        "writes [t,]surge,heave,roll,status to -o")
-    p.add_argument('-o', '--output', metavar='CSV', default=None,
-                   help="output CSV for --csv ('-' for standard output)")
-    p.add_argument('--params', metavar='YAML', default=None,
-                   help='parameter file (default: the packaged parameters)')
-
-
-def cmd_forward(args: argparse.Namespace) -> int:
-    """Pose from measured leg lengths (safeguarded Newton, see forward_kinematics)."""
-    import flight_sim_dynamics as fsd
-
-    model = load_model(args.params)
-    if args.csv is None:
-        if len(args.lengths) != 3:
-            raise CliError(f'expected three leg lengths L_A L_B L_C, got {len(args.lengths)}')
-        result = fsd.forward_kinematics(model, args.lengths)
-        surge, heave, roll = (float(v) for v in result.pose)
-        print(f'surge={surge!r} heave={heave!r} roll={roll!r} status={result.status} '
-              f'residual={result.residual:.3g} iterations={result.iterations}'
-              + (f' detail={result.detail!r}' if result.detail else ''))
-        return 0 if result.status == fsd.Status.OK else 1
-    if args.lengths or args.output is None:
-        raise CliError('--csv takes no lengths on the command line, and needs -o OUTPUT')
-    table = csv_io.read_csv(args.csv, required=LENGTH_COLUMNS, allow_extra=True,
-                            text_columns=('status',))
-    rows, status = [], []
-    initial = (0.0, 0.0, 0.0)
-    for lengths in np.column_stack([table[n] for n in LENGTH_COLUMNS]):
-        result = fsd.forward_kinematics(model, lengths, initial)
-        if result.status != fsd.Status.OK:   # the next row starts again from the centre
-            result = fsd.forward_kinematics(model, lengths)
-        initial = tuple(result.pose) if result.status == fsd.Status.OK else (0.0, 0.0, 0.0)
-        rows.append(result.pose)
-        status.append(str(result.status))
-    extra = ['t'] if 't' in table.names else []
-    data = np.column_stack([table[n] for n in extra] + [np.array(rows)])
-    csv_io.write_csv(args.output, tuple(extra) + POSE_COLUMNS, data, text=('status', status))
-    bad = sum(s != 'ok' for s in status)
-    if bad:
-        print(f'warning: {table.path}: {bad} of {len(status)} rows have no pose '
-              '(status column)', file=sys.stderr)
+    write_table(args.output, names, data, text=('status', status))
     return 0
 
 
@@ -302,8 +236,8 @@ def cmd_forward(args: argparse.Namespace) -> int:
 # plot
 # ----------------------------------------------------------------------------
 def _configure_plot(p: argparse.ArgumentParser) -> None:
-    p.add_argument('input', metavar='OUT_CSV',
-                   help='output of solve (needs ' + ','.join(PLOT_COLUMNS) + ')')
+    p.add_argument('input', metavar='OUT_CSV_OR_NPZ',
+                   help='output of solve, CSV or .npz (needs ' + ','.join(PLOT_COLUMNS) + ')')
     p.add_argument('-o', '--output', required=True, metavar='IMAGE',
                    help='image to write; the format follows the extension (.png, .svg, .pdf)')
     p.add_argument('--title', default=None,
@@ -331,8 +265,11 @@ def cmd_plot(args: argparse.Namespace) -> int:
     plotting.output_format(args.output)      # fail before reading a large file
     if not 1 <= args.dpi <= 1200:
         raise CliError(f'--dpi must be between 1 and 1200, got {args.dpi}')
-    table = csv_io.read_csv(args.input, required=PLOT_COLUMNS, allow_extra=True,
-                            text_columns=('status',))
+    if npz_io.is_npz(args.input):
+        table = npz_io.read_npz(args.input, required=PLOT_COLUMNS)
+    else:
+        table = csv_io.read_csv(args.input, required=PLOT_COLUMNS, allow_extra=True,
+                                text_columns=('status',))
     force = np.column_stack([table[n] for n in _per_leg('force')])
     power = np.column_stack([table[n] for n in _per_leg('power')])
     title = args.title if args.title is not None else default_title(args.input)
@@ -359,6 +296,8 @@ def forward(command: str, argv: Sequence[str]) -> int:
         module = importlib.import_module(module_name)
     except ImportError as exc:
         missing = getattr(exc, 'name', None)
+        if needs_plot_extra(exc):
+            raise CliError(plot_extra_message(command)) from None
         if missing == module_name:
             raise CliError(f"'{command}' is not available in this installation "
                            f'(no module {module_name})') from None
@@ -374,10 +313,23 @@ def forward(command: str, argv: Sequence[str]) -> int:
     except KeyboardInterrupt:
         raise
     except Exception as exc:  # noqa: BLE001 - the module's own error: one line, exit 2
+        if needs_plot_extra(exc):
+            raise CliError(plot_extra_message(command)) from None
         if os.environ.get('FLIGHT_SIM_DYNAMICS_DEBUG'):
             raise
         raise CliError(f'{command}: {type(exc).__name__}: {exc}') from None
     return rc if isinstance(rc, int) else 0
+
+
+def needs_plot_extra(exc: BaseException) -> bool:
+    """Whether ``exc`` is matplotlib (the optional extra ``plot``) missing."""
+    name = getattr(exc, 'name', None) or ''
+    return isinstance(exc, ImportError) and name.split('.')[0] == 'matplotlib'
+
+
+def plot_extra_message(command: str) -> str:
+    """The one-line error of a subcommand run without matplotlib."""
+    return f"{command} needs matplotlib: pip install 'flight_sim_dynamics[plot]'"
 
 
 # ----------------------------------------------------------------------------
@@ -400,7 +352,7 @@ SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
     'plot': ('plot actuator forces and powers against time (like the paper\'s Figs. 3-8)',
              _configure_plot, cmd_plot),
     'forward': ('forward kinematics: the pose (surge, heave, roll) from three leg lengths',
-                _configure_forward, cmd_forward),
+                *_lazy('flight_sim_dynamics.cli.forward')),
     'bench': ('time per cycle against force error for every scene and single-effect variant, '
               'and the cost of estimating missing accelerations (writes scenes.md, scenes.png)',
               *_lazy('flight_sim_dynamics.cli.bench')),
@@ -465,6 +417,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f'error: {_one_line(_describe(exc))}', file=sys.stderr)
         return 2
     except Exception as exc:  # noqa: BLE001 - a bug: still one line, unless debugging
+        if needs_plot_extra(exc):       # plot, bench, workspace without the extra
+            print(f'error: {plot_extra_message(argv[0])}', file=sys.stderr)
+            return 2
         if os.environ.get('FLIGHT_SIM_DYNAMICS_DEBUG'):
             raise
         print(f'error: internal error ({type(exc).__name__}: {_one_line(exc)}); '
