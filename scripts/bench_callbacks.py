@@ -43,9 +43,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     from rclpy.serialization import serialize_message
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-    from flight_sim_dynamics.ros.node import DynamicsNode
-    from flight_sim_dynamics.ros.setpoints import (PLATFORM_DOF_NAMES, platform_setpoints,
-                                               read_joint_trajectory, rpy_to_quaternion)
+    from flight_sim_dynamics.ros.dynamics_node import DynamicsNode
+    from flight_sim_dynamics.ros.inputs import (PLATFORM_DOF_NAMES, platform_setpoints,
+                                                rpy_to_quaternion)
+    from flight_sim_dynamics.ros.wire import read_joint_trajectory
 
     q, qd, qdd = (0.01, 0.02, 0.02), (0.1, 0.05, 0.02), (0.2, 0.1, 0.05)
     pose, twist, accel = PoseStamped(), TwistStamped(), AccelStamped()

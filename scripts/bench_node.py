@@ -103,13 +103,16 @@ def ros_env(domain_id: int | None = None) -> dict[str, str]:
 
 
 def node_qos_depth(params_file: Path = PARAMS_FILE) -> int:
-    """``qos.depth`` of the node's parameter file (the node's default if absent)."""
+    """KEEP_LAST depth of the node's setpoints and outputs: its default QoS
+    (changed only by ``qos_overrides.*`` start-up parameters, which
+    ``params_file`` does not set: a params file with them is refused here)."""
     from flight_sim_dynamics.config import parameters as prm
-    from flight_sim_dynamics.ros.setpoints import NodeConfig
+    from flight_sim_dynamics.ros.dynamics_node import default_qos
 
-    values = prm.read_params_file(params_file) if params_file.is_file() else {}
-    return NodeConfig.from_values({k: v for k, v in values.items()
-                                   if k in NodeConfig._FIELDS}).qos_depth
+    if params_file.is_file() and any(k.startswith('qos_overrides.')
+                                     for k in prm.read_params_file(params_file)):
+        raise ValueError(f'{params_file} sets qos_overrides: pass --depth instead')
+    return default_qos().depth
 
 
 def node_command(executor: str = 'events', params_file: Path | None = PARAMS_FILE,
@@ -549,7 +552,7 @@ def drive_main(argv: Sequence[str]) -> int:
     from sensor_msgs.msg import JointState
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-    from flight_sim_dynamics.ros.setpoints import PLATFORM_DOF_NAMES, rpy_to_quaternion
+    from flight_sim_dynamics.ros.inputs import PLATFORM_DOF_NAMES, rpy_to_quaternion
 
     rate = args.rate
     n = int(round(args.seconds * rate))

@@ -25,7 +25,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import flight_sim_dynamics as fsd  # noqa: E402
 from flight_sim_dynamics.core.cueing import MOTIONS, duration, motion  # noqa: E402
-from flight_sim_dynamics.ros.setpoints import ESTIMATORS, DerivativeEstimator  # noqa: E402
+from flight_sim_dynamics.ros.estimator import ESTIMATORS, DerivativeEstimator  # noqa: E402
 
 STARTUP = 0.1  # s
 

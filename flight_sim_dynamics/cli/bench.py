@@ -52,7 +52,7 @@ import flight_sim_dynamics as fsd
 from ..core import kernel
 from ..core.cueing import step_sequence
 from ..core.model import Model
-from ..ros.setpoints import ESTIMATORS, DerivativeEstimator
+from ..ros.estimator import ESTIMATORS, DerivativeEstimator
 from ..core.trajectories import DURATION as PAPER_DURATION
 from ..core.trajectories import PAPER_EXAMPLES, paper_example
 

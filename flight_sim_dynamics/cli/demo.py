@@ -31,7 +31,7 @@ from sensor_msgs.msg import JointState
 from ..core.cueing import MOTIONS, PlannerSequence
 from ..config.parameters import default_params_path
 from ..ros.planner import PlannerNode, setpoint_qos, spin_until
-from ..ros.setpoints import LEVEL_NAMES
+from ..ros.diagnostics import LEVEL_NAMES
 
 
 class Monitor(Node):

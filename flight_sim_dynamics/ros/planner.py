@@ -27,7 +27,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.time import Time
 
 from ..core.cueing import MOTIONS, PlannerSequence
-from .setpoints import rpy_to_quaternion
+from .inputs import rpy_to_quaternion
 
 ALL = 'all'
 CHOICES = (*MOTIONS, ALL)
