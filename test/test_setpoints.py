@@ -486,3 +486,19 @@ def test_planner_sequence_continuous():
     assert not seq.finished(100.0)
     once = PlannerSequence(['general'])
     assert once.period == 3.0 and once.finished(3.01) and not once.finished(3.0)
+
+
+def test_setpoint_helpers_do_not_import_rclpy():
+    """The rclpy-free modules of the ROS adapter stay importable (and
+    testable) without rclpy."""
+    import subprocess
+    import sys
+    from pathlib import Path
+    modules = ['inputs', 'synchroniser', 'estimator', 'diagnostics', 'node_config',
+               'descriptors', 'cycle']
+    code = ('import sys\n' + ''.join(f'import flight_sim_dynamics.ros.{m}\n' for m in modules)
+            + "print(sorted(m for m in sys.modules if m.split('.')[0] == 'rclpy'))")
+    root = Path(__file__).resolve().parent.parent
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                         check=True, cwd=root)
+    assert out.stdout.strip() == '[]'

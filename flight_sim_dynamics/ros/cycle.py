@@ -3,7 +3,7 @@ numbers to publish and what they mean for the diagnostics.
 
 :func:`rates_of` fills in the rates and accelerations a planner did not send,
 :func:`solve_setpoint` is the one place where the node calls the solver (the
-paper's inverse kinematics and dynamics, eqs. (1)-(43), through
+paper's inverse kinematics and dynamics, eqs. 5-23, through
 :func:`flight_sim_dynamics.solve`), :func:`outputs_of` checks the solution
 before anything is published, :func:`assess` does the bookkeeping that only
 feeds the diagnostics. :class:`Runtime` is what a cycle reads from the
