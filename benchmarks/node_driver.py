@@ -28,7 +28,7 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from flight_sim_dynamics.ros.node import make_executor, spin
-from flight_sim_dynamics.ros.setpoints import PLATFORM_DOF_NAMES, rpy_to_quaternion
+from flight_sim_dynamics.ros.inputs import PLATFORM_DOF_NAMES, rpy_to_quaternion
 
 from .node_stream import LEG_NAMES, SETPOINT_INPUTS, STAMP_BASE_S, stream_motion
 

@@ -24,7 +24,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from flight_sim_dynamics.config.files import read_params_file
-from flight_sim_dynamics.config.parameters import SPECS
+from flight_sim_dynamics.ros.dynamics_node import default_qos
 from flight_sim_dynamics.core.motions import PlannerSequence
 from flight_sim_dynamics.ros.process import start_node, stop_node
 
@@ -64,9 +64,13 @@ def ros_env(domain_id: int | None = None) -> dict[str, str]:
 
 
 def node_qos_depth(params_file: Path = PARAMS_FILE) -> int:
-    """``qos.depth`` of the node's parameter file (the schema's default if absent)."""
-    values = read_params_file(params_file) if params_file.is_file() else {}
-    return int(values.get('qos.depth', SPECS['qos.depth'].default))
+    """KEEP_LAST depth of the node's setpoints and outputs: its default QoS
+    (changed only by ``qos_overrides.*`` start-up parameters, which
+    ``params_file`` must not set: a params file with them is refused here)."""
+    if params_file.is_file() and any(k.startswith('qos_overrides.')
+                                     for k in read_params_file(params_file)):
+        raise ValueError(f'{params_file} sets qos_overrides: pass --depth instead')
+    return default_qos().depth
 
 
 #: How the profiled node is launched: cProfile around the node's ``main``.

@@ -4,7 +4,8 @@
   separate process, as a user starts it (``ros.process.start_node``), and
   always stops it.
 * :class:`Client` is the test's own ROS 2 participant (its own rclpy
-  context): setpoint publishers, output subscriptions, parameter-service
+  context): setpoint publishers and output subscriptions (QoS :data:`QOS`
+  unless told otherwise), parameter-service
   clients, and waits with deadlines (never blind sleeps).
 """
 from __future__ import annotations
@@ -31,8 +32,8 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 import flight_sim_dynamics as fsd
+from flight_sim_dynamics.ros.inputs import PLATFORM_DOF_NAMES, rpy_to_quaternion
 from flight_sim_dynamics.ros.process import node_command, start_node, stop_node
-from flight_sim_dynamics.ros.setpoints import PLATFORM_DOF_NAMES, rpy_to_quaternion
 
 ROOT = Path(__file__).resolve().parent.parent
 PARAMS_FILE = ROOT / 'config' / 'flight_sim_dynamics.yaml'
@@ -82,7 +83,8 @@ class NodeProcess:
 class Client:
     """The test's own ROS 2 participant."""
 
-    def __init__(self, name: str = 'node_test_client', namespace: str = '') -> None:
+    def __init__(self, name: str = 'node_test_client', namespace: str = '',
+                 qos: QoSProfile = QOS) -> None:
         self.context = Context()
         rclpy.init(context=self.context)
         self.node = rclpy.create_node(name, namespace=namespace, context=self.context)
@@ -93,17 +95,17 @@ class Client:
         self.executor = EventsExecutor(context=self.context)
         self.executor.add_node(self.node)
         n = self.node
-        self.pose_pub = n.create_publisher(PoseStamped, 'pose_setpoint', QOS)
-        self.twist_pub = n.create_publisher(TwistStamped, 'twist_setpoint', QOS)
-        self.accel_pub = n.create_publisher(AccelStamped, 'accel_setpoint', QOS)
-        self.platform_pub = n.create_publisher(JointTrajectory, 'platform_setpoint', QOS)
+        self.pose_pub = n.create_publisher(PoseStamped, 'pose_setpoint', qos)
+        self.twist_pub = n.create_publisher(TwistStamped, 'twist_setpoint', qos)
+        self.accel_pub = n.create_publisher(AccelStamped, 'accel_setpoint', qos)
+        self.platform_pub = n.create_publisher(JointTrajectory, 'platform_setpoint', qos)
         self.actuator: list[tuple[float, JointState]] = []
         self.joints: list[JointState] = []
         self.diagnostics: list[DiagnosticArray] = []
         self.actuator_sub = n.create_subscription(
             JointState, 'actuator_states', lambda m: self.actuator.append((time.monotonic(), m)),
-            QOS)
-        self.joint_sub = n.create_subscription(JointState, 'joint_states', self.joints.append, QOS)
+            qos)
+        self.joint_sub = n.create_subscription(JointState, 'joint_states', self.joints.append, qos)
         self.diag_sub = n.create_subscription(DiagnosticArray, '/diagnostics',
                                               self.diagnostics.append, 10)
         target = f'{namespace.rstrip("/")}/{NODE_NAME}' if namespace else NODE_NAME

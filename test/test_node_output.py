@@ -13,7 +13,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 
 from flight_sim_dynamics.core.model import JOINT_NAMES, LEG_NAMES
-from flight_sim_dynamics.ros.node import JointStateOutput
+from flight_sim_dynamics.ros.wire import JointStateOutput
 
 
 def expected(names, frame, sec, nanosec, arrays) -> JointState:
@@ -89,8 +89,8 @@ def test_fallback_field_extraction_matches_the_reader():
     its fields taken from the message: the same numbers as the reader's."""
     from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 
-    from flight_sim_dynamics.ros.node import _pose_fields, _rate_fields
-    from flight_sim_dynamics.ros.setpoints import read_pose_stamped, read_twist_stamped
+    from flight_sim_dynamics.ros.wire import _pose_fields, _rate_fields
+    from flight_sim_dynamics.ros.wire import read_pose_stamped, read_twist_stamped
 
     pose = PoseStamped()
     pose.header.stamp.sec, pose.header.stamp.nanosec = 12, 34

@@ -15,12 +15,14 @@ import numpy as np
 import pytest
 from rcl_interfaces.msg import ParameterType
 from rcl_interfaces.srv import DescribeParameters, ListParameters
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.core.model import JOINT_NAMES, LEG_NAMES
 from flight_sim_dynamics.core.trajectories import paper_example
+from flight_sim_dynamics.ros.dynamics_node import default_qos
 from node_harness import ROOT, Client, NodeProcess, stamp_ns
 
 Q, QD, QDD = (v[0] for v in paper_example('general', np.array([0.8])))
@@ -97,10 +99,12 @@ def test_list_and_describe_every_parameter(client):
 
 def test_get_defaults_without_params_file(client):
     values = client.get_params(['geometry.d1', 'bodies.rod.mass', 'bodies.rod.com',
-                                'qos.depth', 'qos.reliability', 'estimator.method'])
+                                qos_parameter('actuator_states', 'depth'),
+                                qos_parameter('actuator_states', 'reliability'),
+                                'estimator.method'])
     assert values[0] == 0.4 and values[1] == 1.5
     assert list(values[2]) == [0.7, 0.0, 0.0]
-    assert values[3] == prm.SPECS['qos.depth'].default
+    assert values[3] == default_qos().depth
     assert values[4] == 'reliable'
     np.testing.assert_allclose(answer(client), forces_with(), rtol=0, atol=1e-9)
 
@@ -128,8 +132,11 @@ def test_accepted_set_takes_effect_at_next_cycle(client):
     ('bodies.rod.com', [0.1, 0.2], 'expected 3 numbers'),
     ('gravity', math.nan, ''),
     ('limits.stroke_min', 0.7, 'must be < limits.stroke_max'),
-    ('qos.reliability', 'sometimes', 'must be one of'),
-    ('qos.depth', 0, ''),
+    # QoS: rclpy's read-only start-up overrides (bad values at start-up:
+    # test_invalid_qos_override_refuses_to_start)
+    (f'qos_overrides.{NAMESPACE}/actuator_states.publisher.reliability', 'best_effort',
+     'read-only'),
+    (f'qos_overrides.{NAMESPACE}/pose_setpoint.subscription.depth', 50, 'read-only'),
 ])
 def test_rejected_set_keeps_old_model(client, name, value, reason):
     before = client.get_params([name])
@@ -230,35 +237,98 @@ def test_frame_id_change_applies_to_the_reused_outputs(client):
                                        atol=1e-9)
 
 
-def test_qos_change_recreates_the_endpoints(client):
-    """best_effort outputs do not match our reliable subscription: the
-    publisher disappears for us; back to reliable, it is there again."""
-    [result] = client.set_params({'qos.reliability': 'best_effort'})
-    assert result.successful, result.reason
-    assert client.spin_until(lambda: client.actuator_sub.get_publisher_count() == 0, 5.0)
-    [result] = client.set_params({'qos.reliability': 'reliable', 'qos.depth': 50}, atomic=True)
-    assert result.successful, result.reason
-    assert client.spin_until(lambda: client.actuator_sub.get_publisher_count() > 0
-                             and client.pose_pub.get_subscription_count() > 0, 5.0)
-    assert client.spin_until(lambda: client.twist_pub.get_subscription_count() > 0
-                             and client.accel_pub.get_subscription_count() > 0, 5.0)
-    # These counts do not prove that our writers matched the node's *new*
-    # readers: its old best_effort readers matched our reliable writers too, and
-    # their removal and the new readers' arrival are seen one after the other.
-    # A volatile sample written before the match never reaches the new reader,
-    # so a setpoint is resent, with a fresh stamp, until one is answered.
-    sent = []
-    for _ in range(20):
-        n = len(client.actuator)
-        sent.append(Stamp.next())
-        client.send(sent[-1], Q, QD, QDD, order='tap')
-        if client.wait_actuator(n + 1, timeout=0.5):
-            break
-    assert len(client.actuator) > n, f'none of {len(sent)} setpoints answered'
-    msg = client.actuator[-1][1]
-    assert stamp_ns(msg) in sent
-    # and the node answers every setpoint from now on, the same forces
-    np.testing.assert_allclose(answer(client), msg.effort, rtol=0, atol=0)
+def qos_parameter(topic: str, policy: str, namespace: str = NAMESPACE) -> str:
+    """rclpy's QoS override parameter of one of the node's endpoints."""
+    kind = 'publisher' if topic in OUTPUTS else 'subscription'
+    return f'qos_overrides.{namespace}/{topic}.{kind}.{policy}'
+
+
+OUTPUTS = ('actuator_states', 'joint_states')
+SETPOINTS = ('pose_setpoint', 'twist_setpoint', 'accel_setpoint', 'platform_setpoint')
+
+
+def test_default_qos_is_reliable_and_deep():
+    qos = default_qos()
+    assert qos.reliability == ReliabilityPolicy.RELIABLE and qos.depth >= 100
+    assert qos.history == HistoryPolicy.KEEP_LAST
+    assert qos.durability == DurabilityPolicy.VOLATILE
+
+
+def test_qos_overrides_declared_read_only_for_every_endpoint(client):
+    """Each setpoint subscription and output publisher has rclpy's read-only
+    history, depth and reliability parameters, at the default profile."""
+    names = [qos_parameter(topic, policy) for topic in OUTPUTS + SETPOINTS
+             for policy in ('history', 'depth', 'reliability')]
+    values = client.get_params(names)
+    assert values == ['keep_last', default_qos().depth, 'reliable'] * 6
+    response = client.call('describe', DescribeParameters.Request(names=names))
+    assert all(d.read_only for d in response.descriptors)
+    listed = client.call('list', ListParameters.Request(depth=0)).result.names
+    assert not [n for n in listed if n.startswith('qos.')]          # the old names are gone
+
+
+def test_best_effort_override_at_startup_over_dds():
+    """A node started with best_effort overrides answers a best_effort
+    planner (a best_effort writer matches only a best_effort reader), and its
+    best_effort outputs do not match a reliable subscription."""
+    namespace = '/be'
+    overrides = [arg for topic in OUTPUTS + SETPOINTS for arg in
+                 ('-p', qos_parameter(topic, 'reliability', namespace) + ':=best_effort')]
+    typos = ['geometry.d7', qos_parameter('actuator_state', 'depth', namespace),
+             qos_parameter('pose_setpoint', 'durability', namespace)]    # not overridable
+    proc = NodeProcess('-r', f'__ns:={namespace}', *overrides,
+                       '-p', qos_parameter('pose_setpoint', 'depth', namespace) + ':=50',
+                       *[arg for name in typos for arg in ('-p', f'{name}:=5')])
+    best_effort = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=2000,
+                             reliability=ReliabilityPolicy.BEST_EFFORT,
+                             durability=DurabilityPolicy.VOLATILE)
+    c = Client('best_effort_client', namespace=namespace, qos=best_effort)
+    reliable = Client('reliable_client', namespace=namespace)
+    try:
+        c.wait_for_node(proc)
+        assert c.get_params([qos_parameter('pose_setpoint', 'reliability', namespace),
+                             qos_parameter('pose_setpoint', 'depth', namespace),
+                             qos_parameter('twist_setpoint', 'depth', namespace)]) \
+            == ['best_effort', 50, default_qos().depth]
+        assert c.spin_until(lambda: c.actuator_sub.get_publisher_count() > 0, 5.0)
+        # a reliable reader does not match the node's best_effort writer
+        # (a reliable writer matches the node's best_effort reader: discovery done)
+        assert reliable.spin_until(lambda: reliable.pose_pub.get_subscription_count() > 0, 5.0)
+        assert reliable.actuator_sub.get_publisher_count() == 0
+        # best effort may drop a sample: resend with fresh stamps until answered
+        expected = fsd.solve(fsd.load_model(), Q, QD, QDD).force     # the packaged file
+        for _ in range(20):
+            stamp = Stamp.next()
+            c.send(stamp, Q, QD, QDD, order='tap')
+            if c.wait_actuator(1, timeout=0.5):
+                break
+        assert c.actuator, 'no setpoint answered over best_effort'
+        np.testing.assert_allclose(c.actuator[-1][1].effort, expected, rtol=0, atol=1e-9)
+        assert 'best_effort keep_last 50' in proc.output()         # the start-up log says so
+        # unknown parameters are reported, and not declared
+        assert 'ignoring unknown parameters (typo?): ' + ', '.join(sorted(typos)) \
+            in proc.output()
+        listed = c.call('list', ListParameters.Request(depth=0)).result.names
+        assert not set(typos) & set(listed)
+    finally:
+        c.close()
+        reliable.close()
+        assert proc.stop() == 0
+
+
+@pytest.mark.parametrize('override, message', [
+    ('qos_overrides./actuator_states.publisher.reliability:=sometimes', 'sometimes'),
+    ('qos_overrides./pose_setpoint.subscription.depth:=0', 'depth must be >= 1'),
+    ('qos_overrides./pose_setpoint.subscription.reliability:=system_default',
+     'reliability must be reliable or best_effort'),
+])
+def test_invalid_qos_override_refuses_to_start(override, message):
+    proc = subprocess.run([sys.executable, '-m', 'flight_sim_dynamics.ros.node',
+                           '--ros-args', '-p', override],
+                          cwd=ROOT, capture_output=True, text=True, timeout=30)
+    assert proc.returncode == 2, proc.stderr + proc.stdout
+    assert 'invalid QoS override' in proc.stderr + proc.stdout
+    assert message in proc.stderr + proc.stdout
 
 
 def test_invalid_params_file_refuses_to_start(tmp_path):

@@ -1,7 +1,8 @@
-"""Unit tests of the rclpy-free setpoint helpers (flight_sim_dynamics.setpoints)
+"""Unit tests of the rclpy-free setpoint helpers (flight_sim_dynamics.ros.*)
 and of the planner motions (flight_sim_dynamics.core.motions)."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -14,16 +15,17 @@ from flight_sim_dynamics.core.model import Limits
 from flight_sim_dynamics.core.motions import PLANNER_MOTIONS as MOTIONS
 from flight_sim_dynamics.core.motions import (CUEING_DURATION, PlannerSequence, motion,
                                               motion_cueing)
-from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION,
-                                           DUPLICATE, ERROR, LATE, NO_POSE, NON_FINITE, OK,
-                                           OVERFLOW, PITCH, POSE, STAMP_BACKWARDS,
-                                           STAMP_REPEATED, SWAY, TWIST, WARN, YAW,
-                                           CycleStats, DerivativeEstimator, LogThrottle,
-                                           NodeConfig, SetpointError, StampSynchroniser,
-                                           backward_derivative, check_acceleration,
-                                           check_limits, pose_input, quaternion_to_rpy,
-                                           rate_input, rpy_to_quaternion, unfollowable,
-                                           wrap_angle)
+from flight_sim_dynamics.ros.diagnostics import (ERROR, OK, WARN, CycleStats, LogThrottle,
+                                                 check_limits)
+from flight_sim_dynamics.ros.estimator import DerivativeEstimator, backward_derivative
+from flight_sim_dynamics.ros.inputs import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION, DUPLICATE,
+                                            LATE, NON_FINITE, NO_POSE, OVERFLOW, PITCH, POSE,
+                                            STAMP_BACKWARDS, STAMP_REPEATED, SWAY, TWIST, YAW,
+                                            SetpointError, check_acceleration, pose_input,
+                                            quaternion_to_rpy, rate_input, rpy_to_quaternion,
+                                            unfollowable, wrap_angle)
+from flight_sim_dynamics.ros.node_config import NodeConfig, field_name
+from flight_sim_dynamics.ros.synchroniser import StampSynchroniser
 
 angles = st.floats(-math.pi + 1e-6, math.pi - 1e-6)
 
@@ -379,7 +381,16 @@ def test_estimator_unwraps_roll():
 # ----------------------------------------------------------------------------
 def test_node_config_matches_schema_and_checks_relations():
     config = NodeConfig.from_values({})
-    assert config.qos_reliability == 'reliable' and config.qos_depth >= 100
+    # (the QoS default, reliable and deep, moved to test_node_params.py:
+    # test_default_qos_is_reliable_and_deep; qos.* are rclpy's qos_overrides now)
+    # one field per node parameter, derived from the schema, at its default
+    assert [f.name for f in dataclasses.fields(NodeConfig)] \
+        == [field_name(spec.name) for spec in prm.NODE_PARAMETERS]
+    for spec in prm.NODE_PARAMETERS:
+        assert getattr(config, field_name(spec.name)) == spec.default, spec.name
+    with pytest.raises(prm.ParameterError, match='not a node parameter'):
+        NodeConfig.from_values({'qos.depth': 10})
+    assert NodeConfig.from_values({'sync.max_pending': 7}).sync_max_pending == 7
     with pytest.raises(prm.ParameterError) as info:   # limits are model parameters now
         prm.validate({'limits.stroke_min': 0.7}, require_all=False)
     assert info.value.key == 'limits.stroke_min'
@@ -476,3 +487,19 @@ def test_planner_sequence_continuous():
     assert not seq.finished(100.0)
     once = PlannerSequence(['general'])
     assert once.period == 3.0 and once.finished(3.01) and not once.finished(3.0)
+
+
+def test_setpoint_helpers_do_not_import_rclpy():
+    """The rclpy-free modules of the ROS adapter stay importable (and
+    testable) without rclpy."""
+    import subprocess
+    import sys
+    from pathlib import Path
+    modules = ['inputs', 'synchroniser', 'estimator', 'diagnostics', 'node_config',
+               'descriptors', 'cycle']
+    code = ('import sys\n' + ''.join(f'import flight_sim_dynamics.ros.{m}\n' for m in modules)
+            + "print(sorted(m for m in sys.modules if m.split('.')[0] == 'rclpy'))")
+    root = Path(__file__).resolve().parent.parent
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                         check=True, cwd=root)
+    assert out.stdout.strip() == '[]'

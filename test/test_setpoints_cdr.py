@@ -12,8 +12,8 @@ import pytest
 from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rclpy.serialization import serialize_message
 
-from flight_sim_dynamics.ros.setpoints import (CDR_LE, StampedReader, read_pose_stamped,
-                                           read_twist_stamped)
+from flight_sim_dynamics.ros.wire import (CDR_LE, StampedReader, read_pose_stamped,
+                                          read_twist_stamped)
 
 SPECIAL = (0.0, -0.0, 1e-300, -1e300, math.inf, -math.inf, math.nan, 5e-324)
 

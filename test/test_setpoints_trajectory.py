@@ -14,13 +14,13 @@ from hypothesis import strategies as st
 from rclpy.serialization import deserialize_message, serialize_message
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, BAD_SETPOINT, CDR_LE, ERROR,
-                                           NON_FINITE, PLATFORM, PLATFORM_DOF_NAMES,
-                                           STAMP_BACKWARDS, STAMP_REPEATED, CycleStats,
-                                           PlatformPoint, SetpointError, Trajectory,
-                                           TrajectoryPoint, TrajectoryReader,
-                                           platform_dof_order, platform_setpoints,
-                                           read_joint_trajectory)
+from flight_sim_dynamics.ros.diagnostics import ERROR, CycleStats
+from flight_sim_dynamics.ros.inputs import (ABSURD_ACCELERATION, BAD_SETPOINT, NON_FINITE,
+                                            PLATFORM, PLATFORM_DOF_NAMES, STAMP_BACKWARDS,
+                                            STAMP_REPEATED, PlatformPoint, SetpointError,
+                                            Trajectory, TrajectoryPoint, platform_dof_order,
+                                            platform_setpoints)
+from flight_sim_dynamics.ros.wire import CDR_LE, TrajectoryReader, read_joint_trajectory
 
 INT32 = st.integers(-2 ** 31, 2 ** 31 - 1)
 UINT32 = st.integers(0, 2 ** 32 - 1)
@@ -60,7 +60,7 @@ def message(frame: str, sec: int, nanosec: int, names: list[str],
 
 def fields_of(msg: JointTrajectory) -> Trajectory:
     """The fields the reader must return, from the message object."""
-    from flight_sim_dynamics.ros.node import _trajectory_fields
+    from flight_sim_dynamics.ros.wire import _trajectory_fields
     return _trajectory_fields(msg)
 
 

@@ -6,7 +6,7 @@ the estimator study and interleaved timing (no report, no plot).
 * force errors against ``full`` on the test motions (the paper's three, eq. 6,
   and ``violent``: :data:`flight_sim_dynamics.core.motions.TEST_MOTIONS`);
 * the cost of missing accelerations (and twists): the node's
-  :class:`~flight_sim_dynamics.ros.setpoints.DerivativeEstimator` fed the
+  :class:`~flight_sim_dynamics.ros.estimator.DerivativeEstimator` fed the
   exact samples (:func:`estimator_cases`; ``python -m benchmarks.estimation``
   runs the same study on other motions and rates);
 * timing: cases interleaved call by call in an order shuffled anew for each
@@ -31,7 +31,7 @@ from ..config.scenes import available_scenes, load_scene
 from ..core.model import Model
 from ..core.motions import TEST_MOTIONS as MOTIONS
 from ..core.motions import duration, motion, sample_times
-from ..ros.setpoints import ESTIMATORS, DerivativeEstimator
+from ..ros.estimator import ESTIMATORS, DerivativeEstimator
 
 # ----------------------------------------------------------------------------
 # Variants

@@ -29,8 +29,8 @@ from ..core.motions import PLANNER_MOTIONS as MOTIONS
 from ..core.motions import PlannerSequence
 from ..config.parameters import default_params_path
 from ..ros.planner import PlannerNode, setpoint_qos, spin_until
+from ..ros.diagnostics import LEVEL_NAMES
 from ..ros.process import start_node, stop_node
-from ..ros.setpoints import LEVEL_NAMES
 
 
 class Monitor(Node):

@@ -226,13 +226,8 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'a gap between setpoint stamps longer than this restarts the estimator '
               '(motion assumed to start from rest)', 's',
               minimum=0.0, exclusive_minimum=True, maximum=3600.0),
-    # Quality of service of setpoints and outputs (re-created on change).
-    ParamSpec('qos.depth', 'integer', 1000,
-              'history depth (KEEP_LAST) of the setpoint subscriptions and output publishers',
-              'messages', minimum=1, maximum=100000),
-    ParamSpec('qos.reliability', 'string', 'reliable',
-              'reliability of the setpoint subscriptions and output publishers: reliable or '
-              'best_effort', '', choices=('reliable', 'best_effort')),
+    # (QoS: rclpy's read-only qos_overrides.<topic>.* parameters, declared by
+    # the node's endpoints; docs/node.md.)
     # Diagnostics and logging.
     ParamSpec('diagnostics.period', 'double', 1.0,
               'period of the /diagnostics message', 's',

@@ -28,7 +28,7 @@ from rclpy.time import Time
 
 from ..core.motions import PLANNER_MOTIONS as MOTIONS
 from ..core.motions import PlannerSequence
-from .setpoints import rpy_to_quaternion
+from .inputs import rpy_to_quaternion
 
 ALL = 'all'
 CHOICES = (*MOTIONS, ALL)
