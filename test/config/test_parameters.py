@@ -9,7 +9,7 @@ import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import parameters
 from flight_sim_dynamics.config.parameters import ParameterError
 
-CONFIG = Path(__file__).resolve().parent.parent / 'config' / 'flight_sim_dynamics.yaml'
+CONFIG = Path(__file__).resolve().parents[2] / 'config' / 'flight_sim_dynamics.yaml'
 
 
 def _write(tmp_path, tree):

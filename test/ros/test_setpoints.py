@@ -499,7 +499,7 @@ def test_setpoint_helpers_do_not_import_rclpy():
                'descriptors', 'cycle']
     code = ('import sys\n' + ''.join(f'import flight_sim_dynamics.ros.{m}\n' for m in modules)
             + "print(sorted(m for m in sys.modules if m.split('.')[0] == 'rclpy'))")
-    root = Path(__file__).resolve().parent.parent
+    root = Path(__file__).resolve().parents[2]
     out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                          check=True, cwd=root)
     assert out.stdout.strip() == '[]'

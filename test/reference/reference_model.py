@@ -78,7 +78,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-DEFAULT_PARAMS_PATH = Path(__file__).resolve().parents[1] / "config" / "flight_sim_dynamics.yaml"
+DEFAULT_PARAMS_PATH = Path(__file__).resolve().parents[2] / "config" / "flight_sim_dynamics.yaml"
 
 BODY_NAMES = (
     "cylinder_a", "piston_a", "rod", "platform",

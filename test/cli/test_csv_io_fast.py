@@ -30,7 +30,7 @@ from flight_sim_dynamics.cli import main as cli
 from flight_sim_dynamics.cli import csv_io
 from flight_sim_dynamics.cli.csv_io import TRAJECTORY_COLUMNS
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 MODEL = fsd.load_model()
 
 

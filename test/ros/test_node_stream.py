@@ -19,7 +19,6 @@ import flight_sim_dynamics as fsd
 from flight_sim_dynamics.core.model import JOINT_NAMES, LEG_NAMES
 from flight_sim_dynamics.core.trajectories import paper_example
 from node_harness import Client, all_finite, stamp_ns
-from node_harness import client, model, node  # noqa: F401 - module fixtures
 
 RATE = 200.0
 T0_NS = 1_700_000_000 * 1_000_000_000   # stamps: a fixed epoch, 5 ms apart

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 EXTRA_HINT = "needs matplotlib: pip install 'flight_sim_dynamics[plot]'"
 
 # Block matplotlib, run the command line with the given argv, then report

@@ -22,7 +22,7 @@ from flight_sim_dynamics.cli import csv_io
 from flight_sim_dynamics.cli.csv_io import TRAJECTORY_COLUMNS
 from flight_sim_dynamics.core.trajectories import PAPER_EXAMPLES, paper_example, sample_times
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 MODEL = fsd.load_model()
 HEADER = ','.join(TRAJECTORY_COLUMNS)
 REQUIRED_OUTPUT = ('t,length_a,length_b,length_c,stroke_a,stroke_b,stroke_c,rate_a,rate_b,'

@@ -17,7 +17,6 @@ import time
 from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
 
-import pytest
 import rclpy
 import rclpy.task
 from diagnostic_msgs.msg import DiagnosticArray
@@ -35,7 +34,7 @@ import flight_sim_dynamics as fsd
 from flight_sim_dynamics.ros.inputs import PLATFORM_DOF_NAMES, rpy_to_quaternion
 from flight_sim_dynamics.ros.process import node_command, start_node, stop_node
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 PARAMS_FILE = ROOT / 'config' / 'flight_sim_dynamics.yaml'
 NODE_NAME = 'flight_sim_dynamics'
 
@@ -298,38 +297,3 @@ def stamp_ns(msg: Any) -> int:
 
 def all_finite(msg: JointState) -> bool:
     return all(math.isfinite(v) for arr in (msg.position, msg.velocity, msg.effort) for v in arr)
-
-
-# ---------------------------------------------------------------------------
-# Module fixtures shared by the node test modules (import them by name):
-# the node started as a user starts it, a client on its topics, the model.
-# ---------------------------------------------------------------------------
-@pytest.fixture(scope='module')
-def node():
-    """The node as a user starts it (packaged params file), with a faster
-    diagnostics period (the tests wait for it) and a longer ``sync.wait``.
-
-    With the packaged 0.05 s, a twist or acceleration that the shared host
-    delays by more than 50 ms after its pose is, by design, replaced by an
-    estimate (and counted ``late``): the exact-answer tests then fail on the
-    estimate (seen at 20-28 % hypervisor steal). 0.5 s keeps the design and
-    leaves only stalls ten times longer to chance."""
-    proc = NodeProcess('-p', 'diagnostics.period:=0.25', '-p', 'sync.wait:=0.5',
-                       params_file=PARAMS_FILE)
-    yield proc
-    proc.stop()
-
-
-@pytest.fixture(scope='module')
-def client(node):
-    c = Client()
-    try:
-        c.wait_for_node(node)
-        yield c
-    finally:
-        c.close()
-
-
-@pytest.fixture(scope='module')
-def model():
-    return fsd.load_model(PARAMS_FILE)

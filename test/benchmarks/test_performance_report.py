@@ -18,7 +18,7 @@ import pytest
 from benchmarks import node_stream as bench_node
 from benchmarks import performance
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 #: latency medians / p99 (ms) and steal (%) of each synthetic stream, by round
 #: and target; round 2 is the calm one.
