@@ -31,6 +31,7 @@ from . import csv_io, npz_io
 from .common import CliError, load_model, write_table
 from .csv_io import TRAJECTORY_COLUMNS, CsvError
 from ..core.model import JOINT_NAMES
+from ..core.trajectories import DURATION, PAPER_EXAMPLES, paper_example, sample_times
 
 PROG = 'flight-sim-dynamics'
 DEFAULT_RATE_HZ = 100.0
@@ -68,8 +69,6 @@ class _Parser(argparse.ArgumentParser):
 # example
 # ----------------------------------------------------------------------------
 def _configure_example(p: argparse.ArgumentParser) -> None:
-    from ..core.trajectories import PAPER_EXAMPLES
-
     p.add_argument('name', choices=tuple(PAPER_EXAMPLES),
                    help='which of the paper\'s three motions (eq. 6): vertical (Figs. 3-4), '
                         'rectilinear (Figs. 5-6), general (Figs. 7-8)')
@@ -82,8 +81,6 @@ def _configure_example(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_example(args: argparse.Namespace) -> int:
-    from ..core.trajectories import DURATION, paper_example, sample_times
-
     rate = args.rate
     if not (math.isfinite(rate) and rate > 0):
         raise CliError(f'--rate must be a positive number of Hz, got {rate:g}')

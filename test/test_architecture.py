@@ -1,0 +1,134 @@
+"""The structure the README's layout section promises, checked on the source:
+which subpackage may import which, rclpy only in the ROS adapter, no import
+cycles, no function-level imports of the package's own modules, no module
+over 500 lines, no sys.path edits anywhere in the repository."""
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGE = ROOT / 'flight_sim_dynamics'
+MODULES = sorted(p for p in PACKAGE.rglob('*.py'))
+
+#: subpackage -> the package's subpackages it may import (besides itself)
+ALLOWED = {
+    'core': set(),
+    'config': {'core'},
+    'ros': {'core', 'config'},
+    'cli': {'core', 'config', 'ros'},
+}
+#: modules of ros/ that talk to rclpy (the rest of ros/ is plain Python)
+RCLPY_MODULES = {'ros/dynamics_node.py', 'ros/node.py', 'ros/planner.py', 'ros/wire.py',
+                 'cli/demo.py'}
+MAX_LINES = 500
+#: modules that import matplotlib (an optional extra): imported lazily, by the
+#: commands that plot, so that nothing else ever needs matplotlib
+LAZY = {'flight_sim_dynamics.cli.plotting', 'flight_sim_dynamics.cli.workspace_map',
+        'flight_sim_dynamics.cli.bench_report'}
+
+
+def module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT).with_suffix('').parts
+    return '.'.join(parts[:-1] if parts[-1] == '__init__' else parts)
+
+
+def imports(path: Path) -> list[tuple[str, bool]]:
+    """(absolute module imported, at module level?) for every import in ``path``."""
+    tree = ast.parse(path.read_text())
+    here = module_name(path).split('.')
+    if path.name != '__init__.py':
+        here = here[:-1]
+    nested = {id(inner) for outer in ast.walk(tree)
+              if isinstance(outer, (ast.FunctionDef, ast.AsyncFunctionDef))
+              for inner in ast.walk(outer)}
+    top_level = {id(node) for node in ast.walk(tree) if id(node) not in nested}
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found += [(alias.name, id(node) in top_level) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = here[:len(here) - node.level + 1]
+                target = '.'.join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ''
+            found.append((target, id(node) in top_level))
+            found += [(f'{target}.{alias.name}', id(node) in top_level) for alias in node.names]
+    return found
+
+
+def subpackage(name: str) -> str | None:
+    parts = name.split('.')
+    return parts[1] if len(parts) > 1 and parts[0] == 'flight_sim_dynamics' else None
+
+
+@pytest.mark.parametrize('path', MODULES, ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_imports_follow_the_layers(path):
+    own = subpackage(module_name(path))
+    if own not in ALLOWED:
+        return  # the package's __init__/__main__ re-export the public API
+    rel = str(path.relative_to(PACKAGE))
+    for target, _ in imports(path):
+        other = subpackage(target)
+        if other in ALLOWED and other != own:
+            assert other in ALLOWED[own], f'{rel} imports {target}: {own}/ may not import {other}/'
+        if target.split('.')[0] == 'rclpy':
+            assert rel in RCLPY_MODULES, f'{rel} imports rclpy'
+
+
+@pytest.mark.parametrize('path', MODULES, ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_no_function_level_imports_of_the_package(path):
+    """A function-level import of the package's own modules is how cycles get
+    hidden; only optional heavy dependencies (matplotlib) are imported lazily."""
+    names = {module_name(p) for p in MODULES}
+    late = sorted({t for t, top in imports(path)
+                   if not top and t in names and t not in LAZY
+                   and not (PACKAGE / Path(*t.split('.')[1:]) / '__init__.py').is_file()})
+    assert not late, f'{path.relative_to(ROOT)} imports {late} inside a function'
+
+
+def test_no_import_cycles():
+    names = {module_name(p): p for p in MODULES}
+    graph = {name: {t for t, _ in imports(path) if t in names and t != name}
+             for name, path in names.items()}
+    # package __init__ files re-export submodules: an edge into a package is
+    # an edge into its __init__, which is not a cycle of the modules themselves
+    graph = {n: {t for t in deps if not names[t].name == '__init__.py'}
+             for n, deps in graph.items()}
+    state: dict[str, int] = {}
+
+    def visit(node: str, stack: list[str]) -> None:
+        state[node] = 1
+        for dep in sorted(graph[node]):
+            if state.get(dep) == 1:
+                cycle = stack[stack.index(dep):] + [dep]
+                pytest.fail('import cycle: ' + ' -> '.join(cycle))
+            if dep not in state:
+                visit(dep, stack + [dep])
+        state[node] = 2
+
+    for name in sorted(graph):
+        if name not in state:
+            visit(name, [name])
+
+
+@pytest.mark.parametrize('path', MODULES, ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_no_module_over_500_lines(path):
+    n = len(path.read_text().splitlines())
+    assert n <= MAX_LINES, f'{path.relative_to(ROOT)} has {n} lines'
+
+
+def test_no_sys_path_edits_anywhere():
+    offenders = []
+    for path in ROOT.rglob('*.py'):
+        if any(part in {'.venv', 'build', 'install', 'log', '.git'} for part in path.parts):
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if (isinstance(node, ast.Attribute) and node.attr in {'insert', 'append', 'extend'}
+                    and isinstance(node.value, ast.Attribute) and node.value.attr == 'path'
+                    and isinstance(node.value.value, ast.Name) and node.value.value.id == 'sys'):
+                offenders.append(f'{path.relative_to(ROOT)}:{node.lineno}')
+    assert not offenders, offenders
