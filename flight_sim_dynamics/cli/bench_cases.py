@@ -28,6 +28,7 @@ import numpy as np
 import flight_sim_dynamics as fsd
 
 from ..config.scenes import available_scenes, load_scene
+from ..core.effects import EFFECT_NAMES
 from ..core.model import Model
 from ..core.motions import TEST_MOTIONS as MOTIONS
 from ..core.motions import duration, motion, sample_times
@@ -49,7 +50,8 @@ class Variant:
 
 def variants() -> list[Variant]:
     """The packaged scenes, then ``full`` without each of its effects, then
-    ``full`` with each effect it lacks that adds no body (friction)."""
+    ``full`` with each effect it lacks that no packaged scene adds (friction
+    today), described by its own ``<effect>.*`` parameters."""
     full = fsd.load_model(scene='full')
     out = [Variant('full', REFERENCE, full, load_scene('full').description)]
     for name in available_scenes():
@@ -64,22 +66,24 @@ def variants() -> list[Variant]:
                            full.with_effects(full.effects.without(effect),
                                              scene=f'full_without_{effect}'),
                            f'full model without {effect}'))
-    for effect in ('friction',):
-        if not getattr(full.effects, effect):
-            fr = full.friction
-            what = (f'actuator friction (viscous {_fmt_list(fr.viscous)} N s/m, Coulomb '
-                    f'{_fmt_list(fr.coulomb)} N, legs A, B, C)' if effect == 'friction'
-                    else effect)
-            out.append(Variant(f'full + {effect}', ADDS,
-                               full.with_effects(replace(full.effects, **{effect: True}),
-                                                 scene=f'full_with_{effect}'),
-                               f'full model plus {what}'))
+    added = {e for name in available_scenes() for e in fsd.load_model(scene=name).effects.enabled()}
+    for effect in EFFECT_NAMES:
+        if getattr(full.effects, effect) or effect in added:
+            continue
+        own = ', '.join(f'{k} {_fmt_value(v)}' for k, v in full.values.items()
+                        if k.startswith(effect + '.'))
+        out.append(Variant(f'full + {effect}', ADDS,
+                           full.with_effects(replace(full.effects, **{effect: True}),
+                                             scene=f'full_with_{effect}'),
+                           f'full model plus {effect}' + (f' ({own})' if own else '')))
     return out
 
 
-def _fmt_list(values: Sequence[float]) -> str:
-    values = [float(x) for x in values]
-    return f'{values[0]:g}' if len(set(values)) == 1 else '/'.join(f'{x:g}' for x in values)
+def _fmt_value(value: object) -> str:
+    """A parameter value for a description: ``0.5`` or ``[20, 20, 20]``."""
+    if isinstance(value, (list, tuple)):
+        return '[' + ', '.join(f'{float(x):g}' for x in value) + ']'
+    return f'{float(value):g}' if isinstance(value, (int, float)) else str(value)
 
 
 # ----------------------------------------------------------------------------
