@@ -12,6 +12,7 @@ Python API (model/data style)::
 The numerical core imports numpy only; rclpy is needed by the node alone.
 """
 from .core import trajectories
+from .core.forward_dynamics import ForwardDynamics, forward_dynamics
 from .core.forward_kinematics import ForwardSolution, forward_kinematics
 from .core.kinematics import UnreachablePoseError
 from .core.model import JOINT_NAMES, LEG_NAMES, Model
@@ -19,7 +20,7 @@ from .config.parameters import ParameterError, load_model
 from .core.solver import Solution, solve, solve_batch
 from .core.status import Status
 
-__all__ = ['load_model', 'solve', 'solve_batch', 'forward_kinematics', 'Model', 'Solution',
-           'ForwardSolution', 'Status', 'ParameterError', 'UnreachablePoseError',
-           'JOINT_NAMES', 'LEG_NAMES', 'trajectories']
+__all__ = ['load_model', 'solve', 'solve_batch', 'forward_kinematics', 'forward_dynamics',
+           'Model', 'Solution', 'ForwardSolution', 'ForwardDynamics', 'Status', 'ParameterError',
+           'UnreachablePoseError', 'JOINT_NAMES', 'LEG_NAMES', 'trajectories']
 __version__ = '0.1.0'
