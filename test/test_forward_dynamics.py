@@ -132,12 +132,20 @@ def test_near_singular_pose_gives_near_singular_and_zero_accelerations():
 
 def test_ill_conditioned_m_is_refused_not_solved():
     M = np.diag([1.0, 1.0, 1e-9])
-    qdd, problem = fd_module.solve_accelerations(M, np.zeros(3), np.ones(3))
-    assert problem.startswith('condition of M 1e+09 >') and np.all(qdd == 0.0)
-    qdd, problem = fd_module.solve_accelerations(np.zeros((3, 3)), np.zeros(3), np.ones(3))
-    assert 'condition of M inf' in problem and np.all(qdd == 0.0)
-    qdd, problem = fd_module.solve_accelerations(np.eye(3), np.zeros(3), np.array([1., 2., 3.]))
-    assert problem == '' and qdd.tolist() == [1.0, 2.0, 3.0]
+    qdd, status, detail = fd_module.solve_accelerations(M, np.zeros(3), np.ones(3))
+    assert status == Status.NEAR_SINGULAR and np.all(qdd == 0.0)
+    assert detail.startswith('condition of M 1e+09 >')
+    qdd, status, detail = fd_module.solve_accelerations(np.zeros((3, 3)), np.zeros(3), np.ones(3))
+    assert status == Status.NEAR_SINGULAR and 'condition of M inf' in detail
+    assert np.all(qdd == 0.0)
+    qdd, status, detail = fd_module.solve_accelerations(np.eye(3), np.zeros(3), np.ones(3) * 1e308)
+    assert status == Status.OK and qdd.tolist() == [1e308] * 3     # finite: solved
+    qdd, status, detail = fd_module.solve_accelerations(np.eye(3) * 1e-300, np.zeros(3),
+                                                        np.ones(3) * 1e300)
+    assert status == Status.INVALID_INPUT and np.all(qdd == 0.0)
+    qdd, status, detail = fd_module.solve_accelerations(np.eye(3), np.zeros(3),
+                                                        np.array([1., 2., 3.]))
+    assert status == Status.OK and detail == '' and qdd.tolist() == [1.0, 2.0, 3.0]
 
 
 def test_limit_status_names_the_force_given():

@@ -94,20 +94,23 @@ def affine_terms(model: Model, q: Sequence[float], qd: Sequence[float]
 
 
 def solve_accelerations(M: np.ndarray, b: np.ndarray, force: np.ndarray
-                        ) -> tuple[np.ndarray, str]:
-    """qdd with M qdd = force - b, and '' or why it cannot be trusted (M too
-    ill-conditioned, or results not finite): then qdd is zeros."""
+                        ) -> tuple[np.ndarray, Status, str]:
+    """qdd with M qdd = force - b (LU, never an inverse), with status ok; or
+    zeros with near_singular when M is too ill-conditioned to solve
+    (:data:`MAX_MASS_CONDITION`), invalid_input when the result is not finite
+    (forces too large)."""
     if not np.all(np.isfinite(M)):
-        return np.zeros(3), 'exact singularity: M is not finite'
+        return np.zeros(3), Status.NEAR_SINGULAR, 'exact singularity: M is not finite'
     sigma = np.linalg.svd(M, compute_uv=False)
     if not (sigma[-1] > 0.0 and sigma[0] <= sigma[-1] * MAX_MASS_CONDITION):
         condition = sigma[0] / sigma[-1] if sigma[-1] > 0 else math.inf
-        return np.zeros(3), (f'condition of M {condition:.3g} > {MAX_MASS_CONDITION:g}: '
-                             'accelerations cannot be resolved')
+        return np.zeros(3), Status.NEAR_SINGULAR, (
+            f'condition of M {condition:.3g} > {MAX_MASS_CONDITION:g}: '
+            'accelerations cannot be resolved')
     qdd = np.linalg.solve(M, force - b)
     if not np.all(np.isfinite(qdd)):
-        return np.zeros(3), 'results are not finite: input too large'
-    return qdd, ''
+        return np.zeros(3), Status.INVALID_INPUT, 'results are not finite: input too large'
+    return qdd, Status.OK, ''
 
 
 def _force_vector(force: Sequence[float]) -> np.ndarray:
@@ -145,10 +148,9 @@ def forward_dynamics(model: Model, q: Sequence[float], qd: Sequence[float],
                                f'({f[bad[0]]})', M, b)
     if base.status == Status.NEAR_SINGULAR:     # solve's numbers there are finite
         return ForwardDynamics(zero, Status.NEAR_SINGULAR, base.detail, M, b)
-    qdd, problem = solve_accelerations(M, b, f)
-    if problem:
-        status = Status.INVALID_INPUT if problem.startswith('results') else Status.NEAR_SINGULAR
-        return ForwardDynamics(zero, status, problem, M, b)
+    qdd, status, detail = solve_accelerations(M, b, f)
+    if status != Status.OK:
+        return ForwardDynamics(zero, status, detail, M, b)
     check = solve(model, q, qd, qdd)    # the status of the motion, as solve reports it
     if SEVERITY[check.status] >= 2:
         return ForwardDynamics(zero, check.status, check.detail, M, b)
