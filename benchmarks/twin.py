@@ -37,7 +37,7 @@ from flight_sim_dynamics.config.scenes import available_scenes
 from flight_sim_dynamics.core import forward_dynamics as fd
 from flight_sim_dynamics.core.motions import TEST_MOTIONS, get
 from flight_sim_dynamics.core.simulation import (DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING,
-                                                 Reference, Servo, simulate)
+                                                 Servo, simulate)
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_OUT = Path('out') / 'twin.md'
