@@ -1,0 +1,175 @@
+"""``flight-sim-dynamics simulate``: the digital twin on files
+(:func:`flight_sim_dynamics.simulate`, RK4 at a fixed step).
+
+Open loop: ``--forces CSV`` with the columns ``t,force_a,force_b,force_c``
+(any order; other columns, e.g. the rest of ``solve``'s output, are not
+used), interpolated between rows by a cubic Hermite spline (O(dt^4), see
+:mod:`flight_sim_dynamics.core.simulation`).
+
+Closed loop: a reference motion, ``--reference CSV`` (the trajectory file
+``solve`` reads) or ``--motion NAME`` (the registry of
+:mod:`flight_sim_dynamics.core.motions`), tracked by PD servos on the leg
+lengths (``--bandwidth`` or ``--gains``) with the feed-forward of
+``--feedforward`` (a scene, a scene file, or none), computed with the
+controller's parameters (``--params``), driving the plant (``--plant-params``,
+``--plant-scene``).
+
+Output: the columns ``solve`` reads (t, pose, rates, accelerations), then leg
+lengths, rates and delivered forces, in closed loop the tracking errors
+(simulated minus reference), and a status per row. A run that stops (the
+motion leaves the workspace or nears a singularity) writes the rows up to
+the stop, warns on standard error and exits with status 1.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+import numpy as np
+
+import flight_sim_dynamics as fsd
+
+from ..config.scenes import SceneError
+from ..core.model import Model
+from ..core.motions import MOTIONS
+from ..core.simulation import (DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, DEFAULT_STEP,
+                               ForceHistory, Reference, Servo, Simulation, simulate)
+from .csv_io import TRAJECTORY_COLUMNS, read_csv, write_csv
+
+LEGS = ('a', 'b', 'c')
+FORCE_COLUMNS = ('t',) + tuple(f'force_{leg}' for leg in LEGS)
+POSE = ('surge', 'heave', 'roll')
+#: Output columns, in order (closed loop adds ERROR_COLUMNS; then ``status``).
+OUTPUT_COLUMNS = (TRAJECTORY_COLUMNS + tuple(f'length_{leg}' for leg in LEGS)
+                  + tuple(f'rate_{leg}' for leg in LEGS) + tuple(f'force_{leg}' for leg in LEGS))
+ERROR_COLUMNS = (tuple(f'{name}_error' for name in POSE)
+                 + tuple(f'length_error_{leg}' for leg in LEGS))
+
+
+def configure(p: argparse.ArgumentParser) -> None:
+    source = p.add_mutually_exclusive_group(required=True)
+    source.add_argument('--forces', metavar='CSV',
+                        help='open loop: actuator forces, columns ' + ','.join(FORCE_COLUMNS)
+                             + " in any order ('-' for standard input; other columns are not "
+                               'used, so the output of solve will do)')
+    source.add_argument('--reference', metavar='CSV',
+                        help='closed loop: a reference motion, the trajectory CSV solve reads ('
+                             + ','.join(TRAJECTORY_COLUMNS) + ')')
+    source.add_argument('--motion', choices=tuple(MOTIONS),
+                        help='closed loop: a built-in reference motion')
+    p.add_argument('-o', '--output', required=True, metavar='CSV',
+                   help="simulated motion to write ('-' for standard output): "
+                        + ','.join(OUTPUT_COLUMNS) + ', in closed loop '
+                        + ','.join(ERROR_COLUMNS) + ', then status')
+    p.add_argument('--params', metavar='YAML', default=None,
+                   help="the controller's parameter file (feed-forward), and the plant's "
+                        'unless --plant-params; default: the packaged parameters')
+    p.add_argument('--plant-params', metavar='YAML', default=None,
+                   help='parameter file of the simulated machine (default: --params), e.g. '
+                        'a heavier payload than the controller assumes')
+    p.add_argument('--plant-scene', metavar='NAME_OR_YAML', default='full',
+                   help='effects the simulated machine has (default full; needs inertia)')
+    p.add_argument('--feedforward', metavar='none|NAME_OR_YAML', default=None,
+                   help='closed loop: scene of the feed-forward (inverse dynamics of the '
+                        'reference with the controller\'s parameters), or none; default: '
+                        'the plant scene')
+    gains = p.add_mutually_exclusive_group()
+    gains.add_argument('--bandwidth', type=float, default=None, metavar='HZ',
+                       help='closed loop: servo gains of a critically damped leg of the '
+                            "plant's leg-space mass at this bandwidth (default "
+                            f'{DEFAULT_BANDWIDTH_HZ:g} Hz)')
+    gains.add_argument('--gains', type=float, nargs=6, default=None,
+                       metavar=('KP_A', 'KP_B', 'KP_C', 'KD_A', 'KD_B', 'KD_C'),
+                       help='closed loop: PD gains per actuator, N/m and N s/m')
+    p.add_argument('--step', type=float, default=DEFAULT_STEP, metavar='S',
+                   help=f'RK4 step, s (default {DEFAULT_STEP:g})')
+    p.add_argument('--initial', type=float, nargs=6, default=None,
+                   metavar=('SURGE', 'HEAVE', 'ROLL', 'SURGE_RATE', 'HEAVE_RATE', 'ROLL_RATE'),
+                   help='initial state (m, rad, m/s, rad/s); default: rest at the central '
+                        "configuration (open loop), the reference's start (closed loop)")
+
+
+def _model(option: str, params: str | None, scene: str | None) -> Model:
+    """A model, or ValueError naming the command-line option at fault."""
+    if params is not None and not os.path.isfile(params):
+        raise ValueError(f'{option} {params}: no such file')
+    try:
+        return fsd.load_model(params, scene=scene)
+    except SceneError as exc:
+        raise ValueError(f'{option}: {exc}') from None
+    except fsd.ParameterError as exc:
+        raise ValueError(f"{option} {params or '(packaged defaults)'}: {exc}") from None
+
+
+def _closed_loop_only(args: argparse.Namespace) -> None:
+    given = [name for name, value in (('--feedforward', args.feedforward),
+                                      ('--bandwidth', args.bandwidth), ('--gains', args.gains))
+             if value is not None]
+    if args.forces is not None and given:
+        raise ValueError(f"{', '.join(given)}: closed loop only (--reference or --motion), "
+                         'not with --forces')
+
+
+def _servo(args: argparse.Namespace, plant: Model) -> Servo:
+    if args.gains is not None:
+        return Servo(tuple(args.gains[:3]), tuple(args.gains[3:]))
+    hz = DEFAULT_BANDWIDTH_HZ if args.bandwidth is None else args.bandwidth
+    return Servo.for_bandwidth(plant, hz, DEFAULT_DAMPING)
+
+
+def run(args: argparse.Namespace) -> int:
+    """The ``simulate`` subcommand; 0 when the run reached its end, 1 when it stopped."""
+    _closed_loop_only(args)
+    plant_params = args.plant_params if args.plant_params is not None else args.params
+    plant = _model('--plant-params' if args.plant_params else '--params', plant_params,
+                   args.plant_scene)
+    initial = None if args.initial is None else (args.initial[:3], args.initial[3:])
+    if args.forces is not None:
+        table = read_csv(args.forces, required=FORCE_COLUMNS, allow_extra=True,
+                         text_columns=('status',))
+        forces = ForceHistory(table['t'], np.column_stack([table[n] for n in FORCE_COLUMNS[1:]]))
+        sim = simulate(plant, forces=forces, initial=initial, step=args.step)
+    else:
+        if args.reference is not None:
+            table = read_csv(args.reference, required=TRAJECTORY_COLUMNS)
+            cols = [np.column_stack([table[n] for n in TRAJECTORY_COLUMNS[k:k + 3]])
+                    for k in (1, 4, 7)]
+            reference = Reference.from_samples(table['t'], *cols)
+        else:
+            reference = Reference.from_motion(MOTIONS[args.motion])
+        scene = args.feedforward if args.feedforward is not None else args.plant_scene
+        feedforward = None if scene == 'none' else _model('--feedforward', args.params, scene)
+        sim = simulate(plant, reference=reference, feedforward=feedforward,
+                       servo=_servo(args, plant), initial=initial, step=args.step)
+    names, data = table_of(sim)
+    write_csv(args.output, names, data, text=('status', [str(s) for s in sim.status]))
+    return _report(sim)
+
+
+def table_of(sim: Simulation) -> tuple[tuple[str, ...], np.ndarray]:
+    """Column names and rows of a simulation (without the status column)."""
+    columns = [sim.t, sim.q, sim.qd, sim.qdd, sim.length, sim.rate, sim.force]
+    names = OUTPUT_COLUMNS
+    if sim.pose_error is not None:
+        columns += [sim.pose_error, sim.length_error]
+        names += ERROR_COLUMNS
+    return names, np.column_stack(columns)
+
+
+def _report(sim: Simulation) -> int:
+    """Warnings on standard error: rows that are not ok, and a stop."""
+    bad = [i for i, s in enumerate(sim.status) if s != fsd.Status.OK]
+    if bad:
+        counts: dict[str, int] = {}
+        for i in bad:
+            counts[str(sim.status[i])] = counts.get(str(sim.status[i]), 0) + 1
+        summary = ', '.join(f'{n} {name}' for name, n in sorted(counts.items()))
+        print(f'warning: {len(bad)} of {len(sim.t)} rows are not ok ({summary}); first at '
+              f't = {sim.t[bad[0]]:.6g} s: {sim.status[bad[0]]}: {sim.detail[bad[0]]}',
+              file=sys.stderr)
+    if sim.outcome != fsd.Status.OK:
+        print(f'warning: simulation stopped: {sim.outcome}: {sim.outcome_detail}; '
+              f'{len(sim.t)} rows written', file=sys.stderr)
+        return 1
+    return 0
