@@ -31,7 +31,7 @@ from ..core.kinematics import GeometryError, central_configuration
 from ..core.model import BODY_NAMES, GEOMETRY_KEYS, Body, Friction, Geometry, Limits, Model
 from .errors import ParameterError
 from .files import (DEFAULT_PARAMS_FILE, NODE_NAME, PACKAGE_NAME, default_params_path, flatten,
-                    read_params_file)
+                    params_files_in, read_params_file)
 from .scenes import Scene, SceneError, load_scene
 from .schema import (ALL_PARAMETERS, MODEL_PARAMETERS, NODE_PARAMETERS, SPECS, ParamSpec,
                      defaults)
@@ -131,9 +131,13 @@ def load_model(path: str | os.PathLike[str] | None = None,
     return model_from_values(values, require_all=True, scene=scene)
 
 
-def check_params_files(paths: Sequence[str | os.PathLike[str]],
-                       node: str = '/' + NODE_NAME) -> None:
-    """Apply the one rule to the node's ``--params-file`` files (ROS has read
-    their values already): raises ParameterError for the first bad file."""
-    for path in paths:
-        read_params(path, node)
+def check_params_files(args: Sequence[str], node: str = '/' + NODE_NAME) -> None:
+    """Apply the one rule to the ``--params-file`` files of a node's command
+    line ``args`` (``node``: its fully qualified name): names checked, and the
+    values, over the packaged ones, validated against the schema as
+    load_model validates them (ROS has read the values already; this reports a
+    bad file as one ParameterError before they are declared)."""
+    values = packaged_values()
+    for path in params_files_in(args):
+        values.update(read_params(path, node)[0])
+    validate(values)

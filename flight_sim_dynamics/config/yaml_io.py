@@ -21,8 +21,8 @@ when there is one), in well under a second, whatever the file holds:
   make it a string. (A list mixing integers and floats, ``[0, 0.5]``, is read
   as numbers here; rcl refuses the whole file at the node's start-up: write
   ``0.0``.)
-* YAML 1.2 floats with an exponent and no dot (``1e3``, ``2.5e-3``) are read
-  as floats, as rcl reads them (PyYAML alone would read a string).
+* YAML 1.2 floats that PyYAML alone reads as strings (``1e3``, ``2.5e-3``,
+  ``+.5``) are read as floats, as rcl reads them.
 
 libyaml's parser is used when PyYAML has it (fast); composing and the
 checks are PyYAML's Python code on top of its events.
@@ -68,7 +68,7 @@ _REFUSED = [(re.compile(pattern, re.IGNORECASE), why) for pattern, why in (
     (r'[0-9]{4}-[0-9]{1,2}-[0-9]{1,2}([Tt ].*)?', 'a date'),
     (r'[-+]?(inf|infinity|nan)', "an infinity or NaN without the dot (write .inf, .nan)"),
 )]
-_FLOAT_12 = re.compile(r'[-+]?([0-9]+(\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+')
+_FLOAT_12 = re.compile(r'[-+]?(\.[0-9]+([eE][-+]?[0-9]+)?|[0-9]+(\.[0-9]*)?[eE][-+]?[0-9]+)')
 _INT64 = (-2 ** 63, 2 ** 63 - 1)
 
 
@@ -110,6 +110,10 @@ class _StrictLoader(Composer, _Parser, SafeConstructor, _Resolver):  # type: ign
 
 
 def _where(path: list[str]) -> str:
+    """The dotted name of a place in the file: a parameter's own name inside
+    a ``<node>: ros__parameters:`` section."""
+    if 'ros__parameters' in path[:2]:
+        path = path[path.index('ros__parameters') + 1:] or path
     return '.'.join(path) or '(top level)'
 
 

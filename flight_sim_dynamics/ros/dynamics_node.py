@@ -20,6 +20,7 @@ with rclpy's read-only start-up overrides; endpoints are never re-created.
 from __future__ import annotations
 
 import math
+import sys
 import time
 from typing import Any, Callable, Sequence
 
@@ -104,6 +105,10 @@ class DynamicsNode(Node):
         # are not ours (typos) can be told apart with public API only.
         super().__init__(prm.NODE_NAME, automatically_declare_parameters_from_overrides=True,
                          **kwargs)
+        # The one rule for parameter files (config.parameters.read_params): an
+        # unknown name in a --params-file is a ParameterError (main() exits 2).
+        prm.check_params_files([*sys.argv, *(kwargs.get('cli_args') or ())],
+                               self.get_fully_qualified_name())
         given = self._declare_parameters()
         values = self._parameter_values()
         # Invalid startup parameters raise ParameterError: main() reports it and exits.
