@@ -52,7 +52,7 @@ from .synchroniser import Rejected, Setpoint, StampSynchroniser
 #: Parameters ROS itself declares on every node; not ours to check.
 ROS_PARAMETERS = frozenset({'use_sim_time', 'start_type_description_service'})
 #: Prefix of rclpy's QoS override parameters.
-QOS_OVERRIDES = 'qos_overrides.'
+QOS_OVERRIDES = prm.QOS_OVERRIDES
 
 DIAGNOSTIC_NAME = 'flight_sim_dynamics: inverse dynamics'
 HARDWARE_ID = 'flight_sim_dynamics'
