@@ -24,15 +24,7 @@ TYPES = {'double': 'double', 'double_array': 'double[]', 'integer': 'int',
 
 
 def value_range(spec: prm.ParamSpec) -> str:
-    if spec.choices:
-        return ' \\| '.join(spec.choices)
-    if spec.length:
-        return f'{spec.length} numbers'
-    if spec.minimum is None and spec.maximum is None:
-        return ''
-    low = '' if spec.minimum is None else f'{spec.minimum:g}'
-    high = '' if spec.maximum is None else f'{spec.maximum:g}'
-    return f"{'(' if spec.exclusive_minimum else '['}{low}, {high}]"
+    return spec.range_text.replace('|', '\\|')
 
 
 def default(spec: prm.ParamSpec) -> str:

@@ -1,8 +1,10 @@
 """Errors raised for bad parameters and scenes (kept apart so that every
-module can raise them without import cycles)."""
+module can raise them without import cycles), and the "did you mean" of a
+misspelt name."""
 from __future__ import annotations
 
-from typing import Any
+import difflib
+from typing import Any, Iterable
 
 
 class ParameterError(ValueError):
@@ -12,4 +14,17 @@ class ParameterError(ValueError):
         self.key = key
         self.value = value
         self.reason = reason
-        super().__init__(f"parameter '{key}' = {value!r}: {reason}")
+        super().__init__(f"parameter '{key}' = {_short(value)}: {reason}")
+
+
+def _short(value: Any, limit: int = 200) -> str:
+    """repr of a value, cut to ``limit`` characters (a 1 MB string stays out of
+    error messages and logs)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit] + f'... ({len(text)} characters)'
+
+
+def did_you_mean(name: str, known: Iterable[str]) -> str:
+    """``; did you mean 'x'?`` for the closest known name (difflib), else ''."""
+    close = difflib.get_close_matches(str(name), list(known), n=1, cutoff=0.6)
+    return f"; did you mean '{close[0]}'?" if close else ''

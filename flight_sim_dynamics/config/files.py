@@ -1,15 +1,16 @@
-"""Parameter files: where the packaged one is, and how a ROS 2 parameter YAML
-file is read into flat dotted names (as ROS 2 flattens them)."""
+"""Parameter files: where the packaged one is, which ``--params-file`` a ROS
+command line gives, and how a ROS 2 parameter YAML file is read into flat
+dotted names (as ROS 2 flattens them), by the rules of :mod:`.yaml_io`."""
 from __future__ import annotations
 
 import os
+import re
 import sys
 from pathlib import Path
-from typing import Any, Mapping
-
-import yaml
+from typing import Any, Mapping, Sequence
 
 from .errors import ParameterError
+from .yaml_io import read_yaml
 
 NODE_NAME = 'flight_sim_dynamics'
 PACKAGE_NAME = 'flight_sim_dynamics'
@@ -54,37 +55,61 @@ def flatten(tree: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
     return flat
 
 
-def read_params_file(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """Read a ROS 2 parameter YAML file and return this node's parameters as a
-    flat dict of dotted names. Sections ``/**``, ``flight_sim_dynamics`` and
-    ``/flight_sim_dynamics`` apply (in that order); other nodes' sections are
-    ignored, as ROS does."""
-    path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise ParameterError('params_file', str(path), f'cannot read: {exc.strerror}') from None
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ParameterError('params_file', str(path), f'not valid YAML: {exc}') from None
+def section_applies(section: str, node: str) -> bool:
+    """Whether a params-file section applies to the node of fully qualified
+    name ``node`` (``/ns/flight_sim_dynamics``), as rcl decides: the node's
+    name alone, its fully qualified name, or a pattern where ``/**`` stands for
+    any namespaces and ``*`` for one name token."""
+    if section == node.rsplit('/', 1)[-1]:
+        return True
+    pattern = re.escape(section if section.startswith('/') else '/' + section)
+    pattern = pattern.replace(r'/\*\*', r'(/[^/]+)*').replace(r'\*', r'[^/]+')
+    return re.fullmatch(pattern, node) is not None
+
+
+def read_params_file(path: str | os.PathLike[str],
+                     node: str = '/' + NODE_NAME) -> dict[str, Any]:
+    """Read a ROS 2 parameter YAML file and return the parameters of the node
+    ``node`` (fully qualified name) as a flat dict of dotted names. Sections
+    that apply (:func:`section_applies`: ``/**``, ``flight_sim_dynamics``,
+    ``/flight_sim_dynamics`` ...) are merged in file order; other nodes'
+    sections are ignored, as ROS does. The names are not checked here (see
+    :func:`.parameters.read_params`)."""
+    source = str(Path(path))
+    doc = read_yaml(path, 'params_file')
     if not isinstance(doc, Mapping):
-        raise ParameterError('params_file', str(path),
+        raise ParameterError('params_file', source,
                              "expected a map '<node name>: ros__parameters: ...'")
     flat: dict[str, Any] = {}
     found = False
-    for section in ('/**', NODE_NAME, '/' + NODE_NAME):
-        if section not in doc:
+    for section, body in doc.items():
+        if not section_applies(str(section), node):
             continue
-        body = doc[section]
         if not isinstance(body, Mapping) or 'ros__parameters' not in body:
-            raise ParameterError(section, body, "section has no 'ros__parameters' map")
+            raise ParameterError(section, body, f"section has no 'ros__parameters' map in "
+                                                f'{source}')
         params = body['ros__parameters']
         if not isinstance(params, Mapping):
-            raise ParameterError(f'{section}.ros__parameters', params, 'expected a map')
+            raise ParameterError(f'{section}.ros__parameters', params, f'expected a map in '
+                                                                       f'{source}')
         flat.update(flatten(params))
         found = True
     if not found:
-        raise ParameterError('params_file', str(path),
+        raise ParameterError('params_file', source,
                              f"no section for node '{NODE_NAME}' (or '/**')")
     return flat
+
+
+def params_files_in(args: Sequence[str]) -> list[str]:
+    """The files of ``--params-file FILE`` in the ROS arguments of a command
+    line (between ``--ros-args`` and ``--`` or the end), in order."""
+    files: list[str] = []
+    in_ros = False
+    for i, arg in enumerate(args):
+        if arg == '--ros-args':
+            in_ros = True
+        elif arg == '--':
+            in_ros = False
+        elif in_ros and arg == '--params-file' and i + 1 < len(args):
+            files.append(args[i + 1])
+    return files

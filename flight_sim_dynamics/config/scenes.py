@@ -1,5 +1,7 @@
 """Scenes: a named set of effects plus optional parameter overrides, read from
-YAML (``config/scenes/*.yaml`` or any path). See :mod:`..core.effects`."""
+YAML (``config/scenes/*.yaml`` or any path) by the rules of :mod:`.yaml_io`.
+See :mod:`..core.effects`. A misspelt key, effect or parameter gets "did you
+mean"."""
 from __future__ import annotations
 
 import os
@@ -7,13 +9,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
-import yaml
-
 from ..core.effects import EFFECT_NAMES, Effects
-from .errors import ParameterError
+from .errors import ParameterError, did_you_mean
 from .files import default_params_path, flatten
+from .schema import MODEL_PARAMETERS
+from .yaml_io import read_yaml
 
 DEFAULT_SCENE = 'full'
+SCENE_KEYS = ('description', 'effects', 'parameters')
+_MODEL_NAMES = frozenset(spec.name for spec in MODEL_PARAMETERS)
+
 
 class SceneError(ParameterError):
     """A scene file is missing, malformed or names an unknown effect. A
@@ -52,7 +57,9 @@ def scene_path(scene: str | os.PathLike[str]) -> Path:
         return Path(text)
     path = scenes_dir() / f'{text}.yaml'
     if not path.is_file():
-        raise SceneError(text, 'no such scene; available: ' + ', '.join(available_scenes()))
+        available = available_scenes()
+        raise SceneError(text, 'no such scene; available: ' + ', '.join(available)
+                         + did_you_mean(text, available))
     return path
 
 
@@ -61,24 +68,25 @@ def load_scene(scene: str | os.PathLike[str] | None = None) -> Scene:
     path = scene_path(DEFAULT_SCENE if scene is None else scene)
     name = path.stem
     try:
-        doc = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise SceneError(name, f'cannot read {path}: {exc.strerror}') from None
-    except yaml.YAMLError as exc:
-        raise SceneError(name, f'not valid YAML: {exc}') from None
+        doc = read_yaml(path, 'scene')
+    except ParameterError as exc:       # the file (key 'scene') or a key in it
+        where = f'{path}: ' if exc.key == 'scene' else f"{path}: key '{exc.key}': "
+        raise SceneError(name, where + exc.reason) from None
     if not isinstance(doc, Mapping):
         raise SceneError(name, "expected a map with 'effects' (and optionally "
                                "'description', 'parameters')")
-    unknown_keys = set(doc) - {'description', 'effects', 'parameters'}
+    unknown_keys = sorted(map(str, set(doc) - set(SCENE_KEYS)))
     if unknown_keys:
-        raise SceneError(name, f"unknown key(s): {', '.join(sorted(map(str, unknown_keys)))}")
+        raise SceneError(name, f"unknown key(s): {', '.join(unknown_keys)}"
+                         + did_you_mean(unknown_keys[0], SCENE_KEYS))
     effects = doc.get('effects')
     if not isinstance(effects, Mapping):
         raise SceneError(name, "missing 'effects' map")
-    unknown = set(effects) - set(EFFECT_NAMES)
+    unknown = sorted(map(str, set(effects) - set(EFFECT_NAMES)))
     if unknown:
-        raise SceneError(name, f"unknown effect(s): {', '.join(sorted(map(str, unknown)))}; "
-                               f"known: {', '.join(EFFECT_NAMES)}")
+        raise SceneError(name, f"unknown effect(s): {', '.join(unknown)}; "
+                               f"known: {', '.join(EFFECT_NAMES)}"
+                         + did_you_mean(unknown[0], EFFECT_NAMES))
     missing = [e for e in EFFECT_NAMES if e not in effects]
     if missing:
         raise SceneError(name, f"effect(s) not given: {', '.join(missing)} "
@@ -92,6 +100,11 @@ def load_scene(scene: str | os.PathLike[str] | None = None) -> Scene:
     description = doc.get('description', '')
     if not isinstance(description, str):
         raise SceneError(name, "'description' must be a string")
+    parameters = flatten(overrides)
+    for key in parameters:
+        if key not in _MODEL_NAMES:
+            raise SceneError(name, f"parameter '{key}' is not a model parameter"
+                             + did_you_mean(key, _MODEL_NAMES))
     packaged = path.resolve().parent == scenes_dir().resolve()
     return Scene(name=name, description=description, effects=Effects(**effects),
-                 parameters=flatten(overrides), path=None if packaged else path)
+                 parameters=parameters, path=None if packaged else path)

@@ -20,6 +20,7 @@ with rclpy's read-only start-up overrides; endpoints are never re-created.
 from __future__ import annotations
 
 import math
+import sys
 import time
 from typing import Any, Callable, Sequence
 
@@ -51,7 +52,7 @@ from .synchroniser import Rejected, Setpoint, StampSynchroniser
 #: Parameters ROS itself declares on every node; not ours to check.
 ROS_PARAMETERS = frozenset({'use_sim_time', 'start_type_description_service'})
 #: Prefix of rclpy's QoS override parameters.
-QOS_OVERRIDES = 'qos_overrides.'
+QOS_OVERRIDES = prm.QOS_OVERRIDES
 
 DIAGNOSTIC_NAME = 'flight_sim_dynamics: inverse dynamics'
 HARDWARE_ID = 'flight_sim_dynamics'
@@ -104,6 +105,10 @@ class DynamicsNode(Node):
         # are not ours (typos) can be told apart with public API only.
         super().__init__(prm.NODE_NAME, automatically_declare_parameters_from_overrides=True,
                          **kwargs)
+        # The one rule for parameter files (config.parameters.read_params): an
+        # unknown name in a --params-file is a ParameterError (main() exits 2).
+        prm.check_params_files([*sys.argv, *(kwargs.get('cli_args') or ())],
+                               self.get_fully_qualified_name())
         given = self._declare_parameters()
         values = self._parameter_values()
         # Invalid startup parameters raise ParameterError: main() reports it and exits.

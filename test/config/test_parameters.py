@@ -59,7 +59,6 @@ def _mutate(tree, path, value):
 
 
 @pytest.mark.parametrize('path, value, key, words', [
-    (('geometry', 'd1'), KeyError, 'geometry.d1', 'missing'),
     (('geometry', 'd9'), 0.3, 'geometry.d9', 'unknown'),
     (('bodies', 'rod', 'colour'), 'red', 'bodies.rod.colour', 'unknown'),
     (('geometry', 'h'), 'long', 'geometry.h', 'expected a number'),
@@ -88,6 +87,19 @@ def test_invalid_values_name_key_and_value(tmp_path, path, value, key, words):
     assert info.value.key == key
     assert words in str(info.value)
     assert f"'{key}' = " in str(info.value)      # names the key, then shows the value
+
+
+def test_missing_model_parameter_in_values_names_it():
+    # moved from test_invalid_values_name_key_and_value: a partial *file* now
+    # overrides the packaged defaults (test_partial_file_overrides_packaged_defaults);
+    # a set of *values* built by hand must still be complete
+    values = parameters.defaults()
+    del values['geometry.d1']
+    with pytest.raises(ParameterError) as info:
+        parameters.model_from_values(values, require_all=True)
+    assert info.value.key == 'geometry.d1'
+    assert 'missing' in str(info.value)
+    assert "'geometry.d1' = " in str(info.value)
 
 
 def test_file_problems_are_reported(tmp_path):

@@ -1,0 +1,282 @@
+"""The schema: the one declaration of every parameter (name, kind, default,
+unit, physical bounds, meaning), for the solver and the node alike.
+
+Model parameters are the paper's application data (Section 3; geometry of
+eq. 7-8, mass properties of eq. 18-19, gravity); node parameters tune the
+ROS 2 node. Every number is bounded to a physical or sensible range (issue
+12 #5: a centre of mass at 1e300 m is not a mechanism); every string has a
+bounded length. The bodies are the ones of :data:`core.model.BODY_NAMES`,
+the geometry keys those of :data:`core.model.GEOMETRY_KEYS`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+from ..core.model import BODY_NAMES, GEOMETRY_KEYS
+
+#: Physical bounds shared by every body (and the payload).
+MAX_MASS = 1.0e5            # kg
+MAX_COM = 100.0             # m, |component| of a centre of mass
+MAX_INERTIA = 1.0e6         # kg m^2, |entry| of an inertia tensor
+MAX_LENGTH = 100.0          # m, a geometry length
+MAX_NAME = 256              # characters of a frame id
+MAX_PATH = 4096             # characters of a file path (PATH_MAX on Linux)
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """One declared parameter: its dotted name, type, default and meaning.
+
+    ``kind`` is one of ``double``, ``double_array``, ``integer``, ``string``,
+    ``bool``. ``minimum``/``maximum`` bound a number, or every element of an
+    array (inclusive unless ``exclusive_minimum``); ``length`` fixes the size
+    of an array; ``max_length`` bounds a string.
+    """
+
+    name: str
+    kind: str
+    default: Any
+    description: str
+    unit: str = ''
+    minimum: float | None = None
+    maximum: float | None = None
+    exclusive_minimum: bool = False
+    length: int | None = None
+    choices: tuple[str, ...] | None = None
+    required: bool = True     # a complete model file must give it (model parameters only)
+    max_length: int | None = None   # most characters of a string
+
+    @property
+    def full_description(self) -> str:
+        return f'{self.description} [{self.unit}]' if self.unit else self.description
+
+    @property
+    def range_text(self) -> str:
+        """The valid values in words: ``(0, 100]``, ``3 numbers in [-100, 100]``,
+        ``at most 256 characters``, ``backward | backward2`` (for the docs)."""
+        if self.choices:
+            return ' | '.join(self.choices)
+        if self.max_length is not None:
+            return f'at most {self.max_length} characters'
+        bounds = ''
+        if self.minimum is not None or self.maximum is not None:
+            low = '' if self.minimum is None else f'{self.minimum:g}'
+            high = '' if self.maximum is None else f'{self.maximum:g}'
+            bounds = f"{'(' if self.exclusive_minimum else '['}{low}, {high}]"
+        if self.length:
+            return f'{self.length} numbers' + (f' in {bounds}' if bounds else '')
+        return bounds
+
+
+# ----------------------------------------------------------------------------
+# Model parameters (geometry, masses, inertias, gravity): defaults of
+# mechanism.md and the paper's application data.
+# ----------------------------------------------------------------------------
+_GEOMETRY_DEFAULTS = dict(d1=0.4, d2=0.95, d3=0.65, d4=0.25, d5=1.35,
+                          l1=0.65, l2=0.85, l3=0.75, l4=1.0, l5=1.3, l6=1.2,
+                          b=1.2, h=1.4, h_G=1.1, s_A=0.29, s_B=0.33, s_C=0.33)
+_GEOMETRY_MEANING = dict(
+    d1='A3D2, rod joint to crank D joint', d2='A1E1, base joint A to crank E pivot',
+    d3='E1D1, crank E pivot to crank D pivot', d4='D1F, crank D pivot to the B/C base line',
+    d5='B1F = C1F, lateral half-spacing of the B and C base joints',
+    l1='length of cylinder A', l2='length of piston A (A2A3)',
+    l3='length of cylinders B and C', l4='length of pistons B and C (B3B4)',
+    l5='length of crank D (D1D2)', l6='length of crank E (E1E2)',
+    b='platform width B4C4', h='rod and platform length A3G',
+    h_G='elevation of G at the central configuration',
+    s_A='A1A2 at zero stroke', s_B='B1B3 at zero stroke', s_C='C1C3 at zero stroke')
+
+
+def _slender(mass: float, length: float) -> list[float]:
+    i = mass * length ** 2 / 12.0
+    return [0.0, 0.0, 0.0, 0.0, i, 0.0, 0.0, 0.0, i]
+
+
+#: Default mass (kg) and length key of each body: a slender rod along its
+#: x axis, centre of mass half-way (pistons point back: -x). The platform is a
+#: plate (``_platform_inertia``). Keyed by name, checked against BODY_NAMES.
+_BODY_DATA = {
+    'cylinder_a': (1.0, 'l1', 1.0), 'piston_a': (1.2, 'l2', -1.0), 'rod': (1.5, 'h', 1.0),
+    'platform': (5.0, 'h', 1.0),
+    'cylinder_b': (1.0, 'l3', 1.0), 'piston_b': (1.2, 'l4', -1.0),
+    'cylinder_c': (1.0, 'l3', 1.0), 'piston_c': (1.2, 'l4', -1.0),
+    'crank_d': (1.5, 'l5', 1.0), 'crank_e': (1.4, 'l6', 1.0),
+}
+if set(_BODY_DATA) != set(BODY_NAMES):      # one list of bodies: core.model's
+    raise ImportError(f'schema bodies {sorted(_BODY_DATA)} != core.model.BODY_NAMES')
+
+
+def _platform_inertia(mass: float) -> list[float]:
+    b, h = _GEOMETRY_DEFAULTS['b'], _GEOMETRY_DEFAULTS['h']
+    return [mass * b * b / 12, 0.0, 0.0,
+            0.0, mass * (b * b + h * h) / 12, 0.0,
+            0.0, 0.0, mass * h * h / 12]
+
+
+def _body_default(name: str) -> tuple[float, list[float], list[float]]:
+    """Default (mass, com, inertia) of one body of BODY_NAMES."""
+    mass, length_key, sign = _BODY_DATA[name]
+    length = _GEOMETRY_DEFAULTS[length_key]
+    inertia = _platform_inertia(mass) if name == 'platform' else _slender(mass, length)
+    return mass, [sign * length / 2, 0.0, 0.0], inertia
+
+
+def _model_specs() -> list[ParamSpec]:
+    specs = [ParamSpec('gravity', 'double', 9.81,
+                       'gravitational acceleration, acting along -y0 (down)', 'm/s^2',
+                       minimum=0.0, maximum=100.0)]
+    for key in GEOMETRY_KEYS:
+        specs.append(ParamSpec(f'geometry.{key}', 'double', _GEOMETRY_DEFAULTS[key],
+                               _GEOMETRY_MEANING[key], 'm', minimum=0.0,
+                               exclusive_minimum=True, maximum=MAX_LENGTH))
+    for name in BODY_NAMES:
+        mass, com, inertia = _body_default(name)
+        specs += [
+            ParamSpec(f'bodies.{name}.mass', 'double', mass, f'mass of {name}', 'kg',
+                      minimum=0.0, exclusive_minimum=True, maximum=MAX_MASS),
+            ParamSpec(f'bodies.{name}.com', 'double_array', com,
+                      f'centre of mass of {name} in its body frame (x, y, z)', 'm', length=3,
+                      minimum=-MAX_COM, maximum=MAX_COM),
+            ParamSpec(f'bodies.{name}.inertia', 'double_array', inertia,
+                      f'inertia tensor of {name} about its centre of mass, body frame, '
+                      'row-major 3x3', 'kg m^2', length=9,
+                      minimum=-MAX_INERTIA, maximum=MAX_INERTIA),
+        ]
+    specs.append(ParamSpec(
+        'scene', 'string', 'full',
+        'effects to simulate: a scene name from config/scenes (full, quasi_static, '
+        'platform_only, payload) or the path of a scene YAML file', required=False,
+        max_length=MAX_PATH))
+    # payload (cab and occupants): used when a scene enables the 'payload' effect.
+    # Defaults: a 60 kg cab plus an 80 kg occupant centred on the platform.
+    specs += [
+        ParamSpec('payload.mass', 'double', 140.0,
+                  'mass of the payload (cab and occupants) on the platform', 'kg',
+                  minimum=0.0, exclusive_minimum=True, maximum=MAX_MASS, required=False),
+        ParamSpec('payload.com', 'double_array', [0.7, 0.45, 0.0],
+                  'payload centre of mass in the platform frame (origin A3; x along the rod '
+                  'A3->G, y platform normal up, z lateral right)', 'm', length=3,
+                  minimum=-MAX_COM, maximum=MAX_COM, required=False),
+        ParamSpec('payload.inertia', 'double_array',
+                  [16.0, 0.0, 0.0, 0.0, 20.0, 0.0, 0.0, 0.0, 18.0],
+                  'payload inertia tensor about its centre of mass, platform axes, '
+                  'row-major 3x3', 'kg m^2', length=9, minimum=-MAX_INERTIA,
+                  maximum=MAX_INERTIA, required=False),
+    ]
+    # actuator limits and near-singularity thresholds: the status of every solve
+    specs += [
+        ParamSpec('limits.stroke_min', 'double', -0.3,
+                  'lowest allowed actuator stroke (leg length minus its zero-stroke length)',
+                  'm', minimum=-10.0, maximum=10.0, required=False),
+        ParamSpec('limits.stroke_max', 'double', 0.6,
+                  'highest allowed actuator stroke; must be > limits.stroke_min', 'm',
+                  minimum=-10.0, maximum=10.0, required=False),
+        ParamSpec('limits.max_speed', 'double', 1.0, 'largest allowed actuator speed |dL/dt|',
+                  'm/s', minimum=0.0, exclusive_minimum=True, maximum=1.0e3, required=False),
+        ParamSpec('limits.max_force', 'double', 2000.0, 'largest allowed actuator force |f|',
+                  'N', minimum=0.0, exclusive_minimum=True, maximum=1.0e9, required=False),
+        ParamSpec('limits.max_kinematic_condition', 'double', 100.0,
+                  'status near_singular beyond this condition number of the connectivity '
+                  'matrix Q (largest 2-norm condition of the pivot blocks of its block '
+                  'factorisation)', '1', minimum=1.0, maximum=1.0e16, required=False),
+        ParamSpec('limits.max_jacobian_condition', 'double', 100.0,
+                  'status near_singular beyond this condition number of the actuator '
+                  'Jacobian dL/dq (Frobenius, roll column scaled by b/2)', '1',
+                  minimum=1.0, maximum=1.0e16, required=False),
+    ]
+    # actuator friction: used when a scene enables the 'friction' effect.
+    specs += [
+        ParamSpec('friction.viscous', 'double_array', [20.0, 20.0, 20.0],
+                  'viscous friction coefficient of actuators A, B, C', 'N s/m', length=3,
+                  minimum=0.0, maximum=1.0e6, required=False),
+        ParamSpec('friction.coulomb', 'double_array', [2.0, 2.0, 2.0],
+                  'Coulomb (dry) friction force of actuators A, B, C', 'N', length=3,
+                  minimum=0.0, maximum=1.0e6, required=False),
+        ParamSpec('friction.smoothing_velocity', 'double', 1.0e-3,
+                  'rate below which Coulomb friction is smoothed: F_c tanh(rate / v_s)', 'm/s',
+                  minimum=0.0, exclusive_minimum=True, maximum=10.0, required=False),
+    ]
+    return specs
+
+
+MODEL_PARAMETERS: tuple[ParamSpec, ...] = tuple(_model_specs())
+
+# ----------------------------------------------------------------------------
+# Node parameters (limits, tolerances, QoS, ...): declared by the node, also
+# accepted in the YAML read by load_model so that one file serves both.
+# ----------------------------------------------------------------------------
+NODE_PARAMETERS: tuple[ParamSpec, ...] = (
+    # Near-limit warnings (the limits themselves are model parameters: limits.*).
+    ParamSpec('limits.warn_fraction', 'double', 0.9,
+              'status WARN when a stroke, speed or force uses at least this fraction of its '
+              'limit (stroke: of the half-range around its middle)', '1',
+              minimum=0.0, maximum=1.0),
+    # Input checks.
+    ParamSpec('input.max_linear_acceleration', 'double', 50.0,
+              'setpoints whose surge or heave acceleration (given or estimated) exceeds this '
+              'are rejected as absurd', 'm/s^2',
+              minimum=0.0, exclusive_minimum=True, maximum=1.0e6),
+    ParamSpec('input.max_angular_acceleration', 'double', 100.0,
+              'setpoints whose roll acceleration (given or estimated) exceeds this are '
+              'rejected as absurd', 'rad/s^2',
+              minimum=0.0, exclusive_minimum=True, maximum=1.0e6),
+    ParamSpec('input.quaternion_tolerance', 'double', 1.0e-3,
+              'largest accepted | |q| - 1 | of an orientation quaternion (it is then '
+              'normalised); beyond it the setpoint is rejected', '1',
+              minimum=0.0, maximum=0.5),
+    ParamSpec('input.position_tolerance', 'double', 1.0e-3,
+              'sway (position.y, and linear.y of twist and acceleration per s, s^2) beyond '
+              'this is reported as motion the mechanism cannot follow, then ignored', 'm',
+              minimum=0.0, maximum=10.0),
+    ParamSpec('input.angle_tolerance', 'double', 1.0e-3,
+              'yaw, and a pitch other than zero or the parasitic pitch, beyond this is '
+              'reported as motion the mechanism cannot follow, then ignored', 'rad',
+              minimum=0.0, maximum=3.2),
+    # Exact-stamp synchroniser.
+    ParamSpec('sync.wait', 'double', 0.05,
+              'longest wait for the twist and acceleration carrying a pose\'s stamp before '
+              'the setpoint is solved without them (they are then estimated)', 's',
+              minimum=0.0, maximum=10.0),
+    ParamSpec('sync.max_pending', 'integer', 64,
+              'most setpoint stamps waiting for their other messages at once', '1',
+              minimum=1, maximum=100000),
+    # Estimation of missing rates / accelerations.
+    ParamSpec('estimator.method', 'string', 'backward2',
+              'finite differences for missing rates and accelerations: backward (2-point, '
+              'first order) or backward2 (3-point BDF2, second order)', '',
+              choices=('backward', 'backward2')),
+    ParamSpec('estimator.max_gap', 'double', 0.5,
+              'a gap between setpoint stamps longer than this restarts the estimator '
+              '(motion assumed to start from rest)', 's',
+              minimum=0.0, exclusive_minimum=True, maximum=3600.0),
+    # (QoS: rclpy's read-only qos_overrides.<topic>.* parameters, declared by
+    # the node's endpoints; docs/node.md.)
+    # Diagnostics and logging.
+    ParamSpec('diagnostics.period', 'double', 1.0,
+              'period of the /diagnostics message', 's',
+              minimum=0.01, maximum=3600.0),
+    ParamSpec('diagnostics.log_throttle', 'double', 2.0,
+              'at most one log line per rejection reason per this period', 's',
+              minimum=0.0, maximum=3600.0),
+    # Outputs.
+    ParamSpec('output.frame_id', 'string', 'simulator_base',
+              'header.frame_id of actuator_states: the REP-103 simulator base frame '
+              '(origin at G\'s central position); leg lengths are frame-free scalars', '',
+              max_length=MAX_NAME),
+    ParamSpec('output.joint_states_frame_id', 'string', 'simulator_base',
+              'header.frame_id of joint_states (the 12 joint variables)', '',
+              max_length=MAX_NAME),
+)
+
+ALL_PARAMETERS: tuple[ParamSpec, ...] = MODEL_PARAMETERS + NODE_PARAMETERS
+SPECS: Mapping[str, ParamSpec] = {spec.name: spec for spec in ALL_PARAMETERS}
+
+
+def defaults() -> dict[str, Any]:
+    """The packaged default value of every parameter, by dotted name."""
+    return {spec.name: (list(spec.default) if isinstance(spec.default, list) else spec.default)
+            for spec in ALL_PARAMETERS}
+
+if set(_GEOMETRY_DEFAULTS) != set(GEOMETRY_KEYS):   # one list of lengths: core.model's
+    raise ImportError(f'schema geometry {sorted(_GEOMETRY_DEFAULTS)} != core.model.GEOMETRY_KEYS')

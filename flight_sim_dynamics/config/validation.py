@@ -1,0 +1,138 @@
+"""Validation of parameter values against the schema (:mod:`.schema`).
+
+Strict and never guessing: a missing, unknown or mistyped key, a value out
+of its physical range, an impossible inertia tensor raise
+:class:`ParameterError` naming the key and the value. The only conversion
+made is an integer given for a floating-point parameter (``mass: 2``), which
+is exact and is accepted as the same number.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, Iterable, Mapping
+
+import numpy as np
+
+from ..core.model import BODY_NAMES
+from .errors import ParameterError, did_you_mean
+from .schema import ALL_PARAMETERS, MODEL_PARAMETERS, SPECS, ParamSpec, defaults
+
+
+def _number(spec: ParamSpec, value: Any, item: Any, where: str = '') -> float:
+    """One number of ``value`` (``item``), as a finite float within the spec's bounds."""
+    key = spec.name
+    if isinstance(item, bool) or not isinstance(item, (int, float)):
+        raise ParameterError(key, value, f'expected a number{where}, got {type(item).__name__}')
+    try:
+        v = float(item)
+    except OverflowError:       # an int beyond the float range (10**400)
+        raise ParameterError(key, value, f'must be finite{where}') from None
+    if not math.isfinite(v):
+        raise ParameterError(key, value, f'must be finite{where}')
+    unit = f' {spec.unit}' if spec.unit else ''
+    if spec.minimum is not None:
+        if spec.exclusive_minimum and v <= spec.minimum:
+            raise ParameterError(key, value, f'must be > {spec.minimum:g}{unit}{where}')
+        if not spec.exclusive_minimum and v < spec.minimum:
+            raise ParameterError(key, value, f'must be >= {spec.minimum:g}{unit}{where}')
+    if spec.maximum is not None and v > spec.maximum:
+        raise ParameterError(key, value, f'must be <= {spec.maximum:g}{unit}{where}')
+    return v
+
+
+def check_value(spec: ParamSpec, value: Any) -> Any:
+    """Type- and range-check one value against its spec; returns it in its
+    canonical Python type (float, list of floats, int, str, bool)."""
+    key = spec.name
+    if spec.kind == 'double':
+        return _number(spec, value, value)
+    if spec.kind == 'double_array':
+        if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple, np.ndarray)):
+            raise ParameterError(key, value, f'expected a list of {spec.length} numbers')
+        if spec.length is not None and len(value) != spec.length:
+            raise ParameterError(key, value, f'expected {spec.length} numbers, got {len(value)}')
+        return [_number(spec, value, v, f' (element {i})') for i, v in enumerate(value)]
+    if spec.kind == 'integer':
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ParameterError(key, value, f'expected an integer, got {type(value).__name__}')
+        if spec.minimum is not None and value < spec.minimum:
+            raise ParameterError(key, value, f'must be >= {spec.minimum:g}')
+        if spec.maximum is not None and value > spec.maximum:
+            raise ParameterError(key, value, f'must be <= {spec.maximum:g}')
+        return value
+    if spec.kind == 'string':
+        if not isinstance(value, str):
+            raise ParameterError(key, value, f'expected a string, got {type(value).__name__}')
+        if spec.max_length is not None and len(value) > spec.max_length:
+            raise ParameterError(key, value, f'longer than {spec.max_length} characters '
+                                             f'({len(value)})')
+        if spec.choices is not None and value not in spec.choices:
+            raise ParameterError(key, value, f"must be one of {', '.join(spec.choices)}"
+                                 + did_you_mean(value, spec.choices))
+        return value
+    if spec.kind == 'bool':
+        if not isinstance(value, bool):
+            raise ParameterError(key, value, f'expected true or false, got {type(value).__name__}')
+        return value
+    raise AssertionError(f'unknown parameter kind {spec.kind}')  # pragma: no cover
+
+
+def check_inertia(key: str, value: Iterable[float]) -> np.ndarray:
+    """A 3x3 inertia tensor (eq. 18-19: J of each body about its centre of
+    mass) must be finite, symmetric and physically possible: principal moments
+    >= 0 and each no larger than the sum of the other two."""
+    values = list(value)
+    tensor = np.asarray(values, dtype=float).reshape(3, 3)
+    if not np.all(np.isfinite(tensor)):     # eigvalsh would raise LinAlgError
+        raise ParameterError(key, values, 'inertia tensor must be finite')
+    scale = max(float(np.max(np.abs(tensor))), 1e-300)
+    tensor = tensor / scale                 # no overflow near 1e308 in the checks below
+    if np.max(np.abs(tensor - tensor.T)) > 1e-9:
+        raise ParameterError(key, values, 'inertia tensor is not symmetric')
+    moments = np.linalg.eigvalsh(0.5 * (tensor + tensor.T))
+    if moments[0] < -1e-9:
+        raise ParameterError(key, values,
+                             f'inertia tensor is not positive semi-definite '
+                             f'(principal moment {moments[0] * scale:.6g})')
+    if moments[2] > moments[0] + moments[1] + 1e-9:
+        m = moments * scale
+        raise ParameterError(key, values,
+                             'principal moments violate the triangle inequality '
+                             f'({m[2]:.6g} > {m[0]:.6g} + {m[1]:.6g})')
+    return 0.5 * (tensor + tensor.T) * scale
+
+
+def check_names(values: Mapping[str, Any], where: str = '') -> None:
+    """Every name must be a parameter of the schema; an unknown one is an
+    error with the closest known name ("did you mean"). ``where``: the file
+    the names come from, for the message."""
+    for key in values:
+        if key not in SPECS:
+            place = f' in {where}' if where else ''
+            raise ParameterError(key, values[key],
+                                 f'unknown parameter{place}' + did_you_mean(key, SPECS))
+
+
+def validate(values: Mapping[str, Any], *, require_all: bool = True) -> dict[str, Any]:
+    """Check a flat dict of parameters against the schema.
+
+    Unknown keys are errors. With ``require_all`` every required model
+    parameter (gravity, geometry, bodies) must be present (as when building a
+    model from a complete set of values); otherwise missing ones take their
+    packaged defaults. Effect parameters (payload, friction) and node
+    parameters default when absent. Returns the complete, canonical flat dict.
+    """
+    check_names(values)
+    result = defaults()
+    for spec in ALL_PARAMETERS:
+        if spec.name in values:
+            result[spec.name] = check_value(spec, values[spec.name])
+        elif require_all and spec.required and spec in MODEL_PARAMETERS:
+            raise ParameterError(spec.name, None, 'missing (every model parameter must be given)')
+    for name in BODY_NAMES:
+        check_inertia(f'bodies.{name}.inertia', result[f'bodies.{name}.inertia'])
+    check_inertia('payload.inertia', result['payload.inertia'])
+    if not result['limits.stroke_min'] < result['limits.stroke_max']:
+        raise ParameterError('limits.stroke_min', result['limits.stroke_min'],
+                             f"must be < limits.stroke_max = {result['limits.stroke_max']:g} m")
+    return result

@@ -1,0 +1,319 @@
+"""The one rule for parameter files (library, command line, node) and the
+safe YAML reader: every bad file is one ParameterError naming it (issue 12
+#10, issue 14 #5)."""
+import os
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+import flight_sim_dynamics as fsd
+from flight_sim_dynamics.config import parameters, schema, yaml_io
+from flight_sim_dynamics.config.errors import ParameterError
+from flight_sim_dynamics.config.files import params_files_in, section_applies
+from flight_sim_dynamics.config.scenes import SceneError
+from flight_sim_dynamics.core.model import BODY_NAMES
+
+CONFIG = Path(__file__).resolve().parents[2] / 'config' / 'flight_sim_dynamics.yaml'
+HEADER = 'flight_sim_dynamics:\n  ros__parameters:\n'
+
+
+def _file(tmp_path, body: str, name: str = 'p.yaml') -> Path:
+    path = tmp_path / name
+    path.write_text(HEADER + ''.join(f'    {line}\n' for line in body.splitlines()))
+    return path
+
+
+def _raises(path, *words):
+    """load_model(path) raises ParameterError (nothing else) naming all ``words``."""
+    t0 = time.perf_counter()
+    with pytest.raises(ParameterError) as info:
+        fsd.load_model(path)
+    elapsed = time.perf_counter() - t0
+    for word in words:
+        assert word in str(info.value), (word, str(info.value))
+    return info.value, elapsed
+
+
+# -- the one rule --------------------------------------------------------------
+def test_partial_file_overrides_packaged_defaults(tmp_path):
+    model = fsd.load_model(_file(tmp_path, 'bodies:\n  platform:\n    mass: 7.5'))
+    default = fsd.load_model()
+    assert model.bodies['platform'].mass == 7.5
+    assert model.geometry == default.geometry
+    assert model.bodies['rod'].mass == default.bodies['rod'].mass
+    assert model.values['geometry.d1'] == 0.4
+
+
+def test_missing_geometry_key_takes_the_packaged_value(tmp_path):
+    tree = yaml.safe_load(CONFIG.read_text())
+    del tree['flight_sim_dynamics']['ros__parameters']['geometry']['d1']
+    path = tmp_path / 'no_d1.yaml'
+    path.write_text(yaml.safe_dump(tree))
+    assert fsd.load_model(path).geometry.d1 == fsd.load_model().geometry.d1
+
+
+@pytest.mark.parametrize('body, key, suggestion', [
+    ('geometry:\n  d7: 0.4', 'geometry.d7', 'geometry.d5'),
+    ('bodies:\n  platfrom:\n    mass: 5.0', 'bodies.platfrom.mass', 'bodies.platform.mass'),
+    ('gravty: 9.81', 'gravty', 'gravity'),
+    ('output:\n  frameid: base', 'output.frameid', 'output.frame_id'),
+])
+def test_unknown_name_is_an_error_with_did_you_mean_and_the_file(tmp_path, body, key,
+                                                                  suggestion):
+    path = _file(tmp_path, body)
+    error, _ = _raises(path, f"'{key}'", 'unknown parameter', str(path),
+                       f"did you mean '{suggestion}'?")
+    assert error.key == key
+
+
+def test_qos_overrides_are_the_nodes_and_ignored_by_load_model(tmp_path):
+    path = _file(tmp_path, 'qos_overrides:\n  /pose_setpoint:\n    subscription:\n'
+                           '      depth: 50\nbodies:\n  rod:\n    mass: 2.0')
+    values, qos = parameters.read_params(path)
+    assert qos == {'qos_overrides./pose_setpoint.subscription.depth': 50}
+    assert values == {'bodies.rod.mass': 2.0}
+    assert fsd.load_model(path).bodies['rod'].mass == 2.0
+
+
+def test_sections_apply_as_rcl_applies_them(tmp_path):
+    assert section_applies('/**', '/sim/flight_sim_dynamics')
+    assert section_applies('flight_sim_dynamics', '/flight_sim_dynamics')
+    assert section_applies('/sim/flight_sim_dynamics', '/sim/flight_sim_dynamics')
+    assert section_applies('/*/flight_sim_dynamics', '/sim/flight_sim_dynamics')
+    assert section_applies('/**/flight_sim_dynamics', '/a/b/flight_sim_dynamics')
+    assert not section_applies('/other/flight_sim_dynamics', '/sim/flight_sim_dynamics')
+    assert not section_applies('some_node', '/flight_sim_dynamics')
+    path = tmp_path / 'ns.yaml'
+    path.write_text('/sim/flight_sim_dynamics:\n  ros__parameters:\n    gravity: 9.0\n'
+                    'other:\n  ros__parameters:\n    anything: 1\n')
+    values, _ = parameters.read_params(path, '/sim/flight_sim_dynamics')
+    assert values == {'gravity': 9.0}
+    with pytest.raises(ParameterError, match='no section for node'):
+        parameters.read_params(path)
+
+
+def test_params_files_in_a_ros_command_line():
+    args = ['node', '--executor', 'single', '--ros-args', '--params-file', 'a.yaml', '-p',
+            'x:=1', '--', '--params-file', 'not_ros.yaml', '--ros-args', '--params-file',
+            'b.yaml']
+    assert params_files_in(args) == ['a.yaml', 'b.yaml']
+
+
+def test_check_params_files_applies_the_rule_to_a_command_line(tmp_path):
+    good = _file(tmp_path, 'bodies:\n  rod:\n    mass: 2.0', 'good.yaml')
+    bad = _file(tmp_path, 'geometry:\n  d7: 0.4', 'bad.yaml')
+    parameters.check_params_files(['n', '--ros-args', '--params-file', str(good)])
+    with pytest.raises(ParameterError, match="did you mean 'geometry.d5'"):
+        parameters.check_params_files(['n', '--ros-args', '--params-file', str(good),
+                                       '--params-file', str(bad)])
+
+
+# -- bad files: one ParameterError naming the file, quickly ------------------------
+BILLION_LAUGHS = ('lol: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]\n'
+                  + ''.join(f'l{i}: &{chr(98 + i)} [' + ','.join(['*' + chr(97 + i)] * 9)
+                            + ']\n' for i in range(9)))
+
+
+@pytest.mark.parametrize('content, words', [
+    (HEADER + '    gravity: ' + '1' + '0' * 400 + '\n', ['gravity', 'outside 64 bits']),
+    (HEADER + '    gravity: ' + '9' * 5000 + '\n', ['gravity', 'outside 64 bits']),
+    (HEADER.encode() + b'    scene: caf\xe9\n', ['not UTF-8', 'offset']),
+    (HEADER + '    geometry: &g {d1: *g}\n', ['anchors and aliases']),
+    (BILLION_LAUGHS, ['anchors and aliases']),
+    (HEADER + '    gravity: &g 9.81\n', ['anchors and aliases']),
+    (HEADER + '    gravity: 9.81\n    gravity: 9.0\n', ['gravity', 'given twice']),
+    (HEADER + '    gravity: !!float 9\n', ['explicit tags']),
+    (HEADER + '    geometry: ' + '{a: ' * 100 + '1' + '}' * 100 + '\n', ['nested deeper']),
+    (b'\x00\x01\x02binary', ['NUL bytes']),
+    (HEADER + '    gravity: [unclosed\n', ['not valid YAML']),
+    (HEADER + '    gravity: 9.81\n---\nx: 1\n', ['not valid YAML']),
+    ('- just\n- a list\n', ['expected a map']),
+    ('', ['expected a map']),
+    (HEADER + '    bodies:\n      rod:\n        com: [[1.0], 0.0, 0.0]\n', ['bodies.rod.com',
+                                                                          'single value']),
+    (HEADER + '    bodies:\n      rod:\n        com: []\n', ['bodies.rod.com', 'empty list']),
+    (HEADER + '    1: 2.0\n', ['key must be a name']),
+    (HEADER + '    ? [a, b]\n    : 1\n', ['key must be a name']),
+])
+def test_bad_file_is_one_parameter_error_naming_it(tmp_path, content, words):
+    path = tmp_path / 'bad.yaml'
+    (path.write_bytes if isinstance(content, bytes) else path.write_text)(content)
+    error, elapsed = _raises(path, *words)
+    assert str(path) in str(error) or error.key in str(error)
+    assert elapsed < 1.0, elapsed
+
+
+@pytest.mark.parametrize('inertia', ['1.0e308', '1.0e+300', '.inf', '.nan', '-1.0e308'])
+def test_huge_or_non_finite_inertia_is_a_parameter_error(tmp_path, inertia):
+    path = _file(tmp_path, f'bodies:\n  rod:\n    inertia: [{inertia}, 0.0, 0.0, 0.0, '
+                           f'{inertia}, 0.0, 0.0, 0.0, {inertia}]')
+    _raises(path, 'bodies.rod.inertia')
+
+
+def test_check_inertia_never_raises_linalg_errors():
+    for bad in (-1e308, float('inf'), float('nan')):
+        with pytest.raises(ParameterError):
+            parameters.check_inertia('x', [bad, 0, 0, 0, bad, 0, 0, 0, bad])
+    # a possible tensor near the float range is checked without overflow (the
+    # schema's bound, 1e6 kg m^2, is validation's business)
+    tensor = parameters.check_inertia('x', [1e308, 0, 0, 0, 1e308, 0, 0, 0, 1e308])
+    assert tensor[0, 0] == 1e308
+
+
+def test_special_files_are_refused_without_reading_them_whole(tmp_path):
+    _raises(Path('/dev/zero'), 'larger than', str(yaml_io.MAX_FILE_BYTES))
+    _raises(tmp_path, 'is a directory')
+    _raises(tmp_path / 'nope.yaml', 'cannot read')
+    big = tmp_path / 'big.yaml'
+    big.write_text(HEADER + '    # ' + 'x' * yaml_io.MAX_FILE_BYTES + '\n')
+    _raises(big, 'larger than')
+
+
+def test_fifo_without_writer_is_not_waited_for(tmp_path):
+    fifo = tmp_path / 'fifo.yaml'
+    os.mkfifo(fifo)
+    _, elapsed = _raises(fifo, 'expected a map')      # no writer: empty
+    assert elapsed < 1.0
+
+
+def test_fifo_with_a_writer_is_read(tmp_path):
+    fifo = tmp_path / 'fifo.yaml'
+    os.mkfifo(fifo)
+    text = HEADER + '    gravity: 9.5\n'
+    writer = threading.Thread(target=lambda: fifo.write_text(text))
+    writer.start()
+    time.sleep(0.2)         # the writer has opened the FIFO
+    try:
+        assert fsd.load_model(fifo).gravity == 9.5
+    finally:
+        writer.join(5)
+
+
+# -- values the library and the node (rcl) would read differently ---------------------
+AMBIGUOUS = {
+    '1:30': 'sexagesimal', '1:30.5': 'sexagesimal', '0x10': 'hexadecimal', '-0x10': 'hexadecimal',
+    '0o10': 'octal', '0b101': 'binary', '0x1p3': 'hexadecimal', '010': 'leading zero',
+    '1_000': "'_'", '1.0_0': "'_'", 'yes': 'boolean', 'no': 'boolean', 'on': 'boolean',
+    'off': 'boolean', 'Yes': 'boolean', 'OFF': 'boolean', 'y': 'boolean', 'n': 'boolean',
+    '~': 'null', 'null': 'null', 'NULL': 'null', '': 'null', '2001-12-14': 'date',
+    'inf': 'without the dot', '-Infinity': 'without the dot', 'nan': 'without the dot',
+}
+
+
+@pytest.mark.parametrize('text', sorted(AMBIGUOUS))
+def test_yaml11_only_and_rcl_ambiguous_values_are_refused_naming_the_key(tmp_path, text):
+    for body, key in ((f'bodies:\n  rod:\n    mass: {text}', 'bodies.rod.mass'),
+                      (f'output:\n  frame_id: {text}', 'output.frame_id')):
+        error, _ = _raises(_file(tmp_path, body), f"'{key}'", AMBIGUOUS[text], 'p.yaml')
+        assert error.key == key
+    if text:    # in a list, the element is named
+        _raises(_file(tmp_path, f'friction:\n  viscous: [1.0, {text}, 1.0]'),
+                'friction.viscous.[1]', AMBIGUOUS[text])
+
+
+@pytest.mark.parametrize('text', ["'yes'", '"0x10"', "'1:30'", "'~'"])
+def test_quoted_values_are_strings(tmp_path, text):
+    path = _file(tmp_path, f'output:\n  frame_id: {text}')
+    assert fsd.load_model(path).values['output.frame_id'] == text[1:-1]
+
+
+@pytest.mark.parametrize('text, value', [('1e3', 1000.0), ('2.5e-3', 0.0025), ('1E+1', 10.0),
+                                         ('+.5', 0.5), ('5.', 5.0), ('7', 7.0)])
+def test_yaml12_numbers_are_read_as_rcl_reads_them(tmp_path, text, value):
+    path = _file(tmp_path, f'bodies:\n  rod:\n    mass: {text}')
+    assert fsd.load_model(path).bodies['rod'].mass == value
+
+
+# -- physical bounds (issue 12 #5) ----------------------------------------------------
+@pytest.mark.parametrize('body, key, words', [
+    ('bodies:\n  platform:\n    com: [1.0e300, 0.0, 0.0]', 'bodies.platform.com', '<= 100'),
+    ('bodies:\n  platform:\n    com: [0.0, -101.0, 0.0]', 'bodies.platform.com', '>= -100'),
+    ('bodies:\n  rod:\n    mass: 1.0e6', 'bodies.rod.mass', '<= 100000'),
+    ('payload:\n  mass: 2.0e5', 'payload.mass', '<= 100000'),
+    ('payload:\n  com: [0.0, 0.0, 200.0]', 'payload.com', 'element 2'),
+    ('bodies:\n  rod:\n    inertia: [2.0e6, 0.0, 0.0, 0.0, 2.0e6, 0.0, 0.0, 0.0, 2.0e6]',
+     'bodies.rod.inertia', '<= 1e+06'),
+    ('friction:\n  viscous: [1.0, -1.0, 1.0]', 'friction.viscous', '>= 0'),
+    ('output:\n  frame_id: ' + 'f' * 257, 'output.frame_id', 'longer than 256'),
+    ('output:\n  joint_states_frame_id: ' + 'f' * 300, 'output.joint_states_frame_id',
+     'longer than 256'),
+    ('scene: ' + 'a/' * 2100 + '.yaml', 'scene', 'longer than 4096'),
+    ('sync:\n  max_pending: 1000000', 'sync.max_pending', '<= 100000'),
+    ('estimator:\n  method: backwards', 'estimator.method', "did you mean 'backward'"),
+])
+def test_every_parameter_is_physically_bounded(tmp_path, body, key, words):
+    error, _ = _raises(_file(tmp_path, body), words)
+    assert error.key == key
+
+
+def test_every_number_and_string_of_the_schema_has_a_bound():
+    for spec in schema.ALL_PARAMETERS:
+        if spec.kind in ('double', 'double_array', 'integer'):
+            assert spec.minimum is not None and spec.maximum is not None, spec.name
+        elif spec.kind == 'string':
+            assert spec.choices or spec.max_length, spec.name
+        assert spec.range_text, spec.name
+
+
+def test_long_values_are_cut_in_messages(tmp_path):
+    error, _ = _raises(_file(tmp_path, 'output:\n  frame_id: ' + 'f' * 100000), 'characters')
+    assert len(str(error)) < 1000
+
+
+def test_body_defaults_follow_core_body_names():
+    names = [spec.name.split('.')[1] for spec in schema.MODEL_PARAMETERS
+             if spec.name.startswith('bodies.') and spec.name.endswith('.mass')]
+    assert names == list(BODY_NAMES)
+
+
+# -- scenes ---------------------------------------------------------------------------------
+def _scene(tmp_path, text):
+    path = tmp_path / 'my_scene.yaml'
+    path.write_text(text)
+    return path
+
+
+EFFECTS = ('effects: {gravity: true, platform_inertia: true, payload: false, leg_inertia: true,'
+           ' crank_inertia: true, velocity_products: true, friction: false}\n')
+
+
+@pytest.mark.parametrize('text, words', [
+    (EFFECTS.replace('gravity', 'gravty'), ["unknown effect(s): gravty", "did you mean 'gravity'"]),
+    (EFFECTS + 'descripton: x\n', ['unknown key(s): descripton', "did you mean 'description'"]),
+    (EFFECTS + 'parameters: {payload: {mas: 3.0}}\n',
+     ["'payload.mas' is not a model parameter", "did you mean 'payload.mass'"]),
+    (EFFECTS.replace('true', 'yes', 1), ['gravity', 'boolean']),
+    (EFFECTS + 'parameters: {payload: {mass: 0x10}}\n', ['payload.mass', 'hexadecimal']),
+    ('effects: &e {gravity: true}\nx: *e\n', ['anchors and aliases']),
+    (BILLION_LAUGHS, ['anchors and aliases']),
+])
+def test_bad_scene_file_is_one_scene_error(tmp_path, text, words):
+    path = _scene(tmp_path, text)
+    with pytest.raises(SceneError) as info:
+        fsd.load_model(scene=path)
+    for word in words:
+        assert word in str(info.value), (word, str(info.value))
+
+
+def test_binary_or_endless_scene_file_is_one_scene_error(tmp_path):
+    path = tmp_path / 'bin.yaml'
+    path.write_bytes(b'\x7fELF\x00\x00')
+    with pytest.raises(SceneError, match='NUL bytes'):
+        fsd.load_model(scene=path)
+    with pytest.raises(SceneError, match='larger than'):
+        fsd.load_model(scene='/dev/zero')
+
+
+def test_misspelt_scene_name_gets_did_you_mean():
+    with pytest.raises(SceneError, match="did you mean 'payload'"):
+        fsd.load_model(scene='paylod')
+
+
+def test_packaged_files_read_by_the_strict_reader():
+    values, qos = parameters.read_params(CONFIG)
+    assert not qos and set(values) <= set(schema.SPECS)
+    assert np.isclose(fsd.load_model().gravity, 9.81)
