@@ -124,7 +124,8 @@ def table_main(argv: Sequence[str]) -> int:
 def profiled_node_main(argv: Sequence[str]) -> int:
     """``profiled-node OUT [node arguments]``: the node with cProfile enabled from
     SIGUSR1 on (sent when the measured stream starts, so start-up, imports and
-    discovery stay out), stats written to OUT when it exits."""
+    discovery stay out), stats written to OUT when it exits.
+    """
     out, rest = argv[0], list(argv[1:])
     prof = cProfile.Profile()
     signal.signal(signal.SIGUSR1, lambda *_: prof.enable())

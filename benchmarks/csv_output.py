@@ -56,7 +56,8 @@ def route_savetxt(data: np.ndarray) -> bytes:
 
 def patched_writer(route: Callable[[np.ndarray], bytes]) -> Callable[..., None]:
     """csv_io.write_csv with ``route`` formatting the numbers (the words of a
-    text column appended row by row, as a writer built on it would)."""
+    text column appended row by row, as a writer built on it would).
+    """
     def write_csv(path, names, data, text=None) -> None:
         header = ','.join(names) + (',' + text[0] if text else '') + '\n'
         body = route(np.asarray(data, dtype=float))

@@ -32,7 +32,8 @@ HEADER = ('| motion | rate Hz | stream | estimator | max force error N | % of ma
 def rows(rates: Sequence[float], startup_s: float, motions: Sequence[str] = PLANNER_MOTIONS
          ) -> list[tuple]:
     """(motion, rate, stream, estimator, max N, max %, RMS N, max acceleration
-    error, start-up max N) for every case."""
+    error, start-up max N) for every case.
+    """
     model = fsd.load_model()
     out = []
     for rate in rates:

@@ -279,8 +279,8 @@ def drive_main(argv: Sequence[str]) -> int:
 def echo_main(argv: Sequence[str]) -> int:
     """PoseStamped in (``pose_setpoint``), JointState out (``actuator_states``,
     the pose's stamp, 3 names, 3 x 3 values): the middleware's own cost, with
-    the node's QoS and executor and nothing else."""
-
+    the node's QoS and executor and nothing else.
+    """
     own = rclpy.utilities.remove_ros_args(['bench_echo', *argv])[1:]
     p = argparse.ArgumentParser(prog='python -m benchmarks.bench_node echo')
     p.add_argument('--executor', choices=('events', 'single'), default='events')

@@ -51,7 +51,8 @@ SETPOINT_INPUTS = ('topics', 'trajectory')
 def ros_env(domain_id: int | None = None) -> dict[str, str]:
     """The environment of every ROS process started here: own domain, discovery
     on this machine only, unbuffered output (they run in the repository root,
-    so ``python -m benchmarks...`` and the package import from it)."""
+    so ``python -m benchmarks...`` and the package import from it).
+    """
     env = dict(os.environ)
     if domain_id is not None:
         env['ROS_DOMAIN_ID'] = str(domain_id)
@@ -66,7 +67,8 @@ def ros_env(domain_id: int | None = None) -> dict[str, str]:
 def node_qos_depth(params_file: Path = PARAMS_FILE) -> int:
     """KEEP_LAST depth of the node's setpoints and outputs: its default QoS
     (changed only by ``qos_overrides.*`` start-up parameters, which
-    ``params_file`` must not set: a params file with them is refused here)."""
+    ``params_file`` must not set: a params file with them is refused here).
+    """
     if params_file.is_file() and any(k.startswith('qos_overrides.')
                                      for k in read_params_file(params_file)):
         raise ValueError(f'{params_file} sets qos_overrides: pass --depth instead')
@@ -84,7 +86,8 @@ def module_command(*args: str) -> list[str]:
 
 class Proc:
     """A child process with its output in a log file; always stopped with
-    :meth:`stop` (SIGINT as Ctrl-C, then SIGKILL)."""
+    :meth:`stop` (SIGINT as Ctrl-C, then SIGKILL).
+    """
 
     def __init__(self, proc: subprocess.Popen, log: Path, log_file: Any = None) -> None:
         self.proc, self.pid = proc, proc.pid
@@ -107,7 +110,8 @@ class Proc:
              cprofile_out: Path | None = None) -> 'Proc':
         """The node with the packaged parameters, as a user starts it; with
         ``cprofile_out``, through ``bench_node profiled-node`` (cProfile
-        enabled on SIGUSR1, written at exit)."""
+        enabled on SIGUSR1, written at exit).
+        """
         launcher = None if cprofile_out is None else PROFILED_NODE + [str(cprofile_out)]
         return cls(start_node(PARAMS_FILE, log=log, executor=executor, launcher=launcher,
                               env=env, cwd=ROOT), log)
@@ -153,7 +157,8 @@ def thread_cpu(pid: int) -> dict[int, tuple[str, float]]:
 
 def thread_cpu_delta(pid: int, before: dict, after: dict) -> tuple[float, list]:
     """(CPU s of the main thread, [(thread name, CPU s), ...] of the others,
-    summed by name, largest first) between two :func:`thread_cpu` readings."""
+    summed by name, largest first) between two :func:`thread_cpu` readings.
+    """
     main = after.get(pid, ('', 0.0))[1] - before.get(pid, ('', 0.0))[1]
     others: dict[str, float] = {}
     for tid, (name, cpu) in after.items():
@@ -175,7 +180,8 @@ def host_cpu_jiffies() -> tuple[int, int]:
     """(steal, total) CPU time of the whole machine so far, in clock ticks, from
     the first line of /proc/stat. Steal is the time the hypervisor ran something
     else while this (virtual) machine had work: a stall no process here can
-    avoid. (0, 0) where /proc/stat has no steal column."""
+    avoid. (0, 0) where /proc/stat has no steal column.
+    """
     try:
         with open('/proc/stat') as f:
             fields = f.readline().split()
@@ -187,7 +193,8 @@ def host_cpu_jiffies() -> tuple[int, int]:
 
 def steal_percent(before: tuple[int, int], after: tuple[int, int]) -> float:
     """Share (%) of the machine's CPU time stolen by the hypervisor between two
-    :func:`host_cpu_jiffies` readings (nan if unknown)."""
+    :func:`host_cpu_jiffies` readings (nan if unknown).
+    """
     total = after[1] - before[1]
     return 100.0 * (after[0] - before[0]) / total if total > 0 else math.nan
 
@@ -241,7 +248,8 @@ class StreamResult:
     @property
     def after_publish_ms(self) -> np.ndarray:
         """Per answered sample, ms from the end of its publishing to the receipt
-        of the answer: the latency without the driver's own publishing."""
+        of the answer: the latency without the driver's own publishing.
+        """
         ok = np.isfinite(self.recv_times)
         if self.publish_ms.size != ok.size:
             return np.zeros(0)
@@ -282,7 +290,8 @@ class StreamResult:
 
     def tenth_medians(self) -> tuple[float, float]:
         """Median latency of the answered samples in the first and last tenth
-        of the stream (a growing backlog shows as last >> first)."""
+        of the stream (a growing backlog shows as last >> first).
+        """
         n = self.sent
         lat = (self.recv_times - self.send_times) * 1e3
         first, last = lat[: max(1, n // 10)], lat[n - max(1, n // 10):]
@@ -328,7 +337,8 @@ def run_stream(kind: str, rate: float, seconds: float, *, env: dict[str, str],
     Python message objects (its old way) instead of serialized messages.
     ``setpoint_input``: how the driver sends a setpoint to the node: ``topics``
     (a pose, a twist and an acceleration with one stamp) or ``trajectory`` (one
-    ``trajectory_msgs/JointTrajectory`` on ``platform_setpoint``)."""
+    ``trajectory_msgs/JointTrajectory`` on ``platform_setpoint``).
+    """
     if setpoint_input not in SETPOINT_INPUTS:
         raise ValueError(f'setpoint_input must be one of {SETPOINT_INPUTS}, not '
                          f'{setpoint_input!r}')
@@ -466,7 +476,8 @@ def stream_motion(rate: float) -> tuple[list, list, list]:
     """One period of the stream at ``rate`` Hz: the paper's general motion, its
     return to neutral, the motion-cueing sequence (a looping
     :class:`~flight_sim_dynamics.core.motions.PlannerSequence`), as lists of
-    (surge, heave, roll) and of their derivatives, plain floats."""
+    (surge, heave, roll) and of their derivatives, plain floats.
+    """
     q, qd, qdd = PlannerSequence(['general', 'cueing'], loop=True).states(rate)
     return ([tuple(x) for x in q.tolist()], [tuple(x) for x in qd.tolist()],
             [tuple(x) for x in qdd.tolist()])

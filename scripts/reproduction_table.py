@@ -48,7 +48,8 @@ def run(argv: list[str]) -> None:
 def reproduce(work: Path, figures: Path | None, rate: float | None
               ) -> tuple[dict[str, csv_io.Table], dict[str, np.ndarray]]:
     """Run the commands; returns the solve outputs and the poses (surge,
-    heave, roll) read from the trajectory files, by example."""
+    heave, roll) read from the trajectory files, by example.
+    """
     (work / 'traj').mkdir(parents=True, exist_ok=True)
     (work / 'out').mkdir(parents=True, exist_ok=True)
     tables, poses = {}, {}

@@ -1,5 +1,6 @@
 """Targets, verdicts, the summary table and the measured states (shared by
-the sections of the performance benchmark)."""
+the sections of the performance benchmark).
+"""
 from __future__ import annotations
 
 import functools
@@ -112,7 +113,8 @@ def summary_table(rows: Sequence[Row]) -> str:
 @functools.lru_cache(maxsize=4)
 def sequence_states(rate: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One period of the paper's general motion, its return to neutral and the
-    motion-cueing sequence (the node benchmark's stream), at ``rate`` Hz."""
+    motion-cueing sequence (the node benchmark's stream), at ``rate`` Hz.
+    """
     return PlannerSequence(['general', 'cueing'], loop=True).states(rate)
 
 

@@ -1,7 +1,8 @@
 """Sections 4-5 of the performance benchmark: the node and a bare echo under
 a stream (latency, loss, CPU), the executor comparison, the soak. The
 streams are :func:`benchmarks.node_stream.run_stream` (looked up at call
-time, so a test can replace it)."""
+time, so a test can replace it).
+"""
 from __future__ import annotations
 
 import argparse
@@ -44,7 +45,8 @@ def stream_dict(r: node_stream.StreamResult) -> dict:
 
 def rejections(diags: list) -> dict[str, int]:
     """The node's non-zero rejection counters (totals since start) in its last
-    /diagnostics message."""
+    /diagnostics message.
+    """
     if not diags:
         return {}
     values = diags[-1][1]
@@ -81,7 +83,8 @@ def section_node(args: argparse.Namespace, rows: list[Row], env: dict,
     with one JointTrajectory), each run ``--node-seconds`` at ``--rate``. The
     targets are judged on the calmest round: the one whose runs saw the least
     steal by the hypervisor (a criterion independent of the figures judged);
-    every round is printed."""
+    every round is printed.
+    """
     out: dict[str, Any] = {'runs': [], 'rounds': []}
     rate = args.rate
 
@@ -164,7 +167,8 @@ def section_node(args: argparse.Namespace, rows: list[Row], env: dict,
 def section_executors(args: argparse.Namespace, rows: list[Row], env: dict, workdir: Path,
                       node_out: dict) -> dict:
     """The other executor, for the record of the choice: the echo at --rate and
-    the node at --context-rate, compared with the runs of section 4."""
+    the node at --context-rate, compared with the runs of section 4.
+    """
     other = 'single' if args.executor == 'events' else 'events'
     done = node_out['done']
     out: dict[str, Any] = {'other': other, 'runs': [], 'pairs': []}
@@ -205,7 +209,8 @@ def _num(values: dict, key: str) -> float:
 
 def diag_summary(diags: list) -> list[dict]:
     """Per /diagnostics period: time, answered, rate, solve mean / median / p99 /
-    max (us)."""
+    max (us).
+    """
     return [dict(t=t, answered=_num(v, 'setpoints answered'), rate=_num(v, 'rate (Hz)'),
                  mean=_num(v, 'solve time mean (us)'), median=_num(v, 'solve time median (us)'),
                  p99=_num(v, 'solve time p99 (us)'),
@@ -346,7 +351,8 @@ def section_soak(args: argparse.Namespace, rows: list[Row], env: dict, workdir: 
 
 def _settled(trend: dict) -> list[dict]:
     """The minutes of the soak after the first (warm-up: caches, allocator,
-    discovery; like the RSS baseline at 10 s), when there are at least three."""
+    discovery; like the RSS baseline at 10 s), when there are at least three.
+    """
     mins = trend['minutes']
     return mins[1:] if len(mins) >= 3 else mins
 
@@ -355,7 +361,8 @@ def _timing_key(trend: dict) -> str:
     """The per-minute figure the flatness is judged on: the median solve time
     (a preemption of the node inside a solve, a few ms once in a thousand
     cycles, moves the mean and p99 of a period but not its median); the mean
-    for diagnostics without a median."""
+    for diagnostics without a median.
+    """
     mins = trend['minutes']
     return 'median' if mins and all(math.isfinite(m.get('median', math.nan))
                                     for m in mins) else 'mean'
@@ -382,7 +389,8 @@ def _flat(trend: dict) -> bool:
     """Flat = the timing does not grow: after the warm-up minute, the per-minute
     solve time (:func:`_timing_key`) rises by less than 10 % of its median over
     the soak (linear fit) and no minute's is over 1.25x another's. A fall is no
-    growth (it follows the machine's load)."""
+    growth (it follows the machine's load).
+    """
     key = _timing_key(trend)
     values = [m[key] for m in _settled(trend)]
     if len(values) < 2:

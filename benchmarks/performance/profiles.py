@@ -1,5 +1,6 @@
 """Profiles of the performance benchmark: the parts of ``fsd.solve``, the
-batch by threads, the node under load (py-spy and/or cProfile)."""
+batch by threads, the node under load (py-spy and/or cProfile).
+"""
 from __future__ import annotations
 
 import argparse
@@ -28,7 +29,8 @@ from .node import (stream_dict)
 # ----------------------------------------------------------------------------
 def _short(key: tuple) -> str:
     """A cProfile stats key (file, line, function) as ``path:line(function)``,
-    the path relative to the repository or to site-packages."""
+    the path relative to the repository or to site-packages.
+    """
     filename, line, func = key
     if filename == '~':
         return func
@@ -56,7 +58,8 @@ def _per_call_us(fn: Callable[[], Any], n: int, repeats: int = 5) -> float:
 def profile_solver(args: argparse.Namespace) -> dict:
     """Where the time of one ``fsd.solve`` goes: the compiled kernel alone, its
     Python wrapper, and the Python reference code for comparison; and the
-    batch with one thread, all threads and the Python reference code."""
+    batch with one thread, all threads and the Python reference code.
+    """
     n = args.profile_solves
     log(f'profile: the parts of fsd.solve ({n} calls each)')
     states = as_states(*sequence_states(100.0))
@@ -113,7 +116,8 @@ def find_py_spy() -> str | None:
 
 def parse_py_spy_raw(path: Path, top: int) -> dict:
     """Self (leaf) and total (anywhere on the stack) samples per function
-    from py-spy's raw (collapsed stacks) output."""
+    from py-spy's raw (collapsed stacks) output.
+    """
     self_c: dict[str, int] = {}
     total_c: dict[str, int] = {}
     n = 0

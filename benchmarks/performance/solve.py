@@ -1,5 +1,6 @@
 """Sections 1-3 of the performance benchmark: per-cycle solve, batch solve,
-CSV end to end (in this process and a subprocess; no rclpy)."""
+CSV end to end (in this process and a subprocess; no rclpy).
+"""
 from __future__ import annotations
 
 import argparse

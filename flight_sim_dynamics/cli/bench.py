@@ -109,7 +109,8 @@ def configure(p: argparse.ArgumentParser) -> None:
 def output_dir(args: argparse.Namespace) -> str:
     """The directory the page and the figure go to: ``--out-dir``, ``out`` by
     default, the repository's docs/ with ``--update-docs`` (which must be
-    there: the tool never creates a docs/ elsewhere)."""
+    there: the tool never creates a docs/ elsewhere).
+    """
     if not args.update_docs:
         return args.out_dir or DEFAULT_OUT_DIR
     if not os.path.isfile(os.path.join(DOCS_DIR, 'scenes.md')):

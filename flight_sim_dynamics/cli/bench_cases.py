@@ -51,7 +51,8 @@ class Variant:
 def variants() -> list[Variant]:
     """The packaged scenes, then ``full`` without each of its effects, then
     ``full`` with each effect it lacks that no packaged scene adds (friction
-    today), described by its own ``<effect>.*`` parameters."""
+    today), described by its own ``<effect>.*`` parameters.
+    """
     full = fsd.load_model(scene='full')
     out = [Variant('full', REFERENCE, full, load_scene('full').description)]
     for name in available_scenes():
@@ -159,7 +160,8 @@ STARTUP_SAMPLES = 4   # the estimator's history is full (BDF2 of BDF2 rates) fro
 @dataclass(frozen=True)
 class EstimatorCase:
     """Force errors of the full model solved with the estimator's rates and
-    accelerations against the exact ones, per motion."""
+    accelerations against the exact ones, per motion.
+    """
 
     source: str                 # 'twist' (exact qd given) or 'pose' (pose only)
     method: str
@@ -173,7 +175,8 @@ def estimate(method: str, rate: float, name: str, twist: bool
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Feed the node's estimator the samples of motion ``name`` at ``rate`` Hz
     (pose and exact twist, or pose only); returns q, the rates and
-    accelerations the node would use, and the exact ones."""
+    accelerations the node would use, and the exact ones.
+    """
     t = sample_times(rate, duration(name))
     q, qd, qdd = motion(name, t)
     est = DerivativeEstimator(method)
@@ -192,7 +195,8 @@ def estimator_cases(full: Model, peaks: dict[str, float],
                     motions: Sequence[str] = ESTIMATOR_MOTIONS,
                     startup: int = STARTUP_SAMPLES) -> list[EstimatorCase]:
     """Every source ('twist', 'pose') x estimator method x rate, on ``motions``;
-    ``peaks``: the full model's peak |force| per motion (for the %)."""
+    ``peaks``: the full model's peak |force| per motion (for the %).
+    """
     out = []
     for source in ('twist', 'pose'):
         for method in ESTIMATORS:
@@ -239,12 +243,14 @@ class Timing:
     @property
     def block_p99_us(self) -> float:
         """Median over the blocks of each block's p99: the tail of a typical
-        stretch of cycles, less swayed by a burst of load in one block."""
+        stretch of cycles, less swayed by a burst of load in one block.
+        """
         return float(np.median(self.block_p99s)) / 1e3
 
     def paired_delta_us(self, other: 'Timing') -> tuple[float, float]:
         """(median over the blocks of (block median of self - that of ``other``
-        in the same round), two-sided sign-test p-value of that difference)."""
+        in the same round), two-sided sign-test p-value of that difference).
+        """
         d = (self.block_medians - other.block_medians) / 1e3
         return float(np.median(d)), sign_test(d)
 
@@ -280,7 +286,8 @@ def time_cases(cases: dict[str, Case], cycles: int, block: int, warmup: int,
     order drawn anew for each k, so that no case always follows the same
     other one), so a burst of load from other processes hits them all alike; the
     statistics are also kept per block of ``block`` states, whose
-    medians pair the cases over the same stretch of time."""
+    medians pair the cases over the same stretch of time.
+    """
     clock = time.perf_counter_ns
     names = list(cases)
     for name in names:                      # warm-up (caches, branch predictors, ...)
@@ -325,7 +332,8 @@ def batch_throughput(models: dict[str, Model], Q: np.ndarray, Qd: np.ndarray,
     """solve_batch samples per second of each model on (Q, Qd, Qdd): N / the
     shortest of ``repeats`` calls (interleaved across the models). Best-of, as
     for timeit: the load of other processes only ever adds time, and a call is
-    long (tens of ms), so its median would measure that load."""
+    long (tens of ms), so its median would measure that load.
+    """
     names = list(models)
     for name in names:
         fsd.solve_batch(models[name], Q, Qd, Qdd)          # warm-up

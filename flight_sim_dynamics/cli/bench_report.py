@@ -1,7 +1,8 @@
 """The report of ``flight-sim-dynamics bench``: tables, the markdown page
 (``scenes.md``) and the figure (``scenes.png``: time per cycle against
 force error, one point per variant). Figures and tables only: what they mean
-is for people to write."""
+is for people to write.
+"""
 from __future__ import annotations
 
 import datetime
@@ -305,7 +306,8 @@ def markdown(res: Results, header_lines: list[str], load_end: str) -> str:
 
 def motions_table(res: Results) -> str:
     """Per test motion (1 kHz): duration, peak accelerations, ranges, peak
-    rates, and the full model's actuator speeds and strokes."""
+    rates, and the full model's actuator speeds and strokes.
+    """
     full = res.variants[0].model
     header = ['motion', 'duration (s)', 'peak acc. surge, heave (m/s^2)', 'peak acc. roll '
               '(rad/s^2)', 'surge range (m)', 'heave range (m)', 'roll range (rad)',
@@ -401,7 +403,8 @@ def plot(res: Results, path: str) -> None:
 
 def _place_labels(fig, ax, labels) -> None:
     """Annotate the points, each label at the first of a few offsets where it
-    overlaps neither an earlier label nor a point nor the legend."""
+    overlaps neither an earlier label nor a point nor the legend.
+    """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     renderer = FigureCanvasAgg(fig).get_renderer()

@@ -1,6 +1,7 @@
 """What the subcommands of the command line share: the user-error type, the
 model from ``--params``/``--scene``, and writing a result table (CSV or .npz
-by the output's suffix)."""
+by the output's suffix).
+"""
 from __future__ import annotations
 
 import os
@@ -33,6 +34,7 @@ def load_model(params: str | None, scene: str | None = None) -> fsd.Model:
 def write_table(path: str, names: Sequence[str], data: np.ndarray,
                 text: tuple[str, Sequence[str]] | None = None) -> None:
     """Write a result table as .npz if ``path`` ends so (:mod:`.npz_io`),
-    else as CSV (:func:`.csv_io.write_csv`); same arguments as both."""
+    else as CSV (:func:`.csv_io.write_csv`); same arguments as both.
+    """
     write = npz_io.write_npz if npz_io.is_npz(path) else csv_io.write_csv
     write(path, names, data, text=text)

@@ -58,7 +58,8 @@ class CsvError(ValueError):
 class Table:
     """A parsed CSV file: ``data[i, j]`` is the value of column ``names[j]`` in
     data row ``i``, read from line ``lines[i]`` of the file; ``skipped``: the
-    columns of the file not read (``skip_extra``)."""
+    columns of the file not read (``skip_extra``).
+    """
 
     path: str
     names: tuple[str, ...]
@@ -87,7 +88,8 @@ def _display(path: str | os.PathLike[str]) -> str:
 
 def read_bytes(path: str | os.PathLike[str]) -> bytes:
     """The file's contents (``-``: standard input). OSError is re-raised as
-    CsvError with a plain message."""
+    CsvError with a plain message.
+    """
     if os.fspath(path) == '-':
         return sys.stdin.buffer.read()
     try:
@@ -102,7 +104,8 @@ def read_bytes(path: str | os.PathLike[str]) -> bytes:
 def parse_header(raw: bytes, path: str, *, required: Sequence[str],
                  allow_extra: bool) -> tuple[str, ...]:
     """Column names of header line ``raw``; checks empty, duplicate, missing
-    and (unless ``allow_extra``) unknown names."""
+    and (unless ``allow_extra``) unknown names.
+    """
     try:
         text = raw.decode('utf-8')
     except UnicodeDecodeError:
@@ -173,7 +176,8 @@ def parse_csv(data: bytes, path: str = '<input>', *, required: Sequence[str],
     """:func:`read_csv` on the bytes of a file. Columns named in ``text_columns``
     (words such as ``status``) are skipped, not parsed as numbers; with
     ``skip_extra`` so is every column not in ``required`` (any content), and
-    ``Table.skipped`` names them. Errors name the file's own column numbers."""
+    ``Table.skipped`` names them. Errors name the file's own column numbers.
+    """
     if data.startswith(b'\xef\xbb\xbf'):
         data = data[3:]
     if not data or data.isspace():
@@ -228,7 +232,8 @@ def _count(data: bytes, byte: bytes) -> int:
 
 def _parse_fast(body: bytes, nrows: int, ncol: int) -> np.ndarray | None:
     """Parse ``body`` (the rows) in C; None if anything looks wrong (then the
-    slow scan finds and reports the offending cell)."""
+    slow scan finds and reports the offending cell).
+    """
     if body.translate(None, _ALLOWED_BYTES):   # letters, quotes, NUL, non-ASCII...
         return None
     if b'\r' in body:
@@ -252,7 +257,8 @@ def _parse_fast(body: bytes, nrows: int, ncol: int) -> np.ndarray | None:
 def _parse_slow(body: bytes, names: Sequence[str], path: str,
                 skip: frozenset[int] = frozenset()) -> np.ndarray:
     """Line-by-line parse that raises CsvError at the first malformed cell;
-    the columns in ``skip`` (0-based) may hold anything and are left out."""
+    the columns in ``skip`` (0-based) may hold anything and are left out.
+    """
     ncol = len(names)
     keep = [j for j in range(ncol) if j not in skip]
     rows = body.split(b'\n')
@@ -306,7 +312,8 @@ BLOCK_ROWS = 4096
 def format_value(x: float) -> str:
     """The text of one value in the files written here: Python's ``repr``
     (the shortest decimal that reads back as the same double, the sign of zero
-    included), without the ``.0`` of an integral value (``1``, ``-0``)."""
+    included), without the ``.0`` of an integral value (``1``, ``-0``).
+    """
     text = repr(float(x))
     return text[:-2] if text.endswith('.0') else text
 
@@ -315,7 +322,8 @@ def _format_blocks(data: np.ndarray, words: Sequence[str] | None = None,
                    block_rows: int = BLOCK_ROWS) -> Iterator[bytes]:
     """The rows of ``data`` (2-D float64) as text, each value as
     :func:`format_value` gives it, ``block_rows`` rows at a time; ``words``
-    (one per row) end each row as a last column."""
+    (one per row) end each row as a last column.
+    """
     nrows, ncol = data.shape
     sep = ',' if ncol else ''
     for start in range(0, nrows, block_rows):
@@ -333,7 +341,8 @@ def _format_blocks(data: np.ndarray, words: Sequence[str] | None = None,
 
 def format_table(data: np.ndarray, *, chunk_values: int = 8192) -> bytes:
     """Rows of comma-separated exact decimals (:func:`format_value`), each row
-    ending in a newline; formatted in blocks of about ``chunk_values`` numbers."""
+    ending in a newline; formatted in blocks of about ``chunk_values`` numbers.
+    """
     data = np.asarray(data, dtype=np.float64)
     if data.ndim != 2:
         raise ValueError(f'expected a 2-D array, got shape {data.shape}')
@@ -346,7 +355,8 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[IO[bytes]]:
     """Open ``path`` for binary writing so that it appears complete or not at
     all: the data goes to a temporary file in the same directory, which
     replaces ``path`` only when the block finishes without an exception (the
-    old file, if any, is untouched otherwise). ``-`` writes to standard output."""
+    old file, if any, is untouched otherwise). ``-`` writes to standard output.
+    """
     if os.fspath(path) == '-':
         yield sys.stdout.buffer
         sys.stdout.buffer.flush()
@@ -378,7 +388,8 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[IO[bytes]]:
 def write_csv(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarray,
               text: tuple[str, Sequence[str]] | None = None) -> None:
     """Write a header and the rows of ``data`` (N, len(names)), exactly, atomically;
-    ``text = (name, values)`` appends one column of plain words (no commas)."""
+    ``text = (name, values)`` appends one column of plain words (no commas).
+    """
     data = np.asarray(data, dtype=np.float64)
     if data.ndim != 2 or data.shape[1] != len(names):
         raise ValueError(f'{len(names)} column names for data of shape {data.shape}')

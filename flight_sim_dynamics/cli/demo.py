@@ -69,7 +69,8 @@ class Monitor(Node):
 
 class LiveSummary:
     """The demo's one line per second: receive rate since the previous line,
-    last forces A/B/C, node status."""
+    last forces A/B/C, node status.
+    """
 
     def __init__(self, now: float) -> None:
         self.start = self.last_time = now
@@ -79,7 +80,8 @@ class LiveSummary:
     def line(self, now: float, count: int, forces: Sequence[float] | None, status: str,
              final: bool = False) -> str | None:
         """The next line; None for a ``final`` one when nothing arrived since the
-        previous line (it would repeat that line at a rate of 0 Hz)."""
+        previous line (it would repeat that line at a rate of 0 Hz).
+        """
         if final and self.printed and count == self.last_count:
             return None
         self.printed += 1

@@ -1,6 +1,7 @@
 """``flight-sim-dynamics forward``: the pose (surge, heave, roll) from three
 measured leg lengths, or from every row of a CSV of them (forward kinematics,
-see :func:`flight_sim_dynamics.forward_kinematics`)."""
+see :func:`flight_sim_dynamics.forward_kinematics`).
+"""
 from __future__ import annotations
 
 import argparse

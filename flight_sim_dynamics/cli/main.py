@@ -106,10 +106,10 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
     p.add_argument('-o', '--output', required=True, metavar='CSV_OR_NPZ',
                    help="results to write ('-' for standard output): "
                         + ','.join(OUTPUT_COLUMNS) + ',status (a word per row: ok, or the '
-                        'flight_sim_dynamics.Status that says why not). A name ending in .npz writes numpy\'s '
-                        'binary .npz instead of CSV (the fast choice for large batches): one '
-                        'float64 array per column, status as strings, and names, the column '
-                        'order; read it with numpy.load')
+                        'flight_sim_dynamics.Status that says why not). A name ending in .npz '
+                        'writes numpy\'s binary .npz instead of CSV (the fast choice for '
+                        'large batches): one float64 array per column, status as strings, '
+                        'and names, the column order; read it with numpy.load')
     p.add_argument('--params', metavar='YAML', default=None,
                    help='parameter file (ROS 2 format, see config/flight_sim_dynamics.yaml); '
                         'default: the packaged parameters (the paper\'s values)')
@@ -129,7 +129,8 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
 def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond: bool = False
                 ) -> tuple[tuple[str, ...], np.ndarray, list[str]]:
     """Solve every row of a trajectory table; returns (column names, data,
-    status of each row)."""
+    status of each row).
+    """
     col = {name: j for j, name in enumerate(table.names)}
     data = table.data
 
@@ -167,7 +168,8 @@ def _stack_columns(columns: Sequence[np.ndarray], width: int) -> np.ndarray:
     """np.column_stack of 1-D and (N, k) arrays (``width`` columns in all),
     block by block of rows: the fields of a batch solution are strided views
     of one wide array of result rows, and a pass over all the rows per column
-    would fetch every row from memory again each time."""
+    would fetch every row from memory again each time.
+    """
     parts, j = [], 0
     for c in columns:
         k = 1 if c.ndim == 1 else c.shape[1]
@@ -186,7 +188,8 @@ def _stack_columns(columns: Sequence[np.ndarray], width: int) -> np.ndarray:
 
 def _status_words(status) -> np.ndarray:
     """str() of every status (an object array), computed once per distinct
-    status: they are a handful of Status members repeated over the rows."""
+    status: they are a handful of Status members repeated over the rows.
+    """
     status = np.asarray(status, dtype=object).reshape(-1)
     words = np.empty(status.size, dtype=object)
     todo = np.ones(status.size, dtype=bool)
@@ -202,7 +205,8 @@ def _status_words(status) -> np.ndarray:
 def report_statuses(table: csv_io.Table, sol, words: np.ndarray | None = None) -> None:
     """Nothing is dropped silently: rows whose status is not ok are written (with
     their status; unreachable and invalid ones as zeros) and summarised here.
-    ``words``: str() of each status, if already known (:func:`_status_words`)."""
+    ``words``: str() of each status, if already known (:func:`_status_words`).
+    """
     from collections import Counter
 
     if words is None:
@@ -366,7 +370,8 @@ SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     """The command-line parser. ``only``: configure just that subcommand (the
     one being run; the others stay listed in --help), so that running one
-    does not import the modules of all the others."""
+    does not import the modules of all the others.
+    """
     parser = _Parser(
         prog=PROG,
         description='Inverse dynamics of the Staicu-Ocnarescu-Ungureanu (2013) 3-DOF '

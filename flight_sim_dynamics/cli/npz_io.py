@@ -37,7 +37,8 @@ def write_npz(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarr
               text: tuple[str, Sequence[str]] | None = None) -> None:
     """Write the columns of ``data`` (N, len(names)) as named arrays and the
     ``names`` array, atomically (see the module docstring); ``text = (name,
-    words)`` adds one column of strings. Same arguments as ``write_csv``."""
+    words)`` adds one column of strings. Same arguments as ``write_csv``.
+    """
     data = np.asarray(data, dtype=np.float64)
     if data.ndim != 2 or data.shape[1] != len(names):
         raise ValueError(f'{len(names)} column names for data of shape {data.shape}')
@@ -60,7 +61,8 @@ def read_npz(path: str | os.PathLike[str], *, required: Sequence[str]) -> Table:
     """The numeric columns of an .npz written by :func:`write_npz` as a Table
     (``lines``: the line each row has in the CSV form). Raises CsvError naming
     the file and the column when ``required`` columns are missing or hold
-    anything but finite numbers; columns not required are left out."""
+    anything but finite numbers; columns not required are left out.
+    """
     shown = os.fspath(path)
     try:
         with np.load(path, allow_pickle=False) as npz:

@@ -68,7 +68,8 @@ def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
 def plot_forces_powers(t: np.ndarray, force: np.ndarray, power: np.ndarray,
                        output: str | os.PathLike[str], *, title: str, dpi: int = 100) -> None:
     """Write the force/power figure to ``output`` (format from the extension),
-    atomically: a failed run leaves no partial image and keeps an old one."""
+    atomically: a failed run leaves no partial image and keeps an old one.
+    """
     fmt = output_format(output)
     fig = force_power_figure(t, force, power, title=title)
     with atomic_output(output) as f:

@@ -95,7 +95,8 @@ def bounds(results: Sequence[RollResult], model: Model) -> list[tuple[str, str, 
     """Per roll angle: what makes the boundary of the reachable set (overview
     panel) and of the region within the stroke limits (zoomed panel if any),
     as shares of the boundary's length (grid estimate), and the share of the
-    cells within the stroke limits whose status is near_singular."""
+    cells within the stroke limits whose status is near_singular.
+    """
     rows = []
     for r in results:
         rm = r.zoom if r.zoom is not None else r.overview

@@ -2,7 +2,8 @@
 (and a zoomed row): reachable region coloured by the condition number,
 unreachable regions hatched by cause, boundaries, stroke-limit contours,
 singular curves, the central configuration and the paper's motions.
-matplotlib is imported here only."""
+matplotlib is imported here only.
+"""
 from __future__ import annotations
 
 import argparse

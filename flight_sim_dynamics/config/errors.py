@@ -1,6 +1,7 @@
 """Errors raised for bad parameters and scenes (kept apart so that every
 module can raise them without import cycles), and the "did you mean" of a
-misspelt name."""
+misspelt name.
+"""
 from __future__ import annotations
 
 import difflib
@@ -18,8 +19,9 @@ class ParameterError(ValueError):
 
 
 def _short(value: Any, limit: int = 200) -> str:
-    """repr of a value, cut to ``limit`` characters (a 1 MB string stays out of
-    error messages and logs)."""
+    """Repr of a value, cut to ``limit`` characters (a 1 MB string stays out of
+    error messages and logs).
+    """
     text = repr(value)
     return text if len(text) <= limit else text[:limit] + f'... ({len(text)} characters)'
 

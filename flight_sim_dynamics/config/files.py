@@ -1,6 +1,7 @@
 """Parameter files: where the packaged one is, which ``--params-file`` a ROS
 command line gives, and how a ROS 2 parameter YAML file is read into flat
-dotted names (as ROS 2 flattens them), by the rules of :mod:`.yaml_io`."""
+dotted names (as ROS 2 flattens them), by the rules of :mod:`.yaml_io`.
+"""
 from __future__ import annotations
 
 import os
@@ -21,7 +22,8 @@ def default_params_path() -> Path:
     """The packaged parameter file. Code imported from a source checkout reads
     the checkout's own config/ (code and defaults always match); an installed
     package reads its share directory: the ament index on a ROS install, else
-    <prefix>/share/flight_sim_dynamics/config of a pip install."""
+    <prefix>/share/flight_sim_dynamics/config of a pip install.
+    """
     candidates = []
     source = Path(__file__).resolve().parents[2]
     if (source / 'package.xml').is_file():
@@ -59,7 +61,8 @@ def section_applies(section: str, node: str) -> bool:
     """Whether a params-file section applies to the node of fully qualified
     name ``node`` (``/ns/flight_sim_dynamics``), as rcl decides: the node's
     name alone, its fully qualified name, or a pattern where ``/**`` stands for
-    any namespaces and ``*`` for one name token."""
+    any namespaces and ``*`` for one name token.
+    """
     if section == node.rsplit('/', 1)[-1]:
         return True
     pattern = re.escape(section if section.startswith('/') else '/' + section)
@@ -74,7 +77,8 @@ def read_params_file(path: str | os.PathLike[str],
     that apply (:func:`section_applies`: ``/**``, ``flight_sim_dynamics``,
     ``/flight_sim_dynamics`` ...) are merged in file order; other nodes'
     sections are ignored, as ROS does. The names are not checked here (see
-    :func:`.parameters.read_params`)."""
+    :func:`.parameters.read_params`).
+    """
     source = str(Path(path))
     doc = read_yaml(path, 'params_file')
     if not isinstance(doc, Mapping):
@@ -102,7 +106,8 @@ def read_params_file(path: str | os.PathLike[str],
 
 def params_files_in(args: Sequence[str]) -> list[str]:
     """The files of ``--params-file FILE`` in the ROS arguments of a command
-    line (between ``--ros-args`` and ``--`` or the end), in order."""
+    line (between ``--ros-args`` and ``--`` or the end), in order.
+    """
     files: list[str] = []
     in_ros = False
     for i, arg in enumerate(args):

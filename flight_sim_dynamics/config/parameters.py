@@ -53,7 +53,8 @@ def read_params(path: str | os.PathLike[str], node: str = '/' + NODE_NAME
     (the parameters of the schema it gives, its ``qos_overrides.*`` values),
     each a flat dict of dotted names. Raises :class:`ParameterError` for an
     unknown name ("did you mean", naming the file) or any unreadable file; the
-    values themselves are checked when a model is built from them."""
+    values themselves are checked when a model is built from them.
+    """
     flat = read_params_file(path, node)
     qos = {k: v for k, v in flat.items() if k.startswith(QOS_OVERRIDES)}
     values = {k: v for k, v in flat.items() if k not in qos}
@@ -71,7 +72,8 @@ def model_from_values(values: Mapping[str, Any], *, require_all: bool = True,
     Raises :class:`ParameterError` if anything is invalid, including a geometry
     whose loops cannot close at the central configuration (crank D, crank E
     meeting the rod between A3 and G, eq. 7-8), and :class:`~.scenes.SceneError`
-    for a bad scene."""
+    for a bad scene.
+    """
     if scene is None:
         scene = values.get('scene', SPECS['scene'].default)
         if not isinstance(scene, str):
@@ -124,7 +126,8 @@ def load_model(path: str | os.PathLike[str] | None = None,
     that is not a parameter is an error ("did you mean"); node parameters are
     accepted (one file serves the node too) and ``qos_overrides.*`` are the
     node's: ignored here. Raises :class:`ParameterError` for any bad file or
-    value."""
+    value.
+    """
     values = packaged_values()
     if path is not None:
         values.update(read_params(path)[0])
@@ -136,7 +139,8 @@ def check_params_files(args: Sequence[str], node: str = '/' + NODE_NAME) -> None
     line ``args`` (``node``: its fully qualified name): names checked, and the
     values, over the packaged ones, validated against the schema as
     load_model validates them (ROS has read the values already; this reports a
-    bad file as one ParameterError before they are declared)."""
+    bad file as one ParameterError before they are declared).
+    """
     values = packaged_values()
     for path in params_files_in(args):
         values.update(read_params(path, node)[0])

@@ -54,7 +54,8 @@ class ParamSpec:
     @property
     def range_text(self) -> str:
         """The valid values in words: ``(0, 100]``, ``3 numbers in [-100, 100]``,
-        ``at most 256 characters``, ``backward | backward2`` (for the docs)."""
+        ``at most 256 characters``, ``backward | backward2`` (for the docs).
+        """
         if self.choices:
             return ' | '.join(self.choices)
         if self.max_length is not None:

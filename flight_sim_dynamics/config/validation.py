@@ -42,7 +42,8 @@ def _number(spec: ParamSpec, value: Any, item: Any, where: str = '') -> float:
 
 def check_value(spec: ParamSpec, value: Any) -> Any:
     """Type- and range-check one value against its spec; returns it in its
-    canonical Python type (float, list of floats, int, str, bool)."""
+    canonical Python type (float, list of floats, int, str, bool).
+    """
     key = spec.name
     if spec.kind == 'double':
         return _number(spec, value, value)
@@ -80,7 +81,8 @@ def check_value(spec: ParamSpec, value: Any) -> Any:
 def check_inertia(key: str, value: Iterable[float]) -> np.ndarray:
     """A 3x3 inertia tensor (eq. 18-19: J of each body about its centre of
     mass) must be finite, symmetric and physically possible: principal moments
-    >= 0 and each no larger than the sum of the other two."""
+    >= 0 and each no larger than the sum of the other two.
+    """
     values = list(value)
     tensor = np.asarray(values, dtype=float).reshape(3, 3)
     if not np.all(np.isfinite(tensor)):     # eigvalsh would raise LinAlgError
@@ -105,7 +107,8 @@ def check_inertia(key: str, value: Iterable[float]) -> np.ndarray:
 def check_names(values: Mapping[str, Any], where: str = '') -> None:
     """Every name must be a parameter of the schema; an unknown one is an
     error with the closest known name ("did you mean"). ``where``: the file
-    the names come from, for the message."""
+    the names come from, for the message.
+    """
     for key in values:
         if key not in SPECS:
             place = f' in {where}' if where else ''

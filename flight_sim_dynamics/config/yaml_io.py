@@ -81,7 +81,8 @@ _Resolver.add_implicit_resolver(_FLOAT, _FLOAT_12, list('-+0123456789.'))
 
 class _StrictLoader(Composer, _Parser, SafeConstructor, _Resolver):  # type: ignore[misc,valid-type]
     """PyYAML's safe loader (libyaml's parser when available) that refuses
-    aliases, anchors, tags and deep nesting while composing."""
+    aliases, anchors, tags and deep nesting while composing.
+    """
 
     def __init__(self, text: str) -> None:
         _Parser.__init__(self, text)
@@ -111,7 +112,8 @@ class _StrictLoader(Composer, _Parser, SafeConstructor, _Resolver):  # type: ign
 
 def _where(path: list[str]) -> str:
     """The dotted name of a place in the file: a parameter's own name inside
-    a ``<node>: ros__parameters:`` section."""
+    a ``<node>: ros__parameters:`` section.
+    """
     if 'ros__parameters' in path[:2]:
         path = path[path.index('ros__parameters') + 1:] or path
     return '.'.join(path) or '(top level)'
@@ -165,7 +167,8 @@ def _check(node: Node, path: list[str], source: str) -> None:
 def read_bytes(path: str | os.PathLike[str], key: str) -> bytes:
     """At most MAX_FILE_BYTES + 1 bytes of a file (never blocks on a FIFO
     without a writer); ParameterError(``key``) for a directory, an unreadable
-    or an oversized file."""
+    or an oversized file.
+    """
     name = os.fspath(path)
     try:
         fd = os.open(name, os.O_RDONLY | getattr(os, 'O_NONBLOCK', 0))
@@ -194,7 +197,8 @@ def read_bytes(path: str | os.PathLike[str], key: str) -> bytes:
 def read_yaml(path: str | os.PathLike[str], key: str = 'params_file') -> Any:
     """The YAML document of a file, read by the rules of the module docstring.
     Every problem raises ParameterError: ``key`` names the file's parameter
-    (``params_file``, ``scene``), or the offending key inside the file."""
+    (``params_file``, ``scene``), or the offending key inside the file.
+    """
     source = str(Path(path))
     data = read_bytes(path, key)
     if b'\x00' in data:

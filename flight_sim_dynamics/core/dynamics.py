@@ -65,7 +65,8 @@ def body_states(model: Model, g: Geometric, V: list | None, Gamma: list | None,
     simulates, their absolute angular velocity, angular acceleration and
     centre-of-mass acceleration, composed along each chain from the relative
     joint rates V (eq. 13) and accelerations Gamma (eq. 15). A body that has
-    neither weight nor inertia in the scene is left out."""
+    neither weight nor inertia in the scene is left out.
+    """
     effects = model.effects
     geom = model.geometry
     bodies = model.bodies
@@ -80,7 +81,8 @@ def body_states(model: Model, g: Geometric, V: list | None, Gamma: list | None,
     def add_body(name: str, body: Body, axes: tuple[Vec, Vec, Vec], origin: Vec,
                  kinematics) -> None:
         """kinematics() -> (omega, eps, ref, acc_ref); evaluated only if inertial.
-        a_C = a_ref + eps x rho + omega x (omega x rho), rho = C - ref."""
+        a_C = a_ref + eps x rho + omega x (omega x rho), rho = C - ref.
+        """
         if name not in present:
             return
         com = add(origin, from_frame(axes, body.com_t))
@@ -244,7 +246,8 @@ def joint_forces(model: Model, g: Geometric,
 
 def actuator_jacobian(K: tuple[list, list, list]) -> list:
     """J (3x3 nested lists): row i = actuator i, column k = pose coordinate k;
-    the actuated rows of V = K qd (eq. 11)."""
+    the actuated rows of V = K qd (eq. 11).
+    """
     return [[K[k][j] for k in range(3)] for j in ACTUATED_JOINTS]
 
 
@@ -262,7 +265,8 @@ def virtual_velocities(K: tuple[list, list, list], J: list) -> tuple[list, list,
     """The three virtual motions of eq. (14): motion a has unit rate of actuator a
     and zero rate of the others, i.e. pose rates J^-1 e_a. Returns the virtual
     joint velocities Vv[j][a] (12 x 3, eq. 11), the virtual roll rates
-    (omega_43a, 3) and J^-1."""
+    (omega_43a, 3) and J^-1.
+    """
     Jinv = _inverse3(J)
     Vv = [[K[0][j] * Jinv[0][a] + K[1][j] * Jinv[1][a] + K[2][j] * Jinv[2][a]
            for a in range(3)] for j in range(12)]
@@ -272,7 +276,8 @@ def virtual_velocities(K: tuple[list, list, list], J: list) -> tuple[list, list,
 def actuator_forces(tau: list, tau_43: Scalar, Vv: list, roll_v: list) -> list:
     """Eq. (23): f_a = sum over joints of (virtual velocity in motion a) x (joint
     projection of the accumulated wrench). Returns [f_A, f_B, f_C], positive when
-    the actuator pushes its two ends apart."""
+    the actuator pushes its two ends apart.
+    """
     return [sum(Vv[j][a] * tau[j] for j in range(11))   # tau[11] = 0: slider E2 is massless
             + roll_v[a] * tau_43 for a in range(3)]
 
@@ -280,7 +285,8 @@ def actuator_forces(tau: list, tau_43: Scalar, Vv: list, roll_v: list) -> list:
 def friction_forces(model: Model, rate: tuple, xp: SimpleNamespace) -> list:
     """Actuator friction (effect 'friction'; not in the paper, added to the
     force of eq. 23): viscous x rate + Coulomb x tanh(rate / smoothing
-    velocity), per actuator; it adds to the force the actuator must give."""
+    velocity), per actuator; it adds to the force the actuator must give.
+    """
     fr = model.friction
     return [fr.viscous[i] * rate[i] + fr.coulomb[i] * xp.tanh(rate[i] / fr.smoothing_velocity)
             for i in range(3)]

@@ -43,7 +43,8 @@ class Effects:
     """Which physical effects the solver computes. Defaults: the paper's model.
     Its fields are the list of effects (:data:`EFFECT_NAMES`): adding an effect
     is adding a field here and its terms in :mod:`.dynamics` (and in
-    src/kernel.c, whose exported list is checked against this one)."""
+    src/kernel.c, whose exported list is checked against this one).
+    """
 
     gravity: bool = True
     platform_inertia: bool = True

@@ -58,7 +58,8 @@ _LEGS = 'ABC'
 @dataclass(frozen=True)
 class ForwardDynamics:
     """Result of :func:`forward_dynamics`. ``M`` and ``b`` are the affine terms
-    of f = M qdd + b (zeros when the pose is unreachable or the input invalid)."""
+    of f = M qdd + b (zeros when the pose is unreachable or the input invalid).
+    """
 
     acceleration: np.ndarray    # (surge, heave, roll) accelerations, m/s^2, m/s^2, rad/s^2
     status: Status              # ok, limit, near_singular, unreachable, invalid_input
@@ -81,7 +82,8 @@ def affine_terms(model: Model, q: Sequence[float], qd: Sequence[float]
     """M (3, 3) and b (3,) of f = M qdd + b at (q, qd) (eq. 14, 18-23), and the
     solve at zero acceleration (lengths, rates, status of the state). Four
     solves; when that solve's status is unreachable or invalid_input, M and b
-    are zeros (check the status first)."""
+    are zeros (check the status first).
+    """
     base = solve(model, q, qd, _REST)
     if SEVERITY[base.status] >= 3:
         return np.zeros((3, 3)), np.zeros(3), base
@@ -95,10 +97,11 @@ def affine_terms(model: Model, q: Sequence[float], qd: Sequence[float]
 
 def solve_accelerations(M: np.ndarray, b: np.ndarray, force: np.ndarray
                         ) -> tuple[np.ndarray, Status, str]:
-    """qdd with M qdd = force - b (LU, never an inverse), with status ok; or
+    """Qdd with M qdd = force - b (LU, never an inverse), with status ok; or
     zeros with near_singular when M is too ill-conditioned to solve
     (:data:`MAX_MASS_CONDITION`), invalid_input when the result is not finite
-    (forces too large)."""
+    (forces too large).
+    """
     if not np.all(np.isfinite(M)):
         return np.zeros(3), Status.NEAR_SINGULAR, 'exact singularity: M is not finite'
     sigma = np.linalg.svd(M, compute_uv=False)
@@ -134,7 +137,8 @@ def forward_dynamics(model: Model, q: Sequence[float], qd: Sequence[float],
     ``solve(model, q, qd, result.acceleration).force == force`` (to rounding).
     Never raises for a bad pose or bad numbers (``status`` and ``detail`` say
     what happened); raises ValueError for arguments that are not three numbers
-    and for a scene without inertia."""
+    and for a scene without inertia.
+    """
     require_inertia(model)
     f = _force_vector(force)
     M, b, base = affine_terms(model, q, qd)     # validates q, qd (ValueError)

@@ -67,7 +67,8 @@ def forward_kinematics(model: Model, lengths: Sequence[float],
     iteration restarts from seed poses spread over the workspace and accepts
     only a solution of the working mode (det dL/dq of the central
     configuration's sign). Never raises for bad numbers: the status says what happened
-    (``residual`` is 0 for invalid input)."""
+    (``residual`` is 0 for invalid input).
+    """
     arrays = []
     for name, value in (('lengths', lengths), ('initial', initial)):
         try:

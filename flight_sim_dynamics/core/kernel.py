@@ -47,7 +47,8 @@ else:
 def contract_problems(module: ModuleType) -> list[str]:
     """How the declarations a built kernel exports disagree with this package
     (empty when they agree): a kernel built from another src/kernel.c, or one
-    that lacks a body or an effect the Python code has."""
+    that lacks a body or an effect the Python code has.
+    """
     problems = []
     for what, theirs, ours in (('effects', set(module.EFFECTS), set(EFFECT_NAMES)),
                                ('bodies', set(module.BODIES), set(BODY_NAMES) | {'payload'}),
@@ -125,7 +126,8 @@ def enabled() -> bool:
 @contextmanager
 def use_kernel(on: bool) -> Iterator[None]:
     """Within the block, solve with the kernel (True, if built) or with the
-    Python reference code (False)."""
+    Python reference code (False).
+    """
     global _enabled
     before = _enabled
     _enabled = bool(on) and _kernel is not None
@@ -148,7 +150,8 @@ def pack_model(model: Model) -> np.ndarray:
     """The model as the kernel reads it: every attribute path of
     :data:`PACKED` (geometry, leg lengths at zero stroke, central joint values,
     gravity, friction, limits) at its offset, and the bodies in the kernel's
-    order (:data:`BODIES`; the payload, when the model has none, as zeros)."""
+    order (:data:`BODIES`; the payload, when the model has none, as zeros).
+    """
     packed = np.zeros(P_SIZE)
     for path, (offset, size) in PACKED.items():
         if path == 'bodies':
@@ -180,7 +183,8 @@ def prepared(model: Model) -> tuple[np.ndarray, int]:
 
 def solve_row(model: Model, q: tuple, qd: tuple, qdd: tuple) -> tuple[np.ndarray, tuple]:
     """One sample through the kernel: the result row and its scalars (status
-    code, detail code, beta, kinematic condition, Jacobian condition)."""
+    code, detail code, beta, kinematic condition, Jacobian condition).
+    """
     params, bits = prepared(model)
     out = np.empty(OUT_SIZE)
     return out, _kernel.solve(params, bits, out, *q, *qd, *qdd)
@@ -203,7 +207,8 @@ def usable_cores() -> int:
 def solve_rows(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
     """N samples ((N, 3) float64 arrays) through the kernel: (N, OUT_SIZE) rows.
     Long batches run in as many threads as there are usable cores (each row is
-    computed alone, so the result does not depend on the split)."""
+    computed alone, so the result does not depend on the split).
+    """
     global _pool
     params, bits = prepared(model)
     arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in (q, qd, qdd)]

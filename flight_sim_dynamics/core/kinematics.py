@@ -58,7 +58,8 @@ class UnreachablePoseError(ValueError):
 
 class GeometryError(ValueError):
     """The geometry itself cannot close its loops (eq. 7) at the central
-    configuration."""
+    configuration.
+    """
 
     def __init__(self, key: str, reason: str) -> None:
         self.key = key
@@ -86,7 +87,8 @@ _CULPRIT_KEY = {'D': 'l5', 'E': 'l6', 'E2 on rod': 'l6', 'A': 's_A', 'B': 'd5', 
 @dataclass
 class Geometric:
     """Positions of eq. (5)-(8) for one pose (float components) or a batch
-    (array components)."""
+    (array components).
+    """
 
     xp: SimpleNamespace  # elementary functions matching the components
     G: Vec               # characteristic point of the platform
@@ -164,7 +166,8 @@ def _unit_leg(P4: Vec, P1: Vec, xp: SimpleNamespace) -> tuple[Scalar, Vec, Scala
 
 def closure(geom: Geometry, q: tuple[Scalar, Scalar, Scalar], xp: SimpleNamespace) -> Geometric:
     """Positions of every joint for the pose q = (surge, heave, roll) and which
-    loops close (mechanism.md steps 1-5; eq. 7-8)."""
+    loops close (mechanism.md steps 1-5; eq. 7-8).
+    """
     surge, heave, roll = q
     G = (geom.d2 + geom.d3 + geom.d4 + surge, geom.h_G + heave, 0.0)
     beta, disc_d = _crank_d_beta(geom, G, xp)
@@ -206,7 +209,8 @@ def closure(geom: Geometry, q: tuple[Scalar, Scalar, Scalar], xp: SimpleNamespac
 
 def central_configuration(geom: Geometry) -> CentralConfiguration:
     """Solve the loops at q = 0 and fix the zeros of the joint variables
-    (the paper's alpha_i, eq. 1-2) and the slider offset s = D2E2 (eq. 8)."""
+    (the paper's alpha_i, eq. 1-2) and the slider offset s = D2E2 (eq. 8).
+    """
     xp = backend(False)
     with np.errstate(all='ignore'):
         try:
@@ -230,7 +234,8 @@ def inverse_geometry(model: Model, q: tuple[Scalar, Scalar, Scalar],
     """Inverse geometric problem (eq. 5-8): all 12 joint variables for the pose
     q = (surge, heave, roll). With ``check``, raises :class:`UnreachablePoseError`
     naming the loop of eq. (7) that cannot close (and, for a batch, the first
-    sample concerned); without, ``valid`` tells per sample (batch only)."""
+    sample concerned); without, ``valid`` tells per sample (batch only).
+    """
     if xp.batch:
         with np.errstate(all='ignore'):
             g = closure(model.geometry, q, xp)
@@ -282,7 +287,8 @@ class Connectivity:
 def factorize(model: Model, g: Geometric) -> Connectivity:
     """The per-pose factors of the connectivity matrix Q of eq. (11)-(12) used by
     :func:`solve_connectivity` (the pivot columns of its blocks, the
-    determinants of loops D and E)."""
+    determinants of loops D and E).
+    """
     geom = model.geometry
     D1 = (geom.d2 + geom.d3, 0.0, 0.0)
     E1 = (geom.d2, 0.0, 0.0)
@@ -298,7 +304,8 @@ def factorize(model: Model, g: Geometric) -> Connectivity:
 
 def solve_connectivity(g: Geometric, f: Connectivity, r: list) -> list:
     """Solve Q X = r (eq. 11 and 16) by block substitution; r and X are lists of
-    12 components (rows: loop A x0,y0; B x0,y0,z0; C x0,y0,z0; D x0,y0; E x0,y0)."""
+    12 components (rows: loop A x0,y0; B x0,y0,z0; C x0,y0,z0; D x0,y0; E x0,y0).
+    """
     X = [0.0] * 12
     # loop D: aD beta-dot + bD omega_10^D = r_D
     beta_dot = (r[8] * f.bD[1] - r[9] * f.bD[0]) / f.detD
@@ -336,7 +343,8 @@ def pose_rate_columns(g: Geometric) -> tuple[list, list, list]:
 
 def connectivity_matrix(model: Model, g: Geometric) -> tuple[np.ndarray, np.ndarray]:
     """Q (N, 12, 12) and P_q (N, 12, 3) as dense numpy arrays (eq. 11-12), for
-    diagnostics (cond(Q)) and tests. N = 1 for a single pose."""
+    diagnostics (cond(Q)) and tests. N = 1 for a single pose.
+    """
     f = factorize(model, g)
     geom = model.geometry
     cols = {}   # (row block, column) -> vector

@@ -118,7 +118,8 @@ class Body:
 @dataclass(frozen=True)
 class Friction:
     """Actuator friction (used when the scene enables it): per actuator A, B, C,
-    f = viscous x rate + coulomb x tanh(rate / smoothing_velocity)."""
+    f = viscous x rate + coulomb x tanh(rate / smoothing_velocity).
+    """
 
     viscous: tuple = (0.0, 0.0, 0.0)      # N s/m
     coulomb: tuple = (0.0, 0.0, 0.0)      # N
@@ -128,7 +129,8 @@ class Friction:
 @dataclass(frozen=True)
 class Limits:
     """Actuator limits and near-singularity thresholds: a solve beyond them gets
-    the status ``limit`` or ``near_singular`` (parameters ``limits.*``)."""
+    the status ``limit`` or ``near_singular`` (parameters ``limits.*``).
+    """
 
     stroke_min: float = -0.3                 # m, lowest stroke L - L0
     stroke_max: float = 0.6                  # m, highest stroke
@@ -151,7 +153,8 @@ class CentralConfiguration:
 @dataclass(frozen=True)
 class Model:
     """Everything constant about the mechanism. Build it with
-    :func:`flight_sim_dynamics.load_model` (validated), never by hand."""
+    :func:`flight_sim_dynamics.load_model` (validated), never by hand.
+    """
 
     geometry: Geometry
     bodies: Mapping[str, Body]

@@ -69,7 +69,8 @@ VIOLENT_DURATION = 3.0  # s; at rest in the central configuration from 2.8 s on
 
 def smooth_step(u: np.ndarray) -> Trajectory:
     """Quintic 0 -> 1 step s(u) = 10u^3 - 15u^4 + 6u^5 on [0, 1] (clamped
-    outside) and its first two derivatives with respect to u."""
+    outside) and its first two derivatives with respect to u.
+    """
     u = np.clip(u, 0.0, 1.0)
     s = u ** 3 * (10.0 - 15.0 * u + 6.0 * u * u)
     ds = 30.0 * u * u * (1.0 - u) ** 2
@@ -79,7 +80,8 @@ def smooth_step(u: np.ndarray) -> Trajectory:
 
 def step_sequence(steps: Sequence[Step], t: np.ndarray | float) -> Trajectory:
     """q, qd, qdd (each (N, 3)) at times ``t`` (s) of a sum of smooth steps
-    ``(coordinate, start s, duration s, change)``, with exact derivatives."""
+    ``(coordinate, start s, duration s, change)``, with exact derivatives.
+    """
     t = np.atleast_1d(np.asarray(t, dtype=float))
     q = np.zeros((t.size, 3))
     qd = np.zeros_like(q)
@@ -94,13 +96,15 @@ def step_sequence(steps: Sequence[Step], t: np.ndarray | float) -> Trajectory:
 
 def motion_cueing(t: np.ndarray | float) -> Trajectory:
     """q, qd, qdd (each (N, 3): surge m, heave m, roll rad) of ``cueing`` at
-    times ``t`` (s, 0 .. CUEING_DURATION)."""
+    times ``t`` (s, 0 .. CUEING_DURATION).
+    """
     return step_sequence(CUEING_STEPS, t)
 
 
 def violent_motion(t: np.ndarray | float) -> Trajectory:
     """q, qd, qdd (each (N, 3)) of ``violent`` at times ``t`` (s): exact
-    derivatives of the sum of the smooth steps :data:`VIOLENT_STEPS`."""
+    derivatives of the sum of the smooth steps :data:`VIOLENT_STEPS`.
+    """
     return step_sequence(VIOLENT_STEPS, t)
 
 
@@ -108,7 +112,8 @@ def violent_motion(t: np.ndarray | float) -> Trajectory:
 class Motion:
     """One registered motion: ``trajectory(t)`` gives q, qd, qdd (each (N, 3):
     surge m, heave m, roll rad, and their time derivatives) at times ``t``
-    (s, 0 .. ``duration``)."""
+    (s, 0 .. ``duration``).
+    """
 
     name: str
     duration: float
@@ -217,6 +222,7 @@ class PlannerSequence:
 
     def states(self, rate_hz: float) -> Trajectory:
         """One period at ``rate_hz``: q, qd, qdd (each (N, 3)) at k / rate,
-        k = 0 .. round(period * rate) - 1 (the stream a looping planner sends)."""
+        k = 0 .. round(period * rate) - 1 (the stream a looping planner sends).
+        """
         rows = [self.sample(k / rate_hz)[:3] for k in range(int(round(self.period * rate_hz)))]
         return tuple(np.array([r[i] for r in rows]) for i in range(3))  # type: ignore[return-value]

@@ -53,7 +53,8 @@ Trajectory = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 class MotionLike(Protocol):
     """What :class:`.motions.Motion` offers (not imported here: ``import
-    flight_sim_dynamics`` stays free of the motion registry)."""
+    flight_sim_dynamics`` stays free of the motion registry).
+    """
 
     duration: float
 
@@ -104,7 +105,8 @@ def node_slopes(t: np.ndarray, y: np.ndarray) -> np.ndarray:
     """dy/dt at every node: the derivative of the interpolating polynomial
     through the five nearest nodes (window kept inside the data; all nodes
     when fewer than five), i.e. sum_j L_j'(t_i) y_j with the Lagrange basis
-    L_j. Exact for polynomials of degree <= 4 (and <= n - 1)."""
+    L_j. Exact for polynomials of degree <= 4 (and <= n - 1).
+    """
     n = t.size
     width = min(5, n)
     first = np.clip(np.arange(n) - width // 2, 0, n - width)
@@ -130,7 +132,8 @@ def node_slopes(t: np.ndarray, y: np.ndarray) -> np.ndarray:
 class ForceHistory:
     """Actuator forces (legs A, B, C, N) at times ``t`` (s, strictly
     increasing), interpolated by the cubic Hermite spline of the module's
-    docstring (O(dt^4); linear for two rows)."""
+    docstring (O(dt^4); linear for two rows).
+    """
 
     def __init__(self, t: Sequence[float], force: object) -> None:
         self.t = _times(t)
@@ -170,7 +173,8 @@ _QUINTIC = np.array([[1, 0, 0, -10, 15, -6], [0, 1, 0, -6, 8, -3],
 @dataclass(frozen=True)
 class Reference:
     """A reference motion: ``motion(times)`` gives q, qd, qdd (each (N, 3)) at
-    times in [start, end] (s)."""
+    times in [start, end] (s).
+    """
 
     motion: Callable[[np.ndarray], Trajectory]
     start: float
@@ -179,7 +183,8 @@ class Reference:
     @classmethod
     def from_motion(cls, motion: MotionLike) -> 'Reference':
         """A motion of the registry (:class:`.motions.Motion`, or anything with
-        its ``trajectory(t)`` and ``duration``), from 0 to its duration: exact."""
+        its ``trajectory(t)`` and ``duration``), from 0 to its duration: exact.
+        """
         try:
             return cls(motion.trajectory, 0.0, float(motion.duration))
         except AttributeError:
@@ -191,7 +196,8 @@ class Reference:
                      ) -> 'Reference':
         """Samples (e.g. the rows of a trajectory CSV), interpolated by quintic
         Hermite polynomials matching q, qd and qdd at both ends of every
-        interval (exact at the rows, C2 in between)."""
+        interval (exact at the rows, C2 in between).
+        """
         times = _times(t)
         n = times.size
         values = np.stack([_rows('q', q, n), _rows('qd', qd, n), _rows('qdd', qdd, n)])
@@ -221,7 +227,8 @@ class Reference:
 @dataclass(frozen=True)
 class Servo:
     """PD gains of the three actuator servos (legs A, B, C): kp in N/m, kd in
-    N s/m, each >= 0."""
+    N s/m, each >= 0.
+    """
 
     kp: tuple[float, float, float]
     kd: tuple[float, float, float]
@@ -240,7 +247,8 @@ class Servo:
         """Gains of a leg of mass m_i with natural frequency 2 pi hz and damping
         ratio ``damping``: kp = m_i w^2, kd = 2 damping m_i w, with m_i the
         diagonal of the model's leg-space mass matrix M J^-1 at rest at the
-        central configuration (J = dL/dq)."""
+        central configuration (J = dL/dq).
+        """
         if not (math.isfinite(hz) and hz > 0 and math.isfinite(damping) and damping >= 0):
             raise ValueError(f'servo bandwidth must be > 0 Hz and damping >= 0, '
                              f'got {hz!r} Hz, {damping!r}')
@@ -255,7 +263,8 @@ def deliver(command: np.ndarray, rate: np.ndarray, max_force: float,
             max_speed: float) -> np.ndarray:
     """The force an actuator delivers for a commanded force at leg rate
     ``rate``: within +-max_force, and in the direction of motion at most
-    max_force (1 - |rate| / max_speed) (zero at and beyond max_speed)."""
+    max_force (1 - |rate| / max_speed) (zero at and beyond max_speed).
+    """
     force = np.clip(command, -max_force, max_force)
     drive = max_force * np.maximum(0.0, 1.0 - np.abs(rate) / max_speed)
     return np.where(force * rate > 0.0, np.sign(force) * np.minimum(np.abs(force), drive),
@@ -265,7 +274,8 @@ def deliver(command: np.ndarray, rate: np.ndarray, max_force: float,
 @dataclass(frozen=True)
 class Simulation:
     """Result of :func:`simulate`: one row per step (t = start + k h) up to the
-    end or to the last state reached. Leg quantities are ordered A, B, C."""
+    end or to the last state reached. Leg quantities are ordered A, B, C.
+    """
 
     t: np.ndarray            # (N,) s
     q: np.ndarray            # (N, 3) surge m, heave m, roll rad
@@ -283,7 +293,8 @@ class Simulation:
 
     def tracking(self) -> dict[str, float]:
         """Max and RMS over the rows of the tracking errors: pose per coordinate
-        (surge, heave m; roll rad) and leg lengths over the three legs (m)."""
+        (surge, heave m; roll rad) and leg lengths over the three legs (m).
+        """
         if self.pose_error is None or self.length_error is None:
             raise ValueError('an open-loop simulation has no tracking error')
         out: dict[str, float] = {}
@@ -304,7 +315,7 @@ ForceLaw = Callable[[int, Solution], np.ndarray]
 
 def _stage(plant: Model, q: np.ndarray, qd: np.ndarray, law: ForceLaw, j: int
            ) -> tuple[np.ndarray, np.ndarray, Status, str]:
-    """qdd and the applied force at one stage state, or the status that stops."""
+    """Qdd and the applied force at one stage state, or the status that stops."""
     M, b, base = affine_terms(plant, q, qd)
     if SEVERITY[base.status] >= SEVERITY[Status.NEAR_SINGULAR]:
         return _REST, _REST, base.status, base.detail
@@ -317,7 +328,8 @@ def integrate(plant: Model, t0: float, step: float, steps: int, q0: np.ndarray,
               qd0: np.ndarray, law: ForceLaw) -> tuple:
     """RK4 of (q, qd) from (q0, qd0) at t0 over ``steps`` steps; the force law
     is evaluated at half-step index j (time t0 + j step / 2). Returns t, q, qd,
-    qdd, force (arrays of the rows reached), outcome, outcome detail."""
+    qdd, force (arrays of the rows reached), outcome, outcome detail.
+    """
     h = step
     q, qd = q0, qd0
     rows_q, rows_qd, rows_qdd, rows_f = [], [], [], []
@@ -404,7 +416,8 @@ def simulate(plant: Model, *, forces: ForceHistory | tuple | None = None,
     ``initial`` defaults to the reference's state at its start. ValueError
     for bad arguments (a scene without inertia, a reference the plant cannot
     follow: unreachable or near a singularity).
-    See the module's docstring for the models."""
+    See the module's docstring for the models.
+    """
     require_inertia(plant)
     if (forces is None) == (reference is None):
         raise ValueError('give either forces (open loop) or reference (closed loop)')
@@ -453,7 +466,8 @@ def _result(plant: Model, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.
             force: np.ndarray, outcome: Status, why: str, pose_error: np.ndarray | None = None,
             length_ref: np.ndarray | None = None) -> Simulation:
     """The rows of a run, with lengths, rates and statuses from one batch solve
-    (its forces are the delivered ones, to rounding: f = M qdd + b)."""
+    (its forces are the delivered ones, to rounding: f = M qdd + b).
+    """
     sol = solve_batch(plant, q, qd, qdd)
     length = np.array(sol.length)
     return Simulation(t=t, q=q, qd=qd, qdd=qdd, length=length, rate=np.array(sol.rate),

@@ -44,7 +44,8 @@ _A, _B, _C = ACTUATED_JOINTS
 @dataclass(frozen=True)
 class Solution:
     """Result of a solve (eq. 5-23). Leg quantities are ordered A, B, C. For
-    :func:`solve_batch` every field has a leading axis of N samples."""
+    :func:`solve_batch` every field has a leading axis of N samples.
+    """
 
     length: np.ndarray                # leg length, joint centre to joint centre, m
     stroke: np.ndarray                # lambda = L - L0, m
@@ -72,7 +73,8 @@ class Solution:
     def geometric(self) -> Geometric | tuple | None:
         """Positions of every joint (:class:`.kinematics.Geometric`), recomputed
         from ``pose`` on first access (the kernel keeps none); None when the
-        pose is unreachable or the input invalid (single solve only)."""
+        pose is unreachable or the input invalid (single solve only).
+        """
         if not self._batch:
             if SEVERITY[self.status] >= 3:
                 return None
@@ -86,7 +88,8 @@ class Solution:
     def Q(self) -> np.ndarray:
         """The connectivity matrix of eq. (11)-(12), (12, 12) or (N, 12, 12); the
         solver itself never forms it (see kinematics.Connectivity). Zero where
-        the pose is unreachable or the input invalid."""
+        the pose is unreachable or the input invalid.
+        """
         if self.geometric is None:
             return np.zeros((12, 12))
         pieces = self.geometric if isinstance(self.geometric, tuple) else (self.geometric,)
@@ -101,7 +104,8 @@ class Solution:
     def cond(self) -> np.ndarray | float:
         """Exact 2-norm condition number of Q (SVD), computed on first access only:
         it is a diagnostic and costs more than the whole solve (the per-cycle
-        figure is ``kinematic_condition``). 0 where Q is meaningless."""
+        figure is ``kinematic_condition``). 0 where Q is meaningless.
+        """
         if self.geometric is None or (not self._batch and SEVERITY[self.status] >= 3):
             return 0.0
         value = np.linalg.cond(self.Q)
@@ -116,7 +120,8 @@ class _RowView:
     """Field of a kernel solution: a view of its result row(s) (the layout the
     kernel exports, :data:`.kernel.OUT`), made on first access and then kept in
     the instance (a non-data descriptor, like functools.cached_property without
-    its lock)."""
+    its lock).
+    """
 
     def __init__(self, name: str) -> None:
         self.name = name
@@ -135,7 +140,8 @@ class _RowView:
 
 class _KernelSolution(Solution):
     """A :class:`Solution` whose array fields are views of the kernel's output
-    buffer (one allocation per solve), made when first read."""
+    buffer (one allocation per solve), made when first read.
+    """
 
 
 for _name in kernel.OUT:
@@ -149,7 +155,8 @@ def kinematic_condition(g: Geometric, f: Connectivity, xp: SimpleNamespace) -> S
     2-norm condition number of the pivot blocks (loops A, B, C: orthogonal
     columns of norms L, 1 and L h, L, 1; loops D, E: 2x2). Q is singular exactly
     when one of them is, so this tracks the approach of a kinematic singularity
-    at a fraction of the cost of an SVD (sol.cond gives the exact cond(Q))."""
+    at a fraction of the cost of an SVD (sol.cond gives the exact cond(Q)).
+    """
     LA, LB, LC = g.length
     one = 1.0
     return xp.maximum(xp.maximum(LA, one) / xp.minimum(LA, one),
@@ -162,7 +169,8 @@ def jacobian_condition(model: Model, J: list, Jinv: list, xp: SimpleNamespace) -
     """Frobenius condition number |J_s| |J_s^-1| of the actuator Jacobian dL/dq
     (the actuated rows of eq. 11) with its roll column scaled by c = b/2 (m/rad),
     so that the three columns are lengths: J_s = J diag(1, 1, 1/c). Within a
-    factor 3 of the 2-norm one."""
+    factor 3 of the 2-norm one.
+    """
     c = 0.5 * model.geometry.b
     nJ = sum(r[0] * r[0] + r[1] * r[1] + (r[2] / c) * (r[2] / c) for r in J)
     nI = sum(Jinv[0][j] * Jinv[0][j] + Jinv[1][j] * Jinv[1][j]
@@ -173,7 +181,8 @@ def jacobian_condition(model: Model, J: list, Jinv: list, xp: SimpleNamespace) -
 def _solve(model: Model, g: Geometric, qd: tuple, qdd: tuple, xp: SimpleNamespace) -> dict:
     """The paper's method (eq. 11-23) for the positions g of eq. (5)-(8) and the
     components of qd, qdd (floats or arrays). Returns the raw results (lists of
-    components)."""
+    components).
+    """
     f = factorize(model, g)                                              # Q, eq. (12)
     K = tuple(solve_connectivity(g, f, P) for P in pose_rate_columns(g))  # Q^-1 P per unit rate
     V = [K[0][j] * qd[0] + K[1][j] * qd[1] + K[2][j] * qd[2] for j in range(12)]  # eq. (11)
@@ -220,7 +229,8 @@ def _status(model: Model, r: dict, xp: SimpleNamespace, bad_input: Scalar = -1,
 def _clean(fields: dict, code: np.ndarray | int) -> dict:
     """No NaN or infinity with any status (the rule's last step, as in
     src/kernel.c): every number of a void sample (unreachable, invalid input)
-    is 0, any other non-finite number 0, a non-finite condition SINGULAR."""
+    is 0, any other non-finite number 0, a non-finite condition SINGULAR.
+    """
     void = np.asarray(code) >= SEVERITY[Status.UNREACHABLE]
     out = {}
     for name, value in fields.items():
@@ -234,7 +244,8 @@ def _clean(fields: dict, code: np.ndarray | int) -> dict:
 def _new_solution(**values: object) -> Solution:
     """A Solution without the frozen dataclass's per-field __init__ (about
     2 us of a 10 us cycle); the fields are the same and stay read-only. With
-    ``_rows`` (kernel output), the array fields are views of it."""
+    ``_rows`` (kernel output), the array fields are views of it.
+    """
     sol = object.__new__(_KernelSolution if '_rows' in values else Solution)
     sol.__dict__.update(values)
     return sol
@@ -242,7 +253,8 @@ def _new_solution(**values: object) -> Solution:
 
 def _void_solution(model: Model, code: int, info: int, inputs: tuple) -> Solution:
     """A single solve stopped by the rule before any result (invalid input,
-    unreachable pose): every number 0."""
+    unreachable pose): every number 0.
+    """
     z3, z12 = np.zeros(3), np.zeros(12)
     status = BY_SEVERITY[code]
     return _new_solution(
@@ -266,7 +278,8 @@ def solve(model: Model, q: Sequence[float], qd: Sequence[float],
 
     Never raises for a bad pose or bad numbers: ``sol.status`` says what
     happened (:mod:`.status`), ``sol.detail`` why. Only input that is not three
-    numbers per argument (a programming error) raises ValueError."""
+    numbers per argument (a programming error) raises ValueError.
+    """
     q3, qd3, qdd3 = _three('q', q), _three('qd', qd), _three('qdd', qdd)
     if kernel._enabled:
         out, (code, info, beta, kin, jac) = kernel.solve_row(model, q3, qd3, qdd3)
@@ -293,7 +306,8 @@ def _solve_floats(model: Model, q: tuple, qd: tuple, qdd: tuple) -> Solution:
     operation). Float arithmetic raises where IEEE arithmetic carries on (a
     division by zero at an exact singularity, a domain error for absurd
     input): such a sample goes to the array code, so that every path gives
-    the verdict of the same rule on the same numbers."""
+    the verdict of the same rule on the same numbers.
+    """
     inputs = (q, qd, qdd)
     bad = first_bad_input(q + qd + qdd, _SCALAR)
     if bad >= 0:
@@ -374,7 +388,8 @@ def _batch_from_rows(model: Model, rows: np.ndarray, arrays: tuple) -> Solution:
 def _solve_arrays(model: Model, *arrays: np.ndarray) -> Solution:
     """N samples ((N, 3) arrays q, qd, qdd) with the Python code on numpy
     columns: every sample is computed (IEEE arithmetic, no exceptions) and the
-    status rule picks, per sample, what its numbers are worth."""
+    status rule picks, per sample, what its numbers are worth.
+    """
     n = arrays[0].shape[0]
     columns = [tuple(a.T) for a in arrays]
     bad = np.broadcast_to(first_bad_input(sum(columns, ()), _ARRAY), (n,))
@@ -403,7 +418,8 @@ def _solve_arrays(model: Model, *arrays: np.ndarray) -> Solution:
 
 def _three(name: str, value: Sequence[float]) -> tuple[float, float, float]:
     """Three real numbers, or ValueError naming the argument (a programming error:
-    strings, bytes, None, sets, generators, nested or wrongly sized sequences)."""
+    strings, bytes, None, sets, generators, nested or wrongly sized sequences).
+    """
     kind = type(value)
     if (kind is tuple or kind is list) and len(value) == 3:     # the usual case, fast
         a, b, c = value

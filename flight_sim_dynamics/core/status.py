@@ -64,7 +64,8 @@ BY_SEVERITY = sorted(SEVERITY, key=SEVERITY.get)
 
 def condition_2x2(a: tuple, b: tuple, xp) -> object:
     """Exact 2-norm condition number sigma_max / sigma_min of the 2x2 matrix with
-    columns a and b (first two components; floats or arrays): sigma_max^2/|det|."""
+    columns a and b (first two components; floats or arrays): sigma_max^2/|det|.
+    """
     f2 = a[0] * a[0] + a[1] * a[1] + b[0] * b[0] + b[1] * b[1]
     det = xp.abs(a[0] * b[1] - a[1] * b[0])
     sigma_max2 = 0.5 * (f2 + xp.sqrt(xp.clip0((f2 - 2.0 * det) * (f2 + 2.0 * det))))
@@ -80,7 +81,8 @@ _COORDINATES = ('surge', 'heave', 'roll')
 
 def first_bad_input(values: Sequence[Scalar], xp) -> Scalar:
     """Index (0-8) of the first non-finite number of q, qd, qdd (given as the
-    9 components in that order), or -1 when all are finite."""
+    9 components in that order), or -1 when all are finite.
+    """
     index = -1
     for i in range(len(values) - 1, -1, -1):
         index = xp.where(xp.isfinite(values[i]), index, i)
@@ -90,7 +92,8 @@ def first_bad_input(values: Sequence[Scalar], xp) -> Scalar:
 def first_open_loop(valid: dict, xp) -> Scalar:
     """Index in :data:`.kinematics.LOOPS` of the first loop of eq. (7) that
     cannot close (``valid``: loop -> closes, from :func:`.kinematics.closure`),
-    or -1 when all close."""
+    or -1 when all close.
+    """
     index = -1
     for i in range(len(LOOPS) - 1, -1, -1):
         index = xp.where(valid[LOOPS[i]], index, i)
@@ -109,8 +112,10 @@ def sample_status(limits: Limits, xp, bad_input: Scalar = -1, open_loop: Scalar 
                   finite: Scalar = True, kin: Scalar = 0.0, jac: Scalar = 0.0,
                   stroke: Sequence[Scalar] = (0.0,) * 3, rate: Sequence[Scalar] = (0.0,) * 3,
                   force: Sequence[Scalar] = (0.0,) * 3) -> tuple[Scalar, Scalar]:
-    """The status rule: (code, info) of each sample, code = severity of its
-    :class:`Status`, the worst that applies, in this order:
+    """Return the status rule's (code, info) of each sample.
+
+    The code is the severity of its :class:`Status`, the worst that applies,
+    in this order:
 
     1. invalid_input, info = index of the first non-finite input
        (:func:`first_bad_input`): nothing is computed;
@@ -153,7 +158,8 @@ def describe(status: Status, info: int, limits: Limits, inputs: Sequence[Sequenc
              kin: float, jac: float) -> str:
     """Why one sample has its status ('' for ok), from (status, info) of
     :func:`sample_status` (or the kernel's), the sample's inputs (q, qd, qdd)
-    and its results."""
+    and its results.
+    """
     info = int(info)
     if status is Status.INVALID_INPUT:
         if info == RESULTS_NOT_FINITE:

@@ -35,7 +35,7 @@ def scale(s: Scalar, a: Vec) -> Vec:
 
 
 def axpy(s: Scalar, a: Vec, b: Vec) -> Vec:
-    """s a + b."""
+    """S a + b."""
     return (s * a[0] + b[0], s * a[1] + b[1], s * a[2] + b[2])
 
 
@@ -66,7 +66,7 @@ def from_frame(axes: tuple[Vec, Vec, Vec], c: Vec) -> Vec:
 
 
 def mat_vec(m: np.ndarray, c: Vec) -> Vec:
-    """m c for a constant 3x3 matrix (nested tuple of floats) and components c."""
+    """M c for a constant 3x3 matrix (nested tuple of floats) and components c."""
     return (m[0][0] * c[0] + m[0][1] * c[1] + m[0][2] * c[2],
             m[1][0] * c[0] + m[1][1] * c[1] + m[1][2] * c[2],
             m[2][0] * c[0] + m[2][1] * c[1] + m[2][2] * c[2])
@@ -74,7 +74,8 @@ def mat_vec(m: np.ndarray, c: Vec) -> Vec:
 
 def _nan_max(*values: float) -> float:
     """max() that returns NaN if any value is NaN, like numpy.maximum and the
-    kernel's nmax (Python's max keeps or drops a NaN depending on its place)."""
+    kernel's nmax (Python's max keeps or drops a NaN depending on its place).
+    """
     return math.nan if any(v != v for v in values) else max(values)
 
 

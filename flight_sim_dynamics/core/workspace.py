@@ -92,7 +92,8 @@ def failure_cause(model: Model, sol: Solution, cat: np.ndarray, i: int) -> str:
 @dataclass
 class RollMap:
     """One roll angle sampled on a grid of cell centres (ny rows of heave, nx
-    columns of surge)."""
+    columns of surge).
+    """
 
     roll_deg: float
     surge: np.ndarray            # (nx,) m
@@ -114,7 +115,8 @@ def cell_centres(lo: float, hi: float, n: int) -> np.ndarray:
 def sample_map(model: Model, roll_deg: float, extent: Sequence[float], resolution: int,
                exact_cond: bool = True) -> RollMap:
     """Solve the grid of ``resolution`` x ``resolution`` cell centres of
-    ``extent`` (surge min, max, heave min, max) at roll ``roll_deg``."""
+    ``extent`` (surge min, max, heave min, max) at roll ``roll_deg``.
+    """
     surge = cell_centres(extent[0], extent[1], resolution)
     heave = cell_centres(extent[2], extent[3], resolution)
     S, H = np.meshgrid(surge, heave)
@@ -171,7 +173,8 @@ class Interval:
 
 def classify(model: Model, q: np.ndarray) -> tuple[np.ndarray, Callable[[int], str]]:
     """One solve of the poses q (N, 3): (N, 2) booleans (reachable, within the
-    stroke limits) and a function naming what sample i violates."""
+    stroke limits) and a function naming what sample i violates.
+    """
     sol = at_rest(model, q)
     cat = categorise(sol)
     inside = np.column_stack([cat == REACHABLE, within_strokes(model, sol, cat)])
@@ -183,7 +186,8 @@ def bisect(model: Model, kind: np.ndarray, q_in: np.ndarray, q_out: np.ndarray,
     """Halve each segment q_in (inside) - q_out (outside) of the set ``kind``
     (0 or 1, see KINDS) ``iterations`` times, all segments in one solve per
     step; returns the final inside and outside ends and what the pose at each
-    outside end violates."""
+    outside end violates.
+    """
     q_in, q_out = np.array(q_in, dtype=float), np.array(q_out, dtype=float)
     if len(q_in) == 0:
         return q_in, q_out, []
@@ -202,7 +206,8 @@ class RowJob:
     """Samples of one set (``kind``) along rows: ``inside`` (rows, n) at the
     coordinates ``xs`` (n,) of axis ``axis`` of the pose; ``base`` (rows, 3)
     holds the other coordinates of each row. Runs reaching the first or last
-    sample end at ``lo_edge`` / ``hi_edge``."""
+    sample end at ``lo_edge`` / ``hi_edge``.
+    """
 
     kind: int
     xs: np.ndarray
@@ -217,7 +222,8 @@ def row_intervals(model: Model, jobs: Sequence[RowJob], iterations: int
                   ) -> list[list[list[Interval]]]:
     """The inside intervals of every row of every job (job -> row -> intervals).
     Each crossing between two neighbouring samples is located by bisection,
-    all crossings of all jobs together."""
+    all crossings of all jobs together.
+    """
     segs = []       # (job index, row of each crossing, enters?, q_in, q_out)
     for j, job in enumerate(jobs):
         inside, xs = job.inside, job.xs
@@ -273,7 +279,8 @@ def line_ranges(model: Model, roll_deg: float, extent: Sequence[float], samples:
                 iterations: int = 50) -> tuple[LineRanges, LineRanges]:
     """Reachable and within-stroke intervals of surge at heave 0 and of heave at
     surge 0, within ``extent`` (surge min, max, heave min, max), at roll
-    ``roll_deg``; ends located to ~1e-12 m."""
+    ``roll_deg``; ends located to ~1e-12 m.
+    """
     roll = math.radians(roll_deg)
     jobs = []
     for axis, lo, hi in ((0, extent[0], extent[1]), (1, extent[2], extent[3])):
@@ -300,7 +307,8 @@ class Areas:
 def areas(model: Model, rm: RollMap, extent: Sequence[float], iterations: int = 24) -> Areas:
     """Areas (m^2) of the reachable set and of its part within the stroke
     limits: midpoint rule over the heave rows of the map, each row's length
-    exact to ~1e-9 m (crossings by bisection)."""
+    exact to ~1e-9 m (crossings by bisection).
+    """
     dh = (extent[3] - extent[2]) / len(rm.heave)
     base = np.column_stack([np.zeros(len(rm.heave)), rm.heave,
                             np.full(len(rm.heave), math.radians(rm.roll_deg))])
@@ -349,7 +357,8 @@ def paper_motions(model: Model, rate_hz: float = 100.0) -> list[MotionReport]:
 def general_pose_at_roll(roll_deg: float) -> tuple[float, float] | None:
     """Where the paper's general motion is when its roll passes ``roll_deg``
     (surge, heave; None if it never does): all three coordinates follow the
-    same (1 - cos) profile, so the fraction of the way is roll / roll_end."""
+    same (1 - cos) profile, so the fraction of the way is roll / roll_end.
+    """
     x, y, phi = PAPER_EXAMPLES['general']
     end = 2.0 * math.degrees(phi)
     frac = roll_deg / end if end else math.nan
@@ -372,7 +381,8 @@ class RollResult:
 
 def _outside_cause(model: Model, rm: RollMap) -> np.ndarray:
     """Per grid cell, what keeps it out of the within-stroke region: a category
-    name, the most violated stroke limit ('stroke A min', ...), or '' if inside."""
+    name, the most violated stroke limit ('stroke A min', ...), or '' if inside.
+    """
     lim = model.limits
     names = np.array([''] + [SHORT_CAUSE[c] for c in range(1, INVALID + 1)], dtype=object)
     out = names[rm.category]
@@ -389,7 +399,8 @@ def _outside_cause(model: Model, rm: RollMap) -> np.ndarray:
 
 def _limits_label(tied: np.ndarray) -> str:
     """'stroke A min', or 'stroke B, C max' when several legs tie (6 flags:
-    A, B, C below the minimum, then above the maximum)."""
+    A, B, C below the minimum, then above the maximum).
+    """
     parts = []
     for offset, bound in ((0, 'min'), (3, 'max')):
         legs = [leg for j, leg in enumerate(LEGS) if tied[offset + j]]
@@ -402,7 +413,8 @@ def boundary_shares(model: Model, rm: RollMap, which: str) -> dict[str, float]:
     """Share of the boundary of the reachable set (which = KINDS[0]) or of the
     within-stroke region (KINDS[1]) that each constraint makes (grid estimate:
     lengths of the cell edges between an inside and an outside cell, named by
-    the outside cell's cause)."""
+    the outside cell's cause).
+    """
     inside = rm.category == REACHABLE if which == KINDS[0] else rm.within
     cause = _outside_cause(model, rm)
     if which == KINDS[0]:
@@ -428,7 +440,8 @@ def sample_roll(model: Model, roll_deg: float, extent: Sequence[float],
                 zoom: Sequence[float] | None, resolution: int, exact_cond: bool = True
                 ) -> RollResult:
     """One roll angle: the map of ``extent`` (and of ``zoom`` unless None), the
-    intervals along the axes and the areas within ``extent``."""
+    intervals along the axes and the areas within ``extent``.
+    """
     overview = sample_map(model, roll_deg, extent, resolution, exact_cond)
     zoomed = None if zoom is None else sample_map(model, roll_deg, zoom, resolution, exact_cond)
     surge_line, heave_line = line_ranges(model, roll_deg, extent)
@@ -438,6 +451,7 @@ def sample_roll(model: Model, roll_deg: float, extent: Sequence[float],
 
 def near_singular_share(rm: RollMap) -> float:
     """Share of the cells within the stroke limits whose status is near_singular
-    (nan when no cell is within them)."""
+    (nan when no cell is within them).
+    """
     n = int(rm.within.sum())
     return float((rm.within & rm.near_singular).sum()) / n if n else math.nan

@@ -45,7 +45,8 @@ def runtime_from_values(values: Mapping[str, Any], current: Runtime | None = Non
     """Validate every parameter (``values``: dotted names) and build the
     Runtime; with ``current``, the model is rebuilt only when one of the
     ``changed`` names is a model parameter. Raises ParameterError (or the
-    solver's error for a geometry it cannot handle)."""
+    solver's error for a geometry it cannot handle).
+    """
     model = current.model if current is not None else None
     if model is None or any(name in MODEL_NAMES for name in changed):
         model = prm.model_from_values({k: values[k] for k in MODEL_NAMES}, require_all=True)
@@ -56,7 +57,8 @@ def rates_of(sp: Setpoint, config: NodeConfig, estimator: DerivativeEstimator,
              stats: CycleStats) -> tuple[Vec3, Vec3]:
     """The rates and accelerations of a setpoint: the given ones, else
     estimated (counted); raises SetpointError for an absurd estimated
-    acceleration."""
+    acceleration.
+    """
     twist, accel = sp.twist, sp.accel
     qd, qdd = estimator.update(sp.stamp_ns * 1e-9, sp.pose.q,
                                None if twist is None else twist.q,
@@ -74,7 +76,8 @@ def solve_setpoint(model: Model, q: Sequence[float], qd: Sequence[float],
                    qdd: Sequence[float]) -> Any:
     """Solve one setpoint. Raises SetpointError when there is nothing to
     publish: reason ``unreachable`` (the solver's status unreachable) or
-    ``solver_error`` (invalid input, or any exception of the solver)."""
+    ``solver_error`` (invalid input, or any exception of the solver).
+    """
     try:
         sol = fsd.solve(model, q, qd, qdd)
     except Exception as exc:  # noqa: BLE001 - a malformed call: never escape a callback
@@ -90,7 +93,8 @@ def outputs_of(sol: Any) -> tuple[list[float], ...]:
     """(length, rate, force, joints, joint_rates) of a solution as plain
     floats (cheaper than numpy for 3 and 12 numbers); raises SetpointError
     (``non_finite_output``) if any is not finite: nothing non-finite is
-    published."""
+    published.
+    """
     length, rate, force = sol.length.tolist(), sol.rate.tolist(), sol.force.tolist()
     joints, joint_rates = sol.joints.tolist(), sol.joint_rates.tolist()
     # a sum is finite iff every term is (inf - inf is nan)
@@ -105,7 +109,8 @@ def assess(sol: Any, sp: Setpoint, runtime: Runtime, stats: CycleStats, seconds:
            rate: list[float], force: list[float]) -> list[LogLine]:
     """Record a published solution in ``stats`` (ignored components, near
     singularity, actuator limits, solve time ``seconds``); returns the log
-    lines due (usually none)."""
+    lines due (usually none).
+    """
     config = runtime.config
     lines: list[LogLine] = []
     ignored = unfollowable(sp.pose, sp.twist, sp.accel, -sol.beta,

@@ -1,7 +1,8 @@
 """The node's parameters as ROS sees them, derived from the schema
 (``config.parameters``): a ParameterDescriptor per parameter, the declared
 defaults, values converted between rclpy and plain Python. No rclpy import:
-only the ``rcl_interfaces`` message types."""
+only the ``rcl_interfaces`` message types.
+"""
 from __future__ import annotations
 
 import array
@@ -21,7 +22,8 @@ def descriptor_for(spec: prm.ParamSpec) -> ParameterDescriptor:
     """The ParameterDescriptor of one parameter of the schema: description
     with unit, range where there is one; doubles are dynamically typed so
     that an integer (``mass: 2``) is accepted as it is by
-    :func:`parameters.validate`. Our on-set callback does the type check."""
+    :func:`parameters.validate`. Our on-set callback does the type check.
+    """
     text = spec.full_description
     if spec.exclusive_minimum and spec.minimum is not None:
         text += f' (must be > {spec.minimum:g})'
@@ -70,7 +72,8 @@ def ros_value(spec: prm.ParamSpec, value: Any) -> Any:
 
 def packaged_defaults() -> dict[str, Any]:
     """Declared defaults: the packaged YAML (so `dynamics_node` with no params
-    file runs the packaged configuration), falling back to the schema."""
+    file runs the packaged configuration), falling back to the schema.
+    """
     try:
         return prm.validate(prm.read_params_file(prm.default_params_path()), require_all=False)
     except (prm.ParameterError, FileNotFoundError):

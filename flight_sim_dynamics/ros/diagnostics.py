@@ -1,6 +1,7 @@
 """Diagnostics of the node, without ROS: the levels, the actuator-limit
 report of each solution, the counters and per-period statistics of the
-``/diagnostics`` message, and the log throttle."""
+``/diagnostics`` message, and the log throttle.
+"""
 from __future__ import annotations
 
 import math
@@ -24,7 +25,8 @@ class LimitReport(NamedTuple):
     """Outcome of :func:`check_limits`: the level and what caused it.
 
     ``usage`` is the largest ratio value/limit over stroke, speed and force
-    (1.0 = at a limit)."""
+    (1.0 = at a limit).
+    """
 
     level: int
     exceeded: tuple[str, ...]
@@ -44,7 +46,8 @@ def check_limits(stroke: Sequence[float], rate: Sequence[float], force: Sequence
 
     Usage of a limit: |force| / max_force, |rate| / max_speed and, for the
     stroke, its distance from the middle of [stroke_min, stroke_max] over the
-    half-range (1.0 at either end)."""
+    half-range (1.0 at either end).
+    """
     mid = 0.5 * (limits.stroke_max + limits.stroke_min)
     half = 0.5 * (limits.stroke_max - limits.stroke_min)
     max_speed, max_force = limits.max_speed, limits.max_force
@@ -127,7 +130,8 @@ class CycleStats:
     def solved(self, seconds: float, cond: float, jacobian_cond: float,
                force: tuple[float, float, float]) -> None:
         """One answered setpoint: solve time, the solver's kinematic condition
-        (of Q) and actuator-Jacobian condition, the forces."""
+        (of Q) and actuator-Jacobian condition, the forces.
+        """
         self.answered += 1
         self._times.append(seconds)
         self.last_cond = cond
@@ -141,7 +145,8 @@ class CycleStats:
     def report(self, now: float, exact_cond: float = math.nan
                ) -> tuple[int, str, list[tuple[str, str]]]:
         """(level, message, [(key, value), ...]) for this period; starts a new one.
-        ``exact_cond``: cond(Q) of the last solution (SVD), if known."""
+        ``exact_cond``: cond(Q) of the last solution (SVD), if known.
+        """
         times = sorted(self._times)
         n = len(times)
         period = (now - self._period_start) if self._period_start is not None else math.nan
@@ -203,7 +208,8 @@ class CycleStats:
 
 class LogThrottle:
     """At most one log line per ``key`` per ``period`` seconds; counts the
-    suppressed ones so the next line can say how many were skipped."""
+    suppressed ones so the next line can say how many were skipped.
+    """
 
     def __init__(self, period: float = 1.0) -> None:
         self.period = float(period)

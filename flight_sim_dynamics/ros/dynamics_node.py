@@ -62,7 +62,8 @@ def default_qos() -> QoSProfile:
     """QoS of setpoints and outputs before overrides: reliable, KEEP_LAST 1000
     (1 s at 1 kHz: absorbs a stall of the node or the planner), VOLATILE (a
     late joiner must not get stale setpoints or forces; not overridable). A
-    new profile per endpoint: rclpy writes the overrides into it."""
+    new profile per endpoint: rclpy writes the overrides into it.
+    """
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
                       reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.VOLATILE)
@@ -80,7 +81,8 @@ QOS_POLICIES = (QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIAB
 def check_qos(qos: QoSProfile) -> SetParametersResult:
     """Reject overrides that cannot work: KEEP_LAST with depth < 1, or a
     reliability other than reliable / best_effort (system_default would make
-    the node's behaviour depend on the middleware's configuration)."""
+    the node's behaviour depend on the middleware's configuration).
+    """
     if qos.history == HistoryPolicy.KEEP_LAST and qos.depth < 1:
         return SetParametersResult(successful=False,
                                    reason=f'depth must be >= 1 with keep_last, got {qos.depth}')
@@ -98,7 +100,8 @@ class DynamicsNode(Node):
 
     ``fast_wire`` False: setpoints and outputs go through rclpy's
     (de)serialisation only, not :mod:`.wire`'s CDR path (the A/B benchmark,
-    scripts/bench_callbacks.py); ``kwargs`` go to rclpy's Node."""
+    scripts/bench_callbacks.py); ``kwargs`` go to rclpy's Node.
+    """
 
     def __init__(self, *, fast_wire: bool = True, **kwargs: Any) -> None:
         # Every --ros-args parameter is declared first, so that the ones that
@@ -160,7 +163,8 @@ class DynamicsNode(Node):
     def _declare_parameters(self) -> set[str]:
         """Declare every parameter of the schema with its descriptor (the
         --ros-args value if given, else the packaged default). Returns the
-        names given on the command line or in params files."""
+        names given on the command line or in params files.
+        """
         given = set(self.list_parameters([], 0).names) - ROS_PARAMETERS
         for name in given:
             # re-declared below with our descriptors (ours), by the endpoints
@@ -181,7 +185,8 @@ class DynamicsNode(Node):
 
     def _create_endpoints(self) -> None:
         """Setpoint subscriptions (serialized: read by :mod:`.wire`) and output
-        publishers, each with :func:`default_qos` and its start-up overrides."""
+        publishers, each with :func:`default_qos` and its start-up overrides.
+        """
         options = QoSOverridingOptions(QOS_POLICIES, callback=check_qos)
         try:
             self._actuator_pub = self.create_publisher(
@@ -210,7 +215,8 @@ class DynamicsNode(Node):
               data: bytes) -> Any:
         """The fields of one serialized sample, or None when it is malformed:
         bad input (``bad_setpoint``), not an internal error. A sample rclpy had
-        to deserialize is counted (``wire fallbacks``) and logged once."""
+        to deserialize is counted (``wire fallbacks``) and logged once.
+        """
         self._received[kind] += 1
         try:
             fields, fallback = reader(data, self._fast)
@@ -254,7 +260,8 @@ class DynamicsNode(Node):
     def _on_message(self, kind: str, reader: Callable[[bytes, bool], tuple[Any, bool]],
                     check: Callable[[Sequence[float]], Any], data: bytes) -> None:
         """One pose, twist or accel message: read, checked (``check``: raises
-        SetpointError), handed to the synchroniser."""
+        SetpointError), handed to the synchroniser.
+        """
         try:
             now = time.monotonic()
             fields = self._read(kind, reader, data)
@@ -279,7 +286,8 @@ class DynamicsNode(Node):
         roll (stamp = header.stamp + time_from_start): checked point by point
         (:func:`.inputs.platform_setpoints`), ordered with the three-topic
         setpoints by the synchroniser (:meth:`.StampSynchroniser.add_complete`),
-        then solved like them."""
+        then solved like them.
+        """
         try:
             now = time.monotonic()
             fields = self._read(PLATFORM, wire.read_trajectory, data)
@@ -337,7 +345,8 @@ class DynamicsNode(Node):
     def _process(self, sp: Setpoint) -> None:
         """Estimate what is missing, check, solve, publish: one setpoint
         (:mod:`.cycle`). The outputs go out as soon as the solution is known
-        to be finite; the bookkeeping for the diagnostics comes after."""
+        to be finite; the bookkeeping for the diagnostics comes after.
+        """
         runtime = self._runtime            # read once: a parameter change applies next cycle
         stats = self._stats
         try:
@@ -371,7 +380,8 @@ class DynamicsNode(Node):
     def _log(self, level: int, key: str, message: str | Callable[[], str]) -> None:
         """Log ``message`` (or what the callable returns: built only when the
         line is not throttled) at most once per ``diagnostics.log_throttle``
-        per ``key``."""
+        per ``key``.
+        """
         skipped = self._throttle(key, time.monotonic())
         if skipped is None:
             return
@@ -406,7 +416,8 @@ class DynamicsNode(Node):
         """Validate the whole parameter set as it would be after the change.
         Accepted: the new model/config is staged and swapped in by
         :meth:`_on_parameters_set`. Rejected: the reason goes back to the caller
-        and the running model is untouched."""
+        and the running model is untouched.
+        """
         try:
             ours = [p for p in params if p.name in prm.SPECS]
             if not ours:

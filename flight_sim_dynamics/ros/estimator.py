@@ -1,5 +1,6 @@
 """Estimation of the rates and accelerations a planner does not send, without
-ROS: causal (backward) finite differences of the setpoint stream."""
+ROS: causal (backward) finite differences of the setpoint stream.
+"""
 from __future__ import annotations
 
 from .inputs import Vec3, wrap_angle
@@ -68,7 +69,8 @@ class DerivativeEstimator:
     def update(self, t: float, q: Vec3, qd: Vec3 | None, qdd: Vec3 | None
                ) -> tuple[Vec3, Vec3]:
         """Record a setpoint and return its (rates, accelerations): the given
-        ones where present, estimates otherwise."""
+        ones where present, estimates otherwise.
+        """
         if self._t and not (0.0 < t - self._t[-1] <= self.max_gap):
             self.reset()
         if self._q:

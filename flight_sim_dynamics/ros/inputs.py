@@ -134,7 +134,8 @@ class PoseInput(NamedTuple):
 
     ``q`` = (surge m, heave m, roll rad); ``sway`` (m), ``pitch`` and ``yaw``
     (rad) are what the message asked for beyond them. (A named tuple: one is
-    built per message, and a tuple is the cheapest immutable record.)"""
+    built per message, and a tuple is the cheapest immutable record.)
+    """
 
     q: Vec3
     sway: float
@@ -145,7 +146,8 @@ class PoseInput(NamedTuple):
 class RateInput(NamedTuple):
     """A twist or acceleration setpoint: the derivatives of (surge, heave, roll)
     (``q``) and the sway, pitch and yaw components (``sway``, ``pitch``,
-    ``yaw``: linear.y, angular.y, angular.z)."""
+    ``yaw``: linear.y, angular.y, angular.z).
+    """
 
     q: Vec3
     sway: float
@@ -158,7 +160,8 @@ def pose_input(px: float, py: float, pz: float,
                quaternion_tolerance: float = 1e-3) -> PoseInput:
     """Convert the fields of a geometry_msgs/Pose (REP-103 simulator base,
     origin at G's central position) into a :class:`PoseInput`: surge =
-    position.x, heave = position.z, roll = ZYX roll of the orientation."""
+    position.x, heave = position.z, roll = ZYX roll of the orientation.
+    """
     if not (math.isfinite(px + py + pz)
             or (math.isfinite(px) and math.isfinite(py) and math.isfinite(pz))):
         raise SetpointError(NON_FINITE, f'position has a non-finite component '
@@ -171,7 +174,8 @@ def rate_input(lx: float, ly: float, lz: float, ax: float, ay: float, az: float,
                what: str = 'twist') -> RateInput:
     """Convert the linear/angular fields of a Twist or Accel into a
     :class:`RateInput`: d/dt of (surge, heave, roll) = (linear.x, linear.z,
-    angular.x)."""
+    angular.x).
+    """
     # a sum is finite iff every term is (inf - inf is nan), unless it overflows:
     # then the components are checked one by one
     if not math.isfinite(lx + ly + lz + ax + ay + az) and not all(
@@ -183,7 +187,8 @@ def rate_input(lx: float, ly: float, lz: float, ax: float, ay: float, az: float,
 def check_acceleration(qdd: Iterable[float], max_linear: float, max_angular: float,
                        source: str = 'acceleration') -> None:
     """Reject absurd accelerations: |d2 surge|, |d2 heave| > ``max_linear``
-    (m/s^2) or |d2 roll| > ``max_angular`` (rad/s^2)."""
+    (m/s^2) or |d2 roll| > ``max_angular`` (rad/s^2).
+    """
     a_surge, a_heave, a_roll = qdd
     if abs(a_surge) > max_linear or abs(a_heave) > max_linear:
         raise SetpointError(ABSURD_ACCELERATION,
@@ -240,7 +245,8 @@ PLATFORM_DOF_NAMES = ('surge', 'heave', 'roll')
 class TrajectoryPoint(NamedTuple):
     """The fields of one ``trajectory_msgs/JointTrajectoryPoint``: the four
     number sequences as received (any length) and ``time_from_start``
-    (``sec``, ``nanosec``)."""
+    (``sec``, ``nanosec``).
+    """
 
     positions: tuple[float, ...]
     velocities: tuple[float, ...]
@@ -253,7 +259,8 @@ class TrajectoryPoint(NamedTuple):
 class Trajectory(NamedTuple):
     """The fields of a ``trajectory_msgs/JointTrajectory`` the node uses: the
     header stamp, ``joint_names`` and the points (``header.frame_id`` is not
-    checked, as for the other setpoints)."""
+    checked, as for the other setpoints).
+    """
 
     sec: int
     nanosec: int
@@ -266,7 +273,8 @@ class PlatformPoint(NamedTuple):
     mechanism's coordinates: ``stamp_ns`` = header.stamp + time_from_start,
     ``header`` = that stamp as (sec, nanosec) for the outputs; ``twist`` /
     ``accel`` None when the point has no velocities / accelerations (they are
-    then estimated). Sway, pitch and yaw are 0: the message cannot carry them."""
+    then estimated). Sway, pitch and yaw are 0: the message cannot carry them.
+    """
 
     stamp_ns: int
     header: tuple[int, int]
@@ -293,7 +301,8 @@ def _shown(values: Sequence[Any]) -> str:
 def platform_dof_order(joint_names: Sequence[str]) -> tuple[int, int, int]:
     """Index of surge, heave and roll in a ``platform_setpoint``'s
     ``joint_names``, which must be exactly :data:`PLATFORM_DOF_NAMES` in any
-    order; raises :class:`SetpointError` (``bad_setpoint``) otherwise."""
+    order; raises :class:`SetpointError` (``bad_setpoint``) otherwise.
+    """
     key = tuple(joint_names)
     order = _DOF_ORDERS.get(key)
     if order is not None:
@@ -308,7 +317,8 @@ def platform_dof_order(joint_names: Sequence[str]) -> tuple[int, int, int]:
 
 def _point_problem(point: TrajectoryPoint) -> SetpointError | None:
     """What is wrong with the numbers of one point, if anything (the checks of
-    :func:`platform_setpoints` one by one; None: a sum that overflowed)."""
+    :func:`platform_setpoints` one by one; None: a sum that overflowed).
+    """
     p = point.positions
     if len(p) != 3:
         return SetpointError(BAD_SETPOINT, f'positions must be 3 numbers (in the order of '

@@ -28,7 +28,8 @@ DEFAULT_EXECUTOR = 'events'
 
 def make_executor(name: str, context: Any = None) -> Any:
     """``events``: rclpy.experimental.EventsExecutor; ``single``:
-    SingleThreadedExecutor."""
+    SingleThreadedExecutor.
+    """
     if name == 'events':
         return EventsExecutor(context=context)
     return SingleThreadedExecutor(context=context)
@@ -52,7 +53,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the node until Ctrl-C / SIGTERM. ``argv``: arguments after the
-    program name (None: sys.argv[1:]), ROS arguments after ``--ros-args``."""
+    program name (None: sys.argv[1:]), ROS arguments after ``--ros-args``.
+    """
     argv = list(sys.argv[1:] if argv is None else argv)
     own = rclpy.utilities.remove_ros_args(['dynamics_node', *argv])[1:]
     args = build_parser().parse_args(own)
@@ -83,7 +85,8 @@ def spin(executor: Any, context: Any = None) -> None:
     Always with a timeout: rclpy 7.1.6's EventsExecutor busy-loops at 100 % CPU
     in ``spin()`` (and hangs in ``spin_until_future_complete`` without a
     timeout), and does not return on SIGINT; with a timeout it idles and the
-    shutdown is noticed within ``timeout_sec``."""
+    shutdown is noticed within ``timeout_sec``.
+    """
     never = rclpy.task.Future()
     while rclpy.ok(context=context):
         executor.spin_until_future_complete(never, timeout_sec=0.5)

@@ -3,7 +3,8 @@ declaration of them (``config.parameters.NODE_PARAMETERS``), in the spirit of
 generate_parameter_library: one field per declared parameter, named after it
 (``sync.max_pending`` -> ``sync_max_pending``), typed after its kind. No
 second list of the node's parameters exists: a parameter added to the schema
-is a field here."""
+is a field here.
+"""
 from __future__ import annotations
 
 from dataclasses import make_dataclass
@@ -20,14 +21,16 @@ NODE_PARAMETER_NAMES = tuple(spec.name for spec in NODE_PARAMETERS)
 
 def field_name(parameter: str) -> str:
     """The NodeConfig field of a node parameter: its dotted name, dots as
-    underscores."""
+    underscores.
+    """
     return parameter.replace('.', '_')
 
 
 def _from_values(cls: type, values: Mapping[str, Any]) -> Any:
     """Check every node parameter in ``values`` (dotted names; defaults for the
     absent ones); raises ParameterError, also for a name that is not a node
-    parameter."""
+    parameter.
+    """
     for name in values:
         if name not in NODE_PARAMETER_NAMES:
             raise ParameterError(name, values[name], 'not a node parameter')

@@ -134,7 +134,8 @@ class PlannerNode(Node):
 def spin_until(executor: Any, predicate: Any, timeout: float | None = None,
                step: float = 0.05) -> bool:
     """Spin (always with a timeout: see node.spin) until ``predicate()``, the
-    deadline or shutdown."""
+    deadline or shutdown.
+    """
     deadline = None if timeout is None else time.monotonic() + timeout
     never = rclpy.task.Future()
     while rclpy.ok(context=executor.context) and not predicate():

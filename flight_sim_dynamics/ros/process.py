@@ -22,7 +22,8 @@ PACKAGE_PARENT = str(Path(__file__).resolve().parents[2])
 def node_env(env: dict[str, str] | None = None) -> dict[str, str]:
     """The environment of a node process: ``env`` (default: this process's),
     with this package importable first and unbuffered output (its log is
-    complete when it is read)."""
+    complete when it is read).
+    """
     out = dict(os.environ if env is None else env)
     out['PYTHONPATH'] = os.pathsep.join(filter(None, [PACKAGE_PARENT, out.get('PYTHONPATH')]))
     out['PYTHONUNBUFFERED'] = '1'
@@ -35,7 +36,8 @@ def node_command(params_file: Path | str | None = None, ros_args: Sequence[str] 
                  ) -> list[str]:
     """``python -m flight_sim_dynamics.ros.node [--executor E] --ros-args
     [--params-file FILE] ROS_ARGS``; ``launcher`` replaces the first part (for
-    example a profiling wrapper that runs the node's ``main``)."""
+    example a profiling wrapper that runs the node's ``main``).
+    """
     cmd = list(launcher) if launcher is not None else [sys.executable, '-m', NODE_MODULE]
     if executor:
         cmd += ['--executor', executor]
@@ -52,7 +54,8 @@ def start_node(params_file: Path | str | None, ros_args: Sequence[str] = (),
     """Start the node (see :func:`node_command`) in its own session, so that a
     Ctrl-C meant for the caller does not reach it too; its standard output and
     error go to ``log`` (a path, written anew, or an open file; None: discarded).
-    Stop it with :func:`stop_node`."""
+    Stop it with :func:`stop_node`.
+    """
     cmd = node_command(params_file, ros_args, executor=executor, launcher=launcher)
     kwargs = dict(stderr=subprocess.STDOUT, env=node_env(env), cwd=cwd, start_new_session=True)
     if isinstance(log, (str, Path)):
@@ -63,7 +66,8 @@ def start_node(params_file: Path | str | None, ros_args: Sequence[str] = (),
 
 def stop_node(proc: subprocess.Popen, timeout: float = 5.0) -> int | None:
     """SIGINT (as Ctrl-C: the node shuts down cleanly), then SIGKILL if it has
-    not exited after ``timeout`` s; returns its exit status."""
+    not exited after ``timeout`` s; returns its exit status.
+    """
     if proc.poll() is None:
         proc.send_signal(signal.SIGINT)
         try:

@@ -23,7 +23,8 @@ class Setpoint(Generic[P, R]):
     """One setpoint: the pose, twist and acceleration carrying ``stamp_ns``.
     ``twist``/``accel`` are None when their stream did not deliver them in
     time (they are then estimated). ``header`` is whatever the caller passed
-    with the pose (the node keeps the ROS stamp message there)."""
+    with the pose (the node keeps the ROS stamp message there).
+    """
 
     stamp_ns: int
     pose: P | None = None
@@ -109,7 +110,8 @@ class StampSynchroniser(Generic[P, R]):
     def discard(self, stamp_ns: int, kind: str) -> None:
         """The caller rejected the ``kind`` message with this stamp: drop the
         pending setpoint and ignore the other kinds' messages with the stamp
-        (a second message of a kind already seen is reported as a duplicate)."""
+        (a second message of a kind already seen is reported as a duplicate).
+        """
         entry = self._pending.pop(stamp_ns, None)
         seen = self._discarded.setdefault(stamp_ns, set())
         seen.add(kind)
@@ -188,7 +190,8 @@ class StampSynchroniser(Generic[P, R]):
         order and with what they have (those without a pose are rejected as
         ``no_pose``), exactly as when a newer three-message setpoint
         completes; then this one. The stream state (active, newest stamps) of
-        the twist and accel topics is not touched."""
+        the twist and accel topics is not touched.
+        """
         released: list[Setpoint[P, R]] = []
         rejected: list[Rejected] = []
         last = self._last_released
@@ -270,7 +273,8 @@ class StampSynchroniser(Generic[P, R]):
 def _not_after_last(kind: str, stamp_ns: int, last: int) -> Rejected:
     """The rejection of a setpoint (its pose, or a whole one) whose stamp is
     not later than the last answered ``last``: ``stamp_repeated`` or
-    ``stamp_backwards``."""
+    ``stamp_backwards``.
+    """
     repeated = stamp_ns == last
     return Rejected(STAMP_REPEATED if repeated else STAMP_BACKWARDS, kind, stamp_ns,
                     f'{kind} stamp {fmt_stamp(stamp_ns)} '

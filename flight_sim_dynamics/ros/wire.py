@@ -257,7 +257,8 @@ def _pose_fields(msg: PoseStamped) -> tuple[int, int, tuple[float, ...]]:
 
 def _rate_fields(msg: Any) -> tuple[int, int, tuple[float, ...]]:
     """What :data:`read_twist_stamped` reads, from a TwistStamped or
-    AccelStamped."""
+    AccelStamped.
+    """
     body = msg.twist if isinstance(msg, TwistStamped) else msg.accel
     lin, ang = body.linear, body.angular
     return (msg.header.stamp.sec, msg.header.stamp.nanosec,
@@ -279,7 +280,8 @@ def _trajectory_fields(msg: JointTrajectory) -> Trajectory:
 def read_pose(data: bytes, fast: bool = True) -> tuple[Stamped, bool]:
     """(sec, nanosec, position x, y, z and orientation x, y, z, w) of a
     serialized PoseStamped, and whether rclpy deserialized it. Raises
-    (``struct.error`` or rclpy's error) on a malformed sample."""
+    (``struct.error`` or rclpy's error) on a malformed sample.
+    """
     if fast:
         fields = read_pose_stamped(data)
         if fields is not None:
@@ -289,7 +291,8 @@ def read_pose(data: bytes, fast: bool = True) -> tuple[Stamped, bool]:
 
 def read_twist(data: bytes, fast: bool = True) -> tuple[Stamped, bool]:
     """(sec, nanosec, linear x, y, z and angular x, y, z) of a serialized
-    TwistStamped, and whether rclpy deserialized it (as :func:`read_pose`)."""
+    TwistStamped, and whether rclpy deserialized it (as :func:`read_pose`).
+    """
     if fast:
         fields = read_twist_stamped(data)
         if fields is not None:
@@ -299,7 +302,8 @@ def read_twist(data: bytes, fast: bool = True) -> tuple[Stamped, bool]:
 
 def read_accel(data: bytes, fast: bool = True) -> tuple[Stamped, bool]:
     """(sec, nanosec, linear x, y, z and angular x, y, z) of a serialized
-    AccelStamped, and whether rclpy deserialized it (as :func:`read_pose`)."""
+    AccelStamped, and whether rclpy deserialized it (as :func:`read_pose`).
+    """
     if fast:
         fields = read_twist_stamped(data)         # the same layout as TwistStamped
         if fields is not None:
@@ -309,7 +313,8 @@ def read_accel(data: bytes, fast: bool = True) -> tuple[Stamped, bool]:
 
 def read_trajectory(data: bytes, fast: bool = True) -> tuple[Trajectory, bool]:
     """The fields of a serialized JointTrajectory, and whether rclpy
-    deserialized it (as :func:`read_pose`)."""
+    deserialized it (as :func:`read_pose`).
+    """
     if fast:
         fields = read_joint_trajectory(data)
         if fields is not None:
@@ -367,7 +372,8 @@ class JointStateOutput:
     def _build_template(self) -> bool:
         """Serialize the message with recognisable values and find where the
         stamp and each array went; True when a filled copy deserializes back
-        exactly."""
+        exactly.
+        """
         n = self.size
         msg = self.msg
         # distinct, finite, unlikely 8-byte patterns
@@ -417,7 +423,8 @@ class JointStateOutput:
     def fill(self, sec: int, nanosec: int, *values: Sequence[float]) -> Any:
         """The message for this cycle: stamp ``sec``/``nanosec``, then one
         sequence of ``len(names)`` floats per array. Serialized bytes when
-        ``raw``, else the (reused) JointState."""
+        ``raw``, else the (reused) JointState.
+        """
         if self.raw:
             return self._fill_raw(sec, nanosec, values)
         msg = self.msg

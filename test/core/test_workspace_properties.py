@@ -238,7 +238,8 @@ def wrapped(a: np.ndarray) -> np.ndarray:
 def test_forward_kinematics_round_trip(poses):
     """Leg lengths of any reachable pose give the pose back (this found the
     forward-kinematics bug pinned by test_hard_cases.py::
-    test_regression_forward_kinematics_calls_reachable_lengths_unreachable). Poses with status limit at rest are included: that status only says a
+    test_regression_forward_kinematics_calls_reachable_lengths_unreachable).
+    Poses with status limit at rest are included: that status only says a
     stroke is out of its range; the geometry, hence the round trip, is the same."""
     q = np.array(poses, dtype=float)
     sol = fsd.solve_batch(MODEL, q, np.zeros_like(q), np.zeros_like(q))
