@@ -119,9 +119,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                   f'JointTrajectory {r_wall:.1f} / {r_cpu:.1f}', flush=True)
     for what, i in (('three topics', 0), ('platform_setpoint', 1)):
         cdr, slow = totals['cdr'][i] / args.repeat, totals['rclpy'][i] / args.repeat
-        print(f'mean CPU {what}: cdr {cdr:.1f} us, rclpy {slow:.1f} us per setpoint: the CDR '
-              f'path saves {slow - cdr:.1f} us ({100 * (slow - cdr) / slow:.0f} % of the '
-              'callbacks)')
+        print(f'mean CPU per setpoint, {what}: cdr {cdr:.1f} us, rclpy {slow:.1f} us, '
+              f'difference {slow - cdr:.1f} us ({100 * (slow - cdr) / slow:.0f} %)')
     status = 0
     for path, node in nodes.items():
         answered = node._stats.answered

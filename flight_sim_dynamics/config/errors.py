@@ -1,6 +1,6 @@
-"""Errors raised for bad parameters and scenes (kept apart so that every
-module can raise them without import cycles), and the "did you mean" of a
-misspelt name.
+"""The error of a bad parameter, file or scene (:class:`ParameterError`, a
+ValueError naming the key and the value), and the "did you mean" of a
+misspelt name: shared by the schema, the file reader and the scenes.
 """
 from __future__ import annotations
 
