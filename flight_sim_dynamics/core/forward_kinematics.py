@@ -28,6 +28,7 @@ from .dynamics import actuator_jacobian
 from .kinematics import (UnreachablePoseError, factorize, inverse_geometry, pose_rate_columns,
                          solve_connectivity)
 from .model import Model
+from .solver import three_numbers
 from .status import Status
 from .vectors import backend
 
@@ -67,16 +68,13 @@ def forward_kinematics(model: Model, lengths: Sequence[float],
     iteration restarts from seed poses spread over the workspace and accepts
     only a solution of the working mode (det dL/dq of the central
     configuration's sign). Never raises for bad numbers: the status says what happened
-    (``residual`` is 0 for invalid input).
+    (``residual`` is 0 for invalid input). An argument that is not three real
+    numbers raises ValueError, as in :func:`.solver.solve`
+    (:func:`.solver.three_numbers`).
     """
     arrays = []
     for name, value in (('lengths', lengths), ('initial', initial)):
-        try:
-            arr = np.array(value, dtype=float)
-        except (TypeError, ValueError):
-            return _invalid(f'{name} must be 3 numbers, got {value!r:.200}')
-        if arr.shape != (3,):
-            return _invalid(f'{name} must be 3 numbers, got shape {arr.shape}')
+        arr = np.array(three_numbers(name, value))
         if not np.all(np.isfinite(arr)):
             return _invalid(f'{name} must be finite, got {arr.tolist()}')
         arrays.append(arr)

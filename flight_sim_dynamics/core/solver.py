@@ -280,7 +280,7 @@ def solve(model: Model, q: Sequence[float], qd: Sequence[float],
     happened (:mod:`.status`), ``sol.detail`` why. Only input that is not three
     numbers per argument (a programming error) raises ValueError.
     """
-    q3, qd3, qdd3 = _three('q', q), _three('qd', qd), _three('qdd', qdd)
+    q3, qd3, qdd3 = three_numbers('q', q), three_numbers('qd', qd), three_numbers('qdd', qdd)
     if kernel._enabled:
         out, (code, info, beta, kin, jac) = kernel.solve_row(model, q3, qd3, qdd3)
         status = kernel.STATUS_BY_CODE[code]
@@ -416,9 +416,15 @@ def _solve_arrays(model: Model, *arrays: np.ndarray) -> Solution:
                          model=model, pose=arrays[0], geometric=g)
 
 
-def _three(name: str, value: Sequence[float]) -> tuple[float, float, float]:
-    """Three real numbers, or ValueError naming the argument (a programming error:
-    strings, bytes, None, sets, generators, nested or wrongly sized sequences).
+def three_numbers(name: str, value: Sequence[float]) -> tuple[float, float, float]:
+    """Three real numbers as floats, or ValueError naming the argument.
+
+    The one input rule of :func:`solve` and :func:`.forward_kinematics.forward_kinematics`:
+    an argument that is not three real numbers a float can hold is a
+    programming error (strings, bytes, bools, None, sets, generators, nested
+    or wrongly sized sequences, an integer beyond float range such as
+    ``10**400``); NaN and infinite floats are numbers, and give the status
+    ``invalid_input``.
     """
     kind = type(value)
     if (kind is tuple or kind is list) and len(value) == 3:     # the usual case, fast
@@ -429,14 +435,29 @@ def _three(name: str, value: Sequence[float]) -> tuple[float, float, float]:
         a, b, c = value.tolist()
         return (a, b, c)
     if (isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray))
+            or np.ma.isMaskedArray(value)
             or np.asarray(value, dtype=object).ndim != 1 or len(value) != 3
             or not all(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in value)):
-        raise ValueError(f'{name} must be 3 numbers (surge, heave, roll), got {value!r:.200}')
-    return float(value[0]), float(value[1]), float(value[2])
+        raise ValueError(f'{name} must be 3 numbers, got {value!r:.200}')
+    try:
+        return float(value[0]), float(value[1]), float(value[2])
+    except OverflowError:
+        raise ValueError(f'{name} must be 3 numbers a float can hold, got '
+                         f'{value!r:.200}') from None
 
 
 def _as_batch(name: str, value: object, n: int | None) -> np.ndarray:
-    """An (N, 3) array of real numbers, or ValueError naming the argument."""
+    """An (N, 3) array of real numbers, or ValueError naming the argument (the
+    rule of :func:`three_numbers`, row by row; masked entries are refused, not
+    solved with the values they hide).
+    """
+    if np.ma.isMaskedArray(value) and np.ma.getmaskarray(value).any():
+        raise ValueError(f'{name} has masked entries: fill or drop them first')
+    if not isinstance(value, np.ndarray) and any(
+            isinstance(v, (bool, np.bool_)) for v in np.asarray(value, dtype=object).flat):
+        # numpy would read True as 1.0 in a list of floats
+        raise ValueError(f'{name} must be numbers (surge, heave, roll), got a bool in '
+                         f'{value!r:.200}')
     try:
         raw = np.asarray(value)
     except ValueError:               # ragged nesting

@@ -41,15 +41,26 @@ def test_lengths_outside_the_workspace_are_unreachable(lengths):
 @pytest.mark.parametrize('lengths, words', [
     ([float('nan'), 1.3, 1.3], 'finite'),
     ([1.1, float('inf'), 1.3], 'finite'),
-    ([1.1, 1.3], 'shape'),
-    ('abc', '3 numbers'),
     ([1.1, -1.3, 1.3], 'positive'),
-    ([[1.1, 1.3, 1.3]], 'shape'),
 ])
 def test_garbage_gives_invalid_input(lengths, words):
     result = forward_kinematics(MODEL, lengths)
     assert result.status == Status.INVALID_INPUT and words in result.detail
     assert np.all(np.isfinite(result.pose))
+
+
+@pytest.mark.parametrize('lengths', [
+    [1.1, 1.3],                 # two lengths: solve raises for two numbers too (issue 14 #11)
+    'abc',
+    [[1.1, 1.3, 1.3]],
+    [True, 1.3, 1.3],
+    ['1.1', 1.3, 1.3],
+    [10**400, 1.3, 1.3],
+    None,
+])
+def test_not_three_numbers_raises_value_error_as_solve_does(lengths):
+    with pytest.raises(ValueError, match='lengths must be 3 numbers'):
+        forward_kinematics(MODEL, lengths)
 
 
 def test_status_string_form_is_its_name():

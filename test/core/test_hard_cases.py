@@ -724,11 +724,7 @@ L_CENTRE = tuple(MODEL.central.length)
 
 
 @pytest.mark.parametrize('lengths, words', [
-    (None, '3 numbers'), ('abc', '3 numbers'), (b'abc', '3 numbers'), ([], '3 numbers'),
-    ([1.1, 1.3], '3 numbers'), ([1.1, 1.3, 1.3, 1.3], '3 numbers'),
-    ([[1.1, 1.3, 1.3]], '3 numbers'), (np.zeros((3, 1)) + 1.2, '3 numbers'),
-    ({'a': 1}, '3 numbers'), ({1.1, 1.2, 1.3}, '3 numbers'), ([1j, 1.3, 1.3], '3 numbers'),
-    ([None, 1.3, 1.3], 'finite'), ([math.nan, 1.3, 1.3], 'finite'),
+    ([math.nan, 1.3, 1.3], 'finite'),
     ([1.1, math.inf, 1.3], 'finite'), ([1.1, 1.3, -math.inf], 'finite'),
     ([0.0, 1.3, 1.3], 'positive'), ([-0.0, 1.3, 1.3], 'positive'),
     ([1.1, -1.3, 1.3], 'positive'),
@@ -738,6 +734,18 @@ def test_forward_kinematics_garbage_is_invalid_input(lengths, words):
     assert result.status == Status.INVALID_INPUT
     assert words in result.detail
     assert np.all(result.pose == 0.0) and result.pose.shape == (3,)
+
+
+@pytest.mark.parametrize('lengths', [
+    None, 'abc', b'abc', [], [1.1, 1.3], [1.1, 1.3, 1.3, 1.3], [[1.1, 1.3, 1.3]],
+    np.zeros((3, 1)) + 1.2, {'a': 1}, {1.1, 1.2, 1.3}, [1j, 1.3, 1.3], [None, 1.3, 1.3],
+    [True, 1.3, 1.3], [10**400, 1.3, 1.3],
+], ids=repr)
+def test_forward_kinematics_not_three_numbers_raises(lengths):
+    """Not three real numbers is a programming error, as for solve (issue 14
+    #11, issue 12 #11): ValueError naming the argument, no status."""
+    with pytest.raises(ValueError, match='lengths must be 3 numbers'):
+        fsd.forward_kinematics(MODEL, lengths)
 
 
 @pytest.mark.parametrize('lengths', [
@@ -754,13 +762,20 @@ def test_forward_kinematics_absurd_lengths_are_unreachable(lengths):
 
 
 @pytest.mark.parametrize('initial, words', [
-    ([0.0, 0.0], 'initial must be 3 numbers'), ([math.nan, 0.0, 0.0], 'initial must be finite'),
+    ([math.nan, 0.0, 0.0], 'initial must be finite'),
     ([0.0, 5.0, 0.0], 'initial pose is unreachable'), ([0.0, 0.0, math.inf], 'finite'),
 ])
 def test_forward_kinematics_garbage_initial_pose(initial, words):
     result = fsd.forward_kinematics(MODEL, L_CENTRE, initial)
     assert result.status == Status.INVALID_INPUT and words in result.detail
     assert np.all(result.pose == 0.0)
+
+
+@pytest.mark.parametrize('initial', [[0.0, 0.0], 'x'])
+def test_forward_kinematics_initial_not_three_numbers_raises(initial):
+    """Not three numbers: ValueError naming ``initial`` (the one input rule)."""
+    with pytest.raises(ValueError, match='^initial must be 3 numbers'):
+        fsd.forward_kinematics(MODEL, L_CENTRE, initial)
 
 
 def test_forward_kinematics_near_a_closure_limit_and_a_singularity():
@@ -842,7 +857,7 @@ def test_regression_empty_batch_cond_raises():
     lambda: fsd.solve_batch(MODEL, [[0.0, None, 0.0]], [REST], [REST]),
 ], ids=['solve, str', 'solve, bytes', 'solve_batch, str', 'solve_batch, None'])
 def test_regression_non_numbers_are_taken_for_numbers(call):
-    """Regression, fixed (minor; solver._three, solver._as_batch): strings and
+    """Regression, fixed (minor; solver.three_numbers, solver._as_batch): strings and
     bytes of digits pass float() and are solved as numbers, and solve_batch
     turns None into NaN (status invalid_input) where solve raises ValueError
     for the same row. Documented: 'Only a call that is not three numbers per
@@ -854,7 +869,7 @@ def test_regression_non_numbers_are_taken_for_numbers(call):
 
 @pytest.mark.parametrize('argument', [0, 1, 2])
 def test_regression_ragged_argument_gives_numpy_message(argument):
-    """Regression, fixed (minor; solver._three): an argument with a nested
+    """Regression, fixed (minor; solver.three_numbers): an argument with a nested
     sequence, e.g. q = [0.0, [0.0], 0.0], raises numpy's ValueError 'setting
     an array element with a sequence. The requested array has an
     inhomogeneous shape ...' (from np.ndim) instead of the documented clear
@@ -903,10 +918,11 @@ def test_regression_forward_kinematics_bad_initial_is_blamed_on_the_lengths():
     is reported as 'lengths must be 3 numbers, got <the lengths>'. Input:
     lengths = the central ones, initial = 'x'. Expected: status
     invalid_input, detail naming ``initial``; actual: the detail names the
-    (valid) lengths."""
-    result = fsd.forward_kinematics(MODEL, L_CENTRE, 'x')
-    assert result.status == Status.INVALID_INPUT
-    assert result.detail.startswith('initial'), result.detail
+    (valid) lengths. Since the one input rule (issue 12 #11) it raises
+    ValueError, still naming ``initial``."""
+    with pytest.raises(ValueError) as info:
+        fsd.forward_kinematics(MODEL, L_CENTRE, 'x')
+    assert str(info.value).startswith('initial'), info.value
 
 
 def test_regression_forward_kinematics_invalid_input_has_an_infinite_residual():

@@ -67,3 +67,45 @@ def test_batch_shape_mismatch():
         fsd.solve_batch(MODEL, np.zeros((3, 3)), np.zeros((2, 3)), np.zeros((3, 3)))
     with pytest.raises(ValueError, match=r'shape \(N, 3\)'):
         fsd.solve_batch(MODEL, np.zeros((3, 4)), np.zeros((3, 4)), np.zeros((3, 4)))
+
+
+# ---------------------------------------------------------------------------
+# One input rule for solve, solve_batch and forward_kinematics (issue 12 #11)
+# ---------------------------------------------------------------------------
+_NOT_THREE_NUMBERS = [[10**400, 0.0, 0.0], [True, 0.0, 0.0], ['0', 0.0, 0.0],
+                      [0.0, 0.0], None, 'abc', [[0.0, 0.0, 0.0]]]
+
+
+@pytest.mark.parametrize('bad', _NOT_THREE_NUMBERS)
+def test_one_input_rule_solve(bad):
+    with pytest.raises(ValueError, match='q must be 3 numbers'):
+        fsd.solve(MODEL, bad, [0.0] * 3, [0.0] * 3)
+
+
+@pytest.mark.parametrize('bad', _NOT_THREE_NUMBERS)
+def test_one_input_rule_solve_batch(bad):
+    with pytest.raises(ValueError, match='q'):
+        fsd.solve_batch(MODEL, [bad], np.zeros((1, 3)), np.zeros((1, 3)))
+
+
+@pytest.mark.parametrize('bad', _NOT_THREE_NUMBERS)
+def test_one_input_rule_forward_kinematics(bad):
+    with pytest.raises(ValueError, match='lengths must be 3 numbers'):
+        fsd.forward_kinematics(MODEL, bad)
+
+
+def test_masked_entries_are_refused_not_solved():
+    q = np.ma.masked_array(np.zeros((2, 3)), mask=[[False] * 3, [True, False, False]])
+    with pytest.raises(ValueError, match='masked'):
+        fsd.solve_batch(MODEL, q, np.zeros((2, 3)), np.zeros((2, 3)))
+    with pytest.raises(ValueError, match='3 numbers'):
+        fsd.solve(MODEL, q[1], [0.0] * 3, [0.0] * 3)
+    unmasked = np.ma.masked_array(np.zeros((2, 3)), mask=False)
+    solved = fsd.solve_batch(MODEL, unmasked, np.zeros((2, 3)), np.zeros((2, 3)))
+    assert solved.force.shape == (2, 3)
+
+
+def test_non_finite_numbers_are_a_status_not_an_exception():
+    invalid = fsd.Status.INVALID_INPUT
+    assert fsd.solve(MODEL, [float('inf'), 0.0, 0.0], [0.0] * 3, [0.0] * 3).status == invalid
+    assert fsd.forward_kinematics(MODEL, [float('nan'), 1.3, 1.3]).status == invalid
