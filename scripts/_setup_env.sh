@@ -45,6 +45,28 @@ if [ -n "${ROS_DISTRO:-}" ] || [ -n "${AMENT_PREFIX_PATH:-}" ]; then
     unset PYTHONPATH LD_LIBRARY_PATH AMENT_PREFIX_PATH CMAKE_PREFIX_PATH COLCON_PREFIX_PATH ROS_DISTRO ROS_VERSION ROS_PYTHON_VERSION
 fi
 
+# Run a set-up step, saying what it is and, while it runs, how long it has
+# taken every 10 s (the first install downloads wheels for 1-2 minutes and
+# pip --quiet prints nothing meanwhile).
+fsd_step() {
+    local what="$1"; shift
+    local start=$SECONDS
+    echo "[setup] $what ..."
+    "$@" &
+    local pid=$!
+    while kill -0 "$pid" 2>/dev/null; do
+        sleep 1
+        if kill -0 "$pid" 2>/dev/null && [ $(((SECONDS - start) % 10)) -eq 0 ] \
+                && [ $((SECONDS - start)) -gt 0 ]; then
+            echo "[setup]   ... $what: $((SECONDS - start)) s"
+        fi
+    done
+    local rc=0
+    wait "$pid" || rc=$?
+    [ "$rc" -eq 0 ] && echo "[setup]   $what: done in $((SECONDS - start)) s"
+    return "$rc"
+}
+
 fsd_setup_start=$SECONDS
 if [ ! -e "$FSD_VENV/bin/python" ]; then
     fsd_python="${PYTHON:-python3.11}"
@@ -68,16 +90,19 @@ from importlib.metadata import version
 sys.exit(any(version(n) != v for n, v in (s.split("==") for s in sys.argv[1].split())))' \
             "$FSD_BOOTSTRAP" 2>/dev/null; then
         # shellcheck disable=SC2086
-        "$FSD_VENV/bin/python" -m pip install --quiet --disable-pip-version-check $FSD_BOOTSTRAP
+        fsd_step "pinning pip and setuptools" \
+            "$FSD_VENV/bin/python" -m pip install --quiet --disable-pip-version-check $FSD_BOOTSTRAP
     fi
-    "$FSD_VENV/bin/python" -m pip install --quiet --disable-pip-version-check -r "$1"
+    fsd_step "installing the pinned wheels of $1 (1-2 min the first time)" \
+        "$FSD_VENV/bin/python" -m pip install --quiet --disable-pip-version-check -r "$1"
     # setuptools reuses build/lib between builds, so a module deleted from the
     # sources would still be shipped: start the wheel build from scratch.
     rm -rf "$FSD_ROOT/build/lib" "$FSD_ROOT"/build/bdist.*
     # --no-build-isolation: build with the venv's pinned setuptools instead of
     # fetching the latest one into a throw-away environment (3-6 s instead of
     # 12-14 s per run, and no network once the venv is complete).
-    "$FSD_VENV/bin/python" -m pip install --quiet --disable-pip-version-check --no-build-isolation .
+    fsd_step "installing flight_sim_dynamics (compiles the kernel)" \
+        "$FSD_VENV/bin/python" -m pip install --quiet --disable-pip-version-check --no-build-isolation .
     # The compiled kernel (src/kernel.c) next to the sources too, for code run
     # from the source tree (the tests, benchmarks/): a gitignored .so in
     # flight_sim_dynamics/. Without a C compiler both steps leave the kernel
@@ -93,3 +118,4 @@ export PATH="$FSD_VENV/bin:$PATH"
 # Plots are written to files: never need a display.
 export MPLBACKEND="${MPLBACKEND:-Agg}"
 unset fsd_setup_start fsd_python FSD_BOOTSTRAP
+unset -f fsd_step
