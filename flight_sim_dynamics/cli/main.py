@@ -30,6 +30,7 @@ import flight_sim_dynamics as fsd
 
 from . import csv_io, npz_io
 from .common import CliError, load_model, write_table
+from .trajectory_input import read_trajectory
 from .csv_io import TRAJECTORY_COLUMNS, CsvError
 from ..core.model import JOINT_NAMES
 from ..core.trajectories import DURATION, PAPER_EXAMPLES, paper_example, sample_times
@@ -102,7 +103,10 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
                    help="trajectory CSV ('-' for standard input) with the header "
                         + ','.join(TRAJECTORY_COLUMNS)
                         + ' in any order (SI units: s, m, rad and their rates); other '
-                          'columns are ignored (named in a note on standard error)')
+                          'columns are ignored (named in a note on standard error). Without '
+                          'the rate and/or acceleration columns they are estimated from the '
+                          'poses as the node does (causal backward differences; said on '
+                          'standard error)')
     p.add_argument('-o', '--output', required=True, metavar='CSV_OR_NPZ',
                    help="results to write ('-' for standard output): "
                         + ','.join(OUTPUT_COLUMNS) + ',status (a word per row: ok, or the '
@@ -224,11 +228,7 @@ def report_statuses(table: csv_io.Table, sol, words: np.ndarray | None = None) -
 
 def cmd_solve(args: argparse.Namespace) -> int:
     model = load_model(args.params, args.scene)
-    table = csv_io.read_csv(args.input, required=TRAJECTORY_COLUMNS, skip_extra=True)
-    if table.skipped:
-        print(f"note: {table.path}: ignoring column{'s' if len(table.skipped) > 1 else ''} "
-              f"{', '.join(repr(n) for n in table.skipped)}; solve reads "
-              + ','.join(TRAJECTORY_COLUMNS), file=sys.stderr)
+    table = read_trajectory(args.input, model)
     names, data, status = solve_table(model, table, joints=args.joints, exact_cond=args.cond)
     write_table(args.output, names, data, text=('status', status))
     return 0
