@@ -268,15 +268,20 @@ def cmd_plot(args: argparse.Namespace) -> int:
     if not 1 <= args.dpi <= 1200:
         raise CliError(f'--dpi must be between 1 and 1200, got {args.dpi}')
     if npz_io.is_npz(args.input):
-        table = npz_io.read_npz(args.input, required=PLOT_COLUMNS)
+        table = npz_io.read_npz(args.input, required=PLOT_COLUMNS,
+                                optional=tuple(_per_leg('length')))
     else:
         table = csv_io.read_csv(args.input, required=PLOT_COLUMNS, allow_extra=True,
                                 text_columns=('status',))
     force = np.column_stack([table[n] for n in _per_leg('force')])
     power = np.column_stack([table[n] for n in _per_leg('power')])
     title = args.title if args.title is not None else default_title(args.input)
+    # solve writes the rows it cannot solve as zeros; a leg length is never 0
+    lengths = [n for n in _per_leg('length') if n in table.names]
+    unsolved = (np.all(np.column_stack([table[n] for n in lengths]) == 0.0, axis=1)
+                if lengths else None)
     plotting.plot_forces_powers(table['t'], force, power, args.output, title=title,
-                                dpi=args.dpi)
+                                dpi=args.dpi, unsolved=unsolved)
     return 0
 
 

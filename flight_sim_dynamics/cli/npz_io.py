@@ -57,11 +57,13 @@ def write_npz(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarr
         np.savez(f, **arrays)
 
 
-def read_npz(path: str | os.PathLike[str], *, required: Sequence[str]) -> Table:
+def read_npz(path: str | os.PathLike[str], *, required: Sequence[str],
+             optional: Sequence[str] = ()) -> Table:
     """The numeric columns of an .npz written by :func:`write_npz` as a Table
     (``lines``: the line each row has in the CSV form). Raises CsvError naming
     the file and the column when ``required`` columns are missing or hold
-    anything but finite numbers; columns not required are left out.
+    anything but finite numbers; columns neither required nor ``optional``
+    are left out (an ``optional`` one is read, and checked, when present).
     """
     shown = os.fspath(path)
     try:
@@ -77,7 +79,7 @@ def read_npz(path: str | os.PathLike[str], *, required: Sequence[str]) -> Table:
         raise CsvError(f"missing column{'s' if len(missing) > 1 else ''} "
                        f"{', '.join(repr(m) for m in missing)}; it has {', '.join(names)}",
                        path=shown)
-    kept = tuple(n for n in names if n in required)
+    kept = tuple(n for n in names if n in required or (n in optional and n in arrays))
     columns = []
     for j, name in enumerate(kept):
         column = arrays[name]

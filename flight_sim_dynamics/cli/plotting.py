@@ -37,23 +37,43 @@ def output_format(path: str | os.PathLike[str]) -> str:
     return ext
 
 
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) index of each run of True in ``mask``."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
+    return list(zip(edges[::2], edges[1::2] - 1))
+
+
 def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
-                       title: str, labels: Sequence[str] = ACTUATORS):
-    """A two-axes figure: actuator forces (N) above, powers (W) below, vs t (s)."""
+                       title: str, labels: Sequence[str] = ACTUATORS,
+                       unsolved: np.ndarray | None = None):
+    """A two-axes figure: actuator forces (N) above, powers (W) below, vs t (s).
+
+    Rows in ``unsolved`` (no solution: unreachable or invalid input, written as
+    zeros by ``solve``) are left out of the curves and shaded, so that no
+    flat 0 N line passes for a force.
+    """
     from matplotlib.figure import Figure
 
     t = np.asarray(t, dtype=float)
-    force = np.asarray(force, dtype=float).reshape(len(t), -1)
-    power = np.asarray(power, dtype=float).reshape(len(t), -1)
+    force = np.asarray(force, dtype=float).reshape(len(t), -1).copy()
+    power = np.asarray(power, dtype=float).reshape(len(t), -1).copy()
+    unsolved = np.zeros(len(t), bool) if unsolved is None else np.asarray(unsolved, bool)
+    force[unsolved], power[unsolved] = np.nan, np.nan
     fig = Figure(figsize=(8.0, 7.0), dpi=100, layout='constrained')
     ax_f, ax_p = fig.subplots(2, 1, sharex=True)
     for i, name in enumerate(labels):
         style = _STYLES[i % len(_STYLES)]
         ax_f.plot(t, force[:, i], label=f'actuator {name}', **style)
         ax_p.plot(t, power[:, i], label=f'actuator {name}', **style)
-    ax_f.set_ylabel('input force $f$ (N)')
+    step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    for k, (first, last) in enumerate(_runs(unsolved)):
+        for ax in (ax_f, ax_p):
+            ax.axvspan(t[first] - step / 2, t[last] + step / 2, facecolor='0.88', hatch='//',
+                       edgecolor='0.6', linewidth=0,
+                       label=f'no solution ({int(unsolved.sum())} rows)' if k == 0 else None)
+    ax_f.set_ylabel('input force $f$ (N)\n+ pushes the leg\'s joints apart')
     ax_f.set_title('Input forces of the three actuators', fontsize='medium')
-    ax_p.set_ylabel('power $P = f\\,\\dot{L}$ (W)')
+    ax_p.set_ylabel('power $P = f\\,\\dot{L}$ (W)\n+ the actuator drives the motion')
     ax_p.set_title('Powers of the three actuators', fontsize='medium')
     ax_p.set_xlabel('time $t$ (s)')
     for ax in (ax_f, ax_p):
@@ -66,11 +86,12 @@ def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
 
 
 def plot_forces_powers(t: np.ndarray, force: np.ndarray, power: np.ndarray,
-                       output: str | os.PathLike[str], *, title: str, dpi: int = 100) -> None:
+                       output: str | os.PathLike[str], *, title: str, dpi: int = 100,
+                       unsolved: np.ndarray | None = None) -> None:
     """Write the force/power figure to ``output`` (format from the extension),
     atomically: a failed run leaves no partial image and keeps an old one.
     """
     fmt = output_format(output)
-    fig = force_power_figure(t, force, power, title=title)
+    fig = force_power_figure(t, force, power, title=title, unsolved=unsolved)
     with atomic_output(output) as f:
         fig.savefig(f, format=fmt, dpi=dpi)
