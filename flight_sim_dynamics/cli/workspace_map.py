@@ -15,6 +15,7 @@ import matplotlib.patheffects as pe
 import numpy as np
 from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
+from matplotlib.legend_handler import HandlerTuple
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
@@ -44,15 +45,40 @@ def _halo(width: float = 2.8) -> list:
     return [pe.withStroke(linewidth=width, foreground='k')]
 
 
+def _regions(mask: np.ndarray) -> list[np.ndarray]:
+    """The 4-connected regions of a boolean grid, one mask each (a flood fill:
+    a few ms on a 201 x 201 map).
+    """
+    label = np.zeros(mask.shape, dtype=np.int32)
+    regions = []
+    for start in zip(*np.nonzero(mask)):
+        if label[start]:
+            continue
+        n = len(regions) + 1
+        label[start] = n
+        stack = [start]
+        while stack:
+            i, j = stack.pop()
+            for a, b in ((i + 1, j), (i - 1, j), (i, j + 1), (i, j - 1)):
+                if 0 <= a < mask.shape[0] and 0 <= b < mask.shape[1] and mask[a, b] \
+                        and not label[a, b]:
+                    label[a, b] = n
+                    stack.append((a, b))
+        regions.append(label == n)
+    return regions
+
+
 def _draw_panel(ax, rm: RollMap, model: Model, norm, cmap, extent, show_paths: bool):
     lim = model.limits
     S, H = np.meshgrid(rm.surge, rm.heave)
     reach = rm.category == REACHABLE
-    for code, style in _CAUSE_STYLE.items():
-        mask = rm.category == code
-        if mask.any():
-            ax.contourf(S, H, mask.astype(float), levels=[0.5, 1.5], colors=[style['color']],
-                        hatches=[style['hatch']])
+    # one contourf per connected region, the largest first: a region drawn
+    # around the hole where a smaller one sits loses that one's hatch
+    regions = [(region, _CAUSE_STYLE[code]) for code in _CAUSE_STYLE
+               for region in _regions(rm.category == code)]
+    for region, style in sorted(regions, key=lambda r: -int(r[0].sum())):
+        ax.contourf(S, H, region.astype(float), levels=[0.5, 1.5],
+                    colors=[style['color']], hatches=[style['hatch']])
     mesh = ax.pcolormesh(S, H, np.ma.masked_invalid(np.where(reach, rm.colour, np.nan)),
                          norm=norm, cmap=cmap, shading='nearest', rasterized=True)
     dim = np.ma.masked_where(~(reach & ~rm.within), np.ones(S.shape))
@@ -97,45 +123,46 @@ def _draw_panel(ax, rm: RollMap, model: Model, norm, cmap, extent, show_paths: b
     return mesh
 
 
-def _legend_handles(model: Model, categories: set[int]):
+def _legend_handles(model: Model, categories: set[int]) -> tuple[list, list[str]]:
+    """The legend's (handles, labels): one entry per kind of thing drawn, the
+    related ones grouped (both strokes of a leg, both kinds of boundary, the
+    markers of the paper's motions), so that it stays short.
+    """
     lim = model.limits
-    h = [Patch(facecolor=_CAUSE_STYLE[c]['color'], hatch=_CAUSE_STYLE[c]['hatch'],
-               edgecolor='0.35', label=_CAUSE_STYLE[c]['label'])
-         for c in sorted(categories) if c != REACHABLE]
-    h.append(Patch(facecolor='0.82', edgecolor='0.35',
-                   label='reachable, outside the stroke limits (dimmed)'))
-    h.append(Line2D([], [], color='k', linewidth=2.2,
-                    label='reachable boundary at loop D / E (crank tangent: Q singular)'))
-    h.append(Line2D([], [], color='k', linewidth=1.0,
-                    label='reachable boundary where E2 reaches A3 or G'))
+    entries = [(Patch(facecolor=_CAUSE_STYLE[c]['color'], hatch=_CAUSE_STYLE[c]['hatch'],
+                      edgecolor='0.35'), _CAUSE_STYLE[c]['label'])
+               for c in sorted(categories) if c != REACHABLE]
+    entries.append((Patch(facecolor='0.82', edgecolor='0.35'),
+                    'reachable, outside the stroke limits (dimmed)'))
+    entries.append(((Line2D([], [], color='k', linewidth=2.2),
+                     Line2D([], [], color='k', linewidth=1.0)),
+                    'reachable boundary: at loop D / E (thick: crank tangent, Q singular); '
+                    'where E2 reaches A3 or G (thin)'))
     for j, leg in enumerate(LEGS):
         colour, width = _LEG_STYLE[j]
-        h.append(Line2D([], [], color=colour, linestyle='--', linewidth=width,
-                        label=f'stroke {leg} = {lim.stroke_min:g} m (min)'))
-        h.append(Line2D([], [], color=colour, linestyle='-', linewidth=width,
-                        label=f'stroke {leg} = {lim.stroke_max:g} m (max)'))
-    h.append(Line2D([], [], color=_KIN_COLOUR, linestyle=':', linewidth=1.4,
-                    path_effects=_halo(),
-                    label=f'kinematic condition (blocks of Q) = {lim.max_kinematic_condition:g}'))
-    h.append(Line2D([], [], color=_JAC_COLOUR, linestyle='-.', linewidth=1.3,
-                    path_effects=_halo(),
-                    label='actuator Jacobian singular: det(dL/dq) = 0'))
-    h.append(Patch(facecolor=_NEAR_COLOUR, alpha=0.8,
-                   label=f'near_singular: kinematic or actuator-Jacobian condition > '
-                         f'{max(lim.max_kinematic_condition, lim.max_jacobian_condition):g}'
-                   if lim.max_kinematic_condition == lim.max_jacobian_condition else
-                   f'near_singular: kinematic condition > {lim.max_kinematic_condition:g} or '
-                   f'Jacobian condition > {lim.max_jacobian_condition:g}'))
-    h.append(Line2D([], [], color='k', marker='+', linestyle='', markersize=10,
-                    markeredgewidth=2, label='central configuration (0, 0)'))
-    h.append(Line2D([], [], path_effects=_halo(), label="paper's vertical motion (roll 0)",
-                    **_PATHS['vertical']))
-    h.append(Line2D([], [], path_effects=_halo(),
-                    label="paper's rectilinear motion (roll 0); the general one follows it",
-                    **_PATHS['rectilinear']))
-    h.append(Line2D([], [], label="paper's general motion when its roll is the panel's",
-                    **_STAR))
-    return h
+        entries.append(((Line2D([], [], color=colour, linestyle='--', linewidth=width),
+                         Line2D([], [], color=colour, linestyle='-', linewidth=width)),
+                        f'stroke {leg} = {lim.stroke_min:g} m (dashed), {lim.stroke_max:g} m'))
+    entries.append((Line2D([], [], color=_KIN_COLOUR, linestyle=':', linewidth=1.4,
+                           path_effects=_halo()),
+                    f'kinematic condition (blocks of Q) = {lim.max_kinematic_condition:g}'))
+    entries.append((Line2D([], [], color=_JAC_COLOUR, linestyle='-.', linewidth=1.3,
+                           path_effects=_halo()),
+                    'actuator Jacobian singular: det(dL/dq) = 0'))
+    entries.append((Patch(facecolor=_NEAR_COLOUR, alpha=0.8),
+                    f'near_singular: kinematic or actuator-Jacobian condition > '
+                    f'{max(lim.max_kinematic_condition, lim.max_jacobian_condition):g}'
+                    if lim.max_kinematic_condition == lim.max_jacobian_condition else
+                    f'near_singular: kinematic condition > {lim.max_kinematic_condition:g} or '
+                    f'Jacobian condition > {lim.max_jacobian_condition:g}'))
+    entries.append(((Line2D([], [], color='k', marker='+', linestyle='', markersize=10,
+                            markeredgewidth=2),
+                     Line2D([], [], path_effects=_halo(), **_PATHS['vertical']),
+                     Line2D([], [], path_effects=_halo(), **_PATHS['rectilinear']),
+                     Line2D([], [], **_STAR)),
+                    "central configuration; the paper's vertical and rectilinear (= general "
+                    "at roll 0) motions; the general one at the panel's roll (star)"))
+    return [e[0] for e in entries], [e[1] for e in entries]
 
 
 def plot(results: Sequence[RollResult], model: Model, path: str, args: argparse.Namespace
@@ -172,8 +199,9 @@ def plot(results: Sequence[RollResult], model: Model, path: str, args: argparse.
     label = ('cond(Q), exact (SVD)' if args.color_by == 'cond' else
              'kinematic condition (blocks of Q)') + ', log scale'
     fig.colorbar(mesh, ax=axes, label=label, extend='max', shrink=0.5, pad=0.01)
-    fig.legend(handles=_legend_handles(model, categories), loc='outside lower center',
-               ncol=3, fontsize=8, frameon=False)
+    handles, labels = _legend_handles(model, categories)
+    fig.legend(handles, labels, loc='outside lower center', ncol=2, fontsize=8, frameon=False,
+               handler_map={tuple: HandlerTuple(ndivide=None)})
     fig.suptitle('Workspace of the flight simulator: reachable (surge, heave) of G per roll '
                  'angle, at rest', fontsize='large')
     with atomic_output(path) as f:
