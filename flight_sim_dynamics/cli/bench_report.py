@@ -329,140 +329,65 @@ def motions_table(res: Results) -> str:
 
 
 def plot(res: Results, path: str) -> None:
-    """Time per cycle (x) against max force error on the violent motion (log y)."""
+    """Two panels sharing one row per variant, sorted by accuracy: the max force
+    error on the violent motion (log x; "exact" for 0 N) and the median time
+    per cycle. Names sit on the axis, so no label can hide another.
+    """
     from matplotlib.figure import Figure
-    from matplotlib.ticker import FuncFormatter, LogFormatterSciNotation
+    from matplotlib.patches import Patch
 
-    errors = {v.key: res.errors[v.key]['violent'].max for v in res.variants}
-    positive = [e for e in errors.values() if e > 0]
-    est_points = []
     full_us = res.timing['full'].median_us
+    rows = [(v.key, res.errors[v.key]['violent'].max, res.timing[v.key].median_us, v.kind)
+            for v in res.variants]
+    rows.append(('full + cond(Q) diagnostic', 0.0, res.timing['full + cond(Q)'].median_us,
+                 'diagnostic'))
     for c in res.estimators:
         if c.method == 'backward2':
             key = f'estimator backward2, {"pose + twist" if c.source == "twist" else "pose only"}'
-            x = full_us + res.timing[key].median_us
-            est_points.append((x, c.steady['violent'].max,
-                               f'{"qdd" if c.source == "twist" else "qd, qdd"} est. '
-                               f'{c.rate:.0f} Hz', c.source))
-    positive += [p[1] for p in est_points if p[1] > 0]
+            name = (f'full, {"qdd" if c.source == "twist" else "qd and qdd"} estimated at '
+                    f'{c.rate:.0f} Hz')
+            rows.append((name, c.steady['violent'].max,
+                         full_us + res.timing[key].median_us, f'estimated ({c.source})'))
+    rows.sort(key=lambda r: (r[1], r[0]))
+    positive = [r[1] for r in rows if r[1] > 0]
     floor = 10 ** (math.floor(math.log10(min(positive))) - 1) if positive else 1e-3
-    fig = Figure(figsize=(10.0, 6.5), dpi=110, layout='constrained')
-    ax = fig.subplots()
-    styles = {REFERENCE: dict(marker='*', s=180, color='black'),
-              SCENE: dict(marker='o', s=70, color='tab:blue'),
-              DROPS: dict(marker='v', s=70, color='tab:red'),
-              ADDS: dict(marker='s', s=60, facecolors='none', edgecolors='tab:green',
-                         linewidths=1.5)}
-    seen = set()
-    labels = []      # (x, y, text, colour, font size), placed at the end
-    for v in res.variants:
-        x = res.timing[v.key].median_us
-        y = errors[v.key] if errors[v.key] > 0 else floor
-        label = {REFERENCE: 'full (reference)', SCENE: 'packaged scene',
-                 DROPS: 'full without one effect',
-                 ADDS: 'adds a body/effect (difference = its size)'}[v.kind]
-        ax.scatter([x], [y], zorder=3, label=None if v.kind in seen else label,
-                   **styles[v.kind])
-        seen.add(v.kind)
-        labels.append((x, y, v.key + (' (exact)' if errors[v.key] == 0 else ''), 'black', 8.5))
-    cond = res.timing['full + cond(Q)'].median_us
-    ax.scatter([cond], [floor], marker='X', s=70, color='tab:purple', zorder=3,
-               label='full + cond(Q) diagnostic (exact)')
-    labels.append((cond, floor, 'full + cond(Q) (exact)', 'black', 8.5))
-    first = {}
-    for x, y, text, source in est_points:
-        color = 'tab:orange' if source == 'twist' else 'tab:brown'
-        lab = ('full, accelerations estimated from twists (backward2)' if source == 'twist'
-               else 'full, rates and accelerations from poses (backward2)')
-        ax.scatter([x], [max(y, floor)], marker='D', s=40, color=color, zorder=3,
-                   label=None if source in first else lab)
-        first[source] = True
-        labels.append((x, max(y, floor), text, color, 7.5))
-    ax.set_yscale('log')
-    ax.axhline(floor, color='0.6', linewidth=0.8, linestyle=':')
-    log_format = LogFormatterSciNotation()
-    ax.yaxis.set_major_formatter(FuncFormatter(
-        lambda y, pos: 'exact (0 N)' if abs(y - floor) <= 1e-9 * floor else log_format(y, pos)))
-    y_lo, y_hi = ax.get_ylim()
-    ax.set_yticks(sorted(set(ax.get_yticks()) | {floor}))
-    ax.set_ylim(y_lo, y_hi)
-    ax.set_xlabel('median time per cycle, fsd.solve (us)')
-    ax.set_ylabel('max |force error| vs full model, violent motion (N)')
-    ax.set_title('What accuracy costs in time: one point per variant '
-                 f'(peak force {res.peaks["violent"]:.0f} N)', fontsize='medium')
-    ax.grid(True, which='both', alpha=0.3)
-    xs = [res.timing[v.key].median_us for v in res.variants] + [cond] + \
-        [p[0] for p in est_points]
-    lo, hi = min(xs), max(xs)
-    ax.set_xlim(lo - 0.05 * (hi - lo) - 1, hi + 0.25 * (hi - lo) + 1)
-    ax.legend(loc='upper right', fontsize=8)
-    _place_labels(fig, ax, labels)
+    colours = {REFERENCE: 'black', SCENE: 'tab:blue', DROPS: 'tab:red', ADDS: 'tab:green',
+               'diagnostic': 'tab:purple', 'estimated (twist)': 'tab:orange',
+               'estimated (pose)': 'tab:brown'}
+    meaning = {REFERENCE: 'full model (reference)', SCENE: 'packaged scene',
+               DROPS: 'full without one effect', ADDS: 'adds a body or an effect',
+               'diagnostic': 'full + exact cond(Q) (SVD)',
+               'estimated (twist)': 'accelerations estimated from twists (backward2)',
+               'estimated (pose)': 'rates and accelerations estimated from poses (backward2)'}
+    fig = Figure(figsize=(11.0, 0.32 * len(rows) + 2.2), dpi=110, layout='constrained')
+    ax_e, ax_t = fig.subplots(1, 2, sharey=True, width_ratios=(3, 2))
+    y = np.arange(len(rows))
+    colour = [colours[r[3]] for r in rows]
+    ax_e.barh(y, [max(r[1], floor) for r in rows], left=floor / 10, color=colour)
+    for k, r in enumerate(rows):
+        ax_e.text(max(r[1], floor) * 1.15, k, 'exact' if r[1] == 0 else f'{r[1]:.3g} N',
+                  va='center', fontsize=8)
+    ax_e.set_xscale('log')
+    ax_e.set_xlim(floor / 10, max(positive, default=1.0) * 20)
+    ax_e.set_yticks(y, [r[0] for r in rows], fontsize=8.5)
+    ax_e.set_xlabel(f'max |force error| vs full model on the violent motion (N; peak force '
+                    f'{res.peaks["violent"]:.0f} N)')
+    ax_t.barh(y, [r[2] for r in rows], color=colour)
+    for k, r in enumerate(rows):
+        ax_t.text(r[2], k, f' {r[2]:.1f} us', va='center', fontsize=8)
+    ax_t.set_xlim(0, max(r[2] for r in rows) * 1.25)
+    ax_t.set_xlabel('median time per cycle, fsd.solve (us)')
+    for ax in (ax_e, ax_t):
+        ax.grid(True, axis='x', which='both', alpha=0.3)
+        ax.invert_yaxis()
+    ax_t.invert_yaxis()         # shared y: invert once
+    kinds = list(dict.fromkeys(r[3] for r in rows))
+    fig.legend([Patch(color=colours[k]) for k in kinds], [meaning[k] for k in kinds],
+               loc='outside lower center', ncol=3, fontsize=8, frameon=False)
+    fig.suptitle('What accuracy costs in time: every variant, most accurate first',
+                 fontsize='medium')
     with atomic_output(path) as f:
         fig.savefig(f, format='png')
-
-
-def _place_labels(fig, ax, labels) -> None:
-    """Annotate the points, each label at the first of a few offsets where it
-    overlaps neither an earlier label nor a point nor the legend.
-    """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    renderer = FigureCanvasAgg(fig).get_renderer()
-    fig.draw(renderer)                     # final layout, so the extents are right
-    markers, placed = [], []
-    for x, y, *_ in labels:                # the markers themselves
-        px, py = ax.transData.transform((x, y))
-        markers.append((px - 7, py - 7, px + 7, py + 7))
-    legend = ax.get_legend()
-    if legend is not None:
-        bb = legend.get_window_extent(renderer)
-        markers.append((bb.x0, bb.y0, bb.x1, bb.y1))
-    axes_bb = ax.get_window_extent(renderer)
-    offsets = [(7, 3, 'left'), (7, -11, 'left'), (-7, 3, 'right'), (-7, -11, 'right'),
-               (7, 12, 'left'), (7, -20, 'left'), (-7, 12, 'right'), (-7, -20, 'right'),
-               (0, 10, 'center'), (0, -18, 'center')]
-    offsets += [(dx, dy, ha) for dx, ha in ((12, 'left'), (-12, 'right'), (30, 'left'),
-                                            (-30, 'right'))
-                for dy in (-4, 8, -16, 20, -28)]
-
-    def overlap(bb, boxes, pad: float) -> float:
-        area = 0.0
-        for t in boxes:
-            w = min(bb.x1 + pad, t[2]) - max(bb.x0 - pad, t[0])
-            h = min(bb.y1 + pad, t[3]) - max(bb.y0 - pad, t[1])
-            if w > 0 and h > 0:
-                area += w * h
-        return area
-
-    def badness(bb) -> float:
-        outside = (max(0.0, axes_bb.x0 - bb.x0) + max(0.0, bb.x1 - axes_bb.x1)
-                   + max(0.0, axes_bb.y0 - bb.y0) + max(0.0, bb.y1 - axes_bb.y1))
-        return 1e3 * outside + overlap(bb, markers, 0.0) + overlap(bb, placed, 3.0)
-
-    for x, y, text, colour, size in labels:
-        best = None
-        for dx, dy, ha in offsets:
-            ann = ax.annotate(text, (x, y), textcoords='offset points', xytext=(dx, dy),
-                              fontsize=size, color=colour, ha=ha)
-            bb = ann.get_window_extent(renderer)
-            score = badness(bb)
-            if best is None or score < best[0]:
-                if best is not None:
-                    best[1].remove()
-                best = (score, ann, bb)
-            else:
-                ann.remove()
-            if score == 0.0:
-                break
-        score, ann, bb = best
-        if abs(ann.xyann[0]) > 10 or abs(ann.xyann[1]) > 14:     # far off: show whose it is
-            ann.remove()
-            ann = ax.annotate(text, (x, y), textcoords='offset points', xytext=ann.xyann,
-                              fontsize=size, color=colour, ha=ann.get_ha(),
-                              arrowprops=dict(arrowstyle='-', color=colour, alpha=0.5,
-                                              linewidth=0.6, shrinkA=0, shrinkB=4))
-        placed.append((bb.x0, bb.y0, bb.x1, bb.y1))
-    fig.set_layout_engine('none')          # keep the layout the labels were placed in
 
 
 def write_text(path: str, text: str) -> None:
