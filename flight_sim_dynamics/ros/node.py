@@ -5,8 +5,8 @@
     python -m flight_sim_dynamics.ros.node        # packaged defaults
     flight-sim-dynamics node --ros-args -r __ns:=/sim
 
-Invalid parameters (a value of the schema, or a ``qos_overrides.*``) make
-it exit with status 2 and say why.
+A start-up it cannot make (a bad parameter, params file, scene, QoS override
+or ROS argument) ends it with one ``error:`` line on stderr and exit status 2.
 """
 from __future__ import annotations
 
@@ -16,10 +16,12 @@ from typing import Any, Sequence
 
 import rclpy
 import rclpy.task
+from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
 
 from ..config import parameters as prm
+from ..config.files import params_files_in, read_params_file
 from .dynamics_node import DynamicsNode
 
 EXECUTORS = ('events', 'single')
@@ -51,12 +53,34 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _refuse(message: str) -> int:
+    """A start-up the node cannot make: one ``error:`` line on stderr, exit 2."""
+    print('error: ' + ' '.join(str(message).split()), file=sys.stderr)
+    return 2
+
+
+def _params_file_problem(argv: Sequence[str]) -> str | None:
+    """What the package's own reader says of the ``--params-file`` files (a
+    clearer message than rcl's, naming the file and the key), or None.
+    """
+    for path in params_files_in(argv):
+        try:
+            read_params_file(path)
+        except prm.ParameterError as exc:
+            return f'invalid parameters: {exc}'
+    return None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the node until Ctrl-C / SIGTERM. ``argv``: arguments after the
     program name (None: sys.argv[1:]), ROS arguments after ``--ros-args``.
     """
     argv = list(sys.argv[1:] if argv is None else argv)
-    own = rclpy.utilities.remove_ros_args(['dynamics_node', *argv])[1:]
+    try:
+        own = rclpy.utilities.remove_ros_args(['dynamics_node', *argv])[1:]
+    except Exception as exc:  # noqa: BLE001 - rcl's refusal (bad ROS arguments or params
+        # file) comes as rclpy's private _rclpy_pybind11 error types
+        return _refuse(_params_file_problem(argv) or f'invalid ROS arguments: {exc}')
     args = build_parser().parse_args(own)
     rclpy.init(args=['dynamics_node', *argv])
     node = None
@@ -64,9 +88,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         try:
             node = DynamicsNode()
-        except prm.ParameterError as exc:
-            rclpy.logging.get_logger(prm.NODE_NAME).fatal(f'invalid parameters: {exc}')
-            return 2
+        except (prm.ParameterError, ParameterException) as exc:
+            return _refuse(f'invalid parameters: {exc}')
         executor = make_executor(args.executor)
         executor.add_node(node)
         spin(executor)
