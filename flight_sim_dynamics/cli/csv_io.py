@@ -20,6 +20,10 @@ from __future__ import annotations
 
 import contextlib
 import os
+import signal
+import stat
+import tempfile
+import threading
 import re
 import sys
 from dataclasses import dataclass
@@ -356,33 +360,97 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[IO[bytes]]:
     all: the data goes to a temporary file in the same directory, which
     replaces ``path`` only when the block finishes without an exception (the
     old file, if any, is untouched otherwise). ``-`` writes to standard output.
+
+    What is at ``path`` is respected: a character device, FIFO or socket
+    (``/dev/null``, ``/dev/stdout``, a named pipe) is written through, never
+    replaced; a symbolic link is followed and its target replaced (the link
+    stays); a replaced file keeps its mode; a read-only file is refused. A
+    SIGTERM or SIGHUP during the write removes the temporary file and ends
+    the process with status 128 + the signal, as the signal would.
     """
     if os.fspath(path) == '-':
         yield sys.stdout.buffer
         sys.stdout.buffer.flush()
         return
-    path = os.fspath(path)
-    directory = os.path.dirname(os.path.abspath(path))
-    if os.path.isdir(path):
-        raise CsvError('is a directory; cannot write a file there', path=path)
-    if not os.path.isdir(directory):
-        raise CsvError(f"cannot write: directory '{os.path.dirname(path) or '.'}' does not exist",
-                       path=path)
-    import tempfile
-
-    fd, tmp = tempfile.mkstemp(prefix='.' + os.path.basename(path) + '.', suffix='.tmp',
-                               dir=directory)
+    shown = os.fspath(path)
+    target = os.path.realpath(shown)            # a symlink: its target
     try:
-        with os.fdopen(fd, 'wb') as f:
+        st = os.stat(target)
+    except FileNotFoundError:
+        st = None
+    except OSError as exc:
+        raise CsvError(f'cannot write: {exc.strerror}', path=shown) from None
+    if st is not None and (stat.S_ISCHR(st.st_mode) or stat.S_ISFIFO(st.st_mode)
+                           or stat.S_ISSOCK(st.st_mode)):
+        with _errors_named(shown), open(target, 'wb') as f:    # write through, never replace
             yield f
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)
-        os.replace(tmp, path)
+        return
+    if st is not None and not stat.S_ISREG(st.st_mode):
+        what = 'a directory' if stat.S_ISDIR(st.st_mode) else 'not a regular file'
+        raise CsvError(f'is {what}; cannot write a file there', path=shown)
+    if st is not None and not st.st_mode & 0o222:
+        raise CsvError(f'is read-only (mode {stat.S_IMODE(st.st_mode):04o}): not replaced',
+                       path=shown)
+    directory = os.path.dirname(target)
+    if not os.path.isdir(directory):
+        raise CsvError(f"cannot write: directory '{os.path.dirname(shown) or '.'}' does not "
+                       'exist', path=shown)
+    with _errors_named(shown):
+        fd, tmp = tempfile.mkstemp(prefix='.' + os.path.basename(target) + '.', suffix='.tmp',
+                                   dir=directory)
+    try:
+        with _signals_end_the_write(), _errors_named(shown):
+            with os.fdopen(fd, 'wb') as f:
+                yield f
+            if st is None:
+                umask = os.umask(0)
+                os.umask(umask)
+                os.chmod(tmp, 0o666 & ~umask)
+            else:
+                os.chmod(tmp, stat.S_IMODE(st.st_mode))
+            os.replace(tmp, target)
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+@contextlib.contextmanager
+def _errors_named(shown: str) -> Iterator[None]:
+    """An OSError while writing, as a CsvError naming the user's path (not the
+    temporary file).
+    """
+    try:
+        yield
+    except OSError as exc:
+        raise CsvError(f'cannot write: {exc.strerror or exc}', path=shown) from None
+
+
+class _Terminated(BaseException):
+    """A catchable termination signal, raised where the write is."""
+
+
+@contextlib.contextmanager
+def _signals_end_the_write() -> Iterator[None]:
+    """SIGTERM and SIGHUP raise inside the block (so that the temporary file is
+    removed on the way out) and then end the process as the signal would;
+    the previous handlers are restored. Only the main thread gets signals.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum: int, frame: object) -> None:
+        raise _Terminated(signum)
+
+    old = {s: signal.signal(s, handler) for s in (signal.SIGTERM, signal.SIGHUP)}
+    try:
+        yield
+    except _Terminated as exc:
+        raise SystemExit(128 + exc.args[0]) from None
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
 
 
 def write_csv(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarray,
