@@ -47,6 +47,7 @@ from .inputs import (ACCEL, BAD_SETPOINT, PLATFORM, POSE, SOLVER_ERROR, TWIST, U
                      PoseInput, RateInput, SetpointError, check_acceleration,
                      platform_setpoints, pose_input, rate_input)
 from .node_config import NodeConfig
+from .parameter_service import ParameterServices
 from .synchroniser import Rejected, Setpoint, StampSynchroniser
 
 #: Parameters ROS itself declares on every node; not ours to check.
@@ -107,7 +108,9 @@ class DynamicsNode(Node):
         # Every --ros-args parameter is declared first, so that the ones that
         # are not ours (typos) can be told apart with public API only.
         super().__init__(prm.NODE_NAME, automatically_declare_parameters_from_overrides=True,
-                         **kwargs)
+                         start_parameter_services=False, **kwargs)
+        # rclpy's parameter services can be killed by one request (issue 12 #1)
+        ParameterServices(self)
         # The one rule for parameter files (config.parameters.read_params): an
         # unknown name in a --params-file is a ParameterError (main() exits 2).
         prm.check_params_files([*sys.argv, *(kwargs.get('cli_args') or ())],

@@ -18,6 +18,9 @@ from rcl_interfaces.srv import DescribeParameters, ListParameters
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
+from rcl_interfaces.msg import Parameter as RclParameter
+from rcl_interfaces.srv import SetParameters, SetParametersAtomically
+
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.core.model import JOINT_NAMES, LEG_NAMES
@@ -341,3 +344,51 @@ def test_invalid_params_file_refuses_to_start(tmp_path):
                           cwd=ROOT, capture_output=True, text=True, timeout=30)
     assert proc.returncode == 2
     assert 'loops cannot close' in proc.stderr + proc.stdout
+
+
+# ---------------------------------------------------------------------------
+# Requests that used to kill or block the node (issue 12 #1, #4)
+# ---------------------------------------------------------------------------
+def _raw(name: str, type_: int, **value: object) -> RclParameter:
+    msg = RclParameter(name=name)
+    msg.value.type = type_
+    for field, v in value.items():
+        setattr(msg.value, field, v)
+    return msg
+
+
+@pytest.mark.parametrize('service', ['set', 'atomic'])
+@pytest.mark.parametrize('name', ['gravity', 'no.such.parameter'])
+def test_an_unknown_value_type_is_answered_as_a_failure(client, service, name):
+    reference = answer(client)
+    request = (SetParameters.Request() if service == 'set'
+               else SetParametersAtomically.Request())
+    request.parameters = [_raw(name, 99)]
+    response = client.call(service, request)
+    results = response.results if service == 'set' else [response.result]
+    assert len(results) == 1 and not results[0].successful
+    assert 'unknown value type 99' in results[0].reason
+    np.testing.assert_allclose(answer(client), reference, rtol=0, atol=1e-9)
+
+
+def test_a_huge_request_is_refused_whole_and_the_node_keeps_answering(client):
+    reference = answer(client)
+    request = SetParameters.Request()
+    request.parameters = [_raw('gravity', ParameterType.PARAMETER_DOUBLE, double_value=9.81)
+                          ] * 5000
+    response = client.call('set', request, timeout=30.0)
+    assert len(response.results) == 5000
+    assert not any(r.successful for r in response.results)
+    assert 'refused whole' in response.results[0].reason
+    np.testing.assert_allclose(answer(client), reference, rtol=0, atol=1e-9)
+
+
+def test_a_set_request_is_one_change_when_it_all_holds(client):
+    request = SetParameters.Request()
+    request.parameters = [_raw('limits.max_force', ParameterType.PARAMETER_DOUBLE,
+                               double_value=900.0),
+                          _raw('output.frame_id', ParameterType.PARAMETER_STRING,
+                               string_value='x' * 5000)]
+    results = client.call('set', request).results
+    assert results[0].successful and not results[1].successful
+    assert 'more than 4096' in results[1].reason

@@ -1,0 +1,135 @@
+"""The node's six parameter services, written on rclpy's public Node API.
+
+rclpy's own ``ParameterService`` (7.1.6) converts every request value with
+``Parameter.from_parameter_msg``, which raises ``ValueError`` for an unknown
+``ParameterValue.type`` (e.g. 99): the exception leaves the executor and
+ends the node (issue 12 #1). It also applies a SetParameters request one
+parameter at a time, each a full validation of the model (a request of
+thousands of copies stalled the node for minutes, issue 12 #4). These
+services answer the same messages the same way, except that
+
+* a value of an unknown type gets a failed result naming it, never an
+  exception;
+* a request over :data:`MAX_PARAMETERS_PER_REQUEST` parameters (or with a
+  string over :data:`MAX_STRING_LENGTH` characters) is refused as a whole,
+  before any of it is applied;
+* a SetParameters request is tried as one atomic change first (one
+  validation); only if that fails is each parameter applied on its own, as
+  the ROS service defines, to say which ones failed.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+from rcl_interfaces.msg import ListParametersResult, ParameterType, SetParametersResult
+from rcl_interfaces.srv import (DescribeParameters, GetParameters, GetParameterTypes,
+                                ListParameters, SetParameters, SetParametersAtomically)
+from rclpy.exceptions import (ParameterException, ParameterNotDeclaredException,
+                              ParameterUninitializedException)
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import qos_profile_parameters
+
+#: Parameters in one set request; more is refused whole (the node has 75).
+MAX_PARAMETERS_PER_REQUEST = 256
+#: Characters of one string value in a set request.
+MAX_STRING_LENGTH = 4096
+_KNOWN_TYPES = frozenset(t.value for t in Parameter.Type)
+
+
+def _problem(msg: Any) -> str | None:
+    """Why a ParameterValue message cannot be a parameter value, or None."""
+    value = msg.value
+    if value.type not in _KNOWN_TYPES or value.type == ParameterType.PARAMETER_NOT_SET:
+        return f"parameter '{msg.name}': unknown value type {value.type}"
+    if len(value.string_value) > MAX_STRING_LENGTH:
+        return (f"parameter '{msg.name}': string of {len(value.string_value)} characters, "
+                f'more than {MAX_STRING_LENGTH}')
+    return None
+
+
+def _failed(reason: str) -> SetParametersResult:
+    return SetParametersResult(successful=False, reason=reason)
+
+
+class ParameterServices:
+    """``describe/get/get_types/list/set/set_atomically_parameters`` of ``node``
+    (created with ``start_parameter_services=False``).
+    """
+
+    def __init__(self, node: Node) -> None:
+        self._node = node
+        name = node.get_name()
+        for kind, suffix, callback in (
+                (DescribeParameters, 'describe_parameters', self._describe),
+                (GetParameters, 'get_parameters', self._get),
+                (GetParameterTypes, 'get_parameter_types', self._get_types),
+                (ListParameters, 'list_parameters', self._list),
+                (SetParameters, 'set_parameters', self._set),
+                (SetParametersAtomically, 'set_parameters_atomically', self._set_atomically)):
+            node.create_service(kind, f'{name}/{suffix}', callback,
+                                qos_profile=qos_profile_parameters)
+
+    def _describe(self, request: Any, response: Any) -> Any:
+        try:
+            response.descriptors = [self._node.describe_parameter(n) for n in request.names]
+        except ParameterNotDeclaredException:
+            response.descriptors = []
+        return response
+
+    def _get(self, request: Any, response: Any) -> Any:
+        try:
+            response.values = [self._node.get_parameter(n).get_parameter_value()
+                               for n in request.names]
+        except (ParameterNotDeclaredException, ParameterUninitializedException):
+            response.values = []
+        return response
+
+    def _get_types(self, request: Any, response: Any) -> Any:
+        try:
+            response.types = [self._node.get_parameter_type(n) for n in request.names]
+        except ParameterNotDeclaredException:
+            response.types = []
+        return response
+
+    def _list(self, request: Any, response: Any) -> Any:
+        try:
+            response.result = self._node.list_parameters(request.prefixes, request.depth)
+        except (TypeError, ValueError):
+            response.result = ListParametersResult()
+        return response
+
+    def _too_large(self, msgs: list) -> str | None:
+        if len(msgs) > MAX_PARAMETERS_PER_REQUEST:
+            return (f'{len(msgs)} parameters in one request, more than '
+                    f'{MAX_PARAMETERS_PER_REQUEST}: refused whole')
+        return None
+
+    def _apply(self, params: list[Parameter]) -> SetParametersResult:
+        try:
+            return self._node.set_parameters_atomically(params)
+        except ParameterException as exc:
+            return _failed(str(exc))
+
+    def _set(self, request: Any, response: Any) -> Any:
+        msgs = list(request.parameters)
+        whole = self._too_large(msgs)
+        problems = [_problem(m) for m in msgs]
+        if whole:
+            response.results = [_failed(whole)] * len(msgs)
+            return response
+        good = [Parameter.from_parameter_msg(m) for m, p in zip(msgs, problems) if p is None]
+        if good and len(good) == len(msgs) and self._apply(good).successful:
+            response.results = [SetParametersResult(successful=True)] * len(msgs)
+            return response
+        response.results = [_failed(p) if p else
+                            self._apply([Parameter.from_parameter_msg(m)])
+                            for m, p in zip(msgs, problems)]
+        return response
+
+    def _set_atomically(self, request: Any, response: Any) -> Any:
+        msgs = list(request.parameters)
+        reason = self._too_large(msgs) or next((p for p in map(_problem, msgs) if p), None)
+        response.result = (_failed(reason) if reason else
+                           self._apply([Parameter.from_parameter_msg(m) for m in msgs]))
+        return response
