@@ -58,6 +58,8 @@ class ParamSpec:
         """
         if self.choices:
             return ' | '.join(self.choices)
+        if self.kind == 'bool':
+            return 'true | false'
         if self.max_length is not None:
             return f'at most {self.max_length} characters'
         bounds = ''
@@ -234,6 +236,17 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'yaw, and a pitch other than zero or the parasitic pitch, beyond this is '
               'reported as motion the mechanism cannot follow, then ignored', 'rad',
               minimum=0.0, maximum=3.2),
+    ParamSpec('input.max_future', 'double', 1.0,
+              'setpoints stamped more than this ahead of the node\'s clock are rejected as '
+              'future_stamp (0: no check; the check also waits for a sim-time clock\'s first '
+              '/clock)', 's', minimum=0.0, maximum=86400.0),
+    ParamSpec('input.restart_jump', 'double', 1.0,
+              'three setpoints in a row stamped more than this before the last answered one '
+              'are a planner restart: the stamp and estimator history is reset (0: never)',
+              's', minimum=0.0, maximum=86400.0),
+    ParamSpec('input.max_points', 'integer', 1000,
+              'most points in one platform_setpoint message; a longer message is rejected '
+              'whole before its points are decoded', '1', minimum=1, maximum=100000),
     # Exact-stamp synchroniser.
     ParamSpec('sync.wait', 'double', 0.05,
               'longest wait for the twist and acceleration carrying a pose\'s stamp before '
@@ -260,6 +273,10 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('diagnostics.log_throttle', 'double', 2.0,
               'at most one log line per rejection reason per this period', 's',
               minimum=0.0, maximum=3600.0),
+    # The ROS graph.
+    ParamSpec('allow_duplicate_name', 'bool', False,
+              'start even when a node of the same name and namespace is already running '
+              '(else exit 2: both would answer every setpoint)', ''),
     # Outputs.
     ParamSpec('output.frame_id', 'string', 'simulator_base',
               'header.frame_id of actuator_states: the REP-103 simulator base frame '

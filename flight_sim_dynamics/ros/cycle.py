@@ -23,8 +23,8 @@ from ..core.status import Status
 from .descriptors import MODEL_NAMES, NODE_NAMES
 from .diagnostics import ERROR, WARN, CycleStats, check_limits
 from .estimator import DerivativeEstimator
-from .inputs import (NON_FINITE_OUTPUT, SOLVER_ERROR, UNREACHABLE, SetpointError, Vec3,
-                     check_acceleration, unfollowable)
+from .inputs import (NON_FINITE_OUTPUT, SOLVER_ERROR, UNREACHABLE, WARMING_UP,
+                     SetpointError, Vec3, check_acceleration, unfollowable)
 from .node_config import NodeConfig
 from .synchroniser import Setpoint
 
@@ -57,14 +57,19 @@ def rates_of(sp: Setpoint, config: NodeConfig, estimator: DerivativeEstimator,
              stats: CycleStats) -> tuple[Vec3, Vec3]:
     """The rates and accelerations of a setpoint: the given ones, else
     estimated (counted); raises SetpointError for an absurd estimated
-    acceleration.
+    acceleration. The setpoint is not yet in the estimator's history: the
+    caller commits it once it is answered (a rejected one leaves no trace).
     """
     twist, accel = sp.twist, sp.accel
-    qd, qdd = estimator.update(sp.stamp_ns * 1e-9, sp.pose.q,
+    qd, qdd = estimator.estimate(sp.stamp_ns * 1e-9, sp.pose.q,
                                None if twist is None else twist.q,
                                None if accel is None else accel.q)
     if twist is None:
         stats.estimated_twist += 1
+    if qdd is None:
+        raise SetpointError(WARMING_UP, 'not answered: its acceleration would be estimated '
+                                        'from a rate the node assumed (the first setpoint of '
+                                        'a stream is taken at rest); the next ones are')
     if accel is None:
         stats.estimated_accel += 1
         check_acceleration(qdd, config.input_max_linear_acceleration,

@@ -8,8 +8,8 @@ import math
 from typing import NamedTuple, Sequence
 
 from ..core.model import Limits
-from .inputs import (ACCEL, ERROR_REASONS, PLATFORM, POSE, REJECTION_REASONS, TWIST,
-                     UNFOLLOWABLE_COMPONENTS)
+from .inputs import (ACCEL, ERROR_REASONS, PLATFORM, POSE, QUIET_REASONS, REJECTION_REASONS,
+                     TWIST, UNFOLLOWABLE_COMPONENTS)
 
 # Diagnostic levels (same numbers as diagnostic_msgs/DiagnosticStatus).
 OK, WARN, ERROR = 0, 1, 2
@@ -100,6 +100,8 @@ class CycleStats:
         self.parameter_changes = 0
         self.parameter_rejections = 0
         self.wire_fallbacks = 0          # samples (de)serialized by rclpy, not wire.py's CDR path
+        self.planner_restarts = 0        # stamp history reset (StampSynchroniser.restarts)
+        self.stamp_check = ''            # how stamps are checked against the clock
         self.last_message = ''
         self.last_cond = math.nan
         self.last_jacobian_cond = math.nan
@@ -124,6 +126,8 @@ class CycleStats:
 
     def reject(self, reason: str, message: str) -> None:
         self.rejected[reason] += 1
+        if reason in QUIET_REASONS:
+            return
         self.last_message = message
         self.note(ERROR if reason in ERROR_REASONS else WARN, f'rejected ({reason})')
 
@@ -159,6 +163,8 @@ class CycleStats:
             max_us = 1e6 * times[-1]
         else:
             mean_us = median_us = p99_us = max_us = math.nan
+        cond_max = self._cond_max if n else math.nan
+        jacobian_cond_max = self._jacobian_cond_max if n else math.nan
         level = self._level
         if self._messages:
             message = '; '.join(self._messages)
@@ -172,17 +178,16 @@ class CycleStats:
             ('status', LEVEL_NAMES[level]),
             ('rate (Hz)', f'{rate:.1f}'),
             ('setpoints answered', str(self.answered)),
-            ('solve time mean (us)', f'{mean_us:.1f}'),
-            ('solve time median (us)', f'{median_us:.1f}'),
-            ('solve time p99 (us)', f'{p99_us:.1f}'),
-            ('solve time max (us)', f'{max_us:.1f}'),
+            ('solve time mean (us)', number(mean_us, '.1f')),
+            ('solve time median (us)', number(median_us, '.1f')),
+            ('solve time p99 (us)', number(p99_us, '.1f')),
+            ('solve time max (us)', number(max_us, '.1f')),
             ('solves this period', str(n)),
-            ('cond(Q) last', f'{exact_cond:.4g}'),
-            ('kinematic condition last', f'{self.last_cond:.4g}'),
-            ('kinematic condition max this period', f'{self._cond_max:.4g}' if n else 'nan'),
-            ('Jacobian condition last', f'{self.last_jacobian_cond:.4g}'),
-            ('Jacobian condition max this period',
-             f'{self._jacobian_cond_max:.4g}' if n else 'nan'),
+            ('cond(Q) last', number(exact_cond, '.4g')),
+            ('kinematic condition last', number(self.last_cond, '.4g')),
+            ('kinematic condition max this period', number(cond_max, '.4g')),
+            ('Jacobian condition last', number(self.last_jacobian_cond, '.4g')),
+            ('Jacobian condition max this period', number(jacobian_cond_max, '.4g')),
             ('rejected total', str(total_rejected)),
         ]
         values += [(f'rejected {reason}', str(count)) for reason, count in self.rejected.items()]
@@ -200,10 +205,24 @@ class CycleStats:
             ('parameter changes accepted', str(self.parameter_changes)),
             ('parameter changes rejected', str(self.parameter_rejections)),
             ('wire fallbacks', str(self.wire_fallbacks)),
+            ('planner restarts', str(self.planner_restarts)),
+            ('stamp check', self.stamp_check),
             ('last rejection', self.last_message),
         ]
         self._period_reset(now)
         return level, message, values
+
+
+#: What a statistic without samples reads in /diagnostics (never 'nan': a
+#: monitor parsing numbers would get NaN).
+NO_SAMPLES = 'no samples'
+
+
+def number(value: float, fmt: str) -> str:
+    """``value`` formatted with ``fmt``, or :data:`NO_SAMPLES` when it is not
+    finite (a statistic of an empty period).
+    """
+    return format(value, fmt) if math.isfinite(value) else NO_SAMPLES
 
 
 class LogThrottle:

@@ -11,9 +11,10 @@ setpoint.
 Nothing a planner sends can take the node down: every rejection is counted in
 ``/diagnostics`` and logged (throttled), and nothing non-finite is published.
 
-Topics, QoS and parameters: docs/node.md. The rclpy-free parts are modules
-of their own (:mod:`.inputs`, :mod:`.synchroniser`, :mod:`.estimator`,
-:mod:`.cycle`, :mod:`.diagnostics`, :mod:`.node_config`, :mod:`.descriptors`);
+Topics, QoS and parameters: docs/node.md. The rules are rclpy-free:
+:mod:`.intake` (the pipeline from a message to an answer, built on
+:mod:`.inputs`, :mod:`.synchroniser`, :mod:`.estimator`, :mod:`.cycle`,
+:mod:`.diagnostics`), :mod:`.node_config` and :mod:`.descriptors`;
 :mod:`.wire` reads and writes the serialized samples. QoS: :func:`default_qos`
 with rclpy's read-only start-up overrides; endpoints are never re-created.
 """
@@ -27,10 +28,9 @@ from typing import Any, Callable, Sequence
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import (DurabilityPolicy, HistoryPolicy, QoSPolicyKind, QoSProfile,
-                       ReliabilityPolicy)
 from rclpy.qos_overriding_options import InvalidQosOverridesError, QoSOverridingOptions
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
@@ -38,17 +38,15 @@ from trajectory_msgs.msg import JointTrajectory
 from ..config import parameters as prm
 from ..core.model import JOINT_NAMES, LEG_NAMES
 from . import wire
-from .cycle import (Runtime, assess, outputs_of, rates_of, runtime_from_values,
-                    solve_setpoint)
+from .cycle import Runtime, runtime_from_values
 from .descriptors import descriptor_for, packaged_defaults, plain, ros_value
-from .diagnostics import ERROR, WARN, CycleStats, LogThrottle
-from .estimator import DerivativeEstimator
-from .inputs import (ACCEL, BAD_SETPOINT, PLATFORM, POSE, SOLVER_ERROR, TWIST, UNREACHABLE,
-                     PoseInput, RateInput, SetpointError, check_acceleration,
-                     platform_setpoints, pose_input, rate_input)
+from .diagnostics import ERROR, WARN
+from .inputs import ACCEL, BAD_SETPOINT, PLATFORM, POSE, TWIST, SetpointError
+from .intake import SetpointIntake
 from .node_config import NodeConfig
 from .parameter_service import ParameterServices
-from .synchroniser import Rejected, Setpoint, StampSynchroniser
+from .qos import QOS_POLICIES, check_qos, default_qos, describe_qos
+from .synchroniser import Setpoint
 
 #: Parameters ROS itself declares on every node; not ours to check.
 ROS_PARAMETERS = frozenset({'use_sim_time', 'start_type_description_service'})
@@ -57,40 +55,6 @@ QOS_OVERRIDES = prm.QOS_OVERRIDES
 
 DIAGNOSTIC_NAME = 'flight_sim_dynamics: inverse dynamics'
 HARDWARE_ID = 'flight_sim_dynamics'
-
-
-def default_qos() -> QoSProfile:
-    """QoS of setpoints and outputs before overrides: reliable, KEEP_LAST 1000
-    (1 s at 1 kHz: absorbs a stall of the node or the planner), VOLATILE (a
-    late joiner must not get stale setpoints or forces; not overridable). A
-    new profile per endpoint: rclpy writes the overrides into it.
-    """
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
-                      reliability=ReliabilityPolicy.RELIABLE,
-                      durability=DurabilityPolicy.VOLATILE)
-
-
-def describe_qos(qos: QoSProfile) -> str:
-    """``reliable keep_last 1000`` (for the start-up log)."""
-    return f'{qos.reliability.name.lower()} {qos.history.name.lower()} {qos.depth}'
-
-
-#: The policies a start-up ``qos_overrides.*`` parameter may set.
-QOS_POLICIES = (QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY)
-
-
-def check_qos(qos: QoSProfile) -> SetParametersResult:
-    """Reject overrides that cannot work: KEEP_LAST with depth < 1, or a
-    reliability other than reliable / best_effort (system_default would make
-    the node's behaviour depend on the middleware's configuration).
-    """
-    if qos.history == HistoryPolicy.KEEP_LAST and qos.depth < 1:
-        return SetParametersResult(successful=False,
-                                   reason=f'depth must be >= 1 with keep_last, got {qos.depth}')
-    if qos.reliability not in (ReliabilityPolicy.RELIABLE, ReliabilityPolicy.BEST_EFFORT):
-        return SetParametersResult(successful=False, reason='reliability must be reliable or '
-                                   f'best_effort, got {qos.reliability.name.lower()}')
-    return SetParametersResult(successful=True)
 
 
 # ----------------------------------------------------------------------------
@@ -121,16 +85,12 @@ class DynamicsNode(Node):
         self._runtime = runtime_from_values(values)
         model, config = self._runtime.model, self._runtime.config
         self._staged: Runtime | None = None
-        self._last_solution: Any = None
         self._fast = fast_wire
 
-        self._stats = CycleStats()
+        self._intake = SetpointIntake(self._runtime, self._publish, self._emit,
+                                      self._latest_stamp)
+        self._stats = self._intake.stats
         self._received = self._stats.received      # counters per message kind
-        self._throttle = LogThrottle(config.diagnostics_log_throttle)
-        self._sync: StampSynchroniser[PoseInput, RateInput] = StampSynchroniser(
-            config.sync_wait, config.sync_max_pending)
-        self._estimator = DerivativeEstimator(config.estimator_method,
-                                              config.estimator_max_gap)
 
         # Reused output messages, kept serialized (see wire.JointStateOutput).
         self._actuator_out = wire.JointStateOutput(LEG_NAMES, config.output_frame_id, 3,
@@ -147,9 +107,12 @@ class DynamicsNode(Node):
             self.get_logger().warn('ignoring unknown parameters (typo?): ' + ', '.join(unknown))
         # /diagnostics: the standard topic, default QoS (reliable, depth 10).
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        # Timers on the steady clock: they keep ticking with use_sim_time and no /clock.
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._diag_timer = self.create_timer(config.diagnostics_period,
-                                             self._on_diagnostics_timer)
-        self._poll_timer = self.create_timer(self._poll_period(config), self._on_poll_timer)
+                                             self._on_diagnostics_timer, clock=steady)
+        self._poll_timer = self.create_timer(self._poll_period(config), self._on_poll_timer,
+                                             clock=steady)
 
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._on_parameters_set)
@@ -181,6 +144,27 @@ class DynamicsNode(Node):
 
     def _parameter_values(self) -> dict[str, Any]:
         return {name: plain(self.get_parameter(name).value) for name in prm.SPECS}
+
+    def _latest_stamp(self) -> int | None:
+        """The latest stamp accepted now (ns): the node's clock plus
+        ``input.max_future``; None when there is no check (0, or a sim-time
+        clock before its first /clock message).
+        """
+        max_future = self._runtime.config.input_max_future
+        if not max_future:
+            return None
+        now = self.get_clock().now().nanoseconds
+        return now + int(max_future * 1e9) if now else None
+
+    def _stamp_check(self) -> str:
+        """How stamps are checked against the clock now (for /diagnostics)."""
+        max_future = self._runtime.config.input_max_future
+        if not max_future:
+            return 'off (input.max_future = 0)'
+        if not self.get_clock().now().nanoseconds:
+            return 'off until the first /clock (use_sim_time)'
+        return f'stamps at most {max_future:g} s ahead of the node\'s clock'
+
 
     @staticmethod
     def _poll_period(config: NodeConfig) -> float:
@@ -223,8 +207,12 @@ class DynamicsNode(Node):
         self._received[kind] += 1
         try:
             fields, fallback = reader(data, self._fast)
+        except SetpointError as exc:    # refused before it was decoded (too many points)
+            self._intake.reject(exc.reason, f'{kind} rejected: {exc}')
+            return None
         except Exception as exc:  # noqa: BLE001 - truncated or inconsistent bytes
-            self._reject(BAD_SETPOINT, f'{kind} rejected: malformed serialized message: {exc}')
+            self._intake.reject(BAD_SETPOINT,
+                                f'{kind} rejected: malformed serialized message: {exc}')
             return None
         if fallback:
             self._wire_fallback(kind)
@@ -238,170 +226,79 @@ class DynamicsNode(Node):
                                    'fallbacks"; logged once)')
 
     def _on_pose(self, data: bytes) -> None:
-        self._on_message(POSE, wire.read_pose, self._pose_of, data)
+        self._on_stamped(POSE, wire.read_pose, self._intake.check_pose, data)
 
     def _on_twist(self, data: bytes) -> None:
-        self._on_message(TWIST, wire.read_twist, self._twist_of, data)
+        self._on_stamped(TWIST, wire.read_twist, self._intake.check_twist, data)
 
     def _on_accel(self, data: bytes) -> None:
-        self._on_message(ACCEL, wire.read_accel, self._accel_of, data)
+        self._on_stamped(ACCEL, wire.read_accel, self._intake.check_accel, data)
 
-    def _pose_of(self, values: Sequence[float]) -> PoseInput:
-        return pose_input(*values, self._runtime.config.input_quaternion_tolerance)
-
-    @staticmethod
-    def _twist_of(values: Sequence[float]) -> RateInput:
-        return rate_input(*values, TWIST)
-
-    def _accel_of(self, values: Sequence[float]) -> RateInput:
-        rates = rate_input(*values, ACCEL)
-        config = self._runtime.config
-        check_acceleration(rates.q, config.input_max_linear_acceleration,
-                           config.input_max_angular_acceleration)
-        return rates
-
-    def _on_message(self, kind: str, reader: Callable[[bytes, bool], tuple[Any, bool]],
+    def _on_stamped(self, kind: str, reader: Callable[[bytes, bool], tuple[Any, bool]],
                     check: Callable[[Sequence[float]], Any], data: bytes) -> None:
-        """One pose, twist or accel message: read, checked (``check``: raises
-        SetpointError), handed to the synchroniser.
-        """
+        """One pose, twist or accel message: read, then the intake's."""
         try:
             now = time.monotonic()
             fields = self._read(kind, reader, data)
-            if fields is None:
-                return
-            sec, nanosec, values = fields
-            stamp_ns = sec * 1_000_000_000 + nanosec
-            try:
-                item = check(values)
-            except SetpointError as exc:
-                self._sync.discard(stamp_ns, kind)
-                self._reject(exc.reason, f'{kind} rejected: {exc}')
-                return
-            released, rejected = self._sync.add(kind, stamp_ns, item, now, (sec, nanosec))
-            if released or rejected:
-                self._dispatch(released, rejected)
+            if fields is not None:
+                self._intake.stamped(kind, fields, check, now)
         except Exception as exc:  # noqa: BLE001
-            self._internal_error(exc)
+            self._intake.internal_error(exc)
 
     def _on_platform_setpoint(self, data: bytes) -> None:
-        """Whole setpoints, one per point of a JointTrajectory over surge, heave,
-        roll (stamp = header.stamp + time_from_start): checked point by point
-        (:func:`.inputs.platform_setpoints`), ordered with the three-topic
-        setpoints by the synchroniser (:meth:`.StampSynchroniser.add_complete`),
-        then solved like them.
+        """A JointTrajectory of whole setpoints: read (at most
+        ``input.max_points`` points, else refused undecoded), then the
+        intake's (:meth:`.SetpointIntake.platform`).
         """
         try:
             now = time.monotonic()
-            fields = self._read(PLATFORM, wire.read_trajectory, data)
-            if fields is None:
-                return
-            config = self._runtime.config
-            try:
-                points = platform_setpoints(fields, config.input_max_linear_acceleration,
-                                            config.input_max_angular_acceleration)
-            except SetpointError as exc:
-                self._reject(exc.reason, f'{PLATFORM} rejected: {exc}')
-                return
-            add_complete = self._sync.add_complete
-            for point in points:
-                if isinstance(point, SetpointError):
-                    self._reject(point.reason, f'{PLATFORM} rejected: {point}')
-                    continue
-                released, rejected = add_complete(point.stamp_ns, point.pose, point.twist,
-                                                  point.accel, now, point.header)
-                self._dispatch(released, rejected)
+            max_points = self._runtime.config.input_max_points
+            fields = self._read(PLATFORM, lambda raw, fast: wire.read_trajectory(
+                raw, fast, max_points), data)
+            if fields is not None:
+                self._intake.platform(fields, now)
         except Exception as exc:  # noqa: BLE001
-            self._internal_error(exc)
+            self._intake.internal_error(exc)
 
     def _guard(self, func: Any, *args: Any) -> None:
         """Run a callback body; nothing escapes."""
         try:
             func(*args)
         except Exception as exc:  # noqa: BLE001
-            self._internal_error(exc)
-
-    def _internal_error(self, exc: BaseException) -> None:
-        try:
-            self._reject(SOLVER_ERROR, f'internal error: {type(exc).__name__}: {exc}')
-        except Exception:  # noqa: BLE001 - even reporting failed: stay up
-            pass
+            self._intake.internal_error(exc)
 
     def _on_poll_timer(self) -> None:
         """Release setpoints whose bounded wait expired."""
-        try:
-            if self._sync.pending:
-                self._dispatch(*self._sync.poll(time.monotonic()))
-        except Exception as exc:  # noqa: BLE001
-            self._internal_error(exc)
+        self._intake.poll(time.monotonic())
 
-    def _dispatch(self, released: list[Setpoint], rejected: list[Rejected]) -> None:
-        for item in rejected:
-            self._reject(item.reason, item.message)
-        for setpoint in released:
-            try:
-                self._process(setpoint)
-            except Exception as exc:  # noqa: BLE001 - one failure must not skip the others
-                self._internal_error(exc)
-
-    # -- one cycle -----------------------------------------------------------------
-    def _process(self, sp: Setpoint) -> None:
-        """Estimate what is missing, check, solve, publish: one setpoint
-        (:mod:`.cycle`). The outputs go out as soon as the solution is known
-        to be finite; the bookkeeping for the diagnostics comes after.
+    # -- outputs ---------------------------------------------------------------------
+    def _publish(self, sp: Setpoint, length: list[float], rate: list[float],
+                 force: list[float], joints: list[float], joint_rates: list[float]) -> None:
+        """The answer to one setpoint, stamped like it: actuator_states and
+        joint_states (reused serialized messages, :class:`.wire.JointStateOutput`).
         """
-        runtime = self._runtime            # read once: a parameter change applies next cycle
-        stats = self._stats
-        try:
-            qd, qdd = rates_of(sp, runtime.config, self._estimator, stats)
-            t0 = time.perf_counter()
-            sol = solve_setpoint(runtime.model, sp.pose.q, qd, qdd)
-            elapsed = time.perf_counter() - t0
-        except SetpointError as exc:
-            self._reject(exc.reason, f'setpoint rejected: {exc}')
-            return
-        try:
-            length, rate, force, joints, joint_rates = outputs_of(sol)
-        except SetpointError as exc:
-            self._reject(exc.reason, str(exc))
-            return
         sec, nanosec = sp.header
         actuator_out, joint_out = self._actuator_out, self._joint_out
         self._actuator_pub.publish(actuator_out.fill(sec, nanosec, length, rate, force))
         self._joint_pub.publish(joint_out.fill(sec, nanosec, joints, joint_rates))
         if not (actuator_out.raw and joint_out.raw):
-            stats.wire_fallbacks += (not actuator_out.raw) + (not joint_out.raw)
-        for level, key, message in assess(sol, sp, runtime, stats, elapsed, rate, force):
-            self._log(level, key, message)
-        self._last_solution = sol
+            self._stats.wire_fallbacks += (not actuator_out.raw) + (not joint_out.raw)
 
-    # -- rejection and logging -------------------------------------------------
-    def _reject(self, reason: str, message: str) -> None:
-        self._stats.reject(reason, message)
-        self._log(ERROR if reason in (UNREACHABLE, SOLVER_ERROR) else WARN, reason, message)
-
-    def _log(self, level: int, key: str, message: str | Callable[[], str]) -> None:
-        """Log ``message`` (or what the callable returns: built only when the
-        line is not throttled) at most once per ``diagnostics.log_throttle``
-        per ``key``.
-        """
-        skipped = self._throttle(key, time.monotonic())
-        if skipped is None:
-            return
-        if not isinstance(message, str):
-            message = message()
-        if skipped:
-            message += f' ({skipped} more since the last such message)'
+    def _emit(self, level: int, message: str) -> None:
+        """One log line of the intake (already throttled)."""
         # rclpy fixes a severity per call site: one call site per severity.
         if level >= ERROR:
             self.get_logger().error(message)
-        else:
+        elif level == WARN:
             self.get_logger().warn(message)
+        else:
+            self.get_logger().info(message)
 
     # -- diagnostics -------------------------------------------------------------
     def _on_diagnostics_timer(self) -> None:
         try:
-            last = self._last_solution
+            last = self._intake.last_solution
+            self._stats.stamp_check = self._stamp_check()
             exact_cond = last.cond if last is not None else math.nan   # one SVD per report
             level, message, values = self._stats.report(time.monotonic(), exact_cond)
             values.insert(1, ('scene', self._runtime.model.scene))
@@ -412,7 +309,7 @@ class DynamicsNode(Node):
             self._diag_msg.header.stamp = self.get_clock().now().to_msg()
             self._diag_pub.publish(self._diag_msg)
         except Exception as exc:  # noqa: BLE001
-            self._internal_error(exc)
+            self._intake.internal_error(exc)
 
     # -- parameters --------------------------------------------------------------
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
@@ -449,14 +346,9 @@ class DynamicsNode(Node):
             return
         old = self._runtime.config
         self._runtime = staged
+        self._intake.reconfigure(staged)
         new = staged.config
         self._stats.parameter_changes += 1
-        if (new.estimator_method, new.estimator_max_gap) != (old.estimator_method,
-                                                             old.estimator_max_gap):
-            self._estimator = DerivativeEstimator(new.estimator_method, new.estimator_max_gap)
-        self._sync.wait = new.sync_wait
-        self._sync.max_pending = new.sync_max_pending
-        self._throttle.period = new.diagnostics_log_throttle
         if new.output_frame_id != old.output_frame_id:
             self._actuator_out = wire.JointStateOutput(LEG_NAMES, new.output_frame_id, 3,
                                                        self._fast)

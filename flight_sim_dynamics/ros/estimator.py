@@ -46,45 +46,99 @@ class DerivativeEstimator:
     stream gets its accelerations from a second difference of poses.
     Roll is unwrapped across +-pi before differencing.
 
-    The history restarts (rates and accelerations estimated as zero, i.e. the
-    motion is assumed to start from rest) on the first setpoint, after a gap
-    longer than ``max_gap`` seconds, and on :meth:`reset`.
+    The history restarts on the first setpoint, after a gap longer than
+    ``max_gap`` seconds, and on :meth:`reset`; the first setpoint of a
+    history is taken at rest (what it lacks is zero). With ``warm_up`` (the
+    node), a second difference never uses that assumed rest: an
+    acceleration whose estimate would need it is None (not estimated; the
+    node does not answer such a setpoint) rather than the rate jump from
+    "rest" to the stream's real rate divided by one step.
+
+    :meth:`update` estimates and records a setpoint. The node records one
+    only once it has answered it (:meth:`estimate`, then :meth:`commit`): a
+    setpoint rejected after its estimate (an absurd estimate, an unreachable
+    pose) leaves no trace in the estimates of the next ones.
     """
 
-    def __init__(self, method: str = 'backward2', max_gap: float = 0.5) -> None:
+    def __init__(self, method: str = 'backward2', max_gap: float = 0.5,
+                 warm_up: bool = False) -> None:
         if method not in ESTIMATORS:
             raise ValueError(f'unknown estimator {method!r}; choose one of {ESTIMATORS}')
         self.order = 1 if method == 'backward' else 2
         self.method = method
         self.max_gap = float(max_gap)
+        self.warm_up = warm_up
         self._t: list[float] = []
         self._q: list[Vec3] = []
         self._qd: list[Vec3] = []
+        self._real: list[bool] = []        # rate given or differenced (not assumed)
+        self._staged: tuple[float, Vec3, Vec3, bool] | None = None
 
     def reset(self) -> None:
         self._t.clear()
         self._q.clear()
         self._qd.clear()
+        self._real.clear()
+        self._staged = None
+
+    @property
+    def samples(self) -> int:
+        """Setpoints in the history (at most 3)."""
+        return len(self._t)
 
     def update(self, t: float, q: Vec3, qd: Vec3 | None, qdd: Vec3 | None
-               ) -> tuple[Vec3, Vec3]:
+               ) -> tuple[Vec3, Vec3 | None]:
         """Record a setpoint and return its (rates, accelerations): the given
-        ones where present, estimates otherwise.
+        ones where present, estimates otherwise (:meth:`estimate`, then
+        :meth:`commit`).
         """
-        if self._t and not (0.0 < t - self._t[-1] <= self.max_gap):
-            self.reset()
-        if self._q:
-            prev = self._q[-1]
+        rates = self.estimate(t, q, qd, qdd)
+        self.commit()
+        return rates
+
+    def estimate(self, t: float, q: Vec3, qd: Vec3 | None, qdd: Vec3 | None
+                 ) -> tuple[Vec3, Vec3 | None]:
+        """The (rates, accelerations) of a setpoint, as :meth:`update`, without
+        recording it: :meth:`commit` does (until the next estimate).
+        Accelerations None: not estimable yet (``warm_up`` only).
+        """
+        ts, qs, qds, real = self._t, self._q, self._qd, self._real
+        if ts and not (0.0 < t - ts[-1] <= self.max_gap):
+            ts, qs, qds, real = [], [], [], []   # a restart: the history is not used
+        elif qs:
+            prev = qs[-1]
             q = (q[0], q[1], prev[2] + wrap_angle(q[2] - prev[2]))
-        self._t.append(t)
-        self._q.append(q)
+        ts, qs = ts + [t], qs + [q]
+        known = qd is not None or len(ts) > 1
         if qd is None:
-            qd = backward_derivative(self._t, self._q, self.order)
-        self._qd.append(qd)
-        if qdd is None:
-            qdd = backward_derivative(self._t, self._qd, self.order)
-        if len(self._t) > 3:
-            del self._t[0], self._q[0], self._qd[0]
+            qd = backward_derivative(ts, qs, self.order)
+        if qdd is None and len(ts) > 1:
+            if self.warm_up:
+                # the trailing run of real rates, this one included
+                n = 1
+                while n < len(real) + 1 and real[-n]:
+                    n += 1
+                if not known or n < 2:
+                    self._staged = (t, q, qd, known)
+                    return qd, None
+                ts, qds = ts[-n:], qds[-(n - 1):]
+            qdd = backward_derivative(ts, qds + [qd], self.order)
+        elif qdd is None:
+            qdd = (0.0, 0.0, 0.0)
+        self._staged = (t, q, qd, known)
         return qd, qdd
 
-
+    def commit(self) -> None:
+        """Add the setpoint of the last :meth:`estimate` to the history."""
+        staged, self._staged = self._staged, None
+        if staged is None:
+            return
+        t, q, qd, known = staged
+        if self._t and not (0.0 < t - self._t[-1] <= self.max_gap):
+            self.reset()
+        self._t.append(t)
+        self._q.append(q)
+        self._qd.append(qd)
+        self._real.append(known)
+        if len(self._t) > 3:
+            del self._t[0], self._q[0], self._qd[0], self._real[0]

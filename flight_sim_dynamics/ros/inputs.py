@@ -30,6 +30,7 @@ NON_FINITE = 'non_finite'                  # NaN or infinity in a field
 BAD_QUATERNION = 'bad_quaternion'          # zero-length or non-unit quaternion
 STAMP_REPEATED = 'stamp_repeated'          # stamp equal to the last answered one
 STAMP_BACKWARDS = 'stamp_backwards'        # stamp older than the last answered one
+FUTURE_STAMP = 'future_stamp'              # stamp beyond input.max_future ahead of the clock
 DUPLICATE = 'duplicate'                    # second message of one kind for a pending stamp
 NO_POSE = 'no_pose'                        # twist/accel whose pose never arrived
 LATE = 'late'                              # twist/accel after its setpoint was answered
@@ -40,15 +41,19 @@ SOLVER_ERROR = 'solver_error'              # any other solver failure
 NON_FINITE_OUTPUT = 'non_finite_output'    # the solver returned NaN/inf (never published)
 BAD_SETPOINT = 'bad_setpoint'              # a malformed serialized sample, platform_setpoint
 #                                            message or point
+WARMING_UP = 'warming_up'                  # its estimate needs history the node does not have
 
 REJECTION_REASONS = (NON_FINITE, BAD_QUATERNION, STAMP_REPEATED, STAMP_BACKWARDS,
-                     DUPLICATE, NO_POSE, LATE, OVERFLOW, ABSURD_ACCELERATION,
-                     UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT, BAD_SETPOINT)
+                     FUTURE_STAMP, DUPLICATE, NO_POSE, LATE, OVERFLOW, ABSURD_ACCELERATION,
+                     UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT, BAD_SETPOINT, WARMING_UP)
 
 #: Reasons that make the diagnostics level ERROR (the rest of the rejections
 #: are stream hygiene problems and make it WARN).
 ERROR_REASONS = frozenset({NON_FINITE, BAD_QUATERNION, ABSURD_ACCELERATION,
                            UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT, BAD_SETPOINT})
+#: Setpoints not answered by design, not for a fault: counted, logged at INFO,
+#: the diagnostics level stays OK.
+QUIET_REASONS = frozenset({WARMING_UP})
 
 # Motion the mechanism cannot follow: reported, ignored, the setpoint is solved.
 SWAY = 'sway'
@@ -78,6 +83,18 @@ PLATFORM = 'platform_setpoint'
 def fmt_stamp(stamp_ns: int) -> str:
     """A stamp in nanoseconds as ``sec.nanosec`` for messages."""
     return f'{stamp_ns // 1_000_000_000}.{stamp_ns % 1_000_000_000:09d}'
+
+
+def check_not_future(stamp_ns: int, latest_ns: int | None) -> None:
+    """Raise :class:`SetpointError` (``future_stamp``) for a stamp after
+    ``latest_ns`` (the node's clock plus ``input.max_future``; None: no
+    check). Such a message is refused before it reaches the synchroniser or
+    the estimator, so it leaves no state behind.
+    """
+    if latest_ns is not None and stamp_ns > latest_ns:
+        raise SetpointError(FUTURE_STAMP, f'stamp {fmt_stamp(stamp_ns)} is more than '
+                                          'input.max_future ahead of the node\'s clock (latest '
+                                          f'accepted {fmt_stamp(latest_ns)})')
 
 
 # ----------------------------------------------------------------------------
@@ -341,8 +358,8 @@ def _point_problem(point: TrajectoryPoint) -> SetpointError | None:
     return None
 
 
-def platform_setpoints(trajectory: Trajectory, max_linear: float, max_angular: float
-                       ) -> list[PlatformPoint | SetpointError]:
+def platform_setpoints(trajectory: Trajectory, max_linear: float, max_angular: float,
+                       latest_ns: int | None = None) -> list[PlatformPoint | SetpointError]:
     """The setpoints of one ``platform_setpoint`` message, point by point.
 
     Raises :class:`SetpointError` (``bad_setpoint``) when the message as a
@@ -360,6 +377,7 @@ def platform_setpoints(trajectory: Trajectory, max_linear: float, max_angular: f
     * ``absurd_acceleration``: received accelerations beyond ``max_linear``
       (surge, heave; m/s^2) or ``max_angular`` (roll; rad/s^2), as
       :func:`check_acceleration`;
+    * ``future_stamp``: a stamp after ``latest_ns`` (:func:`check_not_future`);
     * ``stamp_repeated`` / ``stamp_backwards``: a stamp not later than the
       previous point's in the same message (points must be in increasing
       stamp order; the order against the last answered setpoint is the
@@ -387,6 +405,7 @@ def platform_setpoints(trajectory: Trajectory, max_linear: float, max_angular: f
         stamp_ns = base_ns + offset_ns
         before, previous = previous, stamp_ns
         try:
+            check_not_future(stamp_ns, latest_ns)
             if offset_ns == 0:
                 header = (sec, nanosec)
             else:

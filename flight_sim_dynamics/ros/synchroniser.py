@@ -13,6 +13,9 @@ from typing import Any, Generic, TypeVar
 from .inputs import (ACCEL, DUPLICATE, KINDS, LATE, NO_POSE, OVERFLOW, PLATFORM, POSE,
                      STAMP_BACKWARDS, STAMP_REPEATED, TWIST, fmt_stamp)
 
+#: Setpoints in a row far behind the last released one that make a planner restart.
+RESTART_CONFIRMATIONS = 3
+
 P = TypeVar('P')
 R = TypeVar('R')
 
@@ -66,6 +69,19 @@ class StampSynchroniser(Generic[P, R]):
       twist/accel for a released stamp is ``late``. A stamp the caller
       rejected (:meth:`discard`) drops the other messages with that stamp
       silently.
+    * A planner restart (its clock rewound: sim time, time since start) is
+      told from a stray old message by persistence: when
+      :data:`RESTART_CONFIRMATIONS` setpoints in a row, in increasing stamp
+      order, are all more than ``restart_jump`` seconds behind the last
+      released stamp, the stamp history is reset (:meth:`reset`), the last of
+      them is taken as the first setpoint of the new stream and
+      :attr:`restarts` counts it (the ones before it are
+      ``stamp_backwards``). ``restart_jump`` 0: never.
+    * A message that is rejected leaves no trace: a twist or accel counts for
+      its stream (active, newest stamp) only once the pose with its stamp is
+      there, so one without a pose (stamped far ahead, say) neither delays
+      nor drops later setpoints; the caller withdraws a released setpoint it
+      could not answer with :meth:`withdraw`.
     * At most ``max_pending`` stamps wait at once (the oldest is released or
       rejected as ``overflow``).
     * A setpoint that arrives whole in one message (:meth:`add_complete`)
@@ -80,9 +96,13 @@ class StampSynchroniser(Generic[P, R]):
     than ``wait``).
     """
 
-    def __init__(self, wait: float = 0.05, max_pending: int = 64) -> None:
+    def __init__(self, wait: float = 0.05, max_pending: int = 64,
+                 restart_jump: float = 0.0) -> None:
         self.wait = float(wait)
         self.max_pending = int(max_pending)
+        self.restart_jump = restart_jump
+        self.restarts = 0                  # planner restarts detected
+        self._behind: list[int] = []       # stamps of the setpoints in a row far behind
         self._pending: dict[int, Setpoint[P, R]] = {}
         self._last_released: int | None = None
         self.active = {TWIST: True, ACCEL: True}
@@ -97,6 +117,15 @@ class StampSynchroniser(Generic[P, R]):
         return self._last_released
 
     @property
+    def restart_jump(self) -> float:
+        """Backward jump (s) beyond which persistent setpoints are a restart."""
+        return self._restart_jump_ns * 1e-9
+
+    @restart_jump.setter
+    def restart_jump(self, seconds: float) -> None:
+        self._restart_jump_ns = int(round(float(seconds) * 1e9))
+
+    @property
     def pending(self) -> int:
         return len(self._pending)
 
@@ -105,14 +134,29 @@ class StampSynchroniser(Generic[P, R]):
         self._pending.clear()
         self._last_released = None
         self._discarded.clear()
+        self._behind.clear()
         self._newest = {TWIST: None, ACCEL: None}
 
-    def discard(self, stamp_ns: int, kind: str) -> None:
+    def withdraw(self, setpoint: Setpoint[P, R], answered: int | None) -> None:
+        """The caller could not answer the released ``setpoint``: it leaves no
+        trace. Its stamp is discarded (its other messages, still to come, are
+        dropped silently) and, if it was the last released, the stamp order
+        goes back to ``answered`` (the last stamp the caller answered, None
+        for none), so later setpoints are not refused because of it.
+        """
+        self.discard(setpoint.stamp_ns, POSE, setpoint)
+        last = self._last_released
+        if last is not None and last == setpoint.stamp_ns:
+            self._last_released = answered
+
+    def discard(self, stamp_ns: int, kind: str, entry: Setpoint[P, R] | None = None) -> None:
         """The caller rejected the ``kind`` message with this stamp: drop the
         pending setpoint and ignore the other kinds' messages with the stamp
         (a second message of a kind already seen is reported as a duplicate).
+        ``entry``: the setpoint, if it was already released.
         """
-        entry = self._pending.pop(stamp_ns, None)
+        pending = self._pending.pop(stamp_ns, None)
+        entry = pending if pending is not None else entry
         seen = self._discarded.setdefault(stamp_ns, set())
         seen.add(kind)
         if entry is not None:
@@ -133,20 +177,18 @@ class StampSynchroniser(Generic[P, R]):
                                          f'{fmt_stamp(stamp_ns)} (ignored)'))
             seen.add(kind)
             return released, rejected
-        if kind != POSE:
-            self.active[kind] = True
-            newest = self._newest[kind]
-            if newest is None or stamp_ns > newest:
-                self._newest[kind] = stamp_ns
         last = self._last_released
         if last is not None and stamp_ns <= last:
-            if kind == POSE:
-                rejected.append(_not_after_last(kind, stamp_ns, last))
-            else:
+            if kind != POSE:
+                # an old message proves its stream alive; it is not its newest stamp
+                self.active[kind] = True
                 rejected.append(Rejected(LATE, kind, stamp_ns,
                                          f'{kind} stamped {fmt_stamp(stamp_ns)} arrived after '
                                          'its setpoint was answered (or after a newer one)'))
-            return released, rejected
+                return released, rejected
+            if not self._restarted(stamp_ns, last):
+                rejected.append(_not_after_last(kind, stamp_ns, last))
+                return released, rejected
         pending = self._pending
         entry = pending.get(stamp_ns)
         if entry is None:
@@ -161,6 +203,9 @@ class StampSynchroniser(Generic[P, R]):
         setattr(entry, kind, data)
         if kind == POSE:
             entry.header = header
+            self._streams_seen(entry)
+        elif entry.pose is not None:
+            self._streams_seen(entry)
         if len(pending) == 1:          # the usual case: only this stamp is pending
             if self._complete(entry):
                 del pending[stamp_ns]
@@ -195,7 +240,7 @@ class StampSynchroniser(Generic[P, R]):
         released: list[Setpoint[P, R]] = []
         rejected: list[Rejected] = []
         last = self._last_released
-        if last is not None and stamp_ns <= last:
+        if last is not None and stamp_ns <= last and not self._restarted(stamp_ns, last):
             rejected.append(_not_after_last(kind, stamp_ns, last))
             return released, rejected
         pending = self._pending
@@ -232,6 +277,36 @@ class StampSynchroniser(Generic[P, R]):
         return released, rejected
 
     # -- internals -----------------------------------------------------------
+    def _restarted(self, stamp_ns: int, last: int) -> bool:
+        """A setpoint (pose or whole) stamped ``stamp_ns`` <= ``last``: True
+        when it confirms a planner restart (the state is then reset and it is
+        accepted), False when it is to be refused.
+        """
+        behind = self._behind
+        if not self._restart_jump_ns or last - stamp_ns <= self._restart_jump_ns:
+            behind.clear()
+            return False
+        if behind and stamp_ns <= behind[-1]:
+            behind.clear()
+        behind.append(stamp_ns)
+        if len(behind) < RESTART_CONFIRMATIONS:
+            return False
+        self.reset()
+        self.restarts += 1
+        return True
+
+    def _streams_seen(self, entry: Setpoint[P, R]) -> None:
+        """The twist/accel of a setpoint that has its pose count for their
+        streams: active, and their newest stamp.
+        """
+        stamp = entry.stamp_ns
+        for kind in (TWIST, ACCEL):
+            if getattr(entry, kind) is not None:
+                self.active[kind] = True
+                newest = self._newest[kind]
+                if newest is None or stamp > newest:
+                    self._newest[kind] = stamp
+
     def _expected(self, kind: str, stamp_ns: int) -> bool:
         newest = self._newest[kind]
         return self.active[kind] and (newest is None or newest < stamp_ns)
@@ -256,6 +331,8 @@ class StampSynchroniser(Generic[P, R]):
                                      'has no pose with the same stamp'))
             return
         self._last_released = entry.stamp_ns
+        if self._behind:
+            self._behind.clear()
         released.append(entry)
 
     def _evict_oldest(self, released: list, rejected: list) -> None:

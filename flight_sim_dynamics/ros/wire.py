@@ -29,7 +29,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
 
-from .inputs import Trajectory, TrajectoryPoint
+from .inputs import BAD_SETPOINT, SetpointError, Trajectory, TrajectoryPoint
 
 #: (sec, nanosec, doubles) of a stamped message.
 Stamped = tuple[int, int, tuple[float, ...]]
@@ -162,7 +162,7 @@ class TrajectoryReader:
         self._names_parts: tuple[tuple[int, bytes], ...] = ()
         self._names_size = 0
 
-    def __call__(self, data: bytes) -> Trajectory | None:
+    def __call__(self, data: bytes, max_points: int | None = None) -> Trajectory | None:
         if len(data) < 4:
             raise struct.error(f'{len(data)} bytes: not even an encapsulation header')
         if data[0] != 0:
@@ -183,6 +183,8 @@ class TrajectoryReader:
         u32 = fmt.u32.unpack_from
         (count,) = u32(data, at)
         at += 4
+        if max_points is not None and count > max_points:
+            raise too_many_points(count, max_points)
         if count > (size - at) // _MIN_POINT_BYTES:
             raise struct.error(f'{count} points cannot fit in the {size - at} bytes left')
         duration = fmt.duration.unpack_from
@@ -311,15 +313,40 @@ def read_accel(data: bytes, fast: bool = True) -> tuple[Stamped, bool]:
     return _rate_fields(deserialize_message(data, AccelStamped)), True
 
 
-def read_trajectory(data: bytes, fast: bool = True) -> tuple[Trajectory, bool]:
+#: Bytes one valid point takes at most (3 positions, velocities and
+#: accelerations, no effort, time_from_start, padding), and a message's bytes
+#: besides its points (header, frame_id, joint_names): bounds the size of a
+#: message of ``max_points`` points.
+MAX_POINT_BYTES = 128
+MAX_MESSAGE_OVERHEAD = 65536
+
+
+def too_many_points(count: int, max_points: int) -> SetpointError:
+    """The rejection of a platform_setpoint of ``count`` > ``max_points`` points."""
+    return SetpointError(BAD_SETPOINT, f'{count} points, more than input.max_points = '
+                                       f'{max_points} (not decoded)')
+
+
+def read_trajectory(data: bytes, fast: bool = True, max_points: int | None = None
+                    ) -> tuple[Trajectory, bool]:
     """The fields of a serialized JointTrajectory, and whether rclpy
-    deserialized it (as :func:`read_pose`).
+    deserialized it (as :func:`read_pose`). With ``max_points``, a message of
+    more points raises :class:`SetpointError` (``bad_setpoint``) before its
+    points are decoded: at once when its size alone shows it, else once the
+    count is read.
     """
+    if max_points is not None and len(data) > MAX_MESSAGE_OVERHEAD + max_points * MAX_POINT_BYTES:
+        raise SetpointError(BAD_SETPOINT, f'{len(data)} bytes: more than a message of '
+                                          f'input.max_points = {max_points} points can take '
+                                          '(not decoded)')
     if fast:
-        fields = read_joint_trajectory(data)
+        fields = read_joint_trajectory(data, max_points)
         if fields is not None:
             return fields, False
-    return _trajectory_fields(deserialize_message(data, JointTrajectory)), True
+    fields = _trajectory_fields(deserialize_message(data, JointTrajectory))
+    if max_points is not None and len(fields.points) > max_points:
+        raise too_many_points(len(fields.points), max_points)
+    return fields, True
 
 
 # ----------------------------------------------------------------------------

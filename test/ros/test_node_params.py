@@ -25,7 +25,7 @@ import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.core.model import JOINT_NAMES, LEG_NAMES
 from flight_sim_dynamics.core.trajectories import paper_example
-from flight_sim_dynamics.ros.dynamics_node import default_qos
+from flight_sim_dynamics.ros.qos import default_qos
 from node_harness import ROOT, Client, NodeProcess, stamp_ns
 
 Q, QD, QDD = (v[0] for v in paper_example('general', np.array([0.8])))
@@ -53,7 +53,7 @@ def client(node):
 
 
 class Stamp:
-    value = 1_900_000_000 * 1_000_000_000
+    value = 1_600_000_000 * 1_000_000_000   # in the past: not a future stamp
 
     @classmethod
     def next(cls) -> int:

@@ -451,7 +451,7 @@ def test_cycle_stats_solve_time_figures():
     d = dict(stats.report(2.0)[2])
     assert float(d['solve time median (us)']) == pytest.approx(2.5)
     d = dict(stats.report(3.0)[2])            # no solve this period
-    assert d['solve time median (us)'] == 'nan'
+    assert d['solve time median (us)'] == 'no samples'
 
 
 def test_log_throttle():
