@@ -28,6 +28,7 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from flight_sim_dynamics.ros.node import make_executor, spin
+from flight_sim_dynamics.ros.diagnostics import DIAGNOSTIC_TASK
 from flight_sim_dynamics.ros.inputs import PLATFORM_DOF_NAMES, rpy_to_quaternion
 
 from .node_stream import LEG_NAMES, SETPOINT_INPUTS, STAMP_BASE_S, stream_motion
@@ -110,7 +111,7 @@ def drive_main(argv: Sequence[str]) -> int:
     def on_diagnostics(msg: Any) -> None:
         t = clock()
         for status in msg.status:
-            if status.hardware_id == 'flight_sim_dynamics':
+            if status.name.endswith(': ' + DIAGNOSTIC_TASK):
                 diagnostics.append((t, {kv.key: kv.value for kv in status.values}))
 
     node.create_subscription(JointState, 'actuator_states', on_actuator, qos, raw=raw)

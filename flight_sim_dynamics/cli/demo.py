@@ -29,7 +29,7 @@ from ..core.motions import PLANNER_MOTIONS as MOTIONS
 from ..core.motions import PlannerSequence
 from ..config.parameters import default_params_path
 from ..ros.planner import PlannerNode, setpoint_qos, spin_until
-from ..ros.diagnostics import LEVEL_NAMES
+from ..ros.diagnostics import DIAGNOSTIC_TASK, LEVEL_NAMES
 from ..ros.process import start_node, stop_node
 
 
@@ -59,7 +59,7 @@ class Monitor(Node):
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         for status in msg.status:
-            if status.hardware_id == 'flight_sim_dynamics':
+            if status.name.endswith(': ' + DIAGNOSTIC_TASK):
                 level = status.level[0] if isinstance(status.level, bytes) else status.level
                 self.diagnostics = {kv.key: kv.value for kv in status.values}
                 name = LEVEL_NAMES.get(level, str(level))

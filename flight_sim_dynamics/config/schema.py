@@ -270,6 +270,9 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('diagnostics.period', 'double', 1.0,
               'period of the /diagnostics message', 's',
               minimum=0.01, maximum=3600.0),
+    ParamSpec('diagnostics.hardware_id', 'string', 'flight_sim_dynamics',
+              'hardware_id of the node\'s /diagnostics status (its name is the node\'s fully '
+              'qualified name plus ": inverse dynamics")', '', max_length=MAX_NAME),
     ParamSpec('diagnostics.log_throttle', 'double', 2.0,
               'at most one log line per rejection reason per this period', 's',
               minimum=0.0, maximum=3600.0),

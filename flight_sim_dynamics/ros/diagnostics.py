@@ -11,6 +11,17 @@ from ..core.model import Limits
 from .inputs import (ACCEL, ERROR_REASONS, PLATFORM, POSE, QUIET_REASONS, REJECTION_REASONS,
                      TWIST, UNFOLLOWABLE_COMPONENTS)
 
+#: The task in the node's status name: ``<fully qualified node name>: <task>``
+#: (diagnostic_updater's convention), so that two instances (namespaces) are
+#: two entries under an aggregator.
+DIAGNOSTIC_TASK = 'inverse dynamics'
+
+
+def diagnostic_name(node_fqn: str) -> str:
+    """The status name of the node ``node_fqn`` in /diagnostics."""
+    return f'{node_fqn}: {DIAGNOSTIC_TASK}'
+
+
 # Diagnostic levels (same numbers as diagnostic_msgs/DiagnosticStatus).
 OK, WARN, ERROR = 0, 1, 2
 LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR'}

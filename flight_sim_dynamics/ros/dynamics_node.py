@@ -40,7 +40,7 @@ from ..core.model import JOINT_NAMES, LEG_NAMES
 from . import wire
 from .cycle import Runtime, runtime_from_values
 from .descriptors import descriptor_for, packaged_defaults, plain, ros_value
-from .diagnostics import ERROR, WARN
+from .diagnostics import ERROR, WARN, diagnostic_name
 from .inputs import ACCEL, BAD_SETPOINT, PLATFORM, POSE, TWIST, SetpointError
 from .intake import SetpointIntake
 from .node_config import NodeConfig
@@ -53,8 +53,6 @@ ROS_PARAMETERS = frozenset({'use_sim_time', 'start_type_description_service'})
 #: Prefix of rclpy's QoS override parameters.
 QOS_OVERRIDES = prm.QOS_OVERRIDES
 
-DIAGNOSTIC_NAME = 'flight_sim_dynamics: inverse dynamics'
-HARDWARE_ID = 'flight_sim_dynamics'
 
 
 # ----------------------------------------------------------------------------
@@ -98,7 +96,9 @@ class DynamicsNode(Node):
         self._joint_out = wire.JointStateOutput(JOINT_NAMES, config.output_joint_states_frame_id,
                                                 2, fast_wire)
         self._diag_msg = DiagnosticArray()
-        self._diag_status = DiagnosticStatus(name=DIAGNOSTIC_NAME, hardware_id=HARDWARE_ID)
+        self._diag_status = DiagnosticStatus(
+            name=diagnostic_name(self.get_fully_qualified_name()),
+            hardware_id=config.diagnostics_hardware_id)
         self._diag_msg.status = [self._diag_status]
 
         self._create_endpoints()
@@ -349,6 +349,7 @@ class DynamicsNode(Node):
         self._intake.reconfigure(staged)
         new = staged.config
         self._stats.parameter_changes += 1
+        self._diag_status.hardware_id = new.diagnostics_hardware_id
         if new.output_frame_id != old.output_frame_id:
             self._actuator_out = wire.JointStateOutput(LEG_NAMES, new.output_frame_id, 3,
                                                        self._fast)

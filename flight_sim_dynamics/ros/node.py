@@ -6,16 +6,26 @@
     flight-sim-dynamics node --ros-args -r __ns:=/sim
 
 A start-up it cannot make (a bad parameter, params file, scene, QoS override
-or ROS argument) ends it with one ``error:`` line on stderr and exit status 2.
+or ROS argument) ends it with one ``error:`` line on stderr and exit status 2;
+so does an older node of the same name and namespace (:class:`DuplicateGuard`;
+both would answer every setpoint), unless ``allow_duplicate_name`` is true.
 """
 from __future__ import annotations
 
 import argparse
+import os
+import socket
 import sys
+import time
+import uuid
 from typing import Any, Sequence
 
 import rclpy
 import rclpy.task
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.time import Time
+from std_msgs.msg import Header
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
@@ -71,6 +81,44 @@ def _params_file_problem(argv: Sequence[str]) -> str | None:
     return None
 
 
+class DuplicateGuard:
+    """Tells this node whether an older node of the same fully qualified name
+    is running: both would answer every setpoint.
+
+    Each node publishes its start (wall-clock time and a unique id) once on
+    the hidden topic ``~/_instance`` (transient local, so a node that starts
+    later receives it) and listens there. A node that receives the start of
+    an older namesake (ties broken by the id) is the newcomer: :attr:`found`
+    gets the reason and the executable exits 2. The older one carries on.
+    """
+
+    def __init__(self, node: Node) -> None:
+        self.found = rclpy.task.Future()
+        self._node = node
+        self._me = (time.time_ns(), f'{socket.gethostname()}:{os.getpid()}:{uuid.uuid4().hex}')
+        qos = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self._sub = node.create_subscription(Header, '~/_instance', self._on_instance, qos)
+        self._pub = node.create_publisher(Header, '~/_instance', qos)
+        start = Header(frame_id=self._me[1])
+        start.stamp = Time(nanoseconds=self._me[0]).to_msg()
+        self._pub.publish(start)
+
+    def _on_instance(self, msg: Header) -> None:
+        other = (msg.stamp.sec * 1_000_000_000 + msg.stamp.nanosec, msg.frame_id)
+        if other[1] == self._me[1] or self.found.done():
+            return
+        name = self._node.get_fully_qualified_name()
+        if other < self._me:
+            self.found.set_result(
+                f'another node named {name} is running (both would answer every setpoint): '
+                'give this one another name or namespace (--ros-args -r __node:=NAME or '
+                '-r __ns:=/NS), or set allow_duplicate_name:=true')
+        else:
+            self._node.get_logger().warn(f'a second node named {name} started ({other[1]}); '
+                                         'it is told to exit')
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the node until Ctrl-C / SIGTERM. ``argv``: arguments after the
     program name (None: sys.argv[1:]), ROS arguments after ``--ros-args``.
@@ -90,9 +138,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             node = DynamicsNode()
         except (prm.ParameterError, ParameterException) as exc:
             return _refuse(f'invalid parameters: {exc}')
+        duplicate = None
+        if not node.get_parameter('allow_duplicate_name').value:
+            duplicate = DuplicateGuard(node).found
         executor = make_executor(args.executor)
         executor.add_node(node)
-        spin(executor)
+        spin(executor, until=duplicate)
+        if duplicate is not None and duplicate.done():
+            return _refuse(duplicate.result())
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
@@ -102,17 +155,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-def spin(executor: Any, context: Any = None) -> None:
-    """Spin until the context shuts down (Ctrl-C, SIGTERM).
+def spin(executor: Any, context: Any = None, until: rclpy.task.Future | None = None) -> None:
+    """Spin until the context shuts down (Ctrl-C, SIGTERM) or ``until`` is done.
 
     Always with a timeout: rclpy 7.1.6's EventsExecutor busy-loops at 100 % CPU
     in ``spin()`` (and hangs in ``spin_until_future_complete`` without a
     timeout), and does not return on SIGINT; with a timeout it idles and the
     shutdown is noticed within ``timeout_sec``.
     """
-    never = rclpy.task.Future()
-    while rclpy.ok(context=context):
-        executor.spin_until_future_complete(never, timeout_sec=0.5)
+    future = until if until is not None else rclpy.task.Future()
+    while rclpy.ok(context=context) and not future.done():
+        executor.spin_until_future_complete(future, timeout_sec=0.5)
 
 
 if __name__ == '__main__':

@@ -30,6 +30,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from flight_sim_dynamics.ros.diagnostics import diagnostic_name
 from flight_sim_dynamics.ros.inputs import PLATFORM_DOF_NAMES, rpy_to_quaternion
 from flight_sim_dynamics.ros.process import node_command, start_node, stop_node
 
@@ -107,6 +108,8 @@ class Client:
         self.diag_sub = n.create_subscription(DiagnosticArray, '/diagnostics',
                                               self.diagnostics.append, 10)
         target = f'{namespace.rstrip("/")}/{NODE_NAME}' if namespace else NODE_NAME
+        #: the status of the node this client talks to in /diagnostics
+        self.status_name = diagnostic_name(f'{namespace.rstrip("/")}/{NODE_NAME}')
         self.srv = {
             'get': n.create_client(GetParameters, f'{target}/get_parameters'),
             'set': n.create_client(SetParameters, f'{target}/set_parameters'),
@@ -153,15 +156,17 @@ class Client:
                          timeout: float = 5.0) -> dict[str, str]:
         """The values of the first /diagnostics message (received from now on)
         that satisfies ``predicate``."""
-        start = len(self.diagnostics)
+        seen = [len(self.diagnostics)]
         found: list[dict[str, str]] = []
 
         def check() -> bool:
-            while len(self.diagnostics) > start + len(found):
-                msg = self.diagnostics[start + len(found)]
-                found.append(diagnostic_values(msg))
-                if predicate(found[-1]):
-                    return True
+            while len(self.diagnostics) > seen[0]:
+                values = diagnostic_values(self.diagnostics[seen[0]], self.status_name)
+                seen[0] += 1
+                if values:                  # (other nodes' statuses are skipped)
+                    found.append(values)
+                    if predicate(values):
+                        return True
             return False
         self.spin_until(check, timeout)
         matching = [v for v in found if predicate(v)]
@@ -278,10 +283,12 @@ class Client:
         rclpy.try_shutdown(context=self.context)
 
 
-def diagnostic_values(msg: DiagnosticArray) -> dict[str, str]:
-    """Key/values of our status in a DiagnosticArray, plus 'level' and 'message'."""
+def diagnostic_values(msg: DiagnosticArray, name: str = diagnostic_name('/' + NODE_NAME)
+                      ) -> dict[str, str]:
+    """Key/values of the status ``name`` in a DiagnosticArray, plus 'level'
+    and 'message'."""
     for status in msg.status:
-        if status.hardware_id == 'flight_sim_dynamics':
+        if status.name == name:
             values = {kv.key: kv.value for kv in status.values}
             level = status.level
             values['level'] = str(level[0] if isinstance(level, (bytes, bytearray)) else level)
