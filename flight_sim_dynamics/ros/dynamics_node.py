@@ -72,7 +72,7 @@ class DynamicsNode(Node):
         super().__init__(prm.NODE_NAME, automatically_declare_parameters_from_overrides=True,
                          start_parameter_services=False, **kwargs)
         # rclpy's parameter services can be killed by one request (issue 12 #1)
-        ParameterServices(self)
+        ParameterServices(self, self._precheck)
         # The one rule for parameter files (config.parameters.read_params): an
         # unknown name in a --params-file is a ParameterError (main() exits 2).
         prm.check_params_files([*sys.argv, *(kwargs.get('cli_args') or ())],
@@ -141,6 +141,20 @@ class DynamicsNode(Node):
             (spec.name, ros_value(spec, defaults[spec.name]), descriptor_for(spec))
             for spec in prm.ALL_PARAMETERS])
         return given
+
+    @staticmethod
+    def _precheck(param: Parameter) -> str | None:
+        """What is wrong with one of our parameters on its own (type, range),
+        if anything: cheap, for the parameter services.
+        """
+        spec = prm.SPECS.get(param.name)
+        if spec is None:
+            return None
+        try:
+            prm.check_value(spec, plain(param.value))
+        except prm.ParameterError as exc:
+            return str(exc)
+        return None
 
     def _parameter_values(self) -> dict[str, Any]:
         return {name: plain(self.get_parameter(name).value) for name in prm.SPECS}
@@ -360,4 +374,5 @@ class DynamicsNode(Node):
             self._diag_timer.timer_period_ns = int(new.diagnostics_period * 1e9)
         if self._poll_period(new) != self._poll_period(old):
             self._poll_timer.timer_period_ns = int(self._poll_period(new) * 1e9)
-        self.get_logger().info('parameters changed: ' + ', '.join(p.name for p in params))
+        self.get_logger().info('parameters changed: '
+                               + ', '.join(dict.fromkeys(p.name for p in params)))

@@ -126,7 +126,7 @@ def test_accepted_set_takes_effect_at_next_cycle(client):
 
 
 @pytest.mark.parametrize('name, value, reason', [
-    ('bodies.platform.mass', -1.0, 'range'),            # rclpy: outside the declared range
+    ('bodies.platform.mass', -1.0, 'must be > 0'),      # the schema's range, named
     ('bodies.platform.mass', 0.0, 'must be > 0'),       # ours: exclusive minimum
     ('bodies.rod.mass', 'heavy', 'expected a number'),
     ('geometry.l6', 0.3, 'loops cannot close'),
