@@ -251,6 +251,15 @@ class Client:
         reordered to ``names``; ``offsets_ns``: the points' time_from_start
         (default 0, 1, 2 ... times 5 ms; negative allowed, for the tests);
         ``effort``: per point (default empty)."""
+        self.platform_pub.publish(self.platform_message(stamp_ns, points, names=names,
+                                                        offsets_ns=offsets_ns, effort=effort))
+
+    @staticmethod
+    def platform_message(stamp_ns: int, points: Sequence[Sequence[Any]], *,
+                         names: Sequence[str] = PLATFORM_DOF_NAMES,
+                         offsets_ns: Sequence[int] | None = None,
+                         effort: Sequence[Sequence[float]] | None = None) -> JointTrajectory:
+        """The message :meth:`send_platform` publishes."""
         msg = JointTrajectory()
         msg.header.stamp = rclpy.time.Time(nanoseconds=stamp_ns).to_msg()
         msg.header.frame_id = 'simulator_base'
@@ -276,7 +285,7 @@ class Client:
             point.time_from_start.sec, point.time_from_start.nanosec = divmod(
                 int(offset), 1_000_000_000)
             msg.points.append(point)
-        self.platform_pub.publish(msg)
+        return msg
 
     def close(self) -> None:
         self.node.destroy_node()
