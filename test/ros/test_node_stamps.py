@@ -218,11 +218,9 @@ def test_sim_time_without_clock_keeps_diagnostics_and_pose_only_answers(model):
 
 
 def test_a_second_node_of_the_same_name_exits_2(client, node, model):
-    started = time.monotonic()
     second = NodeProcess(params_file=PARAMS_FILE)
     try:
         assert client.spin_until(lambda: not second.alive(), 10.0)
-        elapsed = time.monotonic() - started
     finally:
         code = second.stop()
     assert code == 2
@@ -231,7 +229,6 @@ def test_a_second_node_of_the_same_name_exits_2(client, node, model):
     assert node.alive()
     base = now_ns() - 1_000_000_000
     assert [stamp_ns(m) for m in answered_stream(client, model, [base])] == [base]
-    assert elapsed < 10.0
 
 
 def test_a_second_node_may_be_allowed(client, node):
