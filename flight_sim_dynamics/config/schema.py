@@ -288,6 +288,10 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('output.joint_states_frame_id', 'string', 'simulator_base',
               'header.frame_id of joint_states (the 12 joint variables)', '',
               max_length=MAX_NAME),
+    ParamSpec('output.markers_rate', 'double', 30.0,
+              'rate of the mechanism markers (visualization_msgs/MarkerArray of '
+              'ros/markers.py, in output.frame_id); 0 = none', 'Hz',
+              minimum=0.0, maximum=1000.0),
 )
 
 ALL_PARAMETERS: tuple[ParamSpec, ...] = MODEL_PARAMETERS + NODE_PARAMETERS

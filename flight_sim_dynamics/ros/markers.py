@@ -1,0 +1,272 @@
+"""The mechanism as a ``visualization_msgs/MarkerArray`` (issue 15, "See the
+mechanism"), for RViz or Foxglove: one solution of :func:`fsd.solve
+<flight_sim_dynamics.core.solver.solve>` drawn in the node's output frame.
+
+Positions are those of the inverse geometric problem (paper eq. 5-8, the
+points of docs/design/mechanism.md, "Points"): ``sol.geometric``, the very
+positions the solver's joint variables (``sol.joints``, eq. 13) and leg
+lengths come from. They are given in the paper's axes with the origin at A1;
+the markers are in the REP-103 simulator base frame of ``output.frame_id``
+(mechanism.md, "Frames"; origin at G's central position ``(d2 + d3 + d4,
+h_G, 0)``): ``X = x0 - x0G``, ``Y = -z0``, ``Z = y0 - h_G``.
+
+One marker per part, each with its own namespace and id 0, so that a viewer
+updates them in place (no DELETEALL per update; :meth:`MarkerBuilder.clear`
+gives one for when the markers are switched off):
+
+============ ================ ===============================================
+namespace    type             drawn
+============ ================ ===============================================
+``leg_a``    LINE_LIST        leg A, joint A1 to joint A3 (length ``L_A``)
+``leg_b``    LINE_LIST        leg B, B1 to B4
+``leg_c``    LINE_LIST        leg C, C1 to C4
+``rod``      LINE_LIST        the rod A3G (length ``h``, axis ``l``)
+``platform`` TRIANGLE_LIST    the plate, ``h`` along ``l`` by ``b`` along
+                              ``t``, from A3 to G (corners A3 -/+ (b/2) t,
+                              C4, B4), both faces
+``crank_d``  LINE_LIST        crank D, D1 to D2 (length ``l5``)
+``crank_e``  LINE_LIST        crank E, E1 to the slider E2 on the rod (``l6``)
+``joints``   SPHERE_LIST      the joint centres A1, A3, B1, B4, C1, C4, D1,
+                              D2, E1, E2 (:data:`JOINTS`)
+``status``   TEXT_VIEW_FACING the status of the solve, above the platform
+============ ================ ===============================================
+
+Colours by status (:class:`~flight_sim_dynamics.core.status.Status`):
+
+* ``ok``, ``limit``: each leg by its actuator force (eq. 23) relative to
+  ``limits.max_force``, green (0) through yellow (half) to red (the limit);
+  a leg beyond any of its limits (stroke, speed, force) is red.
+* ``near_singular``: the legs magenta (their forces are not to be trusted).
+* ``unreachable``, ``invalid_input``: the solver gives no positions (every
+  number is 0). The last pose drawn (at first the central configuration,
+  q = 0) is drawn again, every part grey and half transparent, so that the
+  markers never hold a NaN and the viewer shows that the machine did not go
+  there; the ``status`` text names the status.
+
+The markers share one ``std_msgs/Header`` and the message objects are made
+once and reused: :meth:`MarkerBuilder.update` only writes numbers into them
+(it runs at ``output.markers_rate``, 30 Hz by default). No rclpy here: the
+node publishes the array.
+"""
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import Point
+from std_msgs.msg import ColorRGBA, Header
+from visualization_msgs.msg import Marker, MarkerArray
+
+from ..core.kinematics import Geometric, inverse_geometry
+from ..core.model import LEG_NAMES, Model
+from ..core.solver import Solution
+from ..core.status import SEVERITY, Status
+from ..core.vectors import backend
+
+_SCALAR = backend(False)
+
+#: The joint centres drawn as spheres (``joints`` namespace), in this order.
+JOINTS = ('A1', 'A3', 'B1', 'B4', 'C1', 'C4', 'D1', 'D2', 'E1', 'E2')
+
+#: The namespaces of the markers, in the order of the array; id 0 each.
+NAMESPACES = LEG_NAMES + ('rod', 'platform', 'crank_d', 'crank_e', 'joints', 'status')
+
+#: The line parts: namespace -> (first point, second point) of mechanism.md.
+SEGMENTS = {'leg_a': ('A1', 'A3'), 'leg_b': ('B1', 'B4'), 'leg_c': ('C1', 'C4'),
+            'rod': ('A3', 'G'), 'crank_d': ('D1', 'D2'), 'crank_e': ('E1', 'E2')}
+
+#: Line widths (m) and sphere diameter.
+WIDTH = {'leg_a': 0.04, 'leg_b': 0.04, 'leg_c': 0.04, 'rod': 0.05, 'crank_d': 0.03,
+         'crank_e': 0.03}
+JOINT_DIAMETER = 0.07
+TEXT_HEIGHT = 0.08
+TEXT_ABOVE = 0.35          # m above G
+MAX_TEXT = 120             # characters of the status text
+
+#: Colours (r, g, b, a).
+RED = (1.0, 0.0, 0.0, 1.0)
+MAGENTA = (1.0, 0.0, 1.0, 1.0)
+GREY = (0.5, 0.5, 0.5, 0.4)
+PART_COLOURS = {'rod': (0.25, 0.35, 0.8, 1.0), 'platform': (0.6, 0.65, 0.75, 0.8),
+                'crank_d': (0.1, 0.6, 0.6, 1.0), 'crank_e': (0.1, 0.6, 0.6, 1.0),
+                'joints': (0.15, 0.15, 0.15, 1.0), 'status': (1.0, 1.0, 1.0, 1.0)}
+
+
+def force_colour(fraction: float) -> tuple[float, float, float, float]:
+    """Green (0) -> yellow (0.5) -> red (1) for |f| / limits.max_force; a
+    fraction beyond [0, 1] (or not a number) is clipped (NaN: red).
+    """
+    r = 1.0 if fraction != fraction else min(max(fraction, 0.0), 1.0)
+    if r <= 0.5:
+        return (2.0 * r, 1.0, 0.0, 1.0)
+    return (1.0, 2.0 * (1.0 - r), 0.0, 1.0)
+
+
+def points(model: Model, g: Geometric) -> dict[str, tuple[float, float, float]]:
+    """Every point drawn, by name (:data:`JOINTS`, ``G``, and the plate's
+    corners ``A3_right``, ``A3_left``), in the REP-103 simulator base frame
+    (module docstring) from the positions ``g`` of eq. (5)-(8).
+    """
+    geom = model.geometry
+    x0, y0 = geom.d2 + geom.d3 + geom.d4, geom.h_G   # G at the central configuration
+    paper = {'A1': (0.0, 0.0, 0.0), 'A3': g.A3,
+             'B1': (x0, 0.0, geom.d5), 'B4': g.B4,
+             'C1': (x0, 0.0, -geom.d5), 'C4': g.C4,
+             'D1': (geom.d2 + geom.d3, 0.0, 0.0), 'D2': g.D2,
+             'E1': (geom.d2, 0.0, 0.0), 'E2': g.E2, 'G': g.G}
+    # plate corners at the A3 end: A3 +/- (b/2) t, with (b/2) t = B4 - G
+    paper['A3_right'] = tuple(a + b - c for a, b, c in zip(g.A3, g.B4, g.G))
+    paper['A3_left'] = tuple(a + b - c for a, b, c in zip(g.A3, g.C4, g.G))
+    return {name: (float(p[0]) - x0, 0.0 - float(p[2]), float(p[1]) - y0)
+            for name, p in paper.items()}
+
+
+#: The plate as triangles (both windings: seen from above and below).
+PLATE = ('A3_right', 'B4', 'C4', 'A3_right', 'C4', 'A3_left',
+         'A3_right', 'C4', 'B4', 'A3_right', 'A3_left', 'C4')
+
+
+def _set_colour(c: ColorRGBA, rgba: Sequence[float]) -> None:
+    c.r, c.g, c.b, c.a = rgba
+
+
+def _set_point(p: Point, xyz: Sequence[float]) -> None:
+    p.x, p.y, p.z = xyz
+
+
+def _over_limits(sol: Solution, leg: int) -> bool:
+    """Leg ``leg`` beyond its stroke, speed or force limit (``limits.*``)."""
+    lim = sol.model.limits
+    stroke = float(sol.stroke[leg])
+    return not (lim.stroke_min <= stroke <= lim.stroke_max
+                and abs(float(sol.rate[leg])) <= lim.max_speed
+                and abs(float(sol.force[leg])) <= lim.max_force)
+
+
+class MarkerBuilder:
+    """Builds the :class:`MarkerArray` of the mechanism for one solution at a
+    time, reusing its messages (module docstring: parts, namespaces,
+    colours). ``frame_id`` is the node's ``output.frame_id`` (REP-103
+    simulator base).
+
+    >>> import flight_sim_dynamics as fsd
+    >>> model = fsd.load_model()
+    >>> builder = MarkerBuilder(model, 'simulator_base')
+    >>> array = builder.update(fsd.solve(model, [0, 0.05, 0], [0] * 3, [0] * 3), 12, 5)
+    >>> [m.ns for m in array.markers][:4], array.markers[0].header.stamp.sec
+    (['leg_a', 'leg_b', 'leg_c', 'rod'], 12)
+    """
+
+    def __init__(self, model: Model, frame_id: str) -> None:
+        self.header = Header(stamp=Time(), frame_id=frame_id)
+        self.array = MarkerArray()
+        self.markers: dict[str, Marker] = {}
+        kinds = {'platform': Marker.TRIANGLE_LIST, 'joints': Marker.SPHERE_LIST,
+                 'status': Marker.TEXT_VIEW_FACING}
+        sizes = {'platform': len(PLATE), 'joints': len(JOINTS), 'status': 0}
+        for ns in NAMESPACES:
+            m = Marker(ns=ns, id=0, type=kinds.get(ns, Marker.LINE_LIST), action=Marker.ADD)
+            m.header = self.header        # one header for all: one stamp to write
+            m.pose.orientation.w = 1.0
+            m.points = [Point() for _ in range(sizes.get(ns, 2))]
+            if ns in WIDTH:
+                m.scale.x = WIDTH[ns]
+            elif ns == 'joints':
+                m.scale.x = m.scale.y = m.scale.z = JOINT_DIAMETER
+            elif ns == 'status':
+                m.scale.z = TEXT_HEIGHT
+            else:
+                m.scale.x = m.scale.y = m.scale.z = 1.0
+            self.markers[ns] = m
+        self.array.markers = [self.markers[ns] for ns in NAMESPACES]
+        self._last = points(model, inverse_geometry(model, (0.0, 0.0, 0.0), _SCALAR))
+        self._draw(self._last)
+        self._colour_void()
+        self._set_text('no solution yet')
+
+    @property
+    def frame_id(self) -> str:
+        return self.header.frame_id
+
+    @frame_id.setter
+    def frame_id(self, value: str) -> None:
+        """A new ``output.frame_id`` (a run-time parameter change)."""
+        self.header.frame_id = value
+
+    def update(self, sol: Solution, sec: int, nanosec: int) -> MarkerArray:
+        """The markers of one solution of :func:`fsd.solve` (not a batch),
+        stamped ``sec``, ``nanosec``. Returns the builder's one MarkerArray,
+        rewritten in place: publish it before the next update. The geometry
+        is ``sol.model``'s (a model swapped at run time is followed).
+        """
+        stamp = self.header.stamp
+        stamp.sec, stamp.nanosec = int(sec), int(nanosec)
+        status = sol.status
+        if isinstance(status, Status):
+            severity = SEVERITY[status]
+        else:
+            raise ValueError('MarkerBuilder.update takes one solution of fsd.solve, '
+                             'not a batch')
+        pts = None
+        if severity < SEVERITY[Status.UNREACHABLE]:
+            g = sol.geometric
+            if g is not None:
+                pts = points(sol.model, g)
+                if not all(math.isfinite(v) for p in pts.values() for v in p):
+                    pts = None
+        if pts is None:                          # unreachable, invalid input
+            self._draw(self._last)
+            self._colour_void()
+        else:
+            self._last = pts
+            self._draw(pts)
+            self._colour(sol, status)
+        text = str(status) if not sol.detail else f'{status}: {sol.detail}'
+        self._set_text(text if len(text) <= MAX_TEXT else text[:MAX_TEXT - 3] + '...')
+        return self.array
+
+    def clear(self) -> MarkerArray:
+        """One DELETEALL marker (a new array): for when the markers are
+        switched off (``output.markers_rate`` = 0) or the node stops.
+        """
+        m = Marker(action=Marker.DELETEALL)
+        m.header = Header(stamp=self.header.stamp, frame_id=self.header.frame_id)
+        return MarkerArray(markers=[m])
+
+    # ------------------------------------------------------------------
+    def _draw(self, pts: dict) -> None:
+        """Write the positions into the markers' points."""
+        for ns, (a, b) in SEGMENTS.items():
+            p = self.markers[ns].points
+            _set_point(p[0], pts[a])
+            _set_point(p[1], pts[b])
+        for p, name in zip(self.markers['platform'].points, PLATE):
+            _set_point(p, pts[name])
+        for p, name in zip(self.markers['joints'].points, JOINTS):
+            _set_point(p, pts[name])
+        g = pts['G']
+        _set_point(self.markers['status'].pose.position, (g[0], g[1], g[2] + TEXT_ABOVE))
+
+    def _colour(self, sol: Solution, status: Status) -> None:
+        """Colours of a solution with positions (ok, limit, near_singular)."""
+        for ns, rgba in PART_COLOURS.items():
+            _set_colour(self.markers[ns].color, rgba)
+        max_force = sol.model.limits.max_force
+        for leg, ns in enumerate(LEG_NAMES):
+            if status is Status.NEAR_SINGULAR:
+                rgba = MAGENTA
+            elif _over_limits(sol, leg):
+                rgba = RED
+            else:
+                rgba = force_colour(abs(float(sol.force[leg])) / max_force)
+            _set_colour(self.markers[ns].color, rgba)
+
+    def _colour_void(self) -> None:
+        """Every part grey and half transparent; the status text stays white."""
+        for ns in NAMESPACES:
+            _set_colour(self.markers[ns].color,
+                        PART_COLOURS['status'] if ns == 'status' else GREY)
+
+    def _set_text(self, text: str) -> None:
+        self.markers['status'].text = text
