@@ -34,6 +34,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos_overriding_options import InvalidQosOverridesError, QoSOverridingOptions
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
+from visualization_msgs.msg import MarkerArray
 
 from ..config import parameters as prm
 from ..core.model import JOINT_NAMES, LEG_NAMES
@@ -43,6 +44,7 @@ from .descriptors import descriptor_for, packaged_defaults, plain, ros_value
 from .diagnostics import ERROR, WARN, diagnostic_name
 from .inputs import ACCEL, BAD_SETPOINT, PLATFORM, POSE, TWIST, SetpointError
 from .intake import SetpointIntake
+from .markers import MarkerBuilder
 from .node_config import NodeConfig
 from .parameter_service import ParameterServices
 from .qos import QOS_POLICIES, check_qos, default_qos, describe_qos
@@ -108,11 +110,16 @@ class DynamicsNode(Node):
         # /diagnostics: the standard topic, default QoS (reliable, depth 10).
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         # Timers on the steady clock: they keep ticking with use_sim_time and no /clock.
-        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._diag_timer = self.create_timer(config.diagnostics_period,
-                                             self._on_diagnostics_timer, clock=steady)
+                                             self._on_diagnostics_timer, clock=self._steady)
         self._poll_timer = self.create_timer(self._poll_period(config), self._on_poll_timer,
-                                             clock=steady)
+                                             clock=self._steady)
+        # The mechanism for RViz / Foxglove (ros/markers.py), output.markers_rate Hz.
+        self._markers = MarkerBuilder(model, config.output_frame_id)
+        self._markers_pub = self.create_publisher(MarkerArray, 'markers', 10)
+        self._markers_timer: Any = None
+        self._markers_rate(config.output_markers_rate)
 
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._on_parameters_set)
@@ -286,6 +293,28 @@ class DynamicsNode(Node):
         self._intake.poll(time.monotonic())
 
     # -- outputs ---------------------------------------------------------------------
+    def _markers_rate(self, rate: float) -> None:
+        """(Re)start the markers timer at ``rate`` Hz; 0: stop, and clear the view."""
+        if self._markers_timer is not None:
+            self.destroy_timer(self._markers_timer)
+            self._markers_timer = None
+            if not rate:
+                self._markers_pub.publish(self._markers.clear())
+        if rate:
+            self._markers_timer = self.create_timer(1.0 / rate, self._on_markers_timer,
+                                                    clock=self._steady)
+
+    def _on_markers_timer(self) -> None:
+        """The mechanism at the last answered setpoint, stamped like it."""
+        try:
+            sol = self._intake.last_solution
+            if sol is not None:
+                sec, nanosec = self._intake.last_header
+                self._markers_pub.publish(self._markers.update(sol, sec, nanosec))
+        except Exception as exc:  # noqa: BLE001
+            self._intake.internal_error(exc)
+
+
     def _publish(self, sp: Setpoint, length: list[float], rate: list[float],
                  force: list[float], joints: list[float], joint_rates: list[float]) -> None:
         """The answer to one setpoint, stamped like it: actuator_states and
@@ -358,7 +387,7 @@ class DynamicsNode(Node):
         staged, self._staged = self._staged, None
         if staged is None:
             return
-        old = self._runtime.config
+        old, old_model = self._runtime.config, self._runtime.model
         self._runtime = staged
         self._intake.reconfigure(staged)
         new = staged.config
@@ -367,6 +396,11 @@ class DynamicsNode(Node):
         if new.output_frame_id != old.output_frame_id:
             self._actuator_out = wire.JointStateOutput(LEG_NAMES, new.output_frame_id, 3,
                                                        self._fast)
+        if staged.model is not old_model:
+            self._markers = MarkerBuilder(staged.model, new.output_frame_id)
+        self._markers.frame_id = new.output_frame_id
+        if new.output_markers_rate != old.output_markers_rate:
+            self._markers_rate(new.output_markers_rate)
         if new.output_joint_states_frame_id != old.output_joint_states_frame_id:
             self._joint_out = wire.JointStateOutput(
                 JOINT_NAMES, new.output_joint_states_frame_id, 2, self._fast)

@@ -65,7 +65,8 @@ class SetpointIntake:
         self.sync: StampSynchroniser[PoseInput, RateInput] = StampSynchroniser(
             config.sync_wait, config.sync_max_pending, config.input_restart_jump)
         self.estimator = new_estimator(config)
-        self.last_solution: Any = None
+        self.last_solution: Any = None      # of the last answered setpoint
+        self.last_header: tuple[int, int] = (0, 0)   # its stamp (sec, nanosec)
         self._answered: int | None = None  # stamp of the last setpoint answered
         self._restarts = 0                 # planner restarts handled
         self._publish = publish
@@ -194,7 +195,7 @@ class SetpointIntake:
         self._publish(sp, length, rate, force, joints, joint_rates)
         for level, key, message in assess(sol, sp, runtime, stats, elapsed, rate, force):
             self.log(level, key, message)
-        self.last_solution = sol
+        self.last_solution, self.last_header = sol, sp.header
 
     def _unanswered(self, sp: Setpoint, reason: str, message: str) -> None:
         """A released setpoint the node does not answer. Warming up: its pose
