@@ -68,7 +68,8 @@ _REFUSED = [(re.compile(pattern, re.IGNORECASE), why) for pattern, why in (
     (r'[0-9]{4}-[0-9]{1,2}-[0-9]{1,2}([Tt ].*)?', 'a date'),
     (r'[-+]?(inf|infinity|nan)', "an infinity or NaN without the dot (write .inf, .nan)"),
 )]
-_FLOAT_12 = re.compile(r'[-+]?(\.[0-9]+([eE][-+]?[0-9]+)?|[0-9]+(\.[0-9]*)?[eE][-+]?[0-9]+)')
+# (anchored at both ends: PyYAML only anchors the start, and '1e3 junk' is a string)
+_FLOAT_12 = re.compile(r'[-+]?(\.[0-9]+([eE][-+]?[0-9]+)?|[0-9]+(\.[0-9]*)?[eE][-+]?[0-9]+)\Z')
 _INT64 = (-2 ** 63, 2 ** 63 - 1)
 
 

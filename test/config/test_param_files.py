@@ -317,3 +317,14 @@ def test_packaged_files_read_by_the_strict_reader():
     values, qos = parameters.read_params(CONFIG)
     assert not qos and set(values) <= set(schema.SPECS)
     assert np.isclose(fsd.load_model().gravity, 9.81)
+
+
+def test_a_number_followed_by_more_is_a_string_not_a_crash(tmp_path):
+    """Found by the file fuzz: '1e400' then a continuation line is one plain
+    scalar, '1e400 0.0, ...', which the YAML 1.2 float rule matched by its
+    start; it is a string, so a ParameterError naming the key."""
+    path = tmp_path / 'p.yaml'
+    path.write_text('flight_sim_dynamics:\n  ros__parameters:\n    bodies:\n      piston_c:\n'
+                    '        inertia: 1e400\n                  0.0, 0.1, 0.0]\n')
+    with pytest.raises(ParameterError, match='bodies.piston_c.inertia'):
+        fsd.load_model(path)
