@@ -59,12 +59,19 @@ def odd(rng: random.Random) -> float:
 
 def garbage_stamp(rng: random.Random, last_valid: int) -> int:
     """A stamp a garbage message carries: before the last valid setpoint, far
-    ahead (future_stamp), or random bits; never where the next valid one goes."""
+    ahead of the node's clock (future_stamp), or random bits; never where the
+    next valid one goes.
+
+    The valid setpoints are stamped an hour behind the clock: a stamp between
+    them and the clock is a valid stamp (a well-formed pose there is answered
+    and makes the next valid setpoints ``stamp_backwards``), so "ahead" is
+    ahead of the clock plus input.max_future, not of the last valid stamp.
+    """
     choice = rng.random()
     if choice < 0.4:        # (minus the 10 s a platform point may add)
         return last_valid - rng.randrange(10 ** 10 + 1, 10 ** 11)
-    if choice < 0.7:
-        return last_valid + rng.randrange(10 ** 10, 10 ** 18)
+    if choice < 0.7:        # (a platform point may subtract 1 s; int32 seconds on the wire)
+        return rng.randrange(time.time_ns() + 3 * 10 ** 9, (2 ** 31 - 1) * 10 ** 9)
     stamp = rng.randrange(0, 2 ** 31) * 1_000_000_000 + rng.randrange(0, 2 ** 32)
     if last_valid - 10 ** 10 <= stamp <= time.time_ns() + 2 * 10 ** 9:
         stamp -= 10 ** 13     # (not where the valid ones go, nor a platform point after it)
