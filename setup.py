@@ -34,6 +34,7 @@ setup(
         ('share/' + package_name + '/config', sorted(glob('config/*.yaml'))),
         ('share/' + package_name + '/config/scenes',
             sorted(glob('config/scenes/*.yaml'))),
+        ('share/' + package_name + '/launch', sorted(glob('launch/*.launch.py'))),
     ],
     python_requires='>=3.10',
     # matplotlib is optional: only plot, bench and workspace draw figures

@@ -82,6 +82,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     rclpy.init()
     nodes = {'cdr': DynamicsNode(fast_wire=True), 'rclpy': DynamicsNode(fast_wire=False)}
+    for node in nodes.values():
+        assert node.start(), node.failure       # configure + activate, as autostart does
     n, k = args.setpoints, 0
     print(f'# {n} setpoints per figure; us per setpoint, wall / CPU')
     totals: dict[str, list[float]] = {path: [0.0, 0.0] for path in nodes}

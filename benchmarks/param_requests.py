@@ -27,6 +27,7 @@ from rclpy.parameter import Parameter
 
 from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.ros.dynamics_node import DynamicsNode
+from flight_sim_dynamics.ros.node_parameters import NodeParameters
 from flight_sim_dynamics.ros.parameter_service import (MAX_PARAMETERS_PER_REQUEST,
                                                        ParameterServices)
 
@@ -82,7 +83,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         node = DynamicsNode()
         node.get_logger().set_level(logging.WARNING)
-        services = ParameterServices(node, node._precheck)
+        assert node.start(), node.failure       # configure + activate, as autostart does
+        services = ParameterServices(node, NodeParameters.precheck)
         print(f'{"request":58s} {"best ms":>9s} {"worst ms":>9s}  accepted')
         for kind, label, params in cases(node):
             best, worst, ok = measure(services, kind, params, args.repeat)

@@ -277,6 +277,10 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'at most one log line per rejection reason per this period', 's',
               minimum=0.0, maximum=3600.0),
     # The ROS graph.
+    ParamSpec('autostart', 'bool', True,
+              'configure and activate at start-up (a bad parameter then ends the process, '
+              'exit 2); false: start unconfigured and wait for a lifecycle manager or '
+              '`ros2 lifecycle set` (a failing configure then leaves it unconfigured)', ''),
     ParamSpec('allow_duplicate_name', 'bool', False,
               'start even when a node of the same name and namespace is already running '
               '(else exit 2: both would answer every setpoint)', ''),

@@ -11,12 +11,14 @@ setpoint.
 Nothing a planner sends can take the node down: every rejection is counted in
 ``/diagnostics`` and logged (throttled), and nothing non-finite is published.
 
-Topics, QoS and parameters: docs/node.md. The rules are rclpy-free:
-:mod:`.intake` (the pipeline from a message to an answer, built on
-:mod:`.inputs`, :mod:`.synchroniser`, :mod:`.estimator`, :mod:`.cycle`,
-:mod:`.diagnostics`), :mod:`.node_config` and :mod:`.descriptors`;
-:mod:`.wire` reads and writes the serialized samples. QoS: :func:`default_qos`
-with rclpy's read-only start-up overrides; endpoints are never re-created.
+A managed node: ``configure`` validates the parameters, builds the model and
+creates the endpoints (a failure leaves it unconfigured, the reason logged);
+``activate`` starts answering; while inactive, setpoints count as
+``inactive``; ``cleanup`` and ``shutdown`` release the endpoints.
+
+Topics, QoS, parameters, lifecycle: docs/node.md. The rules are rclpy-free:
+:mod:`.intake` (from a message to an answer), :mod:`.node_config`,
+:mod:`.descriptors`; :mod:`.wire` reads and writes the serialized samples.
 """
 from __future__ import annotations
 
@@ -29,8 +31,11 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.node import Node
+from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
+from rclpy.lifecycle.publisher import LifecyclePublisher
 from rclpy.parameter import Parameter
+from rclpy.publisher import Publisher
+from rclpy.task import Future
 from rclpy.qos_overriding_options import InvalidQosOverridesError, QoSOverridingOptions
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
@@ -40,18 +45,18 @@ from ..config import parameters as prm
 from ..core.model import JOINT_NAMES, LEG_NAMES
 from . import wire
 from .cycle import Runtime, runtime_from_values
-from .descriptors import descriptor_for, packaged_defaults, plain, ros_value
+from .descriptors import plain
 from .diagnostics import ERROR, WARN, diagnostic_name
-from .inputs import ACCEL, BAD_SETPOINT, PLATFORM, POSE, TWIST, SetpointError
+from .inputs import ACCEL, BAD_SETPOINT, INACTIVE, PLATFORM, POSE, TWIST, SetpointError
 from .intake import SetpointIntake
 from .markers import MarkerBuilder
 from .node_config import NodeConfig
+from .node_parameters import NodeParameters
 from .parameter_service import ParameterServices
 from .qos import QOS_POLICIES, check_qos, default_qos, describe_qos
 from .synchroniser import Setpoint
 
-#: Parameters ROS itself declares on every node; not ours to check.
-ROS_PARAMETERS = frozenset({'use_sim_time', 'start_type_description_service'})
+SUCCESS, FAILURE = TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE
 #: Seconds one reading of the clock serves the future-stamp check (a bound of
 #: input.max_future, ~1 s, is 200 times coarser).
 LATEST_STAMP_REUSE = 0.005
@@ -63,12 +68,15 @@ QOS_OVERRIDES = prm.QOS_OVERRIDES
 # ----------------------------------------------------------------------------
 # The node
 # ----------------------------------------------------------------------------
-class DynamicsNode(Node):
-    """Inverse dynamics of the flight simulator as a ROS 2 node.
+class DynamicsNode(LifecycleNode):
+    """Inverse dynamics of the flight simulator as a managed ROS 2 node.
 
     ``fast_wire`` False: setpoints and outputs go through rclpy's
     (de)serialisation only, not :mod:`.wire`'s CDR path (the A/B benchmark,
-    scripts/bench_callbacks.py); ``kwargs`` go to rclpy's Node.
+    benchmarks/bench_callbacks.py); ``kwargs`` go to rclpy's Node. Starts
+    unconfigured: :meth:`start` (or a lifecycle manager) configures and
+    activates it. :attr:`failure`: why the last configure failed;
+    :attr:`finalized`: done when the node was shut down.
     """
 
     def __init__(self, *, fast_wire: bool = True, **kwargs: Any) -> None:
@@ -77,99 +85,180 @@ class DynamicsNode(Node):
         super().__init__(prm.NODE_NAME, automatically_declare_parameters_from_overrides=True,
                          start_parameter_services=False, **kwargs)
         # rclpy's parameter services can be killed by one request (issue 12 #1)
-        ParameterServices(self, self._precheck)
+        ParameterServices(self, NodeParameters.precheck)
         # The one rule for parameter files (config.parameters.read_params): an
         # unknown name in a --params-file is a ParameterError (main() exits 2).
         prm.check_params_files([*sys.argv, *(kwargs.get('cli_args') or ())],
                                self.get_fully_qualified_name())
-        given = self._declare_parameters()
-        values = self._parameter_values()
-        # Invalid startup parameters raise ParameterError: main() reports it and exits.
-        self._runtime = runtime_from_values(values)
-        model, config = self._runtime.model, self._runtime.config
+        self._params = NodeParameters(self)
+        self._fast = fast_wire
+        self._runtime: Runtime | None = None     # None: unconfigured
         self._staged: Runtime | None = None
+        self._intake: SetpointIntake | None = None
+        self._endpoints: list[Any] = []
+        self._timers: list[Any] = []
+        self._active = False
+        self._unknown_reported = False
+        self._starting = False
+        self.failure: str | None = None
+        self.finalized = Future()
         self._latest: int | None = None     # _latest_stamp(), reused until _latest_until
         self._latest_until = 0.0
-        self._fast = fast_wire
-
-        self._intake = SetpointIntake(self._runtime, self._publish, self._emit,
-                                      self._latest_stamp)
-        self._stats = self._intake.stats
-        self._received = self._stats.received      # counters per message kind
-
-        # Reused output messages, kept serialized (see wire.JointStateOutput).
-        self._actuator_out = wire.JointStateOutput(LEG_NAMES, config.output_frame_id, 3,
-                                                   fast_wire)
-        self._joint_out = wire.JointStateOutput(JOINT_NAMES, config.output_joint_states_frame_id,
-                                                2, fast_wire)
-        self._diag_msg = DiagnosticArray()
-        self._diag_status = DiagnosticStatus(
-            name=diagnostic_name(self.get_fully_qualified_name()),
-            hardware_id=config.diagnostics_hardware_id)
-        self._diag_msg.status = [self._diag_status]
-
-        self._create_endpoints()
-        unknown = sorted(name for name in given if not self.has_parameter(name))
-        if unknown:
-            self.get_logger().warn('ignoring unknown parameters (typo?): ' + ', '.join(unknown))
-        # /diagnostics: the standard topic, default QoS (reliable, depth 10).
-        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         # Timers on the steady clock: they keep ticking with use_sim_time and no /clock.
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self._diag_msg = DiagnosticArray()
+        self._diag_status = DiagnosticStatus(name=diagnostic_name(self.get_fully_qualified_name()))
+        self._diag_msg.status = [self._diag_status]
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.add_post_set_parameters_callback(self._on_parameters_set)
+
+    def start(self) -> bool:
+        """configure, then activate (``autostart``); False (and :attr:`failure`)
+        when configure failed.
+        """
+        self._starting = True       # a failure is the caller's one error: line, not a log
+        try:
+            if self.trigger_configure() != SUCCESS:
+                return False
+        finally:
+            self._starting = False
+        return self.trigger_activate() == SUCCESS
+
+    # -- lifecycle ---------------------------------------------------------------
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Validate the parameters, build the model and create the endpoints;
+        on a bad parameter: unconfigured, the reason logged and in
+        :attr:`failure`.
+        """
+        try:
+            problem = self._params.startup_problem()
+            if problem is not None:
+                raise problem
+            runtime = runtime_from_values(self._params.values())
+            self._runtime = runtime
+            if self._intake is None:
+                self._intake = SetpointIntake(runtime, self._publish, self._emit,
+                                              self._latest_stamp)
+                self._stats = self._intake.stats
+                self._received = self._stats.received      # counters per message kind
+            else:
+                self._intake.reconfigure(runtime)
+                self._intake.reset()
+            self._create_endpoints(runtime)
+        except Exception as exc:  # noqa: BLE001 - a ParameterError, a geometry the solver refuses
+            reason = str(exc) if isinstance(exc, prm.ParameterError) \
+                else f'{type(exc).__name__}: {exc}'
+            self._release()
+            self.failure = f'invalid parameters: {reason}'
+            if not self._starting:
+                self.get_logger().error(f'configure failed, still unconfigured: {self.failure}')
+            return FAILURE
+        self.failure = None
+        if not self._unknown_reported and self._params.unknown:
+            self.get_logger().warn('ignoring unknown parameters (typo?): '
+                                   + ', '.join(self._params.unknown))
+        self._unknown_reported = True
+        model = runtime.model
+        self.get_logger().info(
+            f'configured: {len(prm.SPECS)} parameters, beta0 = {model.central.beta0:.6f} rad; '
+            + ', '.join(f'{e.topic_name} ({describe_qos(e.qos_profile)})'
+                        for e in self._endpoints) + ', /diagnostics')
+        return SUCCESS
+
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._intake.reset()                  # nothing from before counts as history
+        self._active = True
+        self.get_logger().info('active: answering setpoints')
+        return super().on_activate(state)     # enables the lifecycle publishers
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._active = False
+        dropped = self._intake.reset()
+        for _ in range(dropped):
+            self._intake.reject(INACTIVE, 'pending setpoint dropped: the node was deactivated')
+        self.get_logger().info('inactive: setpoints are counted as inactive, not answered')
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._release()
+        self.get_logger().info('unconfigured: endpoints released')
+        return SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._release()
+        if not self.finalized.done():
+            self.finalized.set_result(True)
+        return SUCCESS
+
+    def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._release()
+        return SUCCESS
+
+    def _release(self) -> None:
+        """Destroy what configure created: back to unconfigured."""
+        self._active = False
+        for timer in filter(None, [*self._timers, getattr(self, '_markers_timer', None)]):
+            self.destroy_timer(timer)
+        for entity in filter(None, [*self._endpoints, getattr(self, '_markers_pub', None),
+                                    getattr(self, '_diag_pub', None)]):
+            (self.destroy_lifecycle_publisher if isinstance(entity, LifecyclePublisher) else
+             self.destroy_publisher if isinstance(entity, Publisher) else
+             self.destroy_subscription)(entity)
+        self._endpoints, self._timers = [], []
+        self._markers_pub = self._diag_pub = self._markers_timer = None
+        self._runtime = self._staged = None
+
+    # -- set-up ----------------------------------------------------------------
+    def _create_endpoints(self, runtime: Runtime) -> None:
+        """Outputs (lifecycle publishers: silent unless active), setpoint
+        subscriptions (serialized: read by :mod:`.wire`), /diagnostics and
+        the timers. QoS: :func:`default_qos` and its start-up overrides.
+        """
+        config = runtime.config
+        # Reused output messages, kept serialized (see wire.JointStateOutput).
+        self._actuator_out = wire.JointStateOutput(LEG_NAMES, config.output_frame_id, 3,
+                                                   self._fast)
+        self._joint_out = wire.JointStateOutput(JOINT_NAMES, config.output_joint_states_frame_id,
+                                                2, self._fast)
+        self._diag_status.hardware_id = config.diagnostics_hardware_id
+        options = QoSOverridingOptions(QOS_POLICIES, callback=check_qos)
+        try:
+            self._actuator_pub = self.create_lifecycle_publisher(
+                JointState, 'actuator_states', default_qos(), qos_overriding_options=options)
+            self._endpoints.append(self._actuator_pub)
+            self._joint_pub = self.create_lifecycle_publisher(
+                JointState, 'joint_states', default_qos(), qos_overriding_options=options)
+            self._endpoints.append(self._joint_pub)
+            for msg_type, topic, callback in (
+                    (PoseStamped, 'pose_setpoint', self._on_pose),
+                    (TwistStamped, 'twist_setpoint', self._on_twist),
+                    (AccelStamped, 'accel_setpoint', self._on_accel),
+                    (JointTrajectory, 'platform_setpoint', self._on_platform_setpoint)):
+                self._endpoints.append(self.create_subscription(
+                    msg_type, topic, callback, default_qos(), raw=True,
+                    qos_overriding_options=options))
+        except (InvalidQosOverridesError, RuntimeError, AssertionError, TypeError,
+                ValueError) as exc:
+            # rclpy: an unknown policy name (RuntimeError), a wrong type (assert)
+            raise prm.ParameterError(QOS_OVERRIDES + '*', None,
+                                     f'invalid QoS override: {exc}') from None
+        # /diagnostics: the standard topic, default QoS (reliable, depth 10); it
+        # reports while inactive too.
+        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self._diag_timer = self.create_timer(config.diagnostics_period,
                                              self._on_diagnostics_timer, clock=self._steady)
         self._poll_timer = self.create_timer(self._poll_period(config), self._on_poll_timer,
                                              clock=self._steady)
+        self._timers += [self._diag_timer, self._poll_timer]
         # The mechanism for RViz / Foxglove (ros/markers.py), output.markers_rate Hz.
-        self._markers = MarkerBuilder(model, config.output_frame_id)
-        self._markers_pub = self.create_publisher(MarkerArray, 'markers', 10)
-        self._markers_timer: Any = None
+        self._markers = MarkerBuilder(runtime.model, config.output_frame_id)
+        self._markers_pub = self.create_lifecycle_publisher(MarkerArray, 'markers', 10)
+        self._markers_timer = None
         self._markers_rate(config.output_markers_rate)
-
-        self.add_on_set_parameters_callback(self._on_set_parameters)
-        self.add_post_set_parameters_callback(self._on_parameters_set)
-        self.get_logger().info(
-            f'ready: {len(prm.SPECS)} parameters, beta0 = {model.central.beta0:.6f} rad; '
-            + ', '.join(f'{e.topic_name} ({describe_qos(e.qos_profile)})'
-                        for e in self._endpoints) + ', /diagnostics')
         if not (self._actuator_out.raw and self._joint_out.raw):
             self.get_logger().info('outputs published as message objects (the middleware '
                                    'writes an encoding the in-place writer does not know, or '
                                    'fast_wire is off)')
-
-    # -- set-up ----------------------------------------------------------------
-    def _declare_parameters(self) -> set[str]:
-        """Declare every parameter of the schema with its descriptor (the
-        --ros-args value if given, else the packaged default). Returns the
-        names given on the command line or in params files.
-        """
-        given = set(self.list_parameters([], 0).names) - ROS_PARAMETERS
-        for name in given:
-            # re-declared below with our descriptors (ours), by the endpoints
-            # (qos_overrides.*) or not at all (unknown: reported)
-            self.undeclare_parameter(name)
-        defaults = packaged_defaults()
-        self.declare_parameters('', [
-            (spec.name, ros_value(spec, defaults[spec.name]), descriptor_for(spec))
-            for spec in prm.ALL_PARAMETERS])
-        return given
-
-    @staticmethod
-    def _precheck(param: Parameter) -> str | None:
-        """What is wrong with one of our parameters on its own (type, range),
-        if anything: cheap, for the parameter services.
-        """
-        spec = prm.SPECS.get(param.name)
-        if spec is None:
-            return None
-        try:
-            prm.check_value(spec, plain(param.value))
-        except prm.ParameterError as exc:
-            return str(exc)
-        return None
-
-    def _parameter_values(self) -> dict[str, Any]:
-        return {name: plain(self.get_parameter(name).value) for name in prm.SPECS}
 
     def _latest_stamp(self) -> int | None:
         """The latest stamp accepted now (ns): the node's clock plus
@@ -201,30 +290,6 @@ class DynamicsNode(Node):
     def _poll_period(config: NodeConfig) -> float:
         return min(max(config.sync_wait / 2.0, 0.001), 0.05)
 
-    def _create_endpoints(self) -> None:
-        """Setpoint subscriptions (serialized: read by :mod:`.wire`) and output
-        publishers, each with :func:`default_qos` and its start-up overrides.
-        """
-        options = QoSOverridingOptions(QOS_POLICIES, callback=check_qos)
-        try:
-            self._actuator_pub = self.create_publisher(
-                JointState, 'actuator_states', default_qos(), qos_overriding_options=options)
-            self._joint_pub = self.create_publisher(
-                JointState, 'joint_states', default_qos(), qos_overriding_options=options)
-            self._endpoints = [self._actuator_pub, self._joint_pub] + [
-                self.create_subscription(msg_type, topic, callback, default_qos(), raw=True,
-                                         qos_overriding_options=options)
-                for msg_type, topic, callback in (
-                    (PoseStamped, 'pose_setpoint', self._on_pose),
-                    (TwistStamped, 'twist_setpoint', self._on_twist),
-                    (AccelStamped, 'accel_setpoint', self._on_accel),
-                    (JointTrajectory, 'platform_setpoint', self._on_platform_setpoint))]
-        except (InvalidQosOverridesError, RuntimeError, AssertionError, TypeError,
-                ValueError) as exc:
-            # rclpy: an unknown policy name (RuntimeError), a wrong type (assert)
-            raise prm.ParameterError(QOS_OVERRIDES + '*', None,
-                                     f'invalid QoS override: {exc}') from None
-
     # -- subscription callbacks --------------------------------------------------
     # The setpoints arrive serialized (raw=True) and are read by wire.read_*.
     # Nothing escapes a callback (an escaped exception would stop the
@@ -236,6 +301,9 @@ class DynamicsNode(Node):
         to deserialize is counted (``wire fallbacks``) and logged once.
         """
         self._received[kind] += 1
+        if not self._active:            # inactive: counted, never answered later
+            self._intake.reject(INACTIVE, f'{kind} received while inactive: not answered')
+            return None
         try:
             fields, fallback = reader(data, self._fast)
         except SetpointError as exc:    # refused before it was decoded (too many points)
@@ -296,7 +364,8 @@ class DynamicsNode(Node):
         try:
             func(*args)
         except Exception as exc:  # noqa: BLE001
-            self._intake.internal_error(exc)
+            if self._intake is not None:
+                self._intake.internal_error(exc)
 
     def _on_poll_timer(self) -> None:
         """Release setpoints whose bounded wait expired."""
@@ -355,6 +424,7 @@ class DynamicsNode(Node):
             exact_cond = last.cond if last is not None else math.nan   # one SVD per report
             level, message, values = self._stats.report(time.monotonic(), exact_cond)
             values.insert(1, ('scene', self._runtime.model.scene))
+            values.insert(1, ('lifecycle state', 'active' if self._active else 'inactive'))
             status = self._diag_status
             status.level = bytes([level])
             status.message = message
@@ -375,7 +445,10 @@ class DynamicsNode(Node):
             ours = [p for p in params if p.name in prm.SPECS]
             if not ours:
                 return SetParametersResult(successful=True)
-            values = self._parameter_values()
+            if self._runtime is None:       # unconfigured: each on its own; configure checks all
+                reason = next(filter(None, map(NodeParameters.precheck, ours)), None)
+                return self._refused(reason) if reason else SetParametersResult(successful=True)
+            values = self._params.values()
             for p in ours:
                 values[p.name] = plain(p.value)
             self._staged = runtime_from_values(values, self._runtime, [p.name for p in ours])
@@ -384,8 +457,12 @@ class DynamicsNode(Node):
             reason = str(exc)
         except Exception as exc:  # noqa: BLE001 - e.g. a geometry the solver chokes on
             reason = f'{type(exc).__name__}: {exc}'
+        return self._refused(reason)
+
+    def _refused(self, reason: str) -> SetParametersResult:
         self._staged = None
-        self._stats.parameter_rejections += 1
+        if self._intake is not None:
+            self._stats.parameter_rejections += 1
         self.get_logger().warn(f'parameter change rejected, model unchanged: {reason}')
         return SetParametersResult(successful=False, reason=reason)
 
@@ -394,6 +471,7 @@ class DynamicsNode(Node):
         self._guard(self._commit, params)
 
     def _commit(self, params: list[Parameter]) -> None:
+        self._params.set([p.name for p in params])
         staged, self._staged = self._staged, None
         if staged is None:
             return

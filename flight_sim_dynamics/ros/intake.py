@@ -220,6 +220,17 @@ class SetpointIntake:
         self.sync.restart_jump = new.input_restart_jump
         self.throttle.period = new.diagnostics_log_throttle
 
+    def reset(self) -> int:
+        """Forget the pending setpoints, the stamp order and the estimator's
+        history (deactivate, cleanup: what was pending is never answered
+        later). Returns how many pending setpoints were dropped.
+        """
+        dropped = self.sync.pending
+        self.sync.reset()
+        self.estimator.reset()
+        self._answered = None
+        return dropped
+
     # -- rejection and logging -------------------------------------------------
     def reject(self, reason: str, message: str) -> None:
         """Count a rejection under ``reason`` and log it (throttled)."""

@@ -5,10 +5,16 @@
     python -m flight_sim_dynamics.ros.node        # packaged defaults
     flight-sim-dynamics node --ros-args -r __ns:=/sim
 
-A start-up it cannot make (a bad parameter, params file, scene, QoS override
-or ROS argument) ends it with one ``error:`` line on stderr and exit status 2;
-so does an older node of the same name and namespace (:class:`DuplicateGuard`;
-both would answer every setpoint), unless ``allow_duplicate_name`` is true.
+The node is a managed (lifecycle) node. With ``autostart`` (the default) it
+is configured and activated at once, and a start-up it cannot make (a bad
+parameter, params file, scene, QoS override or ROS argument) ends it with one
+``error:`` line on stderr and exit status 2. With ``autostart:=false`` it
+waits unconfigured for a lifecycle manager (or ``ros2 lifecycle set``); a
+failing configure is logged and leaves it unconfigured, the process up. An
+unusable params file or ROS argument, or an older node of the same name and
+namespace (:class:`DuplicateGuard`; both would answer every setpoint, unless
+``allow_duplicate_name`` is true), ends it with exit 2 either way. The
+``shutdown`` transition ends the process (exit 0).
 """
 from __future__ import annotations
 
@@ -141,9 +147,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         duplicate = None
         if not node.get_parameter('allow_duplicate_name').value:
             duplicate = DuplicateGuard(node).found
+        if node.get_parameter('autostart').value and not node.start():
+            return _refuse(node.failure)
         executor = make_executor(args.executor)
         executor.add_node(node)
-        spin(executor, until=duplicate)
+        spin(executor, until=[node.finalized] + ([duplicate] if duplicate else []))
         if duplicate is not None and duplicate.done():
             return _refuse(duplicate.result())
     except (KeyboardInterrupt, ExternalShutdownException):
@@ -155,16 +163,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-def spin(executor: Any, context: Any = None, until: rclpy.task.Future | None = None) -> None:
-    """Spin until the context shuts down (Ctrl-C, SIGTERM) or ``until`` is done.
+def spin(executor: Any, context: Any = None,
+         until: rclpy.task.Future | Sequence[rclpy.task.Future] | None = None) -> None:
+    """Spin until the context shuts down (Ctrl-C, SIGTERM) or ``until`` (a
+    future, or any of several) is done.
 
     Always with a timeout: rclpy 7.1.6's EventsExecutor busy-loops at 100 % CPU
     in ``spin()`` (and hangs in ``spin_until_future_complete`` without a
     timeout), and does not return on SIGINT; with a timeout it idles and the
     shutdown is noticed within ``timeout_sec``.
     """
-    future = until if until is not None else rclpy.task.Future()
-    while rclpy.ok(context=context) and not future.done():
+    futures = [until] if isinstance(until, rclpy.task.Future) else list(until or ())
+    # one future to wait on, done with the first of ``until``
+    future = futures[0] if len(futures) == 1 else rclpy.task.Future()
+    while rclpy.ok(context=context) and not any(f.done() for f in [future, *futures]):
         executor.spin_until_future_complete(future, timeout_sec=0.5)
 
 
