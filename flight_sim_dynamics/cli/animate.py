@@ -180,7 +180,7 @@ class Scene:
         every = np.array([p for f in frames for p in f.points.values()])
         ground = -model.geometry.h_G          # the base joints' level (y0 = 0)
         lo, hi = every.min(axis=0) - 0.15, every.max(axis=0) + 0.15
-        z = (min(lo[2], ground - 0.2), hi[2] + 0.2)
+        z = (min(lo[2], ground - 0.3), hi[2] + 0.2)   # room for the names below
         widths = [hi[i] - lo[i] for _, i, _ in VIEWS]
         grid = self.fig.add_gridspec(1, 3, width_ratios=widths + [0.32 * sum(widths)],
                                      left=0.065, right=0.985, bottom=0.22, top=0.8, wspace=0.2)
@@ -240,7 +240,7 @@ class Scene:
             for text, joint in names.items():
                 leg = 'ABC'.index(text[0])
                 ax.annotate(text, (frame.points[joint][axis], -model.geometry.h_G),
-                            xytext=(0, -12), textcoords='offset points', ha='center',
+                            xytext=(0, -5), textcoords='offset points', ha='center',
                             va='top', color=LEG_COLOURS[leg], fontweight='bold')
 
     def _force_axes(self, model: fsd.Model, frames: Sequence[af.Frame]) -> None:
