@@ -28,7 +28,7 @@ MAX_LINES = 500
 #: modules that import matplotlib (an optional extra): imported lazily, by the
 #: commands that plot, so that nothing else ever needs matplotlib
 LAZY = {'flight_sim_dynamics.cli.plotting', 'flight_sim_dynamics.cli.workspace_map',
-        'flight_sim_dynamics.cli.bench_report'}
+        'flight_sim_dynamics.cli.bench_report', 'flight_sim_dynamics.cli.animate'}
 
 
 def module_name(path: Path) -> str:

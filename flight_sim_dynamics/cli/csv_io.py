@@ -222,6 +222,21 @@ def parse_csv(data: bytes, path: str = '<input>', *, required: Sequence[str],
                  skipped=skipped)
 
 
+def text_column(data: bytes, name: str) -> list[str] | None:
+    """The words of column ``name`` (e.g. ``status``) of a file whose bytes
+    :func:`parse_csv` has read with it in ``text_columns``, one per row;
+    None when the header has no such column.
+    """
+    if data.startswith(b'\xef\xbb\xbf'):
+        data = data[3:]
+    lines = data[:_content_end(data)].split(b'\n')
+    names = [cell.strip() for cell in lines[0].decode('utf-8', 'replace').split(',')]
+    if name not in names:
+        return None
+    j = names.index(name)
+    return [line.split(b',')[j].decode('utf-8', 'replace').strip() for line in lines[1:]]
+
+
 def _content_end(data: bytes) -> int:
     """len(data.rstrip(_BLANK)), without copying a large file."""
     tail = data[-4096:]

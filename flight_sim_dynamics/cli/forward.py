@@ -32,6 +32,23 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help='parameter file (default: the packaged parameters)')
 
 
+def poses_from_lengths(model: fsd.Model, lengths: np.ndarray) -> list[fsd.ForwardSolution]:
+    """Forward kinematics of every row of ``lengths`` (N, 3: L_A, L_B, L_C),
+    each started from the pose of the row before (a trajectory moves
+    continuously: the same assembly mode, few iterations); a row that fails
+    so, and the row after one without a pose, start from the centre.
+    """
+    results = []
+    initial = (0.0, 0.0, 0.0)
+    for row in lengths:
+        result = fsd.forward_kinematics(model, row, initial)
+        if result.status != fsd.Status.OK and initial != (0.0, 0.0, 0.0):
+            result = fsd.forward_kinematics(model, row)
+        initial = tuple(result.pose) if result.status == fsd.Status.OK else (0.0, 0.0, 0.0)
+        results.append(result)
+    return results
+
+
 def run(args: argparse.Namespace) -> int:
     """Pose from measured leg lengths (safeguarded Newton, see forward_kinematics)."""
     model = load_model(args.params)
@@ -48,17 +65,10 @@ def run(args: argparse.Namespace) -> int:
         raise CliError('--csv takes no lengths on the command line, and needs -o OUTPUT')
     table = csv_io.read_csv(args.csv, required=LENGTH_COLUMNS, allow_extra=True,
                             text_columns=('status',))
-    rows, status = [], []
-    initial = (0.0, 0.0, 0.0)
-    for lengths in np.column_stack([table[n] for n in LENGTH_COLUMNS]):
-        result = fsd.forward_kinematics(model, lengths, initial)
-        if result.status != fsd.Status.OK:   # the next row starts again from the centre
-            result = fsd.forward_kinematics(model, lengths)
-        initial = tuple(result.pose) if result.status == fsd.Status.OK else (0.0, 0.0, 0.0)
-        rows.append(result.pose)
-        status.append(str(result.status))
+    results = poses_from_lengths(model, np.column_stack([table[n] for n in LENGTH_COLUMNS]))
+    status = [str(r.status) for r in results]
     extra = ['t'] if 't' in table.names else []
-    data = np.column_stack([table[n] for n in extra] + [np.array(rows)])
+    data = np.column_stack([table[n] for n in extra] + [np.array([r.pose for r in results])])
     csv_io.write_csv(args.output, tuple(extra) + POSE_COLUMNS, data, text=('status', status))
     bad = sum(s != 'ok' for s in status)
     if bad:

@@ -5,6 +5,7 @@ Subcommands::
     flight-sim-dynamics example {vertical,rectilinear,general} [--rate HZ] -o traj.csv
     flight-sim-dynamics solve traj.csv -o out.csv|out.npz [--params FILE] [--joints]
     flight-sim-dynamics plot out.csv|out.npz -o fig.png [--title TEXT]
+    flight-sim-dynamics animate out.csv|out.npz -o motion.gif|motion.mp4|still.png
     flight-sim-dynamics simulate (--forces F.csv | --motion NAME | --reference T.csv) -o sim.csv
     flight-sim-dynamics node ...           # the ROS 2 node (needs rclpy)
     flight-sim-dynamics demo-planner ...   # the demo set-point planner (needs rclpy)
@@ -366,6 +367,9 @@ SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
     'workspace': ('map the reachable (surge, heave) region per roll angle, coloured by cond(Q), '
                   'with stroke limits, singular curves and where slider E2 would leave the rod',
                   *_lazy('flight_sim_dynamics.cli.workspace')),
+    'animate': ('the mechanism following a solved trajectory (side and front views, actuator '
+                'forces as bars, the status of each frame) as .gif, .mp4 (needs ffmpeg) or a '
+                '.png still', *_lazy('flight_sim_dynamics.cli.animate')),
     'simulate': ('digital twin: the motion that actuator forces produce (open loop), or that '
                  'servos with a feed-forward scene make of a reference motion (closed loop)',
                  *_lazy('flight_sim_dynamics.cli.simulate')),

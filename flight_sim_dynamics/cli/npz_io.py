@@ -97,3 +97,17 @@ def read_npz(path: str | os.PathLike[str], *, required: Sequence[str],
     n = columns[0].size if columns else 0
     data = np.column_stack(columns) if columns else np.empty((n, 0))
     return Table(path=shown, names=kept, data=data, lines=np.arange(2, n + 2))
+
+
+def text_column(path: str | os.PathLike[str], name: str) -> list[str] | None:
+    """The strings of array ``name`` (e.g. ``status``) of an .npz that
+    :func:`read_npz` has read; None when there is no such array.
+    """
+    with np.load(path, allow_pickle=False) as npz:
+        if name not in npz.files:
+            return None
+        column = npz[name]
+    if column.ndim != 1 or column.dtype.kind != 'U':
+        raise CsvError(f'not a 1-D array of strings ({column.dtype}, shape {column.shape})',
+                       path=os.fspath(path), name=name)
+    return column.tolist()

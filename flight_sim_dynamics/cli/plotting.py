@@ -14,11 +14,13 @@ import numpy as np
 from .csv_io import atomic_output
 
 ACTUATORS = ('A', 'B', 'C')
+#: The colour of each actuator in every figure (plot, animate).
+LEG_COLOURS = ('tab:blue', 'tab:orange', 'tab:green')
 # B and C are equal in the vertical example: C dashed on top of a solid B
 # keeps both visible where they coincide.
-_STYLES = (dict(color='tab:blue', linestyle='-', linewidth=1.8),
-           dict(color='tab:orange', linestyle='-', linewidth=3.0, alpha=0.8),
-           dict(color='tab:green', linestyle='--', linewidth=1.6))
+_STYLES = (dict(color=LEG_COLOURS[0], linestyle='-', linewidth=1.8),
+           dict(color=LEG_COLOURS[1], linestyle='-', linewidth=3.0, alpha=0.8),
+           dict(color=LEG_COLOURS[2], linestyle='--', linewidth=1.6))
 
 
 class PlotError(ValueError):

@@ -5,10 +5,9 @@ mechanism"), for RViz or Foxglove: one solution of :func:`fsd.solve
 Positions are those of the inverse geometric problem (paper eq. 5-8, the
 points of docs/design/mechanism.md, "Points"): ``sol.geometric``, the very
 positions the solver's joint variables (``sol.joints``, eq. 13) and leg
-lengths come from. They are given in the paper's axes with the origin at A1;
-the markers are in the REP-103 simulator base frame of ``output.frame_id``
-(mechanism.md, "Frames"; origin at G's central position ``(d2 + d3 + d4,
-h_G, 0)``): ``X = x0 - x0G``, ``Y = -z0``, ``Z = y0 - h_G``.
+lengths come from, named and placed in the REP-103 simulator base frame of
+``output.frame_id`` by :func:`~flight_sim_dynamics.core.mechanism.mechanism_points`
+(the rule the ``animate`` command draws with too).
 
 One marker per part, each with its own namespace and id 0, so that a viewer
 updates them in place (no DELETEALL per update; :meth:`MarkerBuilder.clear`
@@ -58,7 +57,8 @@ from geometry_msgs.msg import Point
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ..core.kinematics import Geometric, inverse_geometry
+from ..core.kinematics import inverse_geometry
+from ..core.mechanism import JOINTS, PLATE, SEGMENTS, mechanism_points
 from ..core.model import LEG_NAMES, Model
 from ..core.solver import Solution
 from ..core.status import SEVERITY, Status
@@ -66,15 +66,10 @@ from ..core.vectors import backend
 
 _SCALAR = backend(False)
 
-#: The joint centres drawn as spheres (``joints`` namespace), in this order.
-JOINTS = ('A1', 'A3', 'B1', 'B4', 'C1', 'C4', 'D1', 'D2', 'E1', 'E2')
-
-#: The namespaces of the markers, in the order of the array; id 0 each.
+#: The namespaces of the markers, in the order of the array; id 0 each. The
+#: line parts are :data:`SEGMENTS`, the joint spheres :data:`JOINTS`, the
+#: plate's triangles :data:`PLATE` (core/mechanism.py).
 NAMESPACES = LEG_NAMES + ('rod', 'platform', 'crank_d', 'crank_e', 'joints', 'status')
-
-#: The line parts: namespace -> (first point, second point) of mechanism.md.
-SEGMENTS = {'leg_a': ('A1', 'A3'), 'leg_b': ('B1', 'B4'), 'leg_c': ('C1', 'C4'),
-            'rod': ('A3', 'G'), 'crank_d': ('D1', 'D2'), 'crank_e': ('E1', 'E2')}
 
 #: Line widths (m) and sphere diameter.
 WIDTH = {'leg_a': 0.04, 'leg_b': 0.04, 'leg_c': 0.04, 'rod': 0.05, 'crank_d': 0.03,
@@ -101,30 +96,6 @@ def force_colour(fraction: float) -> tuple[float, float, float, float]:
     if r <= 0.5:
         return (2.0 * r, 1.0, 0.0, 1.0)
     return (1.0, 2.0 * (1.0 - r), 0.0, 1.0)
-
-
-def points(model: Model, g: Geometric) -> dict[str, tuple[float, float, float]]:
-    """Every point drawn, by name (:data:`JOINTS`, ``G``, and the plate's
-    corners ``A3_right``, ``A3_left``), in the REP-103 simulator base frame
-    (module docstring) from the positions ``g`` of eq. (5)-(8).
-    """
-    geom = model.geometry
-    x0, y0 = geom.d2 + geom.d3 + geom.d4, geom.h_G   # G at the central configuration
-    paper = {'A1': (0.0, 0.0, 0.0), 'A3': g.A3,
-             'B1': (x0, 0.0, geom.d5), 'B4': g.B4,
-             'C1': (x0, 0.0, -geom.d5), 'C4': g.C4,
-             'D1': (geom.d2 + geom.d3, 0.0, 0.0), 'D2': g.D2,
-             'E1': (geom.d2, 0.0, 0.0), 'E2': g.E2, 'G': g.G}
-    # plate corners at the A3 end: A3 +/- (b/2) t, with (b/2) t = B4 - G
-    paper['A3_right'] = tuple(a + b - c for a, b, c in zip(g.A3, g.B4, g.G))
-    paper['A3_left'] = tuple(a + b - c for a, b, c in zip(g.A3, g.C4, g.G))
-    return {name: (float(p[0]) - x0, 0.0 - float(p[2]), float(p[1]) - y0)
-            for name, p in paper.items()}
-
-
-#: The plate as triangles (both windings: seen from above and below).
-PLATE = ('A3_right', 'B4', 'C4', 'A3_right', 'C4', 'A3_left',
-         'A3_right', 'C4', 'B4', 'A3_right', 'A3_left', 'C4')
 
 
 def _set_colour(c: ColorRGBA, rgba: Sequence[float]) -> None:
@@ -180,7 +151,7 @@ class MarkerBuilder:
                 m.scale.x = m.scale.y = m.scale.z = 1.0
             self.markers[ns] = m
         self.array.markers = [self.markers[ns] for ns in NAMESPACES]
-        self._last = points(model, inverse_geometry(model, (0.0, 0.0, 0.0), _SCALAR))
+        self._last = mechanism_points(model, inverse_geometry(model, (0.0, 0.0, 0.0), _SCALAR))
         self._draw(self._last)
         self._colour_void()
         self._set_text('no solution yet')
@@ -212,7 +183,7 @@ class MarkerBuilder:
         if severity < SEVERITY[Status.UNREACHABLE]:
             g = sol.geometric
             if g is not None:
-                pts = points(sol.model, g)
+                pts = mechanism_points(sol.model, g)
                 if not all(math.isfinite(v) for p in pts.values() for v in p):
                     pts = None
         if pts is None:                          # unreachable, invalid input

@@ -52,6 +52,8 @@ def test_library_node_and_solve_need_no_matplotlib(tmp_path):
     ['plot', 'out.csv', '-o', 'fig.png'],
     ['plot', 'out.npz', '-o', 'fig.svg'],
     ['workspace', '-o', 'fig.png'],
+    ['animate', 'out.csv', '-o', 'motion.gif'],
+    ['animate', 'out.npz', '-o', 'still.png'],
 ])
 def test_drawing_without_matplotlib_is_one_error_line(tmp_path, argv):
     assert run_without_matplotlib('example', 'general', '--rate', '10', '-o', 'traj.csv',
