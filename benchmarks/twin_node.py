@@ -1,7 +1,8 @@
-"""The twin node's real-time figures: ``platform_sim`` as a separate process,
-driven for ``--seconds`` (default 60) by actuator commands at ``--command-rate``
-(the inverse dynamics of the demo planner's looping paper motions, computed
-here), measuring
+"""The twin node's real-time figures: CPU, overruns, real-time factor.
+
+``platform_sim`` runs as a separate process, driven for ``--seconds``
+(default 60) by actuator commands at ``--command-rate`` (the inverse dynamics
+of the demo planner's looping paper motions, computed here). Measured:
 
 * the CPU time of the twin's process over the run (user + system, from
   /proc/<pid>/stat), as a percentage of one core;
