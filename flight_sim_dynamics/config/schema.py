@@ -329,7 +329,7 @@ SIM_PARAMETERS: tuple[ParamSpec, ...] = (
               minimum=1.0, maximum=10000.0),
     ParamSpec('max_catch_up', 'double', 0.1,
               'most simulated time one tick may make up after a stall; the rest is dropped '
-              '(counted as an overrun: the twin then lags the wall clock)', 's',
+              '(counted as an overrun: the plant stands still for that time)', 's',
               minimum=0.001, maximum=10.0),
     ParamSpec('servo.bandwidth', 'double', 5.0,
               'bandwidth of the actuator servos: PD gains of a leg of the plant\'s leg-space '
