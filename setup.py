@@ -52,6 +52,7 @@ setup(
         'console_scripts': [
             'flight-sim-dynamics = flight_sim_dynamics.cli.main:main',
             'dynamics_node = flight_sim_dynamics.ros.node:main',
+            'platform_sim = flight_sim_dynamics.ros.sim_node:main',
         ],
     },
 )

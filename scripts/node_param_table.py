@@ -4,6 +4,7 @@
 
     python -m scripts.node_param_table            # node parameters + model parameters
     python -m scripts.node_param_table --node     # node parameters only
+    python -m scripts.node_param_table --twin     # the twin node platform_sim's
 
 (from the repository root).
 
@@ -17,6 +18,7 @@ import sys
 from typing import Sequence
 
 from flight_sim_dynamics.config import parameters as prm
+from flight_sim_dynamics.config.schema import SIM_PARAMETERS
 from flight_sim_dynamics.core.model import BODY_NAMES
 
 TYPES = {'double': 'double', 'double_array': 'double[]', 'integer': 'int',
@@ -66,7 +68,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog='python -m scripts.node_param_table',
                                      description=__doc__.split('\n\n')[0])
     parser.add_argument('--node', action='store_true', help='node parameters only')
+    parser.add_argument('--twin', action='store_true',
+                        help="the twin node platform_sim's parameters only")
     args = parser.parse_args(argv)
+    if args.twin:
+        print('\n'.join(table(list(SIM_PARAMETERS))))
+        return 0
     print('\n'.join(table(list(prm.NODE_PARAMETERS))))
     if not args.node:
         print()

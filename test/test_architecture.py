@@ -23,6 +23,7 @@ ALLOWED = {
 #: modules of ros/ that talk to rclpy (the rest of ros/ is plain Python)
 RCLPY_MODULES = {'ros/dynamics_node.py', 'ros/node.py', 'ros/planner.py', 'ros/wire.py',
                  'ros/parameter_service.py', 'ros/qos.py', 'ros/node_parameters.py',
+                 'ros/platform_sim.py', 'ros/sim_node.py',
                  'cli/demo.py'}
 MAX_LINES = 500
 #: modules that import matplotlib (an optional extra): imported lazily, by the

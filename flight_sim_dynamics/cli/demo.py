@@ -11,6 +11,11 @@
 4. at the end plots forces and powers (effort x velocity of the received
    messages) against time to ``-o`` and stops the node (its log is written
    next to the PNG, ``<name>_node.log``). About 25 s in all.
+
+With ``--twin`` the twin node ``platform_sim`` runs too, driven by the node's
+``actuator_states`` (:mod:`.demo_twin`); its simulated pose is plotted
+against the commanded motion, with the tracking error, to ``<name>_twin.png``
+(its log: ``<name>_twin.log``).
 """
 from __future__ import annotations
 
@@ -22,6 +27,7 @@ from typing import Any, Sequence
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
@@ -30,7 +36,11 @@ from ..core.motions import PlannerSequence
 from ..config.parameters import default_params_path
 from ..ros.planner import PlannerNode, setpoint_qos, spin_until
 from ..ros.diagnostics import DIAGNOSTIC_TASK, LEVEL_NAMES
+from ..ros.inputs import quaternion_to_rpy
+from ..ros.qos import default_qos
 from ..ros.process import start_node, stop_node
+from .demo_twin import plot_tracking, start_twin, tracking
+from .demo_twin import summary as twin_summary
 
 
 class Monitor(Node):
@@ -65,6 +75,22 @@ class Monitor(Node):
                 name = LEVEL_NAMES.get(level, str(level))
                 self.status = name if status.message in ('', 'OK') else \
                     f'{name} ({status.message})'
+
+
+class TwinMonitor(Node):
+    """Records the twin's ``platform_pose`` as (stamp ns, surge, heave, roll)."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__('demo_twin_monitor', **kwargs)
+        self.rows: list[tuple[int, float, float, float]] = []
+        self.sub = self.create_subscription(PoseStamped, 'platform_pose', self._on_pose,
+                                            default_qos())
+
+    def _on_pose(self, msg: PoseStamped) -> None:
+        p, o = msg.pose.position, msg.pose.orientation
+        roll = quaternion_to_rpy(o.x, o.y, o.z, o.w)[0]
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        self.rows.append((stamp, p.x, p.z, roll))
 
 
 class LiveSummary:
@@ -140,6 +166,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help='motions to play (default: all four)')
     parser.add_argument('--params-file', type=Path, default=None,
                         help='node parameter file (default: the packaged one)')
+    parser.add_argument('--twin', action='store_true',
+                        help='also run the twin node platform_sim on the node\'s actuator_states '
+                             'and plot commanded against simulated motion to <output>_twin.png')
     return parser
 
 
@@ -154,20 +183,36 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f'[demo] starting the node: dynamics_node --ros-args --params-file {params_file}')
     print(f'[demo] node log: {log_path}')
     node_proc = start_node(params_file, log=log_path)
+    twin_log = args.output.with_name(args.output.stem + '_twin.log')
+    twin_proc = start_twin(twin_log) if args.twin else None
+    if twin_proc is not None:
+        print(f'[demo] starting the twin: platform_sim --ros-args -r '
+              f'actuator_commands:=actuator_states (log: {twin_log})')
     context = rclpy.Context()
     rclpy.init(args=['demo', *argv], context=context)
     from rclpy.experimental import EventsExecutor
     executor = EventsExecutor(context=context)
     planner = PlannerNode(sequence, args.rate, context=context)
     monitor = Monitor(context=context)
+    twin = TwinMonitor(context=context) if twin_proc is not None else None
     executor.add_node(planner)
     executor.add_node(monitor)
+    if twin is not None:
+        executor.add_node(twin)
+
+    def twin_down() -> bool:
+        return twin_proc is not None and twin_proc.poll() is not None
+
     try:
         ready = spin_until(executor, lambda: (
             planner.subscribers_ready() and monitor.sub.get_publisher_count() > 0
-            or node_proc.poll() is not None), timeout=20.0)
+            and (twin is None or twin.sub.get_publisher_count() > 0)
+            or node_proc.poll() is not None or twin_down()), timeout=20.0)
         if not ready or node_proc.poll() is not None:
             print('[demo] the node did not come up; its log:\n' + log_path.read_text()[-2000:])
+            return 1
+        if twin_down():
+            print('[demo] the twin did not come up; its log:\n' + twin_log.read_text()[-2000:])
             return 1
         print(f'[demo] node up; planner: {", ".join(sequence.names)} at {args.rate:g} Hz, '
               f'{sequence.period:.1f} s')
@@ -204,11 +249,26 @@ def main(argv: Sequence[str] | None = None) -> int:
         if received:
             plot(monitor, sequence, t0_ns, args.output)
             print(f'[demo] forces and powers plotted to {args.output}')
-        return 0 if received == planner.sent and received > 0 else 1
+        twin_ok = True
+        if twin is not None:
+            end_ns = t0_ns + round((planner.sent - 1) * 1e9 / args.rate)
+            spin_until(executor, lambda: bool(twin.rows) and twin.rows[-1][0] >= end_ns,
+                       timeout=3.0)
+            t, simulated, commanded = tracking(twin, sequence, t0_ns, end_ns)
+            print(f'[demo] twin: {twin_summary(t, simulated, commanded)}')
+            twin_ok = len(t) > 0 and not twin_down()
+            if len(t):
+                twin_png = args.output.with_name(args.output.stem + '_twin.png')
+                plot_tracking(t, simulated, commanded, sequence, twin_png)
+                print(f'[demo] commanded against simulated motion plotted to {twin_png}')
+        return 0 if received == planner.sent and received > 0 and twin_ok else 1
     except KeyboardInterrupt:
         return 130
     finally:
         stop_node(node_proc)
+        if twin_proc is not None:
+            stop_node(twin_proc)
+            twin.destroy_node()
         planner.destroy_node()
         monitor.destroy_node()
         rclpy.try_shutdown(context=context)

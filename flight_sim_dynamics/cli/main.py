@@ -8,6 +8,7 @@ Subcommands::
     flight-sim-dynamics animate out.csv|out.npz -o motion.gif|motion.mp4|still.png
     flight-sim-dynamics simulate (--forces F.csv | --motion NAME | --reference T.csv) -o sim.csv
     flight-sim-dynamics node ...           # the ROS 2 node (needs rclpy)
+    flight-sim-dynamics sim ...            # the digital twin node platform_sim (needs rclpy)
     flight-sim-dynamics demo-planner ...   # the demo set-point planner (needs rclpy)
     flight-sim-dynamics demo ...           # the end-to-end demo (needs rclpy)
 
@@ -293,6 +294,8 @@ def cmd_plot(args: argparse.Namespace) -> int:
 FORWARDED: dict[str, tuple[str, str]] = {
     'node': ('flight_sim_dynamics.ros.node', 'run the ROS 2 inverse-dynamics node '
              '(e.g. node --ros-args --params-file FILE)'),
+    'sim': ('flight_sim_dynamics.ros.sim_node', 'run the ROS 2 digital twin node platform_sim '
+            '(e.g. sim --ros-args -r actuator_commands:=actuator_states)'),
     'demo-planner': ('flight_sim_dynamics.ros.planner', 'run the demo set-point planner node'),
     'demo': ('flight_sim_dynamics.cli.demo', 'run the end-to-end ROS 2 demo'),
 }

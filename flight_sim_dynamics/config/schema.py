@@ -309,3 +309,45 @@ def defaults() -> dict[str, Any]:
 
 if set(_GEOMETRY_DEFAULTS) != set(GEOMETRY_KEYS):   # one list of lengths: core.model's
     raise ImportError(f'schema geometry {sorted(_GEOMETRY_DEFAULTS)} != core.model.GEOMETRY_KEYS')
+
+# ----------------------------------------------------------------------------
+# Parameters of the twin node (platform_sim, docs/twin_node.md): the plant is
+# a model built by the one rule (load_model of a params file and a scene).
+# ----------------------------------------------------------------------------
+SIM_NODE_NAME = 'platform_sim'
+SIM_PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec('plant.params_file', 'string', '',
+              'parameter file of the simulated plant, read by the rule of load_model '
+              '(partial files override the packaged one); empty: the packaged parameters', '',
+              max_length=MAX_PATH),
+    ParamSpec('plant.scene', 'string', '',
+              'scene of the plant, a name from config/scenes or a file (empty: the file\'s '
+              'scene parameter, else full); it must compute inertia', '',
+              max_length=MAX_PATH),
+    ParamSpec('rate', 'double', 1000.0,
+              'integration rate of servos and plant: one RK4 step per 1/rate s of '
+              'simulated time', 'Hz', minimum=1.0, maximum=100000.0),
+    ParamSpec('tick_rate', 'double', 250.0,
+              'rate of the node\'s loop: each tick makes the steps due by the steady clock '
+              '(sub-stepping at rate) and publishes the state', 'Hz',
+              minimum=1.0, maximum=10000.0),
+    ParamSpec('max_catch_up', 'double', 0.1,
+              'most simulated time one tick may make up after a stall; the rest is dropped '
+              '(counted as an overrun: the plant stands still for that time)', 's',
+              minimum=0.001, maximum=10.0),
+    ParamSpec('servo.bandwidth', 'double', 5.0,
+              'bandwidth of the actuator servos: PD gains of a leg of the plant\'s leg-space '
+              'mass at the centre with this natural frequency (Servo.for_bandwidth)', 'Hz',
+              minimum=0.0, exclusive_minimum=True, maximum=1000.0),
+    ParamSpec('servo.damping', 'double', 1.0,
+              'damping ratio of the actuator servos', '1', minimum=0.0, maximum=100.0),
+    ParamSpec('initial', 'double_array', [0.0, 0.0, 0.0],
+              'pose at which the platform starts, at rest: surge m, heave m, roll rad', '',
+              minimum=-10.0, maximum=10.0, length=3),
+    ParamSpec('frame_id', 'string', 'simulator_base',
+              'header.frame_id of platform_pose, platform_twist and measured_actuator_states: '
+              'the setpoints\' frame (REP-103 simulator base, origin at G\'s central '
+              'position)', '', max_length=MAX_NAME),
+    ParamSpec('diagnostics.period', 'double', 1.0,
+              'period of the /diagnostics message', 's', minimum=0.01, maximum=3600.0),
+)

@@ -69,7 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _refuse(message: str) -> int:
+def refuse(message: str) -> int:
     """A start-up the node cannot make: one ``error:`` line on stderr, exit 2."""
     print('error: ' + ' '.join(str(message).split()), file=sys.stderr)
     return 2
@@ -134,7 +134,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         own = rclpy.utilities.remove_ros_args(['dynamics_node', *argv])[1:]
     except Exception as exc:  # noqa: BLE001 - rcl's refusal (bad ROS arguments or params
         # file) comes as rclpy's private _rclpy_pybind11 error types
-        return _refuse(_params_file_problem(argv) or f'invalid ROS arguments: {exc}')
+        return refuse(_params_file_problem(argv) or f'invalid ROS arguments: {exc}')
     args = build_parser().parse_args(own)
     rclpy.init(args=['dynamics_node', *argv])
     node = None
@@ -143,7 +143,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         try:
             node = DynamicsNode()
         except (prm.ParameterError, ParameterException) as exc:
-            return _refuse(f'invalid parameters: {exc}')
+            return refuse(f'invalid parameters: {exc}')
         duplicate = None
         if not node.get_parameter('allow_duplicate_name').value:
             duplicate = DuplicateGuard(node).found
@@ -153,7 +153,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         executor.add_node(node)
         spin(executor, until=[node.finalized] + ([duplicate] if duplicate else []))
         if duplicate is not None and duplicate.done():
-            return _refuse(duplicate.result())
+            return refuse(duplicate.result())
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

@@ -1,6 +1,7 @@
 """Start and stop the node as a separate process, as a user starts it.
 
-One place for the demo (:mod:`flight_sim_dynamics.cli.demo`), the node
+One place (for the dynamics node and, with ``module=SIM_MODULE``, the twin
+node ``platform_sim``) for the demo (:mod:`flight_sim_dynamics.cli.demo`), the node
 benchmarks (``benchmarks/``) and the node tests (``test/node_harness.py``).
 No rclpy here: the parent only needs ``subprocess``.
 """
@@ -14,6 +15,8 @@ from pathlib import Path
 from typing import IO, Sequence
 
 NODE_MODULE = 'flight_sim_dynamics.ros.node'
+#: The twin node's executable (``platform_sim``): ``start_node(..., module=SIM_MODULE)``.
+SIM_MODULE = 'flight_sim_dynamics.ros.sim_node'
 #: The directory holding the imported flight_sim_dynamics (a source tree or
 #: site-packages): the child imports this very package, not another install.
 PACKAGE_PARENT = str(Path(__file__).resolve().parents[2])
@@ -32,13 +35,14 @@ def node_env(env: dict[str, str] | None = None) -> dict[str, str]:
 
 
 def node_command(params_file: Path | str | None = None, ros_args: Sequence[str] = (), *,
-                 executor: str | None = None, launcher: Sequence[str] | None = None
-                 ) -> list[str]:
+                 executor: str | None = None, launcher: Sequence[str] | None = None,
+                 module: str = NODE_MODULE) -> list[str]:
     """``python -m flight_sim_dynamics.ros.node [--executor E] --ros-args
-    [--params-file FILE] ROS_ARGS``; ``launcher`` replaces the first part (for
-    example a profiling wrapper that runs the node's ``main``).
+    [--params-file FILE] ROS_ARGS`` (``module``: another executable, e.g.
+    :data:`SIM_MODULE`); ``launcher`` replaces the first part (for example a
+    profiling wrapper that runs the node's ``main``).
     """
-    cmd = list(launcher) if launcher is not None else [sys.executable, '-m', NODE_MODULE]
+    cmd = list(launcher) if launcher is not None else [sys.executable, '-m', module]
     if executor:
         cmd += ['--executor', executor]
     cmd.append('--ros-args')
@@ -50,13 +54,14 @@ def node_command(params_file: Path | str | None = None, ros_args: Sequence[str] 
 def start_node(params_file: Path | str | None, ros_args: Sequence[str] = (),
                log: Path | str | IO[str] | None = None, *, executor: str | None = None,
                launcher: Sequence[str] | None = None, env: dict[str, str] | None = None,
-               cwd: Path | str | None = None) -> subprocess.Popen:
+               cwd: Path | str | None = None, module: str = NODE_MODULE) -> subprocess.Popen:
     """Start the node (see :func:`node_command`) in its own session, so that a
     Ctrl-C meant for the caller does not reach it too; its standard output and
     error go to ``log`` (a path, written anew, or an open file; None: discarded).
     Stop it with :func:`stop_node`.
     """
-    cmd = node_command(params_file, ros_args, executor=executor, launcher=launcher)
+    cmd = node_command(params_file, ros_args, executor=executor, launcher=launcher,
+                       module=module)
     kwargs = dict(stderr=subprocess.STDOUT, env=node_env(env), cwd=cwd, start_new_session=True)
     if isinstance(log, (str, Path)):
         with open(log, 'w') as out:          # the child keeps its own copy of the descriptor

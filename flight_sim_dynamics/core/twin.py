@@ -1,0 +1,195 @@
+"""A real-time stepper of the digital twin: the plant under its actuator
+servos, advanced step by step as commands arrive. Numpy only.
+
+:func:`.simulation.simulate` integrates a whole reference known in advance;
+a running machine (the ``platform_sim`` node) only knows the last command of
+each actuator servo, the leg length and rate references and a feed-forward
+force (what ``dynamics_node`` publishes on ``actuator_states``). The stepper
+holds that command (zero-order hold) and advances the state (q, qd) by the
+classical RK4 of :func:`.simulation.integrate` at a fixed step, every stage
+evaluating the servo law of :mod:`.simulation`,
+
+    command = f_ff + kp (L_ref - L) + kd (Ldot_ref - Ldot),
+
+saturated by the actuator (:func:`.simulation.deliver`), and the plant's
+forward dynamics M(q) qdd = f - b(q, qd) (eq. 14, 18-23; :mod:`.forward_dynamics`,
+through the stage function of :mod:`.simulation`).
+
+The first stage of a step is evaluated at the state reached by the previous
+one, so the measured leg lengths, rates and delivered forces of the current
+state come with it: four evaluations of M and b per step (one more after a
+new command, whose force law differs).
+
+When a stage state is unreachable, near a singularity or not finite, the
+stepper stops (:attr:`TwinStepper.outcome`, :attr:`TwinStepper.detail`) and
+holds the last state reached, at rest: it never produces NaN.
+"""
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+
+from .model import Model
+from .simulation import Servo, _stage, deliver
+from .solver import Solution
+from .status import Status
+
+
+class TwinStepper:
+    """The plant ``plant`` driven by three servos of gains ``servo``,
+    integrated by RK4 at ``step`` s from rest at ``q0`` (default the central
+    configuration). Until the first :meth:`command` the servos push nothing
+    (call :meth:`command` before :meth:`advance`, or the platform falls).
+    """
+
+    def __init__(self, plant: Model, servo: Servo, step: float,
+                 q0: Sequence[float] | None = None) -> None:
+        if not (math.isfinite(step) and step > 0):
+            raise ValueError(f'step must be a positive number of seconds, got {step!r}')
+        self.plant = plant
+        self.step = float(step)
+        self._kp, self._kd = np.array(servo.kp), np.array(servo.kd)
+        self._max_force = plant.limits.max_force
+        self._max_speed = plant.limits.max_speed
+        q = np.zeros(3) if q0 is None else np.asarray(q0, dtype=float)
+        if q.shape != (3,) or not np.all(np.isfinite(q)):
+            raise ValueError(f'q0 must be 3 finite numbers (surge, heave, roll), got {q0!r}')
+        self.q, self.qd = q.copy(), np.zeros(3)
+        self.time = 0.0                      # s of simulated time
+        self.steps = 0
+        self._length_ref = np.zeros(3)
+        self._rate_ref = np.zeros(3)
+        self._ff = np.zeros(3)
+        self.outcome = Status.OK             # ok while running, else why it stopped
+        self.detail = ''
+        # the first stage of the current state: (qdd, delivered force, the
+        # plant's solve there), None when it must be evaluated again
+        self._first: tuple[np.ndarray, np.ndarray, Solution] | None = None
+        self._base: Solution | None = None
+        self._held: Solution | None = None       # the solve of the last good state
+        self._evaluate_first()
+
+    # -- the command ------------------------------------------------------------------
+    def command(self, length: Sequence[float], rate: Sequence[float],
+                force: Sequence[float]) -> None:
+        """Hold a new servo command: leg length and rate references (m, m/s) and
+        feed-forward forces (N), legs A, B, C. ValueError unless each is three
+        finite numbers.
+        """
+        values = []
+        for name, v in (('length', length), ('rate', rate), ('force', force)):
+            arr = np.asarray(v, dtype=float)
+            if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+                raise ValueError(f'{name} must be 3 finite numbers (legs A, B, C), got {v!r}')
+            values.append(arr)
+        self._length_ref, self._rate_ref, self._ff = values
+        self._first = None
+        if self.outcome is Status.OK:
+            self._evaluate_first()
+
+    def _law(self, j: int, base: Solution) -> np.ndarray:
+        """The delivered force of the servo law at a stage (``j`` unused: the
+        command is held over the step).
+        """
+        self._base = base
+        command = (self._ff + self._kp * (self._length_ref - base.length)
+                   + self._kd * (self._rate_ref - base.rate))
+        return deliver(command, base.rate, self._max_force, self._max_speed)
+
+    def _evaluate_first(self) -> bool:
+        """Evaluate the first stage at the current state; False (stopped) when
+        the state cannot be simulated.
+        """
+        self._base = None
+        qdd, force, status, detail = _stage(self.plant, self.q, self.qd, self._law, 0)
+        if status is not Status.OK:
+            self._stop(status, f't = {self.time:.6g} s: {detail}')
+            return False
+        self._first = (qdd, force, self._base)
+        self._held = self._base
+        return True
+
+    def _stop(self, status: Status, detail: str) -> None:
+        self.outcome, self.detail = status, detail
+        self.qd = np.zeros(3)
+        self._first = None
+
+    # -- stepping -----------------------------------------------------------------------
+    def advance(self, steps: int = 1) -> int:
+        """Advance by ``steps`` RK4 steps (fewer when it stops); returns the
+        number of steps made.
+        """
+        h = self.step
+        done = 0
+        while done < steps and self.outcome is Status.OK:
+            if self._first is None and not self._evaluate_first():
+                break
+            a1 = self._first[0]
+            q, qd = self.q, self.qd
+            q2, v2 = q + 0.5 * h * qd, qd + 0.5 * h * a1
+            a2, _, status, detail = _stage(self.plant, q2, v2, self._law, 1)
+            if status is Status.OK:
+                q3, v3 = q + 0.5 * h * v2, qd + 0.5 * h * a2
+                a3, _, status, detail = _stage(self.plant, q3, v3, self._law, 1)
+            if status is Status.OK:
+                q4, v4 = q + h * v3, qd + h * a3
+                a4, _, status, detail = _stage(self.plant, q4, v4, self._law, 2)
+            if status is Status.OK:
+                q_new = q + (h / 6.0) * (qd + 2.0 * (v2 + v3) + v4)
+                qd_new = qd + (h / 6.0) * (a1 + 2.0 * (a2 + a3) + a4)
+                if not (np.all(np.isfinite(q_new)) and np.all(np.isfinite(qd_new))):
+                    status, detail = Status.INVALID_INPUT, 'state not finite: forces too large'
+            if status is not Status.OK:
+                self._stop(status, f'step from t = {self.time:.6g} s: {detail}')
+                break
+            previous = (self.q, self.qd)
+            self.q, self.qd = q_new, qd_new
+            self.steps += 1
+            self.time = self.steps * h
+            done += 1
+            if not self._evaluate_first():
+                self.q = previous[0]         # hold the last state that could be simulated
+                self.steps -= 1
+                self.time = self.steps * h
+                break
+        return done
+
+    # -- the measured state ----------------------------------------------------------------
+    @property
+    def running(self) -> bool:
+        return self.outcome is Status.OK
+
+    @property
+    def acceleration(self) -> np.ndarray:
+        """Qdd at the current state (zeros once stopped)."""
+        return self._first[0] if self._first is not None else np.zeros(3)
+
+    @property
+    def force(self) -> np.ndarray:
+        """Delivered actuator forces at the current state, N (zeros once stopped)."""
+        return self._first[1] if self._first is not None else np.zeros(3)
+
+    @property
+    def length(self) -> np.ndarray:
+        """Leg lengths at the current state, m (once stopped: where it is held)."""
+        return self._held.length if self._held is not None else np.zeros(3)
+
+    @property
+    def rate(self) -> np.ndarray:
+        """Leg rates at the current state, m/s (zeros once stopped: held at rest)."""
+        return self._first[2].rate if self._first is not None else np.zeros(3)
+
+    @property
+    def status(self) -> Status:
+        """The plant's status at the current state (``limit`` beyond a stroke,
+        speed or force limit), or why the stepper stopped.
+        """
+        if self._first is None:
+            return self.outcome if self.outcome is not Status.OK else Status.INVALID_INPUT
+        return self._first[2].status
+
+    @property
+    def status_detail(self) -> str:
+        return self._first[2].detail if self._first is not None else self.detail

@@ -1,0 +1,71 @@
+"""The executable of the twin node (``platform_sim``): runs a
+:class:`~.platform_sim.PlatformSim` until Ctrl-C / SIGTERM.
+
+    platform_sim --ros-args -r actuator_commands:=actuator_states
+    python -m flight_sim_dynamics.ros.sim_node --ros-args -p rate:=2000.0
+    flight-sim-dynamics sim --ros-args -p plant.params_file:=heavy.yaml
+
+A start-up it cannot make (a bad parameter, plant file or scene, or ROS
+argument) ends it with one ``error:`` line on stderr and exit status 2.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Sequence
+
+import rclpy
+from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException
+
+from ..config import parameters as prm
+from .node import DEFAULT_EXECUTOR, EXECUTORS, make_executor, refuse, spin
+from .platform_sim import PlatformSim
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog='platform_sim',
+        description='Digital twin of the flight simulator as a ROS 2 node: subscribes '
+                    'actuator_commands (JointState: leg length and rate references, '
+                    'feed-forward forces, the layout of dynamics_node\'s actuator_states), '
+                    'runs actuator servos and plant in real time and publishes platform_pose, '
+                    'platform_twist, measured_actuator_states and /diagnostics. Connect it to '
+                    'dynamics_node with --ros-args -r actuator_commands:=actuator_states.',
+        epilog='See docs/twin_node.md for topics and parameters.')
+    parser.add_argument('--executor', choices=EXECUTORS, default=DEFAULT_EXECUTOR,
+                        help=f'rclpy executor (default: {DEFAULT_EXECUTOR})')
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the twin until Ctrl-C / SIGTERM. ``argv``: arguments after the
+    program name (None: sys.argv[1:]), ROS arguments after ``--ros-args``.
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        own = rclpy.utilities.remove_ros_args(['platform_sim', *argv])[1:]
+    except Exception as exc:  # noqa: BLE001 - rcl's refusal comes as rclpy's private types
+        return refuse(f'invalid ROS arguments: {exc}')
+    args = build_parser().parse_args(own)
+    rclpy.init(args=['platform_sim', *argv])
+    node = None
+    try:
+        try:
+            node = PlatformSim()
+        except (prm.ParameterError, ParameterException) as exc:
+            return refuse(f'invalid parameters: {exc}')
+        executor = make_executor(args.executor)
+        executor.add_node(node)
+        spin(executor)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
