@@ -148,7 +148,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not node.get_parameter('allow_duplicate_name').value:
             duplicate = DuplicateGuard(node).found
         if node.get_parameter('autostart').value and not node.start():
-            return _refuse(node.failure)
+            return refuse(node.failure)
         executor = make_executor(args.executor)
         executor.add_node(node)
         spin(executor, until=[node.finalized] + ([duplicate] if duplicate else []))
