@@ -12,6 +12,7 @@ real ``dynamics_node`` (one remap: ``actuator_commands:=actuator_states``).
 from __future__ import annotations
 
 import math
+import os
 import subprocess
 import sys
 import tempfile
@@ -305,9 +306,12 @@ def test_sim_help():
 
 def test_demo_with_the_twin_plots_commanded_against_simulated(tmp_path):
     png = tmp_path / 'demo.png'
+    # A ROS domain of its own: the module's node (same name) is still running,
+    # and the demo's node would refuse to start next to it.
+    env = dict(os.environ, ROS_DOMAIN_ID=str((int(os.environ['ROS_DOMAIN_ID']) + 50) % 100 + 1))
     out = subprocess.run([sys.executable, '-m', 'flight_sim_dynamics.cli.demo', '-o', str(png),
                           '--motions', 'vertical', '--rate', '100', '--twin'],
-                         cwd=ROOT, capture_output=True, text=True, timeout=90)
+                         cwd=ROOT, capture_output=True, text=True, timeout=90, env=env)
     assert out.returncode == 0, out.stdout + out.stderr
     assert (tmp_path / 'demo_twin.png').stat().st_size > 10_000
     line = next(line for line in out.stdout.splitlines() if line.startswith('[demo] twin: '))
