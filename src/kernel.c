@@ -798,14 +798,46 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
 static const double REST[3] = {0.0, 0.0, 0.0};
 static const double UNIT[3][3] = {{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, {0.0, 0.0, 1.0}};
 
-/* The row of solve(q, qd, 0) in `out`, b = its force and M (row-major 3x3),
-   from one pose. Every term of the recursion is affine in qdd (eq. 15-17:
-   Gamma = K qdd + Q^-1 (velocity terms); eq. 18-23 linear in the body
-   accelerations; friction reads the leg rates only), so column j of M is the
-   recursion for the joint accelerations K e_j alone: gravity, velocity
-   products and friction left out (they are in b). M and b are 0 when the
-   sample is void (unreachable, invalid input); a non-finite entry of M
-   (exact singularity) is 0, as solve's numbers are. */
+/* M of f = M qdd + b at a pose: every term of the recursion is affine in qdd
+   (eq. 15-17: Gamma = K qdd + Q^-1 (velocity terms); eq. 18-23 linear in the
+   body accelerations; friction reads the leg rates only), so column j of M is
+   the force of the accelerations of a unit qdd e_j alone (joint accelerations
+   K e_j; no gravity, velocity products, friction: they are in b). Those
+   accelerations of a body are its velocities per unit qd_j (a_j, and eps_j in
+   body axes w_j), so by virtual power (eq. 23) M = J^-T Mq with
+   Mq[i][j] = sum over the moving bodies of m a_i . a_j + w_i . I w_j: the
+   recursion's three passes in one sum (the same M to rounding,
+   test_twin_kernel.py). */
+static void mass_matrix(const double *P, int fx, const pose_terms *p, double *M)
+{
+    const int linear = fx & ~(E_GRAVITY | E_VP | E_FRICTION);
+    body_state st[3][N_BODIES];
+    for (int j = 0; j < 3; j++)
+        body_states(P, linear, &p->g, p->V, p->K[j], REST, UNIT[j], st[j]);
+    double Mq[3][3] = {{0.0}};
+    for (int b = 0; b < N_BODIES; b++) {
+        if (!st[0][b].moving)
+            continue;
+        const double *body = P + P_BODIES + b * BODY_SIZE;
+        v3 w[3], Iw[3];
+        for (int j = 0; j < 3; j++) {
+            w[j] = to_frame(&st[j][b].R, st[j][b].eps);
+            Iw[j] = mat_vec(body + B_INERTIA, w[j]);
+        }
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                Mq[i][j] += body[B_MASS] * dot(st[i][b].acc, st[j][b].acc) + dot(w[i], Iw[j]);
+    }
+    for (int m = 0; m < 3; m++)
+        for (int j = 0; j < 3; j++)
+            M[3 * m + j] = p->Jinv[0][m] * Mq[0][j] + p->Jinv[1][m] * Mq[1][j]
+                           + p->Jinv[2][m] * Mq[2][j];
+}
+
+/* The row of solve(q, qd, 0) in `out`, b = its force and M (row-major 3x3,
+   mass_matrix), from one pose. M and b are 0 when the sample is void
+   (unreachable, invalid input); a non-finite entry of M (exact singularity)
+   is 0, as solve's numbers are. */
 static void affine_one(const double *P, int fx, const double *q, const double *qd,
                        double *out, double *M, double *b)
 {
@@ -816,13 +848,10 @@ static void affine_one(const double *P, int fx, const double *q, const double *q
         return;
     for (int m = 0; m < 3; m++)
         b[m] = out[O_FORCE + m];
-    const int linear = fx & ~(E_GRAVITY | E_VP | E_FRICTION);
-    for (int j = 0; j < 3; j++) {
-        double column[3];
-        actuator_forces(P, linear, &p, p.K[j], REST, UNIT[j], column);
-        for (int i = 0; i < 3; i++)
-            M[3 * i + j] = isfinite(column[i]) ? column[i] : 0.0;
-    }
+    mass_matrix(P, fx, &p, M);
+    for (int i = 0; i < 9; i++)
+        if (!isfinite(M[i]))
+            M[i] = 0.0;
 }
 
 /* ------------------------------------------------------------------------ */

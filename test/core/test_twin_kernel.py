@@ -6,13 +6,14 @@ the Python code it replaces when the kernel is built.
   e_j).force - b) to 1e-12 relative, with the same status, detail and
   solution of the state, over workspace states (property-based, the samples
   of test_workspace_properties.py), for scenes with and without velocity
-  products, payload and friction;
+  products, payload and friction, and for every effect set with inertia;
 * ``simulation.integrate``: the RK4 loop in C gives the Python loop's rows
   (to rounding), outcome and detail, closed and open loop, on runs that end
   and on runs that stop.
 """
 from __future__ import annotations
 
+import itertools
 import math
 import os
 from dataclasses import replace
@@ -26,6 +27,7 @@ import flight_sim_dynamics as fsd
 from flight_sim_dynamics import Status
 from flight_sim_dynamics.core import forward_dynamics as fd
 from flight_sim_dynamics.core import kernel, motions
+from flight_sim_dynamics.core.effects import EFFECT_NAMES, Effects
 from flight_sim_dynamics.core.model import Friction
 from flight_sim_dynamics.core.simulation import Reference, TabulatedLaw, integrate, simulate
 from test_workspace_properties import batches, examples, tolerance_factor
@@ -38,6 +40,8 @@ MODELS = {'full': MODEL, 'full+friction': FRICTION,
           'platform_only': fsd.load_model(scene='platform_only'),
           'no velocity products': MODEL.with_effects(MODEL.effects.without('velocity_products'))}
 RTOL = 1e-12
+EVERY_EFFECTS = [Effects(**dict(zip(EFFECT_NAMES, bits)))
+                 for bits in itertools.product((False, True), repeat=len(EFFECT_NAMES))]
 
 needs_kernel = pytest.mark.skipif(
     not kernel.available() and os.environ.get('FSD_REQUIRE_KERNEL') == '0',
@@ -76,6 +80,22 @@ def test_affine_terms_kernel_equals_python_over_the_workspace(batch, name):
         scale = max(np.abs(M_py).max(), np.abs(b_py).max(), 1.0)
         assert np.abs(M - M_py).max() <= RTOL * factor * scale, (where, M, M_py)
         assert np.abs(b - b_py).max() <= RTOL * factor * scale, (where, b, b_py)
+
+
+@needs_kernel
+@pytest.mark.parametrize('effects', [e for e in EVERY_EFFECTS if e.any_inertia],
+                         ids=lambda e: '+'.join(e.enabled()))
+def test_affine_terms_kernel_equals_python_for_every_effect_set(effects):
+    """Each effect set with some inertia (M != 0), with a payload body: the
+    kernel's M (from the bodies' velocity Jacobians) is the recursion's."""
+    model = MODELS['payload'].with_effects(effects)
+    for q, qd in (((0.05, 0.1, 0.2), (0.3, -0.2, 0.5)), ((-0.1, 0.25, -0.4), (-0.5, 0.4, 1.0))):
+        (M, b, base), (M_py, b_py, base_py) = both(lambda: fd.affine_terms(model, q, qd))
+        assert base.status == base_py.status and base.status in (Status.OK, Status.LIMIT)
+        scale = max(np.abs(M_py).max(), np.abs(b_py).max(), 1.0)
+        assert np.abs(M - M_py).max() <= RTOL * scale, (M, M_py)
+        assert np.abs(b - b_py).max() <= RTOL * scale, (b, b_py)
+        assert np.abs(M).max() > 0.1     # crank inertia alone: 0.67 kg
 
 
 @needs_kernel
