@@ -4,10 +4,13 @@ digital twin of the machine). Numpy only.
 The state (q, qd) is integrated by the classical fourth-order Runge-Kutta
 method at a fixed step h; each stage evaluates the forward dynamics
 (:mod:`.forward_dynamics`: qdd from f = M qdd + b, eq. 14, 18-23) of the
-*plant* model.
+*plant* model. With the compiled kernel the whole loop runs in C
+(:func:`integrate`, :class:`TabulatedLaw`; same operations, same rows to
+rounding); the Python loop is the reference and the fallback.
 
-Open loop (``forces=``): a :class:`ForceHistory` of actuator forces at given
-times, interpolated between its rows by a cubic Hermite spline whose node
+Open loop (``forces=``): a :class:`ForceHistory` (:mod:`.interpolation`) of
+actuator forces at given times, interpolated between its rows by a cubic
+Hermite spline whose node
 slopes are the derivatives of the polynomial through the five nearest rows
 (fewer when there are fewer rows): the spline reproduces cubics exactly, so
 its error is O(dt^4) for smooth forces (a Catmull-Rom spline, whose
