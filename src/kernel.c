@@ -808,25 +808,63 @@ static const double UNIT[3][3] = {{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, {0.0, 0.0, 1
    Mq[i][j] = sum over the moving bodies of m a_i . a_j + w_i . I w_j: the
    recursion's three passes in one sum (the same M to rounding,
    test_twin_kernel.py). */
+/* acc and eps of the bodies for the joint accelerations G = K e_j and the
+   unit qdd e_j alone: body_states' formulas without velocity terms, its
+   centres of mass (st) reused, so that the frames are built once for the
+   three columns */
+static void unit_accelerations(const double *P, const geometric *g, const double *G, int j,
+                               const body_state *st, v3 *acc, v3 *eps)
+{
+    v3 Gdd = vec(j == 0, j == 1, 0.0);
+    v3 eA = vec(0.0, 0.0, G[0]);
+    eps[CYL_A] = eps[PIS_A] = eA;
+    acc[CYL_A] = cross(eA, st[CYL_A].com);
+    acc[PIS_A] = add(scale(G[1], g->dA), cross(eA, st[PIS_A].com));
+    eps[ROD] = vec(0.0, 0.0, G[0] + G[2]);
+    acc[ROD] = add(Gdd, cross(eps[ROD], sub(st[ROD].com, g->G)));
+    double roll_dd = j == 2;
+    eps[PLATFORM] = eps[PAYLOAD] = vec(roll_dd * g->l.x, roll_dd * g->l.y, G[0] + G[2]);
+    acc[PLATFORM] = add(Gdd, cross(eps[PLATFORM], sub(st[PLATFORM].com, g->G)));
+    acc[PAYLOAD] = add(Gdd, cross(eps[PAYLOAD], sub(st[PAYLOAD].com, g->G)));
+    double base_x = P[P_D2] + P[P_D3] + P[P_D4];
+    for (int leg = 0; leg < 2; leg++) {
+        int k = leg ? 6 : 3, cyl = leg ? CYL_C : CYL_B, pis = leg ? PIS_C : PIS_B;
+        v3 P1 = vec(base_x, 0.0, leg ? -P[P_D5] : P[P_D5]);
+        v3 d = leg ? g->dC : g->dB, e2 = leg ? g->e2C : g->e2B;
+        eps[cyl] = eps[pis] = vec(G[k + 1] * e2.x, G[k + 1] * e2.y, G[k]);
+        acc[cyl] = cross(eps[cyl], sub(st[cyl].com, P1));
+        acc[pis] = add(scale(G[k + 2], d), cross(eps[pis], sub(st[pis].com, P1)));
+    }
+    for (int c = 0; c < 2; c++) {
+        int i = c ? CRANK_E : CRANK_D;
+        v3 P1 = vec(c ? P[P_D2] : P[P_D2] + P[P_D3], 0.0, 0.0);
+        eps[i] = vec(0.0, 0.0, G[c ? 10 : 9]);
+        acc[i] = cross(eps[i], sub(st[i].com, P1));
+    }
+}
+
 static void mass_matrix(const double *P, int fx, const pose_terms *p, double *M)
 {
     const int linear = fx & ~(E_GRAVITY | E_VP | E_FRICTION);
-    body_state st[3][N_BODIES];
+    body_state st[N_BODIES];
+    v3 acc[3][N_BODIES], eps[3][N_BODIES];
+    memset(st, 0, sizeof st);      /* bodies at rest keep no centre: read as 0, not summed */
+    body_states(P, linear, &p->g, p->V, p->K[0], REST, UNIT[0], st);   /* frames, centres */
     for (int j = 0; j < 3; j++)
-        body_states(P, linear, &p->g, p->V, p->K[j], REST, UNIT[j], st[j]);
+        unit_accelerations(P, &p->g, p->K[j], j, st, acc[j], eps[j]);
     double Mq[3][3] = {{0.0}};
     for (int b = 0; b < N_BODIES; b++) {
-        if (!st[0][b].moving)
+        if (!st[b].moving)
             continue;
         const double *body = P + P_BODIES + b * BODY_SIZE;
         v3 w[3], Iw[3];
         for (int j = 0; j < 3; j++) {
-            w[j] = to_frame(&st[j][b].R, st[j][b].eps);
+            w[j] = to_frame(&st[b].R, eps[j][b]);
             Iw[j] = mat_vec(body + B_INERTIA, w[j]);
         }
         for (int i = 0; i < 3; i++)
             for (int j = 0; j < 3; j++)
-                Mq[i][j] += body[B_MASS] * dot(st[i][b].acc, st[j][b].acc) + dot(w[i], Iw[j]);
+                Mq[i][j] += body[B_MASS] * dot(acc[i][b], acc[j][b]) + dot(w[i], Iw[j]);
     }
     for (int m = 0; m < 3; m++)
         for (int j = 0; j < 3; j++)
