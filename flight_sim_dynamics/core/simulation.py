@@ -328,9 +328,10 @@ def simulate(plant: Model, *, forces: ForceHistory | tuple | None = None,
     kinematics = solve_batch(plant, q_ref, qd_ref, qdd_ref)
     _reference_problem(kinematics, times, 'the reference motion')
     length_ref, rate_ref = np.array(kinematics.length), np.array(kinematics.rate)
-    if feedforward is not None:      # the plant's own model: the same batch
-        ff_sol = (kinematics if feedforward is plant
-                  else solve_batch(feedforward, q_ref, qd_ref, qdd_ref))
+    if feedforward is plant:         # the plant's own model: the same batch
+        ff = np.array(kinematics.force)
+    elif feedforward is not None:
+        ff_sol = solve_batch(feedforward, q_ref, qd_ref, qdd_ref)
         _reference_problem(ff_sol, times, 'the feed-forward model')
         ff = np.array(ff_sol.force)
     else:
