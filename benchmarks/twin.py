@@ -2,19 +2,24 @@
 
 * speed: the real-time factor of the closed loop (RK4 at 1 kHz, the
   ``violent`` motion, full feed-forward, the full plant) and of the open loop
-  in this process through the public API, and the cost of one RK4 stage;
+  in this process through the public API, with the compiled kernel (M, b and
+  the RK4 loop in C) and with the Python code (``kernel.use_kernel(False)``,
+  as FSD_KERNEL=0; timed on the motion's first FALLBACK_SECONDS, it is slow)
+  in the same run, and the cost of one RK4 stage on each path;
 * what accuracy buys: the tracking error (max and RMS; surge, heave, roll and
   leg lengths) of the closed loop on the paper's three motions and on
   ``violent``, for the feed-forward of every packaged scene and for none, at
   one servo bandwidth (default gains: a critically damped leg of the plant's
   leg-space mass, :meth:`Servo.for_bandwidth`), the plant the full model with
-  the packaged limits;
+  the packaged limits; as a table and as a figure (twin_tracking.png next to
+  the page);
 * open-loop error growth: the inverse-dynamics forces of a 6 s motion near
   the workspace's edge (:func:`edge_motion`) fed back open loop, RK4 at 1 kHz:
   the largest pose error up to every 0.5 s.
 
-Prints figures and tables; writes them to out/twin.md, or with
-``--update-docs`` between the markers of docs/twin.md.
+Prints figures and tables; writes them to out/twin.md (the figure to
+out/twin_tracking.png), or with ``--update-docs`` between the markers of
+docs/twin.md (the figure to docs/twin_tracking.png).
 
     python -m benchmarks.twin [--bandwidth 5] [--repeats 3] [--quick] [--update-docs]
 """
@@ -25,6 +30,7 @@ import math
 import statistics
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Sequence
 
@@ -35,11 +41,16 @@ from flight_sim_dynamics.cli.bench_report import machine_header
 from flight_sim_dynamics.cli.csv_io import atomic_output
 from flight_sim_dynamics.config.scenes import available_scenes
 from flight_sim_dynamics.core import forward_dynamics as fd
+from flight_sim_dynamics.core import kernel
 from flight_sim_dynamics.core.motions import TEST_MOTIONS, get
 from flight_sim_dynamics.core.simulation import (DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING,
-                                                 Servo, simulate)
+                                                 Reference, Servo, simulate)
 
 ROOT = Path(__file__).resolve().parents[1]
+FIGURE = 'twin_tracking.png'
+#: Simulated seconds timed on the Python code (2 to 3 s of wall time a run);
+#: --quick: a tenth.
+FALLBACK_SECONDS = 0.5
 DEFAULT_OUT = Path('out') / 'twin.md'
 DOCS = ROOT / 'docs' / 'twin.md'
 BEGIN, END = '<!-- twin-benchmark:begin -->', '<!-- twin-benchmark:end -->'
@@ -65,30 +76,61 @@ def table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
     return '\n'.join(lines) + '\n'
 
 
-def speed_rows(plant: fsd.Model, repeats: int, motion: str) -> list[list[str]]:
-    """Real-time factors (median of ``repeats`` runs) and per-stage costs."""
-    reference = get(motion)
-    closed, opened = [], []
-    t, q, qd, qdd = reference.sampled(1000.0)
-    forces = (t, fsd.solve_batch(plant, q, qd, qdd).force)
+def _real_time_factor(call, repeats: int) -> tuple[str, fsd.Simulation]:
+    """Simulated seconds (up to where the run ends or stops) per wall-clock
+    second, the median of ``repeats`` runs and the best (on a shared machine
+    the best is what the code can do, the median what it did); the last run.
+    """
+    factors = []
     for _ in range(repeats):
         start = time.perf_counter()
-        simulate(plant, reference=reference, feedforward=plant)
-        closed.append(reference.duration / (time.perf_counter() - start))
-        start = time.perf_counter()
-        simulate(plant, forces=forces)
-        opened.append(reference.duration / (time.perf_counter() - start))
+        sim = call()
+        factors.append((sim.t[-1] - sim.t[0]) / (time.perf_counter() - start))
+    digits = 1 if max(factors) >= 10 else 2
+    return f'{statistics.median(factors):.{digits}f} (best {max(factors):.{digits}f})', sim
+
+
+def speed_rows(plant: fsd.Model, repeats: int, motion: str, fallback_s: float
+               ) -> list[list[str]]:
+    """Real-time factors (median and best of ``repeats`` runs; the Python code
+    on the first ``fallback_s`` seconds) and per-stage costs, kernel and Python
+    code in the same process.
+    """
+    reference = get(motion)
+    head = replace(Reference.from_motion(reference), end=fallback_s)
+    t, q, qd, qdd = reference.sampled(1000.0)
+    forces = (t, fsd.solve_batch(plant, q, qd, qdd).force)
+    rows = int(round(fallback_s * 1000.0)) + 1
+    head_forces = (t[:rows], forces[1][:rows])
+    factors = []
+    for on in (True, False):
+        with kernel.use_kernel(on):
+            factors.append(
+                (_real_time_factor(lambda: simulate(plant, reference=reference if on else head,
+                                                    feedforward=plant), repeats),
+                 _real_time_factor(lambda: simulate(plant, forces=forces if on else head_forces),
+                                   repeats)))
     state = (q[len(q) // 2], qd[len(q) // 2])
     M, b, _ = fd.affine_terms(plant, *state)
+    with kernel.use_kernel(False):
+        python_mb = _time_us(lambda: fd.affine_terms(plant, *state), 200)
     stage = [_time_us(lambda: fd.affine_terms(plant, *state)),
              _time_us(lambda: fd.solve_accelerations(M, b, b)),
              _time_us(lambda: fsd.solve(plant, state[0], state[1], (0.0, 0.0, 0.0)))]
+    ((closed, _), (opened, run)), ((closed_py, _), (opened_py, _)) = factors
+    python = f'Python code (FSD_KERNEL=0), first {fallback_s:g} s'
+    stops = '' if run.outcome == 'ok' else f' (it stops at {run.t[-1]:.3g} s: {run.outcome})'
     return [[f'closed loop, RK4 1 kHz, {motion}, full feed-forward: real-time factor',
-             f'{statistics.median(closed):.2f}'],
-            [f'open loop, RK4 1 kHz, {motion}: real-time factor',
-             f'{statistics.median(opened):.2f}'],
-            ['M and b (four `fsd.solve`): median per stage', f'{stage[0]:.1f} us'],
-            ['cond(M) and LU solve: median per stage', f'{stage[1]:.1f} us'],
+             closed],
+            [f'the same, {python}', closed_py],
+            [f'open loop, RK4 1 kHz, {motion}: real-time factor{stops}', opened],
+            [f'the same, {python}', opened_py],
+            ['M and b (`affine_terms`, one kernel call): median per stage',
+             f'{stage[0]:.1f} us'],
+            ['M and b (`affine_terms`, Python code: four solves): median per stage',
+             f'{python_mb:.0f} us'],
+            ['cond(M) and LU solve (numpy; the Python loop): median per stage',
+             f'{stage[1]:.1f} us'],
             ['one `fsd.solve`: median', f'{stage[2]:.1f} us']]
 
 
@@ -101,20 +143,64 @@ def _time_us(call, n: int = 2000) -> float:
     return statistics.median(times) / 1e3
 
 
-def tracking_rows(plant: fsd.Model, servo: Servo, motions: Sequence[str],
-                  scenes: Sequence[str]) -> list[list[str]]:
-    """One row per (motion, feed-forward): max / RMS errors, mm and mrad."""
-    rows = []
+def tracking(plant: fsd.Model, servo: Servo, motions: Sequence[str],
+             scenes: Sequence[str]) -> dict[tuple[str, str], fsd.Simulation]:
+    """The closed loop of every (motion, feed-forward scene or 'none')."""
+    runs = {}
     for name in motions:
         for scene in (*scenes, 'none'):
             feedforward = None if scene == 'none' else fsd.load_model(scene=scene)
-            sim = simulate(plant, reference=get(name), feedforward=feedforward, servo=servo)
-            e = sim.tracking()
-            cells = [f"{1e3 * e[f'{k}_max']:.3g} / {1e3 * e[f'{k}_rms']:.3g}"
-                     for k in ('surge', 'heave', 'roll', 'length')]
-            rows.append([name, scene, *cells, f'{np.max(np.abs(sim.rate)):.2f}',
-                         f'{np.max(np.abs(sim.force)):.0f}', str(sim.outcome)])
+            runs[name, scene] = simulate(plant, reference=get(name), feedforward=feedforward,
+                                         servo=servo)
+    return runs
+
+
+def tracking_rows(runs: dict[tuple[str, str], fsd.Simulation]) -> list[list[str]]:
+    """One row per (motion, feed-forward): max / RMS errors, mm and mrad."""
+    rows = []
+    for (name, scene), sim in runs.items():
+        e = sim.tracking()
+        cells = [f"{1e3 * e[f'{k}_max']:.3g} / {1e3 * e[f'{k}_rms']:.3g}"
+                 for k in ('surge', 'heave', 'roll', 'length')]
+        rows.append([name, scene, *cells, f'{np.max(np.abs(sim.rate)):.2f}',
+                     f'{np.max(np.abs(sim.force)):.0f}', str(sim.outcome)])
     return rows
+
+
+def plot_tracking(runs: dict[tuple[str, str], fsd.Simulation], title: str, path: Path) -> None:
+    """Leg-length tracking error, max (bar) and RMS (dot), per motion and
+    feed-forward, on a log axis (the full model's errors are round-off).
+    """
+    from matplotlib.figure import Figure
+
+    motions = list(dict.fromkeys(name for name, _ in runs))
+    scenes = list(dict.fromkeys(scene for _, scene in runs))
+    fig = Figure(figsize=(9.0, 1.2 + 0.45 * len(runs) + 0.3 * len(motions)), dpi=110,
+                 layout='constrained')
+    ax = fig.subplots()
+    others = iter(('tab:blue', 'tab:green', 'tab:orange', 'tab:red', 'tab:purple', 'tab:brown'))
+    colours = {scene: {'full': 'black', 'none': 'tab:gray'}.get(scene) or next(others, 'tab:olive')
+               for scene in scenes}
+    labels, y = [], 0.0
+    for name in motions:
+        for scene in scenes:
+            e = runs[name, scene].tracking()
+            worst, rms = max(1e3 * e['length_max'], 1e-12), max(1e3 * e['length_rms'], 1e-12)
+            ax.barh(y, worst, left=1e-13, color=colours[scene], height=0.8)
+            ax.plot(rms, y, 'o', color='white', markeredgecolor='black', markersize=5)
+            ax.text(worst * 1.3, y, f'{worst:.2g}', va='center', fontsize=7.5)
+            labels.append((y, f'{name}: {scene}'))
+            y += 1.0
+        y += 0.6
+    ax.set_xscale('log')
+    ax.set_xlim(1e-11, 3e3)
+    ax.set_yticks([p for p, _ in labels], [text for _, text in labels], fontsize=8)
+    ax.invert_yaxis()
+    ax.grid(True, axis='x', which='major', alpha=0.3)
+    ax.set_xlabel('leg length tracking error, mm (bar: max, dot: RMS; log scale)')
+    ax.set_title(title, fontsize='medium')
+    with atomic_output(path) as f:
+        fig.savefig(f, format='png')
 
 
 def growth_rows(plant: fsd.Model, step_s: float = 0.5) -> list[list[str]]:
@@ -139,24 +225,30 @@ def growth_rows(plant: fsd.Model, step_s: float = 0.5) -> list[list[str]]:
     return rows + [[peak[0], peak[1], '', ''], ['statuses of the motion', statuses, '', '']]
 
 
-def report(args: argparse.Namespace, argv: Sequence[str]) -> str:
+def report(args: argparse.Namespace, argv: Sequence[str], figure: Path) -> str:
+    """The page (markdown); writes the tracking figure to ``figure``."""
     plant = fsd.load_model()
     servo = Servo.for_bandwidth(plant, args.bandwidth, DEFAULT_DAMPING)
     motions = ('vertical',) if args.quick else TEST_MOTIONS
     scenes = ('full',) if args.quick else tuple(available_scenes())
-    out = [f'Servo: {args.bandwidth:g} Hz, damping {DEFAULT_DAMPING:g}: kp = '
-           + ', '.join(f'{k:.0f}' for k in servo.kp) + ' N/m, kd = '
-           + ', '.join(f'{k:.0f}' for k in servo.kd) + ' N s/m (legs A, B, C); plant: full '
-           f'model, limits {plant.limits.max_force:g} N, {plant.limits.max_speed:g} m/s; '
-           'RK4 step 1 ms\n',
+    setup = (f'Servo: {args.bandwidth:g} Hz, damping {DEFAULT_DAMPING:g}: kp = '
+             + ', '.join(f'{k:.0f}' for k in servo.kp) + ' N/m, kd = '
+             + ', '.join(f'{k:.0f}' for k in servo.kd) + ' N s/m (legs A, B, C); plant: '
+             f'full model, limits {plant.limits.max_force:g} N, '
+             f'{plant.limits.max_speed:g} m/s; RK4 step 1 ms')
+    runs = tracking(plant, servo, motions, scenes)
+    plot_tracking(runs, f'What accuracy buys: tracking by feed-forward scene '
+                  f'(servo {args.bandwidth:g} Hz, damping {DEFAULT_DAMPING:g})', figure)
+    fallback = FALLBACK_SECONDS / 10 if args.quick else FALLBACK_SECONDS
+    out = [setup + '\n',
            '### Speed\n', table(['figure', 'value'],
                                 speed_rows(plant, args.repeats, 'vertical' if args.quick
-                                           else 'violent')),
+                                           else 'violent', fallback)),
            '### Tracking error by feed-forward scene\n',
            table(['motion', 'feed-forward', 'surge max / RMS mm', 'heave max / RMS mm',
                   'roll max / RMS mrad', 'leg length max / RMS mm', 'peak leg rate m/s',
-                  'peak force N', 'outcome'],
-                 tracking_rows(plant, servo, motions, scenes))]
+                  'peak force N', 'outcome'], tracking_rows(runs)),
+           f'![leg length tracking error by motion and feed-forward scene]({figure.name})\n']
     if not args.quick:
         out += ['### Open-loop error growth, 6 s motion near the workspace edge\n',
                 table(['up to t s', 'surge/heave max error m', 'roll max error rad', 'note'],
@@ -201,7 +293,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = p.parse_args(argv)
     if not (math.isfinite(args.bandwidth) and args.bandwidth > 0) or args.repeats < 1:
         p.error('--bandwidth must be > 0 and --repeats >= 1')
-    text = report(args, argv)
+    page = DOCS if args.update_docs else Path(args.out)
+    page.parent.mkdir(parents=True, exist_ok=True)
+    text = report(args, argv, page.parent / FIGURE)
     print(text)
     print(f'wrote {write(text, args.update_docs, args.out)}', file=sys.stderr)
     return 0

@@ -17,6 +17,12 @@
  *
  * Results: one row of OUT_SIZE doubles per sample (RESULT_ROW below, also
  * exported), including the status code and its info (status.sample_status).
+ *
+ * The digital twin (forward_dynamics.py, simulation.py) has two more entry
+ * points: affine (M and b of f = M qdd + b with the row of solve(q, qd, 0),
+ * from one pose) and integrate (simulation.integrate's RK4 loop for a
+ * tabulated force law, no Python per stage); test/core/test_twin_kernel.py
+ * checks them against the Python code.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -612,46 +618,33 @@ static void stop(const double *P, int bad_input, int open_loop, double *out)
 /* ------------------------------------------------------------------------ */
 static const int ACTUATED[3] = {1, 5, 8};
 
-static void solve_one(const double *P, int fx, const double *q, const double *qd,
-                      const double *qdd, double *out)
-{
-    memset(out, 0, OUT_SIZE * sizeof(double));
-    /* non-finite input: nothing is computed (status.first_bad_input) */
-    for (int i = 0; i < 9; i++) {
-        double v = i < 3 ? q[i] : i < 6 ? qd[i - 3] : qdd[i - 6];
-        if (!isfinite(v)) {
-            stop(P, i, -1, out);
-            return;
-        }
-    }
+/* what a pose and its rates fix, whatever the accelerations: the geometry,
+   the factorised Q, the unit-rate columns K, the joint rates V, the actuator
+   Jacobian and its inverse */
+typedef struct {
     geometric g;
     connectivity f;
-    double cols[3][12], K[3][12], V[12], S[12], Gamma[12], Gdyn[12], tau[12];
-    inverse_geometry(P, q, &g);                                   /* eq. (5)-(8) */
-    if (g.failed >= 0) {
-        stop(P, -1, g.failed, out);
-        return;
-    }
-    factorize(P, &g, &f);                                         /* eq. (12) */
-    pose_rate_columns(&g, cols);
+    double K[3][12], V[12], J[3][3], Jinv[3][3];
+    double W[3][11];     /* virtual joint velocities of eq. (14) per unit leg rate */
+} pose_terms;
+
+/* eq. (5)-(12), (14): fills p; returns the first loop that cannot close, or -1 */
+static int pose_of(const double *P, const double *q, const double *qd, pose_terms *p)
+{
+    geometric *g = &p->g;
+    double cols[3][12];
+    inverse_geometry(P, q, g);                                    /* eq. (5)-(8) */
+    if (g->failed >= 0)
+        return g->failed;
+    factorize(P, g, &p->f);                                       /* eq. (12) */
+    pose_rate_columns(g, cols);
     for (int c = 0; c < 3; c++)
-        solve_connectivity(&g, &f, cols[c], K[c]);
+        solve_connectivity(g, &p->f, cols[c], p->K[c]);
+    double (*K)[12] = p->K;
     for (int j = 0; j < 12; j++)                                  /* eq. (11) */
-        V[j] = K[0][j] * qd[0] + K[1][j] * qd[1] + K[2][j] * qd[2];
-    acceleration_column(P, &g, V, qd, qdd, S);                    /* eq. (17) */
-    solve_connectivity(&g, &f, S, Gamma);                         /* eq. (16) */
-    const int any_inertia = (fx & (E_PLATFORM | E_PAYLOAD | E_LEG | E_CRANK)) != 0;
-    const double *Gd = Gamma;
-    if (!((fx & E_VP) || !any_inertia)) {   /* accelerations from rest: K qdd */
-        for (int j = 0; j < 12; j++)
-            Gdyn[j] = K[0][j] * qdd[0] + K[1][j] * qdd[1] + K[2][j] * qdd[2];
-        Gd = Gdyn;
-    }
-    body_state st[N_BODIES];
-    body_states(P, fx, &g, V, Gd, qd, qdd, st);
-    double tau_43 = joint_forces(P, fx, &g, st, tau);             /* eq. (18)-(22) */
+        p->V[j] = K[0][j] * qd[0] + K[1][j] * qd[1] + K[2][j] * qd[2];
     /* actuator Jacobian J[i][k] = K[k][actuated i], its inverse (adjugate) */
-    double J[3][3];
+    double (*J)[3] = p->J;
     for (int i = 0; i < 3; i++)
         for (int k = 0; k < 3; k++)
             J[i][k] = K[k][ACTUATED[i]];
@@ -663,17 +656,50 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
         {A * inv_det, (c * h - b * ii) * inv_det, (b * ff - c * e) * inv_det},
         {B * inv_det, (a * ii - c * gg) * inv_det, (c * d - a * ff) * inv_det},
         {C * inv_det, (b * gg - a * h) * inv_det, (a * e - b * d) * inv_det}};
+    memcpy(p->Jinv, Jinv, sizeof Jinv);
+    for (int m = 0; m < 3; m++)
+        for (int j = 0; j < 11; j++)
+            p->W[m][j] = K[0][j] * Jinv[0][m] + K[1][j] * Jinv[1][m] + K[2][j] * Jinv[2][m];
+    return -1;
+}
+
+/* eq. (18)-(23) at a pose for the joint accelerations Gd (and qdd, which the
+   platform's and the rod's accelerations read directly): the actuator forces
+   of the scene fx, friction excluded */
+static void actuator_forces(const double *P, int fx, const pose_terms *p, const double *Gd,
+                            const double *qd, const double *qdd, double *force)
+{
+    body_state st[N_BODIES];
+    double tau[12];
+    body_states(P, fx, &p->g, p->V, Gd, qd, qdd, st);
+    double tau_43 = joint_forces(P, fx, &p->g, st, tau);          /* eq. (18)-(22) */
     /* eq. (14) and (23): virtual joint velocities, virtual work */
-    double force[3], rate[3];
     for (int m = 0; m < 3; m++) {
         double sum = 0.0;
-        for (int j = 0; j < 11; j++) {
-            double Vv = K[0][j] * Jinv[0][m] + K[1][j] * Jinv[1][m] + K[2][j] * Jinv[2][m];
-            sum += Vv * tau[j];
-        }
-        force[m] = sum + Jinv[2][m] * tau_43;
-        rate[m] = V[ACTUATED[m]];
+        for (int j = 0; j < 11; j++)
+            sum += p->W[m][j] * tau[j];
+        force[m] = sum + p->Jinv[2][m] * tau_43;
     }
+}
+
+/* the rest of solver._solve at a pose p, then the status rule: the row */
+static void solve_at(const double *P, int fx, const pose_terms *p, const double *qd,
+                     const double *qdd, double *out)
+{
+    const geometric *g = &p->g;
+    double S[12], Gamma[12], Gdyn[12], force[3], rate[3];
+    acceleration_column(P, g, p->V, qd, qdd, S);                  /* eq. (17) */
+    solve_connectivity(g, &p->f, S, Gamma);                       /* eq. (16) */
+    const int any_inertia = (fx & (E_PLATFORM | E_PAYLOAD | E_LEG | E_CRANK)) != 0;
+    const double *Gd = Gamma;
+    if (!((fx & E_VP) || !any_inertia)) {   /* accelerations from rest: K qdd */
+        for (int j = 0; j < 12; j++)
+            Gdyn[j] = p->K[0][j] * qdd[0] + p->K[1][j] * qdd[1] + p->K[2][j] * qdd[2];
+        Gd = Gdyn;
+    }
+    actuator_forces(P, fx, p, Gd, qd, qdd, force);
+    for (int m = 0; m < 3; m++)
+        rate[m] = p->V[ACTUATED[m]];
     if (fx & E_FRICTION) {
         const double *vis = P + P_VISCOUS, *cou = P + P_COULOMB;
         for (int m = 0; m < 3; m++)
@@ -681,12 +707,14 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
                                    + cou[m] * tanh(rate[m] / P[P_SMOOTHING]));
     }
     /* conditions (solver.kinematic_condition, solver.jacobian_condition) */
-    double LA = g.LA, LB = g.LB, LC = g.LC;
+    const connectivity *f = &p->f;
+    const double (*J)[3] = p->J, (*Jinv)[3] = p->Jinv;
+    double LA = g->LA, LB = g->LB, LC = g->LC;
     double kin = nmax(nmax(nmax(nmax(nmax(LA, 1.0) / nmin(LA, 1.0),
-                                     nmax(LB, 1.0) / nmin(LB * g.hB, 1.0)),
-                                nmax(LC, 1.0) / nmin(LC * g.hC, 1.0)),
-                           condition_2x2(f.aD, f.bD)),
-                      condition_2x2(f.aE, g.l));
+                                     nmax(LB, 1.0) / nmin(LB * g->hB, 1.0)),
+                                nmax(LC, 1.0) / nmin(LC * g->hC, 1.0)),
+                           condition_2x2(f->aD, f->bD)),
+                      condition_2x2(f->aE, g->l));
     double cs = 0.5 * P[P_B], nJ = 0.0, nI = 0.0;
     for (int r = 0; r < 3; r++)
         nJ += J[r][0] * J[r][0] + J[r][1] * J[r][1] + (J[r][2] / cs) * (J[r][2] / cs);
@@ -699,15 +727,15 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
     out[O_LENGTH + 1] = LB;
     out[O_LENGTH + 2] = LC;
     for (int m = 0; m < 3; m++) {
-        out[O_STROKE + m] = g.raw[ACTUATED[m]];
+        out[O_STROKE + m] = g->raw[ACTUATED[m]];
         out[O_RATE + m] = rate[m];
         out[O_ACCELERATION + m] = Gamma[ACTUATED[m]];
         out[O_FORCE + m] = force[m];
         out[O_POWER + m] = force[m] * rate[m];
     }
     for (int j = 0; j < 12; j++) {
-        out[O_JOINTS + j] = g.raw[j];
-        out[O_JOINT_RATES + j] = V[j];
+        out[O_JOINTS + j] = g->raw[j];
+        out[O_JOINT_RATES + j] = p->V[j];
         out[O_JOINT_ACCELERATIONS + j] = Gamma[j];
     }
     for (int i = 0; i < 3; i++)
@@ -726,12 +754,295 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
         for (int i = 0; i < O_BETA; i++)
             if (!isfinite(out[i]))
                 out[i] = 0.0;
-        out[O_BETA] = isfinite(g.beta) ? g.beta : 0.0;
+        out[O_BETA] = isfinite(g->beta) ? g->beta : 0.0;
         out[O_KIN] = isfinite(kin) ? kin : DBL_MAX;
         out[O_JAC] = isfinite(jac) ? jac : DBL_MAX;
     }
     out[O_STATUS] = code;
     out[O_INFO] = info;
+}
+
+/* one sample into the row `out`; returns 1 when p holds its pose (the input
+   is finite and every loop closes), 0 when the sample stopped before */
+static int solve_posed(const double *P, int fx, const double *q, const double *qd,
+                       const double *qdd, double *out, pose_terms *p)
+{
+    memset(out, 0, OUT_SIZE * sizeof(double));
+    /* non-finite input: nothing is computed (status.first_bad_input) */
+    for (int i = 0; i < 9; i++) {
+        double v = i < 3 ? q[i] : i < 6 ? qd[i - 3] : qdd[i - 6];
+        if (!isfinite(v)) {
+            stop(P, i, -1, out);
+            return 0;
+        }
+    }
+    int failed = pose_of(P, q, qd, p);
+    if (failed >= 0) {
+        stop(P, -1, failed, out);
+        return 0;
+    }
+    solve_at(P, fx, p, qd, qdd, out);
+    return 1;
+}
+
+static void solve_one(const double *P, int fx, const double *q, const double *qd,
+                      const double *qdd, double *out)
+{
+    pose_terms p;
+    solve_posed(P, fx, q, qd, qdd, out, &p);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Forward dynamics (forward_dynamics.affine_terms): f = M qdd + b           */
+/* ------------------------------------------------------------------------ */
+static const double REST[3] = {0.0, 0.0, 0.0};
+static const double UNIT[3][3] = {{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, {0.0, 0.0, 1.0}};
+
+/* M of f = M qdd + b at a pose: every term of the recursion is affine in qdd
+   (eq. 15-17: Gamma = K qdd + Q^-1 (velocity terms); eq. 18-23 linear in the
+   body accelerations; friction reads the leg rates only), so column j of M is
+   the force of the accelerations of a unit qdd e_j alone (joint accelerations
+   K e_j; no gravity, velocity products, friction: they are in b). Those
+   accelerations of a body are its velocities per unit qd_j (a_j, and eps_j in
+   body axes w_j), so by virtual power (eq. 23) M = J^-T Mq with
+   Mq[i][j] = sum over the moving bodies of m a_i . a_j + w_i . I w_j: the
+   recursion's three passes in one sum (the same M to rounding,
+   test_twin_kernel.py). */
+/* acc and eps of the bodies for the joint accelerations G = K e_j and the
+   unit qdd e_j alone: body_states' formulas without velocity terms, its
+   centres of mass (st) reused, so that the frames are built once for the
+   three columns */
+static void unit_accelerations(const double *P, const geometric *g, const double *G, int j,
+                               const body_state *st, v3 *acc, v3 *eps)
+{
+    v3 Gdd = vec(j == 0, j == 1, 0.0);
+    v3 eA = vec(0.0, 0.0, G[0]);
+    eps[CYL_A] = eps[PIS_A] = eA;
+    acc[CYL_A] = cross(eA, st[CYL_A].com);
+    acc[PIS_A] = add(scale(G[1], g->dA), cross(eA, st[PIS_A].com));
+    eps[ROD] = vec(0.0, 0.0, G[0] + G[2]);
+    acc[ROD] = add(Gdd, cross(eps[ROD], sub(st[ROD].com, g->G)));
+    double roll_dd = j == 2;
+    eps[PLATFORM] = eps[PAYLOAD] = vec(roll_dd * g->l.x, roll_dd * g->l.y, G[0] + G[2]);
+    acc[PLATFORM] = add(Gdd, cross(eps[PLATFORM], sub(st[PLATFORM].com, g->G)));
+    acc[PAYLOAD] = add(Gdd, cross(eps[PAYLOAD], sub(st[PAYLOAD].com, g->G)));
+    double base_x = P[P_D2] + P[P_D3] + P[P_D4];
+    for (int leg = 0; leg < 2; leg++) {
+        int k = leg ? 6 : 3, cyl = leg ? CYL_C : CYL_B, pis = leg ? PIS_C : PIS_B;
+        v3 P1 = vec(base_x, 0.0, leg ? -P[P_D5] : P[P_D5]);
+        v3 d = leg ? g->dC : g->dB, e2 = leg ? g->e2C : g->e2B;
+        eps[cyl] = eps[pis] = vec(G[k + 1] * e2.x, G[k + 1] * e2.y, G[k]);
+        acc[cyl] = cross(eps[cyl], sub(st[cyl].com, P1));
+        acc[pis] = add(scale(G[k + 2], d), cross(eps[pis], sub(st[pis].com, P1)));
+    }
+    for (int c = 0; c < 2; c++) {
+        int i = c ? CRANK_E : CRANK_D;
+        v3 P1 = vec(c ? P[P_D2] : P[P_D2] + P[P_D3], 0.0, 0.0);
+        eps[i] = vec(0.0, 0.0, G[c ? 10 : 9]);
+        acc[i] = cross(eps[i], sub(st[i].com, P1));
+    }
+}
+
+static void mass_matrix(const double *P, int fx, const pose_terms *p, double *M)
+{
+    const int linear = fx & ~(E_GRAVITY | E_VP | E_FRICTION);
+    body_state st[N_BODIES];
+    v3 acc[3][N_BODIES], eps[3][N_BODIES];
+    memset(st, 0, sizeof st);      /* bodies at rest keep no centre: read as 0, not summed */
+    body_states(P, linear, &p->g, p->V, p->K[0], REST, UNIT[0], st);   /* frames, centres */
+    for (int j = 0; j < 3; j++)
+        unit_accelerations(P, &p->g, p->K[j], j, st, acc[j], eps[j]);
+    double Mq[3][3] = {{0.0}};
+    for (int b = 0; b < N_BODIES; b++) {
+        if (!st[b].moving)
+            continue;
+        const double *body = P + P_BODIES + b * BODY_SIZE;
+        v3 w[3], Iw[3];
+        for (int j = 0; j < 3; j++) {
+            w[j] = to_frame(&st[b].R, eps[j][b]);
+            Iw[j] = mat_vec(body + B_INERTIA, w[j]);
+        }
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                Mq[i][j] += body[B_MASS] * dot(acc[i][b], acc[j][b]) + dot(w[i], Iw[j]);
+    }
+    for (int m = 0; m < 3; m++)
+        for (int j = 0; j < 3; j++)
+            M[3 * m + j] = p->Jinv[0][m] * Mq[0][j] + p->Jinv[1][m] * Mq[1][j]
+                           + p->Jinv[2][m] * Mq[2][j];
+}
+
+/* The row of solve(q, qd, 0) in `out`, b = its force and M (row-major 3x3,
+   mass_matrix), from one pose. M and b are 0 when the sample is void
+   (unreachable, invalid input); a non-finite entry of M (exact singularity)
+   is 0, as solve's numbers are. */
+static void affine_one(const double *P, int fx, const double *q, const double *qd,
+                       double *out, double *M, double *b)
+{
+    pose_terms p;
+    memset(M, 0, 9 * sizeof(double));
+    memset(b, 0, 3 * sizeof(double));
+    if (!solve_posed(P, fx, q, qd, REST, out, &p) || out[O_STATUS] >= S_UNREACHABLE)
+        return;
+    for (int m = 0; m < 3; m++)
+        b[m] = out[O_FORCE + m];
+    mass_matrix(P, fx, &p, M);
+    for (int i = 0; i < 9; i++)
+        if (!isfinite(M[i]))
+            M[i] = 0.0;
+}
+
+/* ------------------------------------------------------------------------ */
+/* The twin's RK4 loop (simulation.integrate) for a tabulated force law      */
+/* ------------------------------------------------------------------------ */
+/* simulation.TabulatedLaw: the stage forces ff (stages x 3), and for a servo
+   the leg lengths and rates of the reference, gains and actuator limits */
+typedef struct {
+    const double *ff, *length_ref, *rate_ref;
+    double kp[3], kd[3], max_force, max_speed;
+    int servo;
+} tabulated_law;
+
+/* simulation.deliver for one actuator */
+static double deliver(double command, double rate, double max_force, double max_speed)
+{
+    double force = nmin(nmax(command, -max_force), max_force);
+    double drive = max_force * nmax(0.0, 1.0 - fabs(rate) / max_speed);
+    if (force * rate > 0.0)
+        return (force > 0.0 ? 1.0 : -1.0) * nmin(fabs(force), drive);
+    return force;
+}
+
+/* M qdd = r by LU with partial pivoting; 0 unless M is surely within
+   forward_dynamics.MAX_MASS_CONDITION (1e8): the Frobenius condition
+   ||M||_F ||M^-1||_F bounds the 2-norm one from above, so a state it refuses
+   is left to the Python code (exact SVD) to decide */
+static int solve3(const double *M, const double *r, double *x)
+{
+    double a[3][3], y[3];
+    for (int i = 0; i < 3; i++) {
+        y[i] = r[i];
+        for (int j = 0; j < 3; j++)
+            a[i][j] = M[3 * i + j];
+    }
+    double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1])
+                 - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+                 + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+    double nM = 0.0, nI = 0.0;
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) {
+            int i1 = (j + 1) % 3, i2 = (j + 2) % 3, j1 = (i + 1) % 3, j2 = (i + 2) % 3;
+            double cof = a[i1][j1] * a[i2][j2] - a[i1][j2] * a[i2][j1];   /* (M^-1)[i][j] det */
+            nM += a[i][j] * a[i][j];
+            nI += cof * cof;
+        }
+    double condition = sqrt(nM) * sqrt(nI) / fabs(det);
+    if (!(condition <= 1e8))
+        return 0;
+    for (int k = 0; k < 3; k++) {
+        int pivot = k;
+        for (int i = k + 1; i < 3; i++)
+            if (fabs(a[i][k]) > fabs(a[pivot][k]))
+                pivot = i;
+        if (pivot != k) {
+            for (int j = 0; j < 3; j++) {
+                double t = a[k][j]; a[k][j] = a[pivot][j]; a[pivot][j] = t;
+            }
+            double t = y[k]; y[k] = y[pivot]; y[pivot] = t;
+        }
+        for (int i = k + 1; i < 3; i++) {
+            double l = a[i][k] / a[k][k];
+            for (int j = k + 1; j < 3; j++)
+                a[i][j] -= l * a[k][j];
+            y[i] -= l * y[k];
+        }
+    }
+    for (int k = 2; k >= 0; k--) {
+        double s = y[k];
+        for (int j = k + 1; j < 3; j++)
+            s -= a[k][j] * x[j];
+        x[k] = s / a[k][k];
+    }
+    return isfinite(x[0]) && isfinite(x[1]) && isfinite(x[2]);
+}
+
+/* simulation._stage: qdd and the applied force at (q, qd), stage j; 0 when the
+   stage stops or is left to the Python code (a status that stops, M
+   ill-conditioned, results not finite) */
+static int stage(const double *P, int fx, const tabulated_law *law, Py_ssize_t j,
+                 const double *q, const double *qd, double *qdd, double *force)
+{
+    double row[OUT_SIZE], M[9], b[3], rhs[3];
+    affine_one(P, fx, q, qd, row, M, b);
+    if (row[O_STATUS] >= S_NEAR_SINGULAR)
+        return 0;
+    for (int m = 0; m < 3; m++) {
+        double command = law->ff[3 * j + m];
+        if (law->servo) {
+            command = command + law->kp[m] * (law->length_ref[3 * j + m] - row[O_LENGTH + m])
+                      + law->kd[m] * (law->rate_ref[3 * j + m] - row[O_RATE + m]);
+            command = deliver(command, row[O_RATE + m], law->max_force, law->max_speed);
+        }
+        force[m] = command;
+        rhs[m] = command - b[m];
+    }
+    return solve3(M, rhs, qdd);
+}
+
+/* RK4 rows k0..steps (simulation.integrate, same operations in the same
+   order): each of q, qd, qdd, force is (steps + 1) x 3; the state of row k0
+   is read from q, qd. Returns the first row whose step did not complete
+   (steps + 1 when all did); its q and qd hold the state reached, its qdd and
+   force are left for the Python code, which takes that step itself. */
+static Py_ssize_t rk4(const double *P, int fx, const tabulated_law *law, double h,
+                      Py_ssize_t k0, Py_ssize_t steps, double *Q, double *QD, double *QDD,
+                      double *F)
+{
+    double q[3], qd[3];
+    memcpy(q, Q + 3 * k0, sizeof q);
+    memcpy(qd, QD + 3 * k0, sizeof qd);
+    for (Py_ssize_t k = k0; k <= steps; k++) {
+        double a1[3], a2[3], a3[3], a4[3], f1[3], f[3], q2[3], v2[3], q3[3], v3[3], q4[3],
+               v4[3];
+        memcpy(Q + 3 * k, q, sizeof q);
+        memcpy(QD + 3 * k, qd, sizeof qd);
+        if (!stage(P, fx, law, 2 * k, q, qd, a1, f1))
+            return k;
+        if (k < steps) {
+            for (int i = 0; i < 3; i++) {
+                q2[i] = q[i] + 0.5 * h * qd[i];
+                v2[i] = qd[i] + 0.5 * h * a1[i];
+            }
+            if (!stage(P, fx, law, 2 * k + 1, q2, v2, a2, f))
+                return k;
+            for (int i = 0; i < 3; i++) {
+                q3[i] = q[i] + 0.5 * h * v2[i];
+                v3[i] = qd[i] + 0.5 * h * a2[i];
+            }
+            if (!stage(P, fx, law, 2 * k + 1, q3, v3, a3, f))
+                return k;
+            for (int i = 0; i < 3; i++) {
+                q4[i] = q[i] + h * v3[i];
+                v4[i] = qd[i] + h * a3[i];
+            }
+            if (!stage(P, fx, law, 2 * k + 2, q4, v4, a4, f))
+                return k;
+            double qn[3], qdn[3];
+            int finite = 1;
+            for (int i = 0; i < 3; i++) {
+                qn[i] = q[i] + (h / 6.0) * (qd[i] + 2.0 * (v2[i] + v3[i]) + v4[i]);
+                qdn[i] = qd[i] + (h / 6.0) * (a1[i] + 2.0 * (a2[i] + a3[i]) + a4[i]);
+                finite = finite && isfinite(qn[i]) && isfinite(qdn[i]);
+            }
+            if (!finite)
+                return k;
+            memcpy(q, qn, sizeof q);
+            memcpy(qd, qdn, sizeof qd);
+        }
+        memcpy(QDD + 3 * k, a1, sizeof a1);
+        memcpy(F + 3 * k, f1, sizeof f1);
+    }
+    return steps + 1;
 }
 
 /* ------------------------------------------------------------------------ */
@@ -842,10 +1153,131 @@ done:
     return result;
 }
 
+/* a C-contiguous float64 buffer of exactly n doubles (writable if asked) */
+static int get_doubles(PyObject *obj, Py_buffer *view, Py_ssize_t n, int writable,
+                       const char *name)
+{
+    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0)) < 0)
+        return -1;
+    if (view->len != n * (Py_ssize_t)sizeof(double)) {
+        PyErr_Format(PyExc_ValueError, "%s must be %zd doubles", name, n);
+        PyBuffer_Release(view);
+        return -1;
+    }
+    return 0;
+}
+
+PyDoc_STRVAR(affine_doc,
+"affine(params, effects, out, M, b, q0, q1, q2, qd0, qd1, qd2)\n"
+"    -> (status, info, beta, kinematic_condition, jacobian_condition)\n\n"
+"forward_dynamics.affine_terms in one pass: fills `out` (OUT_SIZE doubles) with the\n"
+"row of solve(q, qd, 0), `M` (9 doubles, 3x3 row-major) and `b` (3) with the terms\n"
+"of f = M qdd + b, and returns the scalars of the row (as solve).");
+
+static PyObject *py_affine(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 11) {
+        PyErr_SetString(PyExc_TypeError, "affine() takes 11 arguments");
+        return NULL;
+    }
+    double x[6];
+    for (int i = 0; i < 6; i++) {
+        x[i] = PyFloat_AsDouble(args[5 + i]);
+        if (x[i] == -1.0 && PyErr_Occurred())
+            return NULL;
+    }
+    long fx = PyLong_AsLong(args[1]);
+    if (fx == -1 && PyErr_Occurred())
+        return NULL;
+    static const Py_ssize_t sizes[4] = {P_SIZE, OUT_SIZE, 9, 3};
+    static const char *const names[4] = {"packed model", "out", "M", "b"};
+    Py_buffer views[4];
+    int got = 0;
+    PyObject *result = NULL;
+    for (; got < 4; got++)
+        if (get_doubles(args[got == 0 ? 0 : got + 1], &views[got], sizes[got], got > 0,
+                        names[got]) < 0)
+            goto done;
+    double *out = (double *)views[1].buf;
+    affine_one((const double *)views[0].buf, (int)fx, x, x + 3, out, (double *)views[2].buf,
+               (double *)views[3].buf);
+    result = Py_BuildValue("(iiddd)", (int)out[O_STATUS], (int)out[O_INFO], out[O_BETA],
+                           out[O_KIN], out[O_JAC]);
+done:
+    for (int i = 0; i < got; i++)
+        PyBuffer_Release(&views[i]);
+    return result;
+}
+
+PyDoc_STRVAR(integrate_doc,
+"integrate(params, effects, ff, length_ref, rate_ref, kp, kd, max_force, max_speed,\n"
+"          servo, h, k0, steps, q, qd, qdd, force) -> int\n\n"
+"simulation.integrate for a TabulatedLaw, from row k0 (its state read from q, qd):\n"
+"ff, length_ref, rate_ref are (2 steps + 1, 3) stage tables, kp and kd 3 gains,\n"
+"servo 0 (apply ff) or 1 (servo and deliver); q, qd, qdd, force are writable\n"
+"(steps + 1, 3) rows. Returns the first row whose step did not complete (steps + 1\n"
+"when all did): its q, qd hold the state reached, the Python code takes that step.\n"
+"Releases the GIL while it runs.");
+
+static PyObject *py_integrate(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 17) {
+        PyErr_SetString(PyExc_TypeError, "integrate() takes 17 arguments");
+        return NULL;
+    }
+    long fx = PyLong_AsLong(args[1]);
+    int servo = PyObject_IsTrue(args[9]);
+    double max_force = PyFloat_AsDouble(args[7]), max_speed = PyFloat_AsDouble(args[8]);
+    double h = PyFloat_AsDouble(args[10]);
+    Py_ssize_t k0 = PyLong_AsSsize_t(args[11]), steps = PyLong_AsSsize_t(args[12]);
+    if (PyErr_Occurred())
+        return NULL;
+    if (steps < 1 || k0 < 0 || k0 > steps || steps > (PY_SSIZE_T_MAX / 64)) {
+        PyErr_SetString(PyExc_ValueError, "need 0 <= k0 <= steps, steps >= 1");
+        return NULL;
+    }
+    /* buffers: params, ff, length_ref, rate_ref, kp, kd, q, qd, qdd, force */
+    static const int arg[10] = {0, 2, 3, 4, 5, 6, 13, 14, 15, 16};
+    static const char *const names[10] = {"packed model", "ff", "length_ref", "rate_ref",
+                                          "kp", "kd", "q", "qd", "qdd", "force"};
+    Py_ssize_t stages = 3 * (2 * steps + 1), rows = 3 * (steps + 1);
+    const Py_ssize_t sizes[10] = {P_SIZE, stages, stages, stages, 3, 3, rows, rows, rows, rows};
+    Py_buffer views[10];
+    int got = 0;
+    PyObject *result = NULL;
+    for (; got < 10; got++)
+        if (get_doubles(args[arg[got]], &views[got], sizes[got], got >= 6, names[got]) < 0)
+            goto done;
+    {
+        tabulated_law law;
+        law.ff = (const double *)views[1].buf;
+        law.length_ref = (const double *)views[2].buf;
+        law.rate_ref = (const double *)views[3].buf;
+        memcpy(law.kp, views[4].buf, sizeof law.kp);
+        memcpy(law.kd, views[5].buf, sizeof law.kd);
+        law.max_force = max_force;
+        law.max_speed = max_speed;
+        law.servo = servo;
+        Py_ssize_t reached;
+        Py_BEGIN_ALLOW_THREADS
+        reached = rk4((const double *)views[0].buf, (int)fx, &law, h, k0, steps,
+                      (double *)views[6].buf, (double *)views[7].buf, (double *)views[8].buf,
+                      (double *)views[9].buf);
+        Py_END_ALLOW_THREADS
+        result = PyLong_FromSsize_t(reached);
+    }
+done:
+    for (int i = 0; i < got; i++)
+        PyBuffer_Release(&views[i]);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"solve", (PyCFunction)(void (*)(void))py_solve, METH_FASTCALL, solve_doc},
     {"solve_batch", (PyCFunction)(void (*)(void))py_solve_batch, METH_FASTCALL,
      solve_batch_doc},
+    {"affine", (PyCFunction)(void (*)(void))py_affine, METH_FASTCALL, affine_doc},
+    {"integrate", (PyCFunction)(void (*)(void))py_integrate, METH_FASTCALL, integrate_doc},
     {NULL, NULL, 0, NULL}
 };
 

@@ -39,8 +39,9 @@ from typing import Sequence
 
 import numpy as np
 
+from . import kernel
 from .model import Model
-from .solver import Solution, solve
+from .solver import Solution, kernel_solution, solve, three_numbers
 from .status import SEVERITY, Status
 
 #: Largest 2-norm condition number of M (N per m/s^2 and N per rad/s^2) that
@@ -80,10 +81,22 @@ def require_inertia(model: Model) -> None:
 def affine_terms(model: Model, q: Sequence[float], qd: Sequence[float]
                  ) -> tuple[np.ndarray, np.ndarray, Solution]:
     """M (3, 3) and b (3,) of f = M qdd + b at (q, qd) (eq. 14, 18-23), and the
-    solve at zero acceleration (lengths, rates, status of the state). Four
-    solves; when that solve's status is unreachable or invalid_input, M and b
-    are zeros (check the status first).
+    solve at zero acceleration (lengths, rates, status of the state); when
+    that solve's status is unreachable or invalid_input, M and b are zeros
+    (check the status first).
+
+    With the compiled kernel (:mod:`.kernel`), one call: the pose's geometry
+    and Jacobians once, b from the recursion at qdd = 0, column j of M from the
+    recursion for the unit acceleration e_j without gravity, velocity products
+    and friction (the terms of b; friction reads the leg rates, not qdd, so f
+    stays affine in qdd with it). Otherwise, the reference: four solves,
+    b = solve(q, qd, 0).force and M e_j = solve(q, qd, e_j).force - b; the
+    two agree to rounding (test_forward_dynamics.py).
     """
+    if kernel._enabled:
+        q3, qd3 = three_numbers('q', q), three_numbers('qd', qd)
+        out, M, b, scalars = kernel.affine_row(model, q3, qd3)
+        return M, b, kernel_solution(model, out, scalars, (q3, qd3, _REST))
     base = solve(model, q, qd, _REST)
     if SEVERITY[base.status] >= 3:
         return np.zeros((3, 3)), np.zeros(3), base

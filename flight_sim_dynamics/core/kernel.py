@@ -190,6 +190,31 @@ def solve_row(model: Model, q: tuple, qd: tuple, qdd: tuple) -> tuple[np.ndarray
     return out, _kernel.solve(params, bits, out, *q, *qd, *qdd)
 
 
+def affine_row(model: Model, q: tuple, qd: tuple
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple]:
+    """The affine terms of f = M qdd + b at (q, qd) in one kernel call
+    (:func:`.forward_dynamics.affine_terms`): the result row of solve(q, qd, 0),
+    M (3, 3), b (3,) and the row's scalars (as :func:`solve_row`).
+    """
+    params, bits = prepared(model)
+    out, M, b = np.empty(OUT_SIZE), np.empty((3, 3)), np.empty(3)
+    return out, M, b, _kernel.affine(params, bits, out, M, b, *q, *qd)
+
+
+def integrate_rows(model: Model, law: tuple, step: float, k0: int, steps: int,
+                   rows: tuple) -> int:
+    """RK4 of :func:`.simulation.integrate` in the kernel, from row k0 on:
+    ``law`` = (ff, length_ref, rate_ref, kp, kd, max_force, max_speed, servo)
+    (:class:`.simulation.TabulatedLaw`), ``rows`` = (q, qd, qdd, force), each a
+    writable C-contiguous (steps + 1, 3) float64 array, the state of row k0 in
+    q, qd. Returns the first row whose step the kernel did not complete (a
+    stage that stops or that it leaves to the Python code), steps + 1 when all
+    did.
+    """
+    params, bits = prepared(model)
+    return _kernel.integrate(params, bits, *law, step, k0, steps, *rows)
+
+
 #: A batch at least twice this long is split across the usable cores (the
 #: kernel releases the GIL); shorter ones run in the calling thread.
 THREAD_MIN_SAMPLES = 4096

@@ -4,10 +4,13 @@ digital twin of the machine). Numpy only.
 The state (q, qd) is integrated by the classical fourth-order Runge-Kutta
 method at a fixed step h; each stage evaluates the forward dynamics
 (:mod:`.forward_dynamics`: qdd from f = M qdd + b, eq. 14, 18-23) of the
-*plant* model.
+*plant* model. With the compiled kernel the whole loop runs in C
+(:func:`integrate`, :class:`TabulatedLaw`; same operations, same rows to
+rounding); the Python loop is the reference and the fallback.
 
-Open loop (``forces=``): a :class:`ForceHistory` of actuator forces at given
-times, interpolated between its rows by a cubic Hermite spline whose node
+Open loop (``forces=``): a :class:`ForceHistory` (:mod:`.interpolation`) of
+actuator forces at given times, interpolated between its rows by a cubic
+Hermite spline whose node
 slopes are the derivatives of the polynomial through the five nearest rows
 (fewer when there are fewer rows): the spline reproduces cubics exactly, so
 its error is O(dt^4) for smooth forces (a Catmull-Rom spline, whose
@@ -39,27 +42,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, Protocol, Sequence
+from typing import Callable
 
 import numpy as np
 
+from . import kernel
 from .forward_dynamics import affine_terms, require_inertia, solve_accelerations
+from .interpolation import ForceHistory, MotionLike, Reference, finite_rows
+from .interpolation import node_slopes as node_slopes   # re-exported: part of this API
 from .model import Model
 from .solver import Solution, solve_batch
 from .status import SEVERITY, Status
-
-Trajectory = tuple[np.ndarray, np.ndarray, np.ndarray]
-
-
-class MotionLike(Protocol):
-    """What :class:`.motions.Motion` offers (not imported here: ``import
-    flight_sim_dynamics`` stays free of the motion registry).
-    """
-
-    duration: float
-
-    def trajectory(self, t: np.ndarray) -> Trajectory: ...
-
 
 DEFAULT_STEP = 1e-3              # s: RK4 at 1 kHz
 #: Servo bandwidth of the default gains (Hz) and their damping ratio: a
@@ -68,160 +61,6 @@ DEFAULT_BANDWIDTH_HZ = 5.0
 DEFAULT_DAMPING = 1.0
 MAX_STEPS = 10_000_000
 _REST = np.zeros(3)
-
-
-def _rows(name: str, value: object, n: int | None = None) -> np.ndarray:
-    """An (N, 3) array of finite numbers, or ValueError naming ``name``."""
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f'{name} must be numbers, got {value!r:.100}') from None
-    if arr.ndim != 2 or arr.shape[1] != 3 or (n is not None and arr.shape[0] != n):
-        raise ValueError(f'{name} must have shape ({n if n is not None else "N"}, 3), '
-                         f'got {arr.shape}')
-    bad = np.argwhere(~np.isfinite(arr))
-    if bad.size:
-        i, j = bad[0]
-        raise ValueError(f'{name}[{i}, {j}] is not finite ({arr[i, j]})')
-    return arr
-
-
-def _times(t: object) -> np.ndarray:
-    """Strictly increasing finite sample times (at least two), or ValueError."""
-    arr = np.asarray(t, dtype=float)
-    if arr.ndim != 1 or arr.size < 2:
-        raise ValueError(f'times must be a list of at least 2 numbers, got shape {arr.shape}')
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f't[{int(np.argmin(np.isfinite(arr)))}] is not finite')
-    steps = np.diff(arr)
-    if not np.all(steps > 0):
-        i = int(np.argmin(steps > 0))
-        raise ValueError(f'times must increase strictly: t[{i + 1}] = {arr[i + 1]!r} '
-                         f'after t[{i}] = {arr[i]!r}')
-    return arr
-
-
-def node_slopes(t: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """dy/dt at every node: the derivative of the interpolating polynomial
-    through the five nearest nodes (window kept inside the data; all nodes
-    when fewer than five), i.e. sum_j L_j'(t_i) y_j with the Lagrange basis
-    L_j. Exact for polynomials of degree <= 4 (and <= n - 1).
-    """
-    n = t.size
-    width = min(5, n)
-    first = np.clip(np.arange(n) - width // 2, 0, n - width)
-    nodes = first[:, None] + np.arange(width)           # (n, width) window of each node
-    tw = t[nodes]
-    ti = t[:, None]
-    slopes = np.zeros_like(y)
-    for j in range(width):
-        others = [k for k in range(width) if k != j]
-        dj = tw[:, j:j + 1] - tw[:, others]                          # t_j - t_k
-        is_self = nodes[:, j] == np.arange(n)
-        # L_j'(t_i) for j != i: prod_{k != i, j}(t_i - t_k) / prod_{k != j}(t_j - t_k)
-        num = np.prod(np.where(nodes[:, others] == np.arange(n)[:, None], 1.0,
-                               ti - tw[:, others]), axis=1)
-        w = num / np.prod(dj, axis=1)
-        # L_i'(t_i) = sum_{k != i} 1 / (t_i - t_k)
-        w_self = np.sum(1.0 / dj, axis=1)
-        w = np.where(is_self, w_self, w)
-        slopes += w[:, None] * y[nodes[:, j]]
-    return slopes
-
-
-class ForceHistory:
-    """Actuator forces (legs A, B, C, N) at times ``t`` (s, strictly
-    increasing), interpolated by the cubic Hermite spline of the module's
-    docstring (O(dt^4); linear for two rows).
-    """
-
-    def __init__(self, t: Sequence[float], force: object) -> None:
-        self.t = _times(t)
-        self.force = _rows('force', force, self.t.size)
-        self.slope = node_slopes(self.t, self.force)
-
-    @property
-    def start(self) -> float:
-        return float(self.t[0])
-
-    @property
-    def end(self) -> float:
-        return float(self.t[-1])
-
-    def __call__(self, times: np.ndarray) -> np.ndarray:
-        """Forces (N, 3) at ``times`` (within [start, end], else ValueError)."""
-        times = np.atleast_1d(np.asarray(times, dtype=float))
-        if times.min() < self.start or times.max() > self.end:
-            raise ValueError(f'force history spans [{self.start:g}, {self.end:g}] s; '
-                             f'asked for [{times.min():g}, {times.max():g}] s')
-        i = np.clip(np.searchsorted(self.t, times, side='right') - 1, 0, self.t.size - 2)
-        dt = (self.t[i + 1] - self.t[i])[:, None]
-        u = (times[:, None] - self.t[i][:, None]) / dt
-        h00, h10 = (1 + 2 * u) * (1 - u) ** 2, u * (1 - u) ** 2
-        h01, h11 = u * u * (3 - 2 * u), u * u * (u - 1)
-        return (h00 * self.force[i] + h10 * dt * self.slope[i]
-                + h01 * self.force[i + 1] + h11 * dt * self.slope[i + 1])
-
-
-#: Quintic Hermite basis on [0, 1] (rows: value, slope, second derivative at 0,
-#: then second derivative, slope, value at 1; columns: coefficients of u^0..u^5).
-_QUINTIC = np.array([[1, 0, 0, -10, 15, -6], [0, 1, 0, -6, 8, -3],
-                     [0, 0, 0.5, -1.5, 1.5, -0.5], [0, 0, 0, 0.5, -1, 0.5],
-                     [0, 0, 0, -4, 7, -3], [0, 0, 0, 10, -15, 6]], dtype=float)
-
-
-@dataclass(frozen=True)
-class Reference:
-    """A reference motion: ``motion(times)`` gives q, qd, qdd (each (N, 3)) at
-    times in [start, end] (s).
-    """
-
-    motion: Callable[[np.ndarray], Trajectory]
-    start: float
-    end: float
-
-    @classmethod
-    def from_motion(cls, motion: MotionLike) -> 'Reference':
-        """A motion of the registry (:class:`.motions.Motion`, or anything with
-        its ``trajectory(t)`` and ``duration``), from 0 to its duration: exact.
-        """
-        try:
-            return cls(motion.trajectory, 0.0, float(motion.duration))
-        except AttributeError:
-            raise ValueError(f'reference must be a Reference or a motion with trajectory and '
-                             f'duration, got {motion!r:.100}') from None
-
-    @classmethod
-    def from_samples(cls, t: Sequence[float], q: object, qd: object, qdd: object
-                     ) -> 'Reference':
-        """Samples (e.g. the rows of a trajectory CSV), interpolated by quintic
-        Hermite polynomials matching q, qd and qdd at both ends of every
-        interval (exact at the rows, C2 in between).
-        """
-        times = _times(t)
-        n = times.size
-        values = np.stack([_rows('q', q, n), _rows('qd', qd, n), _rows('qdd', qdd, n)])
-
-        def motion(at: np.ndarray) -> Trajectory:
-            at = np.atleast_1d(np.asarray(at, dtype=float))
-            i = np.clip(np.searchsorted(times, at, side='right') - 1, 0, n - 2)
-            dt = (times[i + 1] - times[i])[:, None]
-            u = (at[:, None] - times[i][:, None]) / dt
-            powers = u[..., None] ** np.arange(6)                     # (N, 1, 6)
-            d1 = np.concatenate([np.zeros_like(u)[..., None],
-                                 np.arange(1, 6) * u[..., None] ** np.arange(5)], axis=-1)
-            d2 = np.concatenate([np.zeros_like(u)[..., None].repeat(2, -1),
-                                 np.arange(2, 6) * np.arange(1, 5) * u[..., None]
-                                 ** np.arange(4)], axis=-1)
-            ends = (values[0][i], dt * values[1][i], dt * dt * values[2][i],
-                    dt * dt * values[2][i + 1], dt * values[1][i + 1], values[0][i + 1])
-            out = []
-            for k, basis_powers in enumerate((powers, d1, d2)):
-                basis = basis_powers[:, 0, :] @ _QUINTIC.T                # (N, 6)
-                out.append(sum(basis[:, m:m + 1] * ends[m] for m in range(6)) / dt ** k)
-            return out[0], out[1], out[2]
-
-        return cls(motion, float(times[0]), float(times[-1]))
 
 
 @dataclass(frozen=True)
@@ -313,6 +152,39 @@ class Simulation:
 ForceLaw = Callable[[int, Solution], np.ndarray]
 
 
+@dataclass(frozen=True)
+class TabulatedLaw:
+    """The force laws of :func:`simulate` as tables over the half-step index j:
+    open loop (``servo`` False) the forces ``ff[j]``; closed loop
+    ``deliver(ff[j] + kp (length_ref[j] - L) + kd (rate_ref[j] - Ldot))``, L
+    and Ldot the legs of the stage state. Data, not code: the compiled kernel
+    can integrate it by itself (:func:`integrate`).
+    """
+
+    ff: np.ndarray              # (2 steps + 1, 3) feed-forward (open loop: applied) forces, N
+    length_ref: np.ndarray      # (2 steps + 1, 3) reference leg lengths, m (servo only)
+    rate_ref: np.ndarray        # (2 steps + 1, 3) reference leg rates, m/s (servo only)
+    kp: np.ndarray              # (3,) N/m
+    kd: np.ndarray              # (3,) N s/m
+    max_force: float = math.inf     # N
+    max_speed: float = math.inf     # m/s
+    servo: bool = False
+
+    def __post_init__(self) -> None:
+        for name in ('ff', 'length_ref', 'rate_ref', 'kp', 'kd'):
+            value = np.ascontiguousarray(getattr(self, name), dtype=np.float64)
+            if value.shape != ((3,) if name in ('kp', 'kd') else (len(self.ff), 3)):
+                raise ValueError(f'{name} has shape {value.shape}')
+            object.__setattr__(self, name, value)
+
+    def __call__(self, j: int, base: Solution) -> np.ndarray:
+        if not self.servo:
+            return self.ff[j]
+        command = (self.ff[j] + self.kp * (self.length_ref[j] - base.length)
+                   + self.kd * (self.rate_ref[j] - base.rate))
+        return deliver(command, base.rate, self.max_force, self.max_speed)
+
+
 def _stage(plant: Model, q: np.ndarray, qd: np.ndarray, law: ForceLaw, j: int
            ) -> tuple[np.ndarray, np.ndarray, Status, str]:
     """Qdd and the applied force at one stage state, or the status that stops."""
@@ -329,19 +201,35 @@ def integrate(plant: Model, t0: float, step: float, steps: int, q0: np.ndarray,
     """RK4 of (q, qd) from (q0, qd0) at t0 over ``steps`` steps; the force law
     is evaluated at half-step index j (time t0 + j step / 2). Returns t, q, qd,
     qdd, force (arrays of the rows reached), outcome, outcome detail.
+
+    A :class:`TabulatedLaw` is integrated by the compiled kernel when it is
+    enabled (:func:`.kernel.integrate_rows`: the same operations, no Python
+    per stage); the kernel hands every step it cannot finish (a stage that
+    stops, M it cannot surely solve) to the loop below, which takes it and
+    gives the kernel the rest.
     """
     h = step
-    q, qd = q0, qd0
-    rows_q, rows_qd, rows_qdd, rows_f = [], [], [], []
+    rows = tuple(np.zeros((steps + 1, 3)) for _ in range(4))
+    rq, rqd, rqdd, rf = rows
+    tables = None
+    if isinstance(law, TabulatedLaw) and len(law.ff) == 2 * steps + 1 and kernel.enabled():
+        tables = (law.ff, law.length_ref, law.rate_ref, law.kp, law.kd, float(law.max_force),
+                  float(law.max_speed), bool(law.servo))
+    q, qd = np.asarray(q0, dtype=float), np.asarray(qd0, dtype=float)
+    k, n = 0, steps + 1
     outcome, why = Status.OK, ''
-    for k in range(steps + 1):
-        rows_q.append(q)
-        rows_qd.append(qd)
+    while k <= steps:
+        if tables is not None:
+            rq[k], rqd[k] = q, qd
+            k = kernel.integrate_rows(plant, tables, h, k, steps, rows)
+            if k > steps:
+                break
+            q, qd = rq[k].copy(), rqd[k].copy()
+        rq[k], rqd[k] = q, qd
         a1, f1, status, detail = _stage(plant, q, qd, law, 2 * k)
-        rows_qdd.append(a1)
-        rows_f.append(f1)
+        rqdd[k], rf[k] = a1, f1
         if status != Status.OK:
-            outcome, why = status, f't = {t0 + k * h:.6g} s: {detail}'
+            outcome, why, n = status, f't = {t0 + k * h:.6g} s: {detail}', k + 1
             break
         if k == steps:
             break
@@ -359,11 +247,10 @@ def integrate(plant: Model, t0: float, step: float, steps: int, q0: np.ndarray,
             if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
                 status, detail = Status.INVALID_INPUT, 'state not finite: forces too large'
         if status != Status.OK:
-            outcome, why = status, (f'step from t = {t0 + k * h:.6g} s: {detail}')
+            outcome, why, n = status, (f'step from t = {t0 + k * h:.6g} s: {detail}'), k + 1
             break
-    n = len(rows_q)
-    return (t0 + h * np.arange(n), np.array(rows_q), np.array(rows_qd), np.array(rows_qdd),
-            np.array(rows_f), outcome, why)
+        k += 1
+    return (t0 + h * np.arange(n), rq[:n], rqd[:n], rqdd[:n], rf[:n], outcome, why)
 
 
 def _grid(start: float, end: float, step: float) -> int:
@@ -386,7 +273,7 @@ def _state(initial: tuple | None, default: tuple[np.ndarray, np.ndarray]
         q0, qd0 = initial
     except (TypeError, ValueError):
         raise ValueError('initial must be (q, qd): two triples') from None
-    q0, qd0 = _rows('initial q', [q0])[0], _rows('initial qd', [qd0])[0]
+    q0, qd0 = finite_rows('initial q', [q0])[0], finite_rows('initial qd', [qd0])[0]
     return q0, qd0
 
 
@@ -430,7 +317,8 @@ def simulate(plant: Model, *, forces: ForceHistory | tuple | None = None,
         stage_force = forces(forces.start + 0.5 * step * np.arange(2 * steps + 1))
         q0, qd0 = _state(initial, (_REST, _REST))
         t, q, qd, qdd, force, outcome, why = integrate(
-            plant, forces.start, step, steps, q0, qd0, lambda j, base: stage_force[j])
+            plant, forces.start, step, steps, q0, qd0,
+            TabulatedLaw(stage_force, stage_force, stage_force, _REST, _REST))
         return _result(plant, t, q, qd, qdd, force, outcome, why)
     if not isinstance(reference, Reference):
         reference = Reference.from_motion(reference)
@@ -440,7 +328,9 @@ def simulate(plant: Model, *, forces: ForceHistory | tuple | None = None,
     kinematics = solve_batch(plant, q_ref, qd_ref, qdd_ref)
     _reference_problem(kinematics, times, 'the reference motion')
     length_ref, rate_ref = np.array(kinematics.length), np.array(kinematics.rate)
-    if feedforward is not None:
+    if feedforward is plant:         # the plant's own model: the same batch
+        ff = np.array(kinematics.force)
+    elif feedforward is not None:
         ff_sol = solve_batch(feedforward, q_ref, qd_ref, qdd_ref)
         _reference_problem(ff_sol, times, 'the feed-forward model')
         ff = np.array(ff_sol.force)
@@ -448,12 +338,8 @@ def simulate(plant: Model, *, forces: ForceHistory | tuple | None = None,
         ff = np.zeros_like(length_ref)
     servo = servo if servo is not None else Servo.for_bandwidth(plant)
     kp, kd = np.array(servo.kp), np.array(servo.kd)
-    max_force, max_speed = plant.limits.max_force, plant.limits.max_speed
-
-    def law(j: int, base: Solution) -> np.ndarray:
-        command = ff[j] + kp * (length_ref[j] - base.length) + kd * (rate_ref[j] - base.rate)
-        return deliver(command, base.rate, max_force, max_speed)
-
+    law = TabulatedLaw(ff, length_ref, rate_ref, kp, kd, plant.limits.max_force,
+                       plant.limits.max_speed, True)
     q0, qd0 = _state(initial, (q_ref[0], qd_ref[0]))
     t, q, qd, qdd, force, outcome, why = integrate(plant, reference.start, step, steps,
                                                    q0, qd0, law)

@@ -282,13 +282,21 @@ def solve(model: Model, q: Sequence[float], qd: Sequence[float],
     """
     q3, qd3, qdd3 = three_numbers('q', q), three_numbers('qd', qd), three_numbers('qdd', qdd)
     if kernel._enabled:
-        out, (code, info, beta, kin, jac) = kernel.solve_row(model, q3, qd3, qdd3)
-        status = kernel.STATUS_BY_CODE[code]
-        return _new_solution(   # the array fields are views of `out` (_RowView)
-            _rows=out, beta=beta, kinematic_condition=kin, jacobian_condition=jac,
-            status=status, detail=_kernel_detail(model, status, info, out, (q3, qd3, qdd3)),
-            model=model, pose=q3)
+        out, scalars = kernel.solve_row(model, q3, qd3, qdd3)
+        return kernel_solution(model, out, scalars, (q3, qd3, qdd3))
     return _solve_floats(model, q3, qd3, qdd3)
+
+
+def kernel_solution(model: Model, out: np.ndarray, scalars: tuple, inputs: tuple) -> Solution:
+    """The Solution of one kernel result row ``out`` and its scalars (status
+    code, detail code, beta, conditions) for the inputs (q, qd, qdd).
+    """
+    code, info, beta, kin, jac = scalars
+    status = kernel.STATUS_BY_CODE[code]
+    return _new_solution(   # the array fields are views of `out` (_RowView)
+        _rows=out, beta=beta, kinematic_condition=kin, jacobian_condition=jac,
+        status=status, detail=_kernel_detail(model, status, info, out, inputs),
+        model=model, pose=inputs[0])
 
 
 def _kernel_detail(model: Model, status: Status, info: float, row: np.ndarray,

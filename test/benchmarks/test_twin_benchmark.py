@@ -1,5 +1,6 @@
 """Smoke test of ``python -m benchmarks.twin`` (figures not judged: speed is
-measured by the benchmark, never asserted): the tables are written, the edge
+measured by the benchmark, never asserted): the tables and the tracking
+figure are written, the kernel and the Python code both timed, the edge
 motion of the growth table is what its docstring says, --update-docs writes
 between the markers only."""
 from __future__ import annotations
@@ -20,6 +21,9 @@ def test_quick_run_writes_the_tables(tmp_path, capsys):
                     '### Machine and command'):
         assert heading in text
     assert '| closed loop, RK4 1 kHz, vertical, full feed-forward: real-time factor |' in text
+    assert text.count('| the same, Python code (FSD_KERNEL=0), first 0.05 s |') == 2
+    figure = out.parent / twin.FIGURE
+    assert figure.read_bytes().startswith(b'\x89PNG') and f']({twin.FIGURE})' in text
     rows = [line for line in text.splitlines() if line.startswith('| vertical |')]
     assert [row.split(' | ')[1] for row in rows] == ['full', 'none']
     assert all(row.endswith('| ok |') for row in rows)

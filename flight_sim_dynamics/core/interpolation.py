@@ -1,0 +1,178 @@
+"""Interpolation of the twin's inputs (:mod:`.simulation`): open-loop force
+histories by a cubic Hermite spline with five-point node slopes (O(dt^4)),
+reference motions from samples by quintic Hermite polynomials (exact at the
+rows, C2). Numpy only.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Protocol, Sequence
+
+import numpy as np
+
+Trajectory = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+class MotionLike(Protocol):
+    """What :class:`.motions.Motion` offers (not imported here: ``import
+    flight_sim_dynamics`` stays free of the motion registry).
+    """
+
+    duration: float
+
+    def trajectory(self, t: np.ndarray) -> Trajectory: ...
+
+
+def finite_rows(name: str, value: object, n: int | None = None) -> np.ndarray:
+    """An (N, 3) array of finite numbers, or ValueError naming ``name``."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f'{name} must be numbers, got {value!r:.100}') from None
+    if arr.ndim != 2 or arr.shape[1] != 3 or (n is not None and arr.shape[0] != n):
+        raise ValueError(f'{name} must have shape ({n if n is not None else "N"}, 3), '
+                         f'got {arr.shape}')
+    bad = np.argwhere(~np.isfinite(arr))
+    if bad.size:
+        i, j = bad[0]
+        raise ValueError(f'{name}[{i}, {j}] is not finite ({arr[i, j]})')
+    return arr
+
+
+def sample_times(t: object) -> np.ndarray:
+    """Strictly increasing finite sample times (at least two), or ValueError."""
+    arr = np.asarray(t, dtype=float)
+    if arr.ndim != 1 or arr.size < 2:
+        raise ValueError(f'times must be a list of at least 2 numbers, got shape {arr.shape}')
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f't[{int(np.argmin(np.isfinite(arr)))}] is not finite')
+    steps = np.diff(arr)
+    if not np.all(steps > 0):
+        i = int(np.argmin(steps > 0))
+        raise ValueError(f'times must increase strictly: t[{i + 1}] = {arr[i + 1]!r} '
+                         f'after t[{i}] = {arr[i]!r}')
+    return arr
+
+
+def node_slopes(t: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """dy/dt at every node: the derivative of the interpolating polynomial
+    through the five nearest nodes (window kept inside the data; all nodes
+    when fewer than five), i.e. sum_j L_j'(t_i) y_j with the Lagrange basis
+    L_j. Exact for polynomials of degree <= 4 (and <= n - 1).
+    """
+    n = t.size
+    width = min(5, n)
+    first = np.clip(np.arange(n) - width // 2, 0, n - width)
+    nodes = first[:, None] + np.arange(width)           # (n, width) window of each node
+    tw = t[nodes]
+    ti = t[:, None]
+    slopes = np.zeros_like(y)
+    for j in range(width):
+        others = [k for k in range(width) if k != j]
+        dj = tw[:, j:j + 1] - tw[:, others]                          # t_j - t_k
+        is_self = nodes[:, j] == np.arange(n)
+        # L_j'(t_i) for j != i: prod_{k != i, j}(t_i - t_k) / prod_{k != j}(t_j - t_k)
+        num = np.prod(np.where(nodes[:, others] == np.arange(n)[:, None], 1.0,
+                               ti - tw[:, others]), axis=1)
+        w = num / np.prod(dj, axis=1)
+        # L_i'(t_i) = sum_{k != i} 1 / (t_i - t_k)
+        w_self = np.sum(1.0 / dj, axis=1)
+        w = np.where(is_self, w_self, w)
+        slopes += w[:, None] * y[nodes[:, j]]
+    return slopes
+
+
+class ForceHistory:
+    """Actuator forces (legs A, B, C, N) at times ``t`` (s, strictly
+    increasing), interpolated by the cubic Hermite spline of the module's
+    docstring (O(dt^4); linear for two rows).
+    """
+
+    def __init__(self, t: Sequence[float], force: object) -> None:
+        self.t = sample_times(t)
+        self.force = finite_rows('force', force, self.t.size)
+        self.slope = node_slopes(self.t, self.force)
+
+    @property
+    def start(self) -> float:
+        return float(self.t[0])
+
+    @property
+    def end(self) -> float:
+        return float(self.t[-1])
+
+    def __call__(self, times: np.ndarray) -> np.ndarray:
+        """Forces (N, 3) at ``times`` (within [start, end], else ValueError)."""
+        times = np.atleast_1d(np.asarray(times, dtype=float))
+        if times.min() < self.start or times.max() > self.end:
+            raise ValueError(f'force history spans [{self.start:g}, {self.end:g}] s; '
+                             f'asked for [{times.min():g}, {times.max():g}] s')
+        i = np.clip(np.searchsorted(self.t, times, side='right') - 1, 0, self.t.size - 2)
+        dt = (self.t[i + 1] - self.t[i])[:, None]
+        u = (times[:, None] - self.t[i][:, None]) / dt
+        h00, h10 = (1 + 2 * u) * (1 - u) ** 2, u * (1 - u) ** 2
+        h01, h11 = u * u * (3 - 2 * u), u * u * (u - 1)
+        return (h00 * self.force[i] + h10 * dt * self.slope[i]
+                + h01 * self.force[i + 1] + h11 * dt * self.slope[i + 1])
+
+
+#: Quintic Hermite basis on [0, 1] (rows: value, slope, second derivative at 0,
+#: then second derivative, slope, value at 1; columns: coefficients of u^0..u^5).
+_QUINTIC = np.array([[1, 0, 0, -10, 15, -6], [0, 1, 0, -6, 8, -3],
+                     [0, 0, 0.5, -1.5, 1.5, -0.5], [0, 0, 0, 0.5, -1, 0.5],
+                     [0, 0, 0, -4, 7, -3], [0, 0, 0, 10, -15, 6]], dtype=float)
+
+
+@dataclass(frozen=True)
+class Reference:
+    """A reference motion: ``motion(times)`` gives q, qd, qdd (each (N, 3)) at
+    times in [start, end] (s).
+    """
+
+    motion: Callable[[np.ndarray], Trajectory]
+    start: float
+    end: float
+
+    @classmethod
+    def from_motion(cls, motion: MotionLike) -> 'Reference':
+        """A motion of the registry (:class:`.motions.Motion`, or anything with
+        its ``trajectory(t)`` and ``duration``), from 0 to its duration: exact.
+        """
+        try:
+            return cls(motion.trajectory, 0.0, float(motion.duration))
+        except AttributeError:
+            raise ValueError(f'reference must be a Reference or a motion with trajectory and '
+                             f'duration, got {motion!r:.100}') from None
+
+    @classmethod
+    def from_samples(cls, t: Sequence[float], q: object, qd: object, qdd: object
+                     ) -> 'Reference':
+        """Samples (e.g. the rows of a trajectory CSV), interpolated by quintic
+        Hermite polynomials matching q, qd and qdd at both ends of every
+        interval (exact at the rows, C2 in between).
+        """
+        times = sample_times(t)
+        n = times.size
+        values = np.stack([finite_rows(name, value, n)
+                           for name, value in (('q', q), ('qd', qd), ('qdd', qdd))])
+
+        def motion(at: np.ndarray) -> Trajectory:
+            at = np.atleast_1d(np.asarray(at, dtype=float))
+            i = np.clip(np.searchsorted(times, at, side='right') - 1, 0, n - 2)
+            dt = (times[i + 1] - times[i])[:, None]
+            u = (at[:, None] - times[i][:, None]) / dt
+            powers = u[..., None] ** np.arange(6)                     # (N, 1, 6)
+            d1 = np.concatenate([np.zeros_like(u)[..., None],
+                                 np.arange(1, 6) * u[..., None] ** np.arange(5)], axis=-1)
+            d2 = np.concatenate([np.zeros_like(u)[..., None].repeat(2, -1),
+                                 np.arange(2, 6) * np.arange(1, 5) * u[..., None]
+                                 ** np.arange(4)], axis=-1)
+            ends = (values[0][i], dt * values[1][i], dt * dt * values[2][i],
+                    dt * dt * values[2][i + 1], dt * values[1][i + 1], values[0][i + 1])
+            out = []
+            for k, basis_powers in enumerate((powers, d1, d2)):
+                basis = basis_powers[:, 0, :] @ _QUINTIC.T                # (N, 6)
+                out.append(sum(basis[:, m:m + 1] * ends[m] for m in range(6)) / dt ** k)
+            return out[0], out[1], out[2]
+
+        return cls(motion, float(times[0]), float(times[-1]))
