@@ -40,7 +40,7 @@ from ..config import parameters as prm
 from ..core.model import JOINT_NAMES, LEG_NAMES
 from . import wire
 from .cycle import Runtime, runtime_from_values
-from .descriptors import descriptor_for, packaged_defaults, plain, ros_value
+from .descriptors import declarations, plain
 from .diagnostics import ERROR, WARN, diagnostic_name
 from .inputs import ACCEL, BAD_SETPOINT, PLATFORM, POSE, TWIST, SetpointError
 from .intake import SetpointIntake
@@ -144,14 +144,13 @@ class DynamicsNode(Node):
         names given on the command line or in params files.
         """
         given = set(self.list_parameters([], 0).names) - ROS_PARAMETERS
+        values = {name: self.get_parameter(name).value for name in given}
         for name in given:
             # re-declared below with our descriptors (ours), by the endpoints
             # (qos_overrides.*) or not at all (unknown: reported)
             self.undeclare_parameter(name)
-        defaults = packaged_defaults()
-        self.declare_parameters('', [
-            (spec.name, ros_value(spec, defaults[spec.name]), descriptor_for(spec))
-            for spec in prm.ALL_PARAMETERS])
+        # statically typed, the given values in the declared type (issue 15 #2)
+        self.declare_parameters('', declarations(values), ignore_override=True)
         return given
 
     @staticmethod

@@ -22,8 +22,8 @@ import rclpy.task
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rcl_interfaces.msg import Parameter as ParameterMsg
-from rcl_interfaces.srv import (DescribeParameters, GetParameters, ListParameters,
-                                SetParameters, SetParametersAtomically)
+from rcl_interfaces.srv import (DescribeParameters, GetParameters, GetParameterTypes,
+                                ListParameters, SetParameters, SetParametersAtomically)
 from rclpy.context import Context
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -117,6 +117,7 @@ class Client:
                                       f'{target}/set_parameters_atomically'),
             'list': n.create_client(ListParameters, f'{target}/list_parameters'),
             'describe': n.create_client(DescribeParameters, f'{target}/describe_parameters'),
+            'types': n.create_client(GetParameterTypes, f'{target}/get_parameter_types'),
         }
         self.watch: NodeProcess | None = None
 
