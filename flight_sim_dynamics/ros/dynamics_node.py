@@ -93,7 +93,7 @@ class DynamicsNode(Node):
         self._fast = fast_wire
 
         self._intake = SetpointIntake(self._runtime, self._publish, self._emit,
-                                      self._latest_stamp)
+                                      self._latest_stamp, self.context.ok)
         self._stats = self._intake.stats
         self._received = self._stats.received      # counters per message kind
 

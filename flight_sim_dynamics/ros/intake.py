@@ -53,11 +53,15 @@ class SetpointIntake:
     ``runtime``: the model and node parameters (the caller swaps it with
     :meth:`reconfigure`); ``publish``: called once per answered setpoint;
     ``emit``: writes a log line; ``latest_stamp()``: the latest stamp accepted
-    now (ns), None for no check. Nothing raises out of the public methods.
+    now (ns), None for no check; ``alive()``: False once the node's context is
+    shut down (an error then, e.g. a publish that fails, is the shutdown's, not
+    an internal error: nothing is reported). Nothing raises out of the public
+    methods.
     """
 
     def __init__(self, runtime: Runtime, publish: Publish, emit: Emit,
-                 latest_stamp: Callable[[], int | None]) -> None:
+                 latest_stamp: Callable[[], int | None],
+                 alive: Callable[[], bool] | None = None) -> None:
         config = runtime.config
         self.runtime = runtime
         self.stats = CycleStats()
@@ -72,6 +76,7 @@ class SetpointIntake:
         self._publish = publish
         self._emit = emit
         self._latest_stamp = latest_stamp
+        self._alive = alive
 
     # -- messages ----------------------------------------------------------------
     def check_pose(self, values: Sequence[float]) -> PoseInput:
@@ -230,6 +235,8 @@ class SetpointIntake:
 
     def internal_error(self, exc: BaseException) -> None:
         try:
+            if self._alive is not None and not self._alive():
+                return      # shutting down: a publish after shutdown is not an error
             self.reject(SOLVER_ERROR, f'internal error: {type(exc).__name__}: {exc}')
         except Exception:  # noqa: BLE001 - even reporting failed: stay up
             pass
