@@ -42,10 +42,13 @@ NON_FINITE_OUTPUT = 'non_finite_output'    # the solver returned NaN/inf (never 
 BAD_SETPOINT = 'bad_setpoint'              # a malformed serialized sample, platform_setpoint
 #                                            message or point
 WARMING_UP = 'warming_up'                  # its estimate needs history the node does not have
+JOINING = 'joining'                        # a stream joined mid-way: its setpoint's other
+#                                            messages were published before the node listened
 
 REJECTION_REASONS = (NON_FINITE, BAD_QUATERNION, STAMP_REPEATED, STAMP_BACKWARDS,
                      FUTURE_STAMP, DUPLICATE, NO_POSE, LATE, OVERFLOW, ABSURD_ACCELERATION,
-                     UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT, BAD_SETPOINT, WARMING_UP)
+                     UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT, BAD_SETPOINT, WARMING_UP,
+                     JOINING)
 
 #: Reasons that make the diagnostics level ERROR (the rest of the rejections
 #: are stream hygiene problems and make it WARN).
@@ -53,7 +56,7 @@ ERROR_REASONS = frozenset({NON_FINITE, BAD_QUATERNION, ABSURD_ACCELERATION,
                            UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT, BAD_SETPOINT})
 #: Setpoints not answered by design, not for a fault: counted, logged at INFO,
 #: the diagnostics level stays OK.
-QUIET_REASONS = frozenset({WARMING_UP})
+QUIET_REASONS = frozenset({WARMING_UP, JOINING})
 
 # Motion the mechanism cannot follow: reported, ignored, the setpoint is solved.
 SWAY = 'sway'

@@ -28,7 +28,8 @@ from .inputs import (ACCEL, PLATFORM, QUIET_REASONS, SOLVER_ERROR, TWIST, UNREAC
                      check_acceleration, check_not_future, platform_setpoints, pose_input,
                      rate_input)
 from .node_config import NodeConfig
-from .synchroniser import RESTART_CONFIRMATIONS, Rejected, Setpoint, StampSynchroniser
+from .synchroniser import (JOIN_WINDOW, RESTART_CONFIRMATIONS, Rejected, Setpoint,
+                           StampSynchroniser)
 
 #: Log level below WARN (the diagnostics levels have no INFO).
 INFO = OK
@@ -67,7 +68,8 @@ class SetpointIntake:
         self.stats = CycleStats()
         self.throttle = LogThrottle(config.diagnostics_log_throttle)
         self.sync: StampSynchroniser[PoseInput, RateInput] = StampSynchroniser(
-            config.sync_wait, config.sync_max_pending, config.input_restart_jump)
+            config.sync_wait, config.sync_max_pending, config.input_restart_jump,
+            join_window=JOIN_WINDOW)    # quiet start next to a running planner (issue 15 #7)
         self.estimator = new_estimator(config)
         self.last_solution: Any = None      # of the last answered setpoint
         self.last_header: tuple[int, int] = (0, 0)   # its stamp (sec, nanosec)
