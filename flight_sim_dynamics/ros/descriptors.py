@@ -2,6 +2,13 @@
 (``config.parameters``): a ParameterDescriptor per parameter, the declared
 defaults, values converted between rclpy and plain Python. No rclpy import:
 only the ``rcl_interfaces`` message types.
+
+Every parameter is statically typed: its declared type (``describe``,
+``get_parameter_types``) is the schema's kind, whatever is sent to it. An
+integer given for a double (``mass: 2`` in YAML, ``-p mass:=2``, ``ros2 param
+set ... 2``) is the one exact conversion (:func:`declared_value`), made
+explicitly before ROS sees it; any other type is refused (issue 15 #2: with
+dynamic typing, a rejected string left its type in the descriptor).
 """
 from __future__ import annotations
 
@@ -20,9 +27,8 @@ NODE_NAMES = frozenset(spec.name for spec in prm.NODE_PARAMETERS)
 
 def descriptor_for(spec: prm.ParamSpec) -> ParameterDescriptor:
     """The ParameterDescriptor of one parameter of the schema: description
-    with unit, range where there is one; doubles are dynamically typed so
-    that an integer (``mass: 2``) is accepted as it is by
-    :func:`parameters.validate`. Our on-set callback does the type check.
+    with unit, range where there is one. Statically typed (the type is set
+    from the declared value's, :func:`declared_value`).
     """
     text = spec.full_description
     if spec.exclusive_minimum and spec.minimum is not None:
@@ -33,7 +39,6 @@ def descriptor_for(spec: prm.ParamSpec) -> ParameterDescriptor:
         text += f' ({spec.length} numbers)'
     d = ParameterDescriptor(description=text, read_only=False)
     if spec.kind == 'double':
-        d.dynamic_typing = True
         if spec.minimum is not None or spec.maximum is not None:
             big = sys.float_info.max
             d.floating_point_range = [FloatingPointRange(
@@ -41,7 +46,6 @@ def descriptor_for(spec: prm.ParamSpec) -> ParameterDescriptor:
                 to_value=float(spec.maximum if spec.maximum is not None else big),
                 step=0.0)]
     elif spec.kind == 'double_array':
-        d.dynamic_typing = True     # [0, 0, 1] in YAML is an integer array
         d.additional_constraints = f'{spec.length} numbers'
     elif spec.kind == 'integer':
         if spec.minimum is not None or spec.maximum is not None:
@@ -61,13 +65,63 @@ def plain(value: Any) -> Any:
     return value
 
 
+def _is_int(value: Any) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
+def declared_value(spec: prm.ParamSpec, value: Any) -> Any:
+    """``value`` in the type ``spec`` declares: an integer (or integer array)
+    for a double (array) becomes the same float(s); any other value is
+    returned as it is. The one conversion of the parameters (as in
+    :func:`parameters.validate`).
+    """
+    if spec.kind == 'double' and _is_int(value):
+        return float(value)
+    if (spec.kind == 'double_array' and isinstance(value, (list, tuple, array.array, np.ndarray))
+            and len(value) and all(_is_int(v) for v in value)):
+        return [float(v) for v in value]
+    return value
+
+
 def ros_value(spec: prm.ParamSpec, value: Any) -> Any:
-    """A default value as rclpy wants it for declaration."""
+    """A value as rclpy wants it for declaration (the declared type)."""
     if spec.kind == 'double_array':
         return [float(v) for v in value]
     if spec.kind == 'double':
         return float(value)
     return value
+
+
+def has_kind(spec: prm.ParamSpec, value: Any) -> bool:
+    """Whether ``value`` (as rclpy holds it) is of the type ``spec`` declares."""
+    if spec.kind == 'double_array':
+        return (isinstance(value, (list, tuple, array.array, np.ndarray)) and len(value) > 0
+                and all(isinstance(v, float) for v in value))
+    kind = {'double': float, 'integer': int, 'string': str, 'bool': bool}[spec.kind]
+    return isinstance(value, kind) and isinstance(value, bool) == (spec.kind == 'bool')
+
+
+def declarations(given: dict[str, Any]) -> list[tuple[str, Any, ParameterDescriptor]]:
+    """``(name, value, descriptor)`` of every parameter of the schema, for
+    ``declare_parameters(..., ignore_override=True)``: the value from
+    ``given`` (the --ros-args and params-file values) in the declared type,
+    else the packaged default. A given value of another type raises
+    :class:`ParameterError` (the schema's reason), never rclpy's.
+    """
+    defaults = packaged_defaults()
+    result = []
+    for spec in prm.ALL_PARAMETERS:
+        if spec.name in given:
+            value = declared_value(spec, given[spec.name])
+            if not has_kind(spec, value):
+                prm.check_value(spec, plain(value))     # raises the schema's reason
+                raise prm.ParameterError(spec.name, plain(value),
+                                         f'expected a {spec.kind.replace("_", " ")}')
+            value = ros_value(spec, value)
+        else:
+            value = ros_value(spec, defaults[spec.name])
+        result.append((spec.name, value, descriptor_for(spec)))
+    return result
 
 
 def packaged_defaults() -> dict[str, Any]:

@@ -138,7 +138,7 @@ class DynamicsNode(LifecycleNode):
             self._runtime = runtime
             if self._intake is None:
                 self._intake = SetpointIntake(runtime, self._publish, self._emit,
-                                              self._latest_stamp)
+                                              self._latest_stamp, self.context.ok)
                 self._stats = self._intake.stats
                 self._received = self._stats.received      # counters per message kind
             else:

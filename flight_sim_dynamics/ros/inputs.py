@@ -43,11 +43,13 @@ BAD_SETPOINT = 'bad_setpoint'              # a malformed serialized sample, plat
 #                                            message or point
 WARMING_UP = 'warming_up'                  # its estimate needs history the node does not have
 INACTIVE = 'inactive'                      # received while the node is not active (lifecycle)
+JOINING = 'joining'                        # a stream joined mid-way: its setpoint's other
+#                                            messages were published before the node listened
 
 REJECTION_REASONS = (NON_FINITE, BAD_QUATERNION, STAMP_REPEATED, STAMP_BACKWARDS,
                      FUTURE_STAMP, DUPLICATE, NO_POSE, LATE, OVERFLOW, ABSURD_ACCELERATION,
                      UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT, BAD_SETPOINT, WARMING_UP,
-                     INACTIVE)
+                     INACTIVE, JOINING)
 
 #: Reasons that make the diagnostics level ERROR (the rest of the rejections
 #: are stream hygiene problems and make it WARN).
@@ -55,7 +57,7 @@ ERROR_REASONS = frozenset({NON_FINITE, BAD_QUATERNION, ABSURD_ACCELERATION,
                            UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT, BAD_SETPOINT})
 #: Setpoints not answered by design, not for a fault: counted, logged at INFO,
 #: the diagnostics level stays OK.
-QUIET_REASONS = frozenset({WARMING_UP, INACTIVE})
+QUIET_REASONS = frozenset({WARMING_UP, INACTIVE, JOINING})
 
 # Motion the mechanism cannot follow: reported, ignored, the setpoint is solved.
 SWAY = 'sway'

@@ -28,7 +28,8 @@ from .inputs import (ACCEL, PLATFORM, QUIET_REASONS, SOLVER_ERROR, TWIST, UNREAC
                      check_acceleration, check_not_future, platform_setpoints, pose_input,
                      rate_input)
 from .node_config import NodeConfig
-from .synchroniser import RESTART_CONFIRMATIONS, Rejected, Setpoint, StampSynchroniser
+from .synchroniser import (JOIN_WINDOW, RESTART_CONFIRMATIONS, Rejected, Setpoint,
+                           StampSynchroniser)
 
 #: Log level below WARN (the diagnostics levels have no INFO).
 INFO = OK
@@ -53,17 +54,22 @@ class SetpointIntake:
     ``runtime``: the model and node parameters (the caller swaps it with
     :meth:`reconfigure`); ``publish``: called once per answered setpoint;
     ``emit``: writes a log line; ``latest_stamp()``: the latest stamp accepted
-    now (ns), None for no check. Nothing raises out of the public methods.
+    now (ns), None for no check; ``alive()``: False once the node's context is
+    shut down (an error then, e.g. a publish that fails, is the shutdown's, not
+    an internal error: nothing is reported). Nothing raises out of the public
+    methods.
     """
 
     def __init__(self, runtime: Runtime, publish: Publish, emit: Emit,
-                 latest_stamp: Callable[[], int | None]) -> None:
+                 latest_stamp: Callable[[], int | None],
+                 alive: Callable[[], bool] | None = None) -> None:
         config = runtime.config
         self.runtime = runtime
         self.stats = CycleStats()
         self.throttle = LogThrottle(config.diagnostics_log_throttle)
         self.sync: StampSynchroniser[PoseInput, RateInput] = StampSynchroniser(
-            config.sync_wait, config.sync_max_pending, config.input_restart_jump)
+            config.sync_wait, config.sync_max_pending, config.input_restart_jump,
+            join_window=JOIN_WINDOW)    # quiet start next to a running planner (issue 15 #7)
         self.estimator = new_estimator(config)
         self.last_solution: Any = None      # of the last answered setpoint
         self.last_header: tuple[int, int] = (0, 0)   # its stamp (sec, nanosec)
@@ -72,6 +78,7 @@ class SetpointIntake:
         self._publish = publish
         self._emit = emit
         self._latest_stamp = latest_stamp
+        self._alive = alive
 
     # -- messages ----------------------------------------------------------------
     def check_pose(self, values: Sequence[float]) -> PoseInput:
@@ -241,6 +248,8 @@ class SetpointIntake:
 
     def internal_error(self, exc: BaseException) -> None:
         try:
+            if self._alive is not None and not self._alive():
+                return      # shutting down: a publish after shutdown is not an error
             self.reject(SOLVER_ERROR, f'internal error: {type(exc).__name__}: {exc}')
         except Exception:  # noqa: BLE001 - even reporting failed: stay up
             pass

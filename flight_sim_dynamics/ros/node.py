@@ -35,13 +35,17 @@ from std_msgs.msg import Header
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
+from rclpy.signals import SignalHandlerOptions
 
 from ..config import parameters as prm
 from ..config.files import params_files_in, read_params_file
 from .dynamics_node import DynamicsNode
+from .process import stop_on_signals, stop_requested
 
 EXECUTORS = ('events', 'single')
 DEFAULT_EXECUTOR = 'events'
+#: Longest spin between two looks at a requested stop (Ctrl-C, SIGTERM), s.
+SPIN_STEP = 0.1
 
 
 def make_executor(name: str, context: Any = None) -> Any:
@@ -136,7 +140,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         # file) comes as rclpy's private _rclpy_pybind11 error types
         return refuse(_params_file_problem(argv) or f'invalid ROS arguments: {exc}')
     args = build_parser().parse_args(own)
-    rclpy.init(args=['dynamics_node', *argv])
+    # Ctrl-C / SIGTERM request a stop, seen between callbacks (process.py, issue 15 #3)
+    stop_on_signals()
+    rclpy.init(args=['dynamics_node', *argv], signal_handler_options=SignalHandlerOptions.NO)
     node = None
     executor = None
     try:
@@ -165,19 +171,21 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def spin(executor: Any, context: Any = None,
          until: rclpy.task.Future | Sequence[rclpy.task.Future] | None = None) -> None:
-    """Spin until the context shuts down (Ctrl-C, SIGTERM) or ``until`` (a
-    future, or any of several) is done.
+    """Spin until the context shuts down, a stop is requested (Ctrl-C, SIGTERM:
+    :func:`.process.stop_on_signals`) or ``until`` (a future, or any of
+    several) is done.
 
     Always with a timeout: rclpy 7.1.6's EventsExecutor busy-loops at 100 % CPU
     in ``spin()`` (and hangs in ``spin_until_future_complete`` without a
     timeout), and does not return on SIGINT; with a timeout it idles and the
-    shutdown is noticed within ``timeout_sec``.
+    stop is noticed within :data:`SPIN_STEP`.
     """
     futures = [until] if isinstance(until, rclpy.task.Future) else list(until or ())
     # one future to wait on, done with the first of ``until``
     future = futures[0] if len(futures) == 1 else rclpy.task.Future()
-    while rclpy.ok(context=context) and not any(f.done() for f in [future, *futures]):
-        executor.spin_until_future_complete(future, timeout_sec=0.5)
+    while (rclpy.ok(context=context) and not any(f.done() for f in [future, *futures])
+           and not stop_requested()):
+        executor.spin_until_future_complete(future, timeout_sec=SPIN_STEP)
 
 
 if __name__ == '__main__':

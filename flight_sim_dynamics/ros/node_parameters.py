@@ -12,12 +12,11 @@ from __future__ import annotations
 
 from typing import Any
 
-from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from ..config import parameters as prm
-from .descriptors import descriptor_for, packaged_defaults, plain, ros_value
+from .descriptors import declarations, plain
 
 #: Parameters ROS itself declares on every node; not ours to check.
 ROS_PARAMETERS = frozenset({'use_sim_time', 'start_type_description_service'})
@@ -35,28 +34,28 @@ class NodeParameters:
         #: start-up values the descriptors refused: name -> the error
         self.refused: dict[str, prm.ParameterError] = {}
         self.given = set(node.list_parameters([], 0).names) - ROS_PARAMETERS
-        given = {name: plain(node.get_parameter(name).value) for name in self.given}
+        given = {name: node.get_parameter(name).value for name in self.given}
         for name in self.given:
             # re-declared below with our descriptors (ours), by the endpoints
             # (qos_overrides.*) or not at all (unknown: reported)
             node.undeclare_parameter(name)
-        defaults = packaged_defaults()
-        for spec in prm.ALL_PARAMETERS:
-            value, descriptor = ros_value(spec, defaults[spec.name]), descriptor_for(spec)
+        ours = {name: value for name, value in given.items() if name in prm.SPECS}
+        for name, value in list(ours.items()):
             try:
-                node.declare_parameter(spec.name, value, descriptor)
-            except (InvalidParameterValueException, InvalidParameterTypeException) as exc:
-                self.refused[spec.name] = self._why(spec, given.get(spec.name), exc)
-                node.declare_parameter(spec.name, value, descriptor, ignore_override=True)
-
-    @staticmethod
-    def _why(spec: prm.ParamSpec, value: Any, exc: Exception) -> prm.ParameterError:
-        """The schema's words for a start-up value rclpy refused."""
-        try:
-            prm.check_value(spec, value)
-        except prm.ParameterError as error:
-            return error
-        return prm.ParameterError(spec.name, value, ' '.join(str(exc).split()))
+                prm.check_value(prm.SPECS[name], plain(value))
+            except prm.ParameterError as exc:
+                self.refused[name] = exc
+                del ours[name]
+        while True:     # statically typed, the given values in the declared type
+            try:
+                declared = declarations(ours)
+                break
+            except prm.ParameterError as exc:
+                if exc.key not in ours:
+                    raise
+                self.refused[exc.key] = exc
+                del ours[exc.key]
+        node.declare_parameters('', declared, ignore_override=True)
 
     @property
     def unknown(self) -> list[str]:

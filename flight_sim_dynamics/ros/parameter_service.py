@@ -19,7 +19,12 @@ services answer the same messages the same way, except that
   rest is tried again as one change; only if that fails too is each
   parameter applied on its own, as the ROS service defines, to say which
   ones failed (one validation per distinct name and value; measured with
-  ``python -m benchmarks.param_requests``).
+  ``python -m benchmarks.param_requests``);
+* a value is kept in the type its parameter was declared with (issue 15 #2):
+  an integer (array) for a double (array) is converted to the same float(s)
+  and the result says so; any other type is refused with the parameter's
+  declared type in the reason, before the node sees it (rclpy's own check
+  would refuse it too, but our on-set callback must never see it).
 """
 from __future__ import annotations
 
@@ -54,6 +59,19 @@ def _problem(msg: Any) -> str | None:
 
 def _failed(reason: str) -> SetParametersResult:
     return SetParametersResult(successful=False, reason=reason)
+
+
+def _succeeded(note: str | None = None) -> SetParametersResult:
+    return SetParametersResult(successful=True, reason=note or '')
+
+
+def _type_name(type_: Parameter.Type) -> str:
+    return type_.name.lower().replace('_', ' ')
+
+
+#: The exact conversions to a declared type: integer to double, element-wise.
+_COERCIONS = {(Parameter.Type.DOUBLE, Parameter.Type.INTEGER),
+              (Parameter.Type.DOUBLE_ARRAY, Parameter.Type.INTEGER_ARRAY)}
 
 
 class ParameterServices:
@@ -123,6 +141,31 @@ class ParameterServices:
         except Exception:  # noqa: BLE001 - a precheck that failed: the apply decides
             return None
 
+    def _typed(self, param: Parameter) -> tuple[Parameter, str | None, str | None]:
+        """``param`` in the type its parameter was declared with: (parameter,
+        a note if it was converted, the reason if it cannot be). Undeclared,
+        dynamically typed and deleted (NOT_SET) parameters are rclpy's to answer.
+        """
+        node, given = self._node, param.type_
+        if given == Parameter.Type.NOT_SET or not node.has_parameter(param.name):
+            return param, None, None
+        descriptor = node.describe_parameter(param.name)
+        declared = Parameter.Type(descriptor.type)
+        if descriptor.dynamic_typing or given == declared:
+            return param, None, None
+        if (declared, given) in _COERCIONS:
+            if declared == Parameter.Type.DOUBLE:
+                old, value = param.value, float(param.value)
+            else:
+                old, value = list(param.value), [float(v) for v in param.value]
+            return (Parameter(param.name, declared, value),
+                    f"parameter '{param.name}': {_type_name(given)} {old} set as "
+                    f'{_type_name(declared)} {value}', None)
+        detail = self._checked(param) if self._precheck is not None else None
+        reason = (f"parameter '{param.name}' is a {_type_name(declared)}, got a "
+                  f'{_type_name(given)}: refused, the parameter keeps its type and value')
+        return param, None, f'{detail} ({reason})' if detail else reason
+
     def _set(self, request: Any, response: Any) -> Any:
         msgs = list(request.parameters)
         whole = self._too_large(msgs)
@@ -130,36 +173,49 @@ class ParameterServices:
         if whole:
             response.results = [_failed(whole)] * len(msgs)
             return response
-        params = [Parameter.from_parameter_msg(m) if p is None else None
-                  for m, p in zip(msgs, problems)]
+        typed = [self._typed(Parameter.from_parameter_msg(m)) if p is None else (None, None, p)
+                 for m, p in zip(msgs, problems)]
+        params = [param for param, _, _ in typed]
+        notes = [note for _, note, _ in typed]
+        problems = [problem for _, _, problem in typed]
         if all(p is None for p in problems) and self._apply(params).successful:
-            response.results = [SetParametersResult(successful=True)] * len(msgs)
+            response.results = [_succeeded(note) for note in notes]
             return response
         if self._precheck is not None:
             problems = [p if p or param is None else self._checked(param)
                         for p, param in zip(problems, params)]
             rest = [param for p, param in zip(problems, params) if p is None]
             if rest and self._apply(rest).successful:
-                response.results = [_failed(p) if p else SetParametersResult(successful=True)
-                                    for p in problems]
+                response.results = [_failed(p) if p else _succeeded(note)
+                                    for p, note in zip(problems, notes)]
                 return response
         # one by one, as the service defines; the same value again gives the same result
         seen: dict[tuple[str, str], SetParametersResult] = {}
         results = []
-        for msg, problem, param in zip(msgs, problems, params):
+        for problem, param, note in zip(problems, params, notes):
             if problem:
                 results.append(_failed(problem))
                 continue
             key = (param.name, repr(param.value))
             if key not in seen:
                 seen[key] = self._apply([param])
-            results.append(seen[key])
+            result = seen[key]
+            results.append(_succeeded(note) if result.successful else result)
         response.results = results
         return response
 
     def _set_atomically(self, request: Any, response: Any) -> Any:
         msgs = list(request.parameters)
         reason = self._too_large(msgs) or next((p for p in map(_problem, msgs) if p), None)
-        response.result = (_failed(reason) if reason else
-                           self._apply([Parameter.from_parameter_msg(m) for m in msgs]))
+        if reason:
+            response.result = _failed(reason)
+            return response
+        typed = [self._typed(Parameter.from_parameter_msg(m)) for m in msgs]
+        reason = next((problem for _, _, problem in typed if problem), None)
+        if reason:
+            response.result = _failed(reason)
+            return response
+        response.result = self._apply([param for param, _, _ in typed])
+        if response.result.successful:
+            response.result = _succeeded('; '.join(note for _, note, _ in typed if note))
         return response

@@ -24,11 +24,13 @@ from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from rclpy.time import Time
 
 from ..core.motions import PLANNER_MOTIONS as MOTIONS
 from ..core.motions import PlannerSequence
 from .inputs import rpy_to_quaternion
+from .process import stop_on_signals, stop_requested
 
 ALL = 'all'
 CHOICES = (*MOTIONS, ALL)
@@ -93,9 +95,16 @@ class PlannerNode(Node):
 
     def _on_timer(self) -> None:
         due = int((time.monotonic() - self._wall0) * self.rate) + 1
-        while self._k < due and not self.done:
-            self._publish(self._k)
-            self._k += 1
+        try:
+            while self._k < due and not self.done and not stop_requested():
+                self._publish(self._k)
+                self._k += 1
+        except Exception:
+            if self.context.ok():
+                raise
+            # the context was shut down under this callback (issue 15 #3): a
+            # publish after shutdown is not an error; stop quietly
+            self.done = True
 
     def _publish(self, k: int) -> None:
         t = k / self.rate
@@ -134,11 +143,12 @@ class PlannerNode(Node):
 def spin_until(executor: Any, predicate: Any, timeout: float | None = None,
                step: float = 0.05) -> bool:
     """Spin (always with a timeout: see node.spin) until ``predicate()``, the
-    deadline or shutdown.
+    deadline, shutdown or a requested stop (Ctrl-C, SIGTERM:
+    :func:`.process.stop_on_signals`).
     """
     deadline = None if timeout is None else time.monotonic() + timeout
     never = rclpy.task.Future()
-    while rclpy.ok(context=executor.context) and not predicate():
+    while rclpy.ok(context=executor.context) and not predicate() and not stop_requested():
         if deadline is not None and time.monotonic() >= deadline:
             break
         executor.spin_until_future_complete(never, timeout_sec=step)
@@ -180,7 +190,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.no_twist and not args.no_accel:
         build_parser().error('--no-twist needs --no-accel (accelerations without rates '
                              'are not a stream the node expects)')
-    rclpy.init(args=['demo_planner', *argv])
+    # Ctrl-C / SIGTERM request a stop, seen between callbacks (process.py, issue 15 #3)
+    stop_on_signals()
+    rclpy.init(args=['demo_planner', *argv], signal_handler_options=SignalHandlerOptions.NO)
     from rclpy.experimental import EventsExecutor
     node = None
     try:
@@ -191,14 +203,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         executor.add_node(node)
         log = node.get_logger()
         if args.wait > 0 and not spin_until(executor, node.subscribers_ready, args.wait):
+            if stop_requested():
+                return 0
             log.warn(f'no subscriber on {node.pose_pub.topic_name} after {args.wait:g} s; '
                      'publishing anyway')
         log.info(f'publishing {", ".join(sequence.names)} at {args.rate:g} Hz '
                  f'({sequence.period:.1f} s{", looping" if args.loop else ""})')
         node.start()
         spin_until(executor, lambda: node.done)
-        # let the last messages leave (reliable): wait until acknowledged
-        node.pose_pub.wait_for_all_acked(rclpy.duration.Duration(seconds=2.0))
+        if node.done and not stop_requested():
+            # let the last messages leave (reliable): wait until acknowledged
+            node.pose_pub.wait_for_all_acked(rclpy.duration.Duration(seconds=2.0))
         log.info(f'sent {node.sent} setpoints')
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

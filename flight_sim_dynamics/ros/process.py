@@ -4,6 +4,18 @@ One place (for the dynamics node and, with ``module=SIM_MODULE``, the twin
 node ``platform_sim``) for the demo (:mod:`flight_sim_dynamics.cli.demo`), the node
 benchmarks (``benchmarks/``) and the node tests (``test/node_harness.py``).
 No rclpy here: the parent only needs ``subprocess``.
+
+The other side, in the executables (node, demo planner): Ctrl-C and SIGTERM
+only *request* a stop (:func:`stop_on_signals`, :func:`stop_requested`),
+which their spin loop sees between callbacks (issue 15 #3). rclpy's own
+handlers act at any moment: the Python one raises KeyboardInterrupt at
+whatever bytecode runs, at 500 Hz usually inside a subscription or timer
+callback (rclpy's executor then logs ``[FATAL] Exception in '...' callback``
+with a traceback), and the C++ one shuts the context down from another
+thread, so that a callback's publish fails ("publisher's context is
+invalid"). The executables therefore call ``rclpy.init`` with
+``signal_handler_options=SignalHandlerOptions.NO`` and shut the context
+down themselves once the executor has stopped.
 """
 from __future__ import annotations
 
@@ -12,7 +24,7 @@ import signal
 import subprocess
 import sys
 from pathlib import Path
-from typing import IO, Sequence
+from typing import IO, Any, Sequence
 
 NODE_MODULE = 'flight_sim_dynamics.ros.node'
 #: The twin node's executable (``platform_sim``): ``start_node(..., module=SIM_MODULE)``.
@@ -81,3 +93,29 @@ def stop_node(proc: subprocess.Popen, timeout: float = 5.0) -> int | None:
             proc.kill()
             proc.wait(5)
     return proc.returncode
+
+
+#: The signals that request a stop of an executable.
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+_stop: list[int] = []
+
+
+def _on_stop_signal(signum: int, frame: Any) -> None:
+    if _stop:       # a second Ctrl-C: the stop hangs, end it the usual way
+        signal.signal(signum, signal.SIG_DFL)
+        raise KeyboardInterrupt
+    _stop.append(signum)
+
+
+def stop_on_signals() -> None:
+    """Make SIGINT and SIGTERM set :func:`stop_requested` (a second one
+    interrupts as Ctrl-C does). Main thread only, as Python's signal handlers.
+    """
+    _stop.clear()
+    for signum in STOP_SIGNALS:
+        signal.signal(signum, _on_stop_signal)
+
+
+def stop_requested() -> bool:
+    """Whether SIGINT or SIGTERM arrived since :func:`stop_on_signals`."""
+    return bool(_stop)

@@ -10,11 +10,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
 
-from .inputs import (ACCEL, DUPLICATE, KINDS, LATE, NO_POSE, OVERFLOW, PLATFORM, POSE,
-                     STAMP_BACKWARDS, STAMP_REPEATED, TWIST, fmt_stamp)
+from .inputs import (ACCEL, DUPLICATE, JOINING, KINDS, LATE, NO_POSE, OVERFLOW, PLATFORM,
+                     POSE, STAMP_BACKWARDS, STAMP_REPEATED, TWIST, fmt_stamp)
 
 #: Setpoints in a row far behind the last released one that make a planner restart.
 RESTART_CONFIRMATIONS = 3
+#: The node's ``join_window``: seconds after the first message during which the partial
+#: setpoints of a stream joined mid-way are ``joining`` (quiet), not late/overflow/no_pose.
+JOIN_WINDOW = 1.0
 
 P = TypeVar('P')
 R = TypeVar('R')
@@ -84,6 +87,17 @@ class StampSynchroniser(Generic[P, R]):
       could not answer with :meth:`withdraw`.
     * At most ``max_pending`` stamps wait at once (the oldest is released or
       rejected as ``overflow``).
+    * Joining a running stream (issue 15 #7): the three subscriptions match
+      the planner's publishers at different moments, so the first stamps
+      lack the messages published before their topic matched. For
+      ``join_window`` s after the first message (the node's:
+      :data:`JOIN_WINDOW`; 0, the default: never), such partial setpoints
+      are ``joining`` (a quiet reason), not faults: a twist or accel whose
+      stream has not yet counted (no setpoint has had one) arriving for a
+      setpoint already released (not ``late``), a twist or accel stamped
+      before the first pose (never completed: the pose topic is in order;
+      not ``no_pose``) and, before any pose, a pose-less stamp pushed out
+      (not ``overflow``).
     * A setpoint that arrives whole in one message (:meth:`add_complete`)
       follows the same stamp rules against the same last released stamp, and
       releases the older pending setpoints first, so the two inputs can be
@@ -97,8 +111,9 @@ class StampSynchroniser(Generic[P, R]):
     """
 
     def __init__(self, wait: float = 0.05, max_pending: int = 64,
-                 restart_jump: float = 0.0) -> None:
+                 restart_jump: float = 0.0, join_window: float = 0.0) -> None:
         self.wait = float(wait)
+        self.join_window = float(join_window)
         self.max_pending = int(max_pending)
         self.restart_jump = restart_jump
         self.restarts = 0                  # planner restarts detected
@@ -109,6 +124,9 @@ class StampSynchroniser(Generic[P, R]):
         self._newest: dict[str, int | None] = {TWIST: None, ACCEL: None}
         # stamps the caller rejected -> kinds already seen (insertion-ordered, bounded)
         self._discarded: dict[int, set[str]] = {}
+        self._join_until: float | None = None   # end of the joining window (monotonic s)
+        self._first_pose: int | None = None     # stamp of the first pose since start / reset
+        self._in_join = False                   # the last call was in the joining window
 
     # -- public --------------------------------------------------------------
     @property
@@ -136,6 +154,7 @@ class StampSynchroniser(Generic[P, R]):
         self._discarded.clear()
         self._behind.clear()
         self._newest = {TWIST: None, ACCEL: None}
+        self._first_pose = None
 
     def withdraw(self, setpoint: Setpoint[P, R], answered: int | None) -> None:
         """The caller could not answer the released ``setpoint``: it leaves no
@@ -169,6 +188,7 @@ class StampSynchroniser(Generic[P, R]):
         """Add one message of ``kind`` (``pose``, ``twist`` or ``accel``)."""
         released: list[Setpoint[P, R]] = []
         rejected: list[Rejected] = []
+        joining = self._joining(now)
         seen = self._discarded.get(stamp_ns)
         if seen is not None:
             if kind in seen:
@@ -181,19 +201,32 @@ class StampSynchroniser(Generic[P, R]):
         if last is not None and stamp_ns <= last:
             if kind != POSE:
                 # an old message proves its stream alive; it is not its newest stamp
+                if joining and self._newest[kind] is None:
+                    rejected.append(_joined(kind, stamp_ns, 'its topic matched after the pose '
+                                                            'topic; its setpoint was answered'))
+                else:
+                    rejected.append(Rejected(LATE, kind, stamp_ns,
+                                             f'{kind} stamped {fmt_stamp(stamp_ns)} arrived '
+                                             'after its setpoint was answered (or after a '
+                                             'newer one)'))
                 self.active[kind] = True
-                rejected.append(Rejected(LATE, kind, stamp_ns,
-                                         f'{kind} stamped {fmt_stamp(stamp_ns)} arrived after '
-                                         'its setpoint was answered (or after a newer one)'))
                 return released, rejected
             if not self._restarted(stamp_ns, last):
                 rejected.append(_not_after_last(kind, stamp_ns, last))
                 return released, rejected
         pending = self._pending
+        first = self._first_pose
+        if kind == POSE and first is None:
+            self._first_pose = stamp_ns
+            if joining:
+                self._drop_before_first_pose(stamp_ns, rejected)
+        elif joining and first is not None and stamp_ns < first and kind != POSE:
+            rejected.append(_joined(kind, stamp_ns, 'stamped before the first pose'))
+            return released, rejected
         entry = pending.get(stamp_ns)
         if entry is None:
             if len(pending) >= self.max_pending:
-                self._evict_oldest(released, rejected)
+                self._evict_oldest(released, rejected, joining and first is None)
             entry = Setpoint(stamp_ns, first_arrival=now)
             pending[stamp_ns] = entry
         if getattr(entry, kind) is not None:
@@ -249,6 +282,7 @@ class StampSynchroniser(Generic[P, R]):
                                      f'{kind} for stamp {fmt_stamp(stamp_ns)}, for which '
                                      'pose/twist/accel messages came too (ignored)'))
             return released, rejected
+        self._joining(now)
         if pending:
             self._release_through(stamp_ns, released, rejected)
         self._release(Setpoint(stamp_ns, pose, twist, accel, header, now), released, rejected)
@@ -262,6 +296,7 @@ class StampSynchroniser(Generic[P, R]):
             return released, rejected
         expired = [s for s, e in self._pending.items() if now - e.first_arrival >= self.wait]
         if expired:
+            self._joining(now)
             newest = max(expired)
             for stamp in sorted(s for s in self._pending if s <= newest):
                 entry = self._pending[stamp]
@@ -277,6 +312,13 @@ class StampSynchroniser(Generic[P, R]):
         return released, rejected
 
     # -- internals -----------------------------------------------------------
+    def _joining(self, now: float) -> bool:
+        """Whether ``now`` is in the joining window (which the first message opens)."""
+        if self._join_until is None:
+            self._join_until = now + self.join_window
+        self._in_join = now < self._join_until
+        return self._in_join
+
     def _restarted(self, stamp_ns: int, last: int) -> bool:
         """A setpoint (pose or whole) stamped ``stamp_ns`` <= ``last``: True
         when it confirms a planner restart (the state is then reset and it is
@@ -326,6 +368,10 @@ class StampSynchroniser(Generic[P, R]):
     def _release(self, entry: Setpoint[P, R], released: list, rejected: list) -> None:
         if entry.pose is None:
             kinds = '+'.join(k for k in (TWIST, ACCEL) if getattr(entry, k) is not None)
+            if self._in_join and self._first_pose is None:
+                rejected.append(_joined(kinds, entry.stamp_ns, 'no pose yet (its topic has '
+                                                               'not matched)'))
+                return
             rejected.append(Rejected(NO_POSE, kinds, entry.stamp_ns,
                                      f'{kinds} stamped {fmt_stamp(entry.stamp_ns)} '
                                      'has no pose with the same stamp'))
@@ -335,16 +381,34 @@ class StampSynchroniser(Generic[P, R]):
             self._behind.clear()
         released.append(entry)
 
-    def _evict_oldest(self, released: list, rejected: list) -> None:
+    def _drop_before_first_pose(self, first: int, rejected: list) -> None:
+        """The pose-less stamps before the ``first`` pose: never completed."""
+        for stamp in sorted(s for s in self._pending if s < first):
+            entry = self._pending.pop(stamp)
+            rejected.append(_joined('+'.join(k for k in (TWIST, ACCEL)
+                                             if getattr(entry, k) is not None),
+                                    stamp, 'stamped before the first pose'))
+
+    def _evict_oldest(self, released: list, rejected: list, joining: bool = False) -> None:
         oldest = min(self._pending)
         entry = self._pending.pop(oldest)
-        if entry.pose is None:
+        if entry.pose is None and joining:
+            rejected.append(_joined('twist/accel', oldest, 'no pose yet (its topic has not '
+                                                           'matched)'))
+        elif entry.pose is None:
             rejected.append(Rejected(OVERFLOW, 'twist/accel', oldest,
                                      f'more than {self.max_pending} incomplete stamps pending; '
                                      f'dropped stamp {fmt_stamp(oldest)}'))
         else:
             self._release_through(oldest, released, rejected)
             self._release(entry, released, rejected)
+
+
+def _joined(kind: str, stamp_ns: int, why: str) -> Rejected:
+    """A message of a stream joined mid-way that completes no setpoint."""
+    return Rejected(JOINING, kind, stamp_ns,
+                    f'{kind} stamped {fmt_stamp(stamp_ns)} dropped while joining the running '
+                    f'stream ({why})')
 
 
 def _not_after_last(kind: str, stamp_ns: int, last: int) -> Rejected:

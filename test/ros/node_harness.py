@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import math
 import os
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -22,8 +24,8 @@ import rclpy.task
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rcl_interfaces.msg import Parameter as ParameterMsg
-from rcl_interfaces.srv import (DescribeParameters, GetParameters, ListParameters,
-                                SetParameters, SetParametersAtomically)
+from rcl_interfaces.srv import (DescribeParameters, GetParameters, GetParameterTypes,
+                                ListParameters, SetParameters, SetParametersAtomically)
 from rclpy.context import Context
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -32,7 +34,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from flight_sim_dynamics.ros.diagnostics import diagnostic_name
 from flight_sim_dynamics.ros.inputs import PLATFORM_DOF_NAMES, rpy_to_quaternion
-from flight_sim_dynamics.ros.process import node_command, start_node, stop_node
+from flight_sim_dynamics.ros.process import node_command, node_env, start_node, stop_node
 
 ROOT = Path(__file__).resolve().parents[2]
 PARAMS_FILE = ROOT / 'config' / 'flight_sim_dynamics.yaml'
@@ -69,6 +71,15 @@ class NodeProcess:
         fields = Path(f'/proc/{self.proc.pid}/stat').read_text().rsplit(')', 1)[1].split()
         return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
+    def wait_output(self, text: str, timeout: float = 20.0) -> bool:
+        """Wait until ``text`` is in the output (or the process ended, or the deadline)."""
+        deadline = time.monotonic() + timeout
+        while text not in self.output():
+            if not self.alive() or time.monotonic() > deadline:
+                return text in self.output()
+            time.sleep(0.02)
+        return True
+
     def stop(self, timeout: float = 5.0) -> int:
         """SIGINT (as Ctrl-C), then SIGKILL if it does not exit in ``timeout`` s."""
         stop_node(self.proc, timeout)
@@ -77,6 +88,19 @@ class NodeProcess:
             self.log.close()
             Path(self.log.name).unlink(missing_ok=True)
         return self.proc.returncode
+
+
+class PlannerProcess(NodeProcess):
+    """The demo planner (``python -m flight_sim_dynamics.ros.planner ARGS``) as
+    a separate process, e.g. a stream the node under test joins mid-way."""
+
+    def __init__(self, *args: str) -> None:      # noqa: D107 - NodeProcess's, another command
+        self.cmd = [sys.executable, '-m', 'flight_sim_dynamics.ros.planner', *args]
+        self.log = tempfile.NamedTemporaryFile('w+', prefix='fsd_planner_', suffix='.log',
+                                               delete=False)
+        self._final_output = None
+        self.proc = subprocess.Popen(self.cmd, stdout=self.log, stderr=subprocess.STDOUT,
+                                     env=node_env(), cwd=ROOT, start_new_session=True)
 
 
 class Client:
@@ -117,6 +141,7 @@ class Client:
                                       f'{target}/set_parameters_atomically'),
             'list': n.create_client(ListParameters, f'{target}/list_parameters'),
             'describe': n.create_client(DescribeParameters, f'{target}/describe_parameters'),
+            'types': n.create_client(GetParameterTypes, f'{target}/get_parameter_types'),
         }
         self.watch: NodeProcess | None = None
 

@@ -14,7 +14,7 @@ import sys
 import numpy as np
 import pytest
 from rcl_interfaces.msg import ParameterType
-from rcl_interfaces.srv import DescribeParameters, ListParameters
+from rcl_interfaces.srv import DescribeParameters, GetParameterTypes, ListParameters
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
@@ -392,3 +392,53 @@ def test_a_set_request_is_one_change_when_it_all_holds(client):
     results = client.call('set', request).results
     assert results[0].successful and not results[1].successful
     assert 'more than 4096' in results[1].reason
+
+
+# ---------------------------------------------------------------------------
+# Declared types stay what they are (issue 15 #2)
+# ---------------------------------------------------------------------------
+def declared_types(client: Client, names: list[str]) -> tuple[list[int], list[int]]:
+    """(describe_parameters' types, get_parameter_types' types) of ``names``."""
+    described = client.call('describe', DescribeParameters.Request(names=names)).descriptors
+    types = client.call('types', GetParameterTypes.Request(names=names)).types
+    return [d.type for d in described], list(types)
+
+
+@pytest.mark.parametrize('atomic', [False, True])
+def test_a_rejected_type_leaves_the_declared_type(client, atomic):
+    name = 'bodies.platform.mass'
+    [result] = client.set_params({name: 5.0})
+    assert result.successful, result.reason
+    reference = answer(client)
+    double = ParameterType.PARAMETER_DOUBLE
+    for value, given in (('abc', 'string'), (True, 'bool'), ([1.0, 2.0], 'double array')):
+        [result] = client.set_params({name: value}, atomic=atomic)
+        assert not result.successful
+        assert f"'{name}' is a double, got a {given}" in result.reason, result.reason
+        assert declared_types(client, [name]) == ([double], [double])
+        assert client.get_params([name]) == [5.0]
+    np.testing.assert_allclose(answer(client), reference, rtol=0, atol=1e-9)
+    # an integer for a double: the same float, said so; the type stays double
+    [result] = client.set_params({name: 7}, atomic=atomic)
+    assert result.successful, result.reason
+    assert 'integer 7 set as double 7.0' in result.reason
+    assert declared_types(client, [name]) == ([double], [double])
+    [value] = client.get_params([name])
+    assert value == 7.0 and isinstance(value, float)
+    with_integer = answer(client)
+    assert client.set_params({name: 7.0}, atomic=atomic)[0].successful
+    np.testing.assert_allclose(with_integer, answer(client), rtol=0, atol=1e-9)
+    assert not np.allclose(with_integer, reference)
+    # element-wise for a double array
+    com = 'bodies.rod.com'
+    before = client.get_params([com])
+    [result] = client.set_params({com: [1, 0, 0]}, atomic=atomic)
+    assert result.successful, result.reason
+    array = ParameterType.PARAMETER_DOUBLE_ARRAY
+    assert declared_types(client, [com]) == ([array], [array])
+    assert list(client.get_params([com])[0]) == [1.0, 0.0, 0.0]
+    [result] = client.set_params({com: ['a', 'b', 'c']}, atomic=atomic)
+    assert not result.successful and 'is a double array, got a string array' in result.reason
+    assert declared_types(client, [com]) == ([array], [array])
+    results = client.set_params({com: list(before[0]), name: 5.0}, atomic=atomic)
+    assert all(r.successful for r in results), results

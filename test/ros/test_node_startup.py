@@ -13,6 +13,11 @@ from node_harness import ROOT
 CASES = {
     'negative mass': (['-p', 'bodies.platform.mass:=-1.0'], 'bodies.platform.mass'),
     'nan mass': (['-p', 'bodies.platform.mass:=.nan'], 'bodies.platform.mass'),
+    # statically typed (issue 15 #2): the schema's reason, not rclpy's
+    'string for a double': (['-p', 'bodies.platform.mass:=abc'], 'expected a number'),
+    'bool for a double': (['-p', 'gravity:=true'], 'expected a number'),
+    'strings for doubles': (['-p', 'bodies.rod.com:=[a,b,c]'], 'bodies.rod.com'),
+    'double for an integer': (['-p', 'sync.max_pending:=1.5'], 'expected an integer'),
     'missing params file': (['--params-file', '{tmp}/missing.yaml'], 'missing.yaml'),
     'binary params file': (['--params-file', '{tmp}/binary.yaml'], 'binary.yaml'),
     'params file rcl cannot parse': (['--params-file', '{tmp}/mixed.yaml'], 'mixed.yaml'),

@@ -19,8 +19,8 @@ from flight_sim_dynamics.ros.diagnostics import (ERROR, OK, WARN, CycleStats, Lo
                                                  check_limits)
 from flight_sim_dynamics.ros.estimator import DerivativeEstimator, backward_derivative
 from flight_sim_dynamics.ros.inputs import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION, DUPLICATE,
-                                            LATE, NON_FINITE, NO_POSE, OVERFLOW, PITCH, POSE,
-                                            STAMP_BACKWARDS, STAMP_REPEATED, SWAY, TWIST, YAW,
+                                            JOINING, LATE, NON_FINITE, NO_POSE, OVERFLOW, PITCH,
+                                            POSE, STAMP_BACKWARDS, STAMP_REPEATED, SWAY, TWIST, YAW,
                                             SetpointError, check_acceleration, pose_input,
                                             quaternion_to_rpy, rate_input, rpy_to_quaternion,
                                             unfollowable, wrap_angle)
@@ -175,6 +175,60 @@ def test_sync_stamp_rules():
     assert [r.reason for r in rejected] == [STAMP_BACKWARDS]
     _, rejected = sync.add(TWIST, 10, 't', now=0.0)
     assert [r.reason for r in rejected] == [LATE]
+
+
+def reasons(result):
+    return [r.reason for r in result[1]]
+
+
+def test_sync_joining_a_stream_whose_pose_topic_matched_last():
+    """Issue 15 #7: twist and accel stamps from before the pose topic matched
+    are ``joining`` (quiet), pushed out, expired or dropped at the first pose;
+    the first setpoint with all three is answered; out of the window, the
+    same is overflow / no_pose as before."""
+    sync = StampSynchroniser(wait=0.05, max_pending=4, join_window=1.0)
+    for k in range(6):                                   # 6 stamps > max_pending 4
+        assert reasons(sync.add(TWIST, k, 't', now=0.0)) in ([], [JOINING])
+        assert reasons(sync.add(ACCEL, k, 'a', now=0.0)) == []
+    assert reasons(sync.poll(now=0.03)) == []            # not yet expired
+    released, rejected = sync.add(POSE, 6, 'p', now=0.04)   # the pose topic matched
+    assert released == [] and set(r.reason for r in rejected) <= {JOINING}
+    assert sync.pending == 1                             # only 6: the older ones are dropped
+    assert reasons(sync.add(TWIST, 5, 't', now=0.04)) == [JOINING]     # stamped before it
+    sync.add(TWIST, 6, 't', now=0.04)
+    released, rejected = sync.add(ACCEL, 6, 'a', now=0.04)
+    assert stamps(released) == [6] and rejected == []
+    # after the window: the rules of a running stream
+    sync = StampSynchroniser(wait=0.05, max_pending=4, join_window=1.0)
+    sync.add(POSE, 0, 'p', now=0.0)
+    sync.add(TWIST, 0, 't', now=0.0)
+    sync.add(ACCEL, 0, 'a', now=0.0)
+    for k in range(1, 6):
+        sync.add(TWIST, k, 't', now=2.0)
+    assert OVERFLOW in reasons(sync.add(TWIST, 6, 't', now=2.0)) + reasons(
+        sync.add(TWIST, 7, 't', now=2.0))
+
+
+def test_sync_joining_a_stream_whose_twist_topic_matched_last():
+    """The pose topic matched first: its setpoints go out without the twist
+    (found silent after ``wait``); the twist's first messages, for setpoints
+    already answered, are ``joining``, not ``late``; once the twist stream
+    counts (or after the window), a late twist is late."""
+    for now, expected in ((0.1, JOINING), (1.5, LATE)):
+        sync = StampSynchroniser(wait=0.05, join_window=1.0)
+        sync.active[ACCEL] = False
+        sync.add(POSE, 0, 'p', now=0.0)
+        released, _ = sync.poll(now=0.06)                    # twist found silent
+        assert stamps(released) == [0]
+        assert stamps(sync.add(POSE, 1, 'p', now=0.07)[0]) == [1]
+        assert reasons(sync.add(TWIST, 1, 't', now=now)) == [expected]
+    sync = StampSynchroniser(wait=0.05, join_window=1.0)
+    sync.active[ACCEL] = False
+    sync.add(POSE, 0, 'p', now=0.0)
+    assert stamps(sync.add(TWIST, 0, 't', now=0.0)[0]) == [0]   # the twist stream counts
+    sync.add(POSE, 1, 'p', now=0.01)
+    sync.poll(now=0.07)
+    assert reasons(sync.add(TWIST, 1, 't', now=0.08)) == [LATE]
 
 
 def test_sync_orphans_and_duplicates():
