@@ -38,7 +38,7 @@ def test_a_node_joining_a_running_stream_is_quiet(client, stream):
             node = NodeProcess(params_file=PARAMS_FILE)
             try:
                 client.watch = node
-                assert node.wait_output('ready:'), node.output()[-3000:]
+                assert node.wait_output('active: answering setpoints'), node.output()[-3000:]
                 ready_ns = time.time_ns()
 
                 def answers() -> int:

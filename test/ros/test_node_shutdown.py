@@ -66,7 +66,7 @@ def test_node_stops_silently_under_a_1khz_stream(client):
             try:
                 for name, node in nodes.items():
                     client.watch = node
-                    assert node.wait_output('ready:'), node.output()[-3000:]
+                    assert node.wait_output('active: answering setpoints'), node.output()[-3000:]
                 ready_ns = time.time_ns()
                 assert client.spin_until(lambda: all(
                     a.latest > ready_ns for a in answers.values()), 20.0), \
