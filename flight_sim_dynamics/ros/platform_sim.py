@@ -40,11 +40,11 @@ from . import wire
 from .descriptors import descriptor_for, plain, ros_value
 from .diagnostics import ERROR, LogThrottle
 from .inputs import SetpointError, rpy_to_quaternion
+from .node_parameters import ROS_PARAMETERS
 from .qos import default_qos
 from .twin_intake import SIM_TASK, CommandStats, check_command, sim_config
 
 #: Parameters ROS itself declares on every node; not ours to check.
-ROS_PARAMETERS = frozenset({'use_sim_time', 'start_type_description_service'})
 #: Seconds between two log lines of one rejection reason.
 LOG_THROTTLE = 2.0
 

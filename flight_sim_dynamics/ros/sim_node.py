@@ -15,12 +15,14 @@ import sys
 from typing import Sequence
 
 import rclpy
+from rclpy.signals import SignalHandlerOptions
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException
 
 from ..config import parameters as prm
 from .node import DEFAULT_EXECUTOR, EXECUTORS, make_executor, refuse, spin
 from .platform_sim import PlatformSim
+from .process import stop_on_signals
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -48,7 +50,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as exc:  # noqa: BLE001 - rcl's refusal comes as rclpy's private types
         return refuse(f'invalid ROS arguments: {exc}')
     args = build_parser().parse_args(own)
-    rclpy.init(args=['platform_sim', *argv])
+    stop_on_signals()       # Ctrl-C / SIGTERM: a quiet stop between callbacks, as the node
+    rclpy.init(args=['platform_sim', *argv], signal_handler_options=SignalHandlerOptions.NO)
     node = None
     try:
         try:
