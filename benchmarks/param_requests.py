@@ -6,9 +6,9 @@ time in-process, by calling the node's SetParameters / SetParametersAtomically
 handlers directly (no DDS in the figure), for the requests that matter: one
 parameter, the largest accepted request (256 parameters), the same with one
 bad value (the service then finds the bad one), every parameter of the node,
-a conflict between parameters that are each in range (the worst case: the
-service must apply them one by one to say which fail), and an oversized
-request (refused whole).
+a conflict between parameters that are each in range (the service halves
+the request to find which fail), the worst case (every value conflicts: the
+validation budget is spent), and an oversized request (refused whole).
 
     python -m benchmarks.param_requests [--repeat N]
 
@@ -45,9 +45,11 @@ def cases(node: DynamicsNode) -> list[tuple[str, str, list[Parameter]]]:
         ('set', f'{n - 1} x gravity + 1 out of range', [gravity] * (n - 1) + [bad]),
         ('set', f'{n} distinct gravity values, the last out of range',
          [Parameter('gravity', value=9.0 + k * 1e-3) for k in range(n - 1)] + [bad]),
-        ('set', f'{n - 1} distinct stroke_min + 1 above stroke_max (one by one)',
+        ('set', f'{n - 1} distinct stroke_min + 1 above stroke_max (halving)',
          [Parameter('limits.stroke_min', value=-0.3 + k * 1e-4) for k in range(n - 1)]
          + [Parameter('limits.stroke_min', value=0.7)]),
+        ('set', f'{n} distinct stroke_min, all above stroke_max (budget spent)',
+         [Parameter('limits.stroke_min', value=0.7 + k * 1e-4) for k in range(n)]),
         ('set', f'every parameter of the node ({len(ours)})', ours),
         ('set', f'every parameter + 1 out of range ({len(ours) + 1})', ours + [bad]),
         ('set', f'{n + 1} x gravity (refused whole)', [gravity] * (n + 1)),

@@ -16,10 +16,10 @@ services answer the same messages the same way, except that
 * a SetParameters request is tried as one atomic change first (one
   validation); if that fails, the parameters the node's ``precheck`` finds
   wrong on their own (type, range: microseconds each) are failed and the
-  rest is tried again as one change; only if that fails too is each
-  parameter applied on its own, as the ROS service defines, to say which
-  ones failed (one validation per distinct name and value; measured with
-  ``python -m benchmarks.param_requests``);
+  rest is tried again as one change; only if that fails too (parameters
+  that conflict with each other) is the request split in halves, in order,
+  to say which ones fail, with at most :data:`MAX_VALIDATIONS_PER_REQUEST`
+  validations (measured with ``python -m benchmarks.param_requests``);
 * a value is kept in the type its parameter was declared with (issue 15 #2):
   an integer (array) for a double (array) is converted to the same float(s)
   and the result says so; any other type is refused with the parameter's
@@ -41,8 +41,14 @@ from rclpy.qos import qos_profile_parameters
 
 #: Parameters in one set request; more is refused whole (the node has 75).
 MAX_PARAMETERS_PER_REQUEST = 256
+#: Model validations one SetParameters request may cost when its parameters
+#: conflict with each other (each ~1.5 ms of the node's only thread).
+MAX_VALIDATIONS_PER_REQUEST = 12
 #: Characters of one string value in a set request.
 MAX_STRING_LENGTH = 4096
+_NOT_DECIDED = (f'not applied: the parameters of this request conflict with each other, and '
+                f'finding which ones fail needs more than {MAX_VALIDATIONS_PER_REQUEST} '
+                f'validations of the model; send fewer parameters per request')
 _KNOWN_TYPES = frozenset(t.value for t in Parameter.Type)
 
 
@@ -178,31 +184,78 @@ class ParameterServices:
         params = [param for param, _, _ in typed]
         notes = [note for _, note, _ in typed]
         problems = [problem for _, _, problem in typed]
-        if all(p is None for p in problems) and self._apply(params).successful:
+        tried = all(p is None for p in problems)
+        if tried and self._apply(params).successful:
             response.results = [_succeeded(note) for note in notes]
             return response
         if self._precheck is not None:
-            problems = [p if p or param is None else self._checked(param)
-                        for p, param in zip(problems, params)]
-            rest = [param for p, param in zip(problems, params) if p is None]
-            if rest and self._apply(rest).successful:
-                response.results = [_failed(p) if p else _succeeded(note)
-                                    for p, note in zip(problems, notes)]
-                return response
-        # one by one, as the service defines; the same value again gives the same result
-        seen: dict[tuple[str, str], SetParametersResult] = {}
-        results = []
-        for problem, param, note in zip(problems, params, notes):
-            if problem:
-                results.append(_failed(problem))
-                continue
-            key = (param.name, repr(param.value))
-            if key not in seen:
-                seen[key] = self._apply([param])
-            result = seen[key]
-            results.append(_succeeded(note) if result.successful else result)
-        response.results = results
+            checked = [p if p or param is None else self._checked(param)
+                       for p, param in zip(problems, params)]
+            if checked != problems:     # the cheap check found some: try the rest once
+                problems, tried = checked, True
+                rest = [param for p, param in zip(problems, params) if p is None]
+                if rest and self._apply(rest).successful:
+                    response.results = [_failed(p) if p else _succeeded(note)
+                                        for p, note in zip(problems, notes)]
+                    return response
+        response.results = self._sorted_out(problems, params, notes, tried)
         return response
+
+    def _sorted_out(self, problems: list[str | None], params: list[Parameter | None],
+                    notes: list[str | None], tried: bool) -> list[SetParametersResult]:
+        """Which parameters of a request that failed as a whole fail, in order
+        (``tried``: the parameters without a problem already failed as one change).
+
+        The request is split in halves, each applied as one change: a half that
+        holds is kept, a half that fails is split again, down to single
+        parameters (whose reason is then the node's). The halves are applied in
+        order, so a later value of a name overrides an earlier one, as in the
+        service's one-parameter-at-a-time rule. One conflict costs about
+        log2(n) validations; at most :data:`MAX_VALIDATIONS_PER_REQUEST` are
+        spent (each a model rebuild, ~1.5 ms, while setpoints wait), and the
+        parameters not decided by then fail with a reason saying so.
+        """
+        results: list[SetParametersResult | None] = [
+            _failed(p) if p else None for p in problems]
+        seen: dict[tuple[str, str], SetParametersResult] = {}
+        budget = [MAX_VALIDATIONS_PER_REQUEST]
+
+        def apply(chunk: list[int]) -> SetParametersResult | None:
+            key = (params[chunk[0]].name, repr(params[chunk[0]].value))
+            if len(chunk) == 1 and key in seen:     # the same value, the same result
+                return seen[key]
+            if budget[0] <= 0:
+                return None
+            budget[0] -= 1
+            result = self._apply([params[i] for i in chunk])
+            if len(chunk) == 1:
+                seen[key] = result
+            return result
+
+        def resolve(chunk: list[int], known_failed: bool) -> bool:
+            """Decide ``chunk``; True if all of it was applied."""
+            result = None if known_failed and len(chunk) > 1 else apply(chunk)
+            if result is not None and result.successful:
+                for i in chunk:
+                    results[i] = _succeeded(notes[i])
+                return True
+            if result is None and (len(chunk) == 1 or budget[0] <= 0):
+                for i in chunk:
+                    results[i] = _failed(_NOT_DECIDED)
+                return False
+            if len(chunk) == 1:
+                results[chunk[0]] = result
+                return False
+            half = len(chunk) // 2
+            # the whole failed and its first half held: the second half, applied
+            # after it, gives the same final state as the whole, so it fails too
+            first = resolve(chunk[:half], False)
+            return resolve(chunk[half:], first) and first
+
+        todo = [i for i, r in enumerate(results) if r is None]
+        if todo:
+            resolve(todo, tried)
+        return results
 
     def _set_atomically(self, request: Any, response: Any) -> Any:
         msgs = list(request.parameters)

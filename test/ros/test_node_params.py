@@ -25,6 +25,8 @@ import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.core.model import JOINT_NAMES, LEG_NAMES
 from flight_sim_dynamics.core.trajectories import paper_example
+from flight_sim_dynamics.ros.parameter_service import (MAX_PARAMETERS_PER_REQUEST,
+                                                       MAX_VALIDATIONS_PER_REQUEST)
 from flight_sim_dynamics.ros.qos import default_qos
 from node_harness import ROOT, Client, NodeProcess, stamp_ns
 
@@ -392,6 +394,40 @@ def test_a_set_request_is_one_change_when_it_all_holds(client):
     results = client.call('set', request).results
     assert results[0].successful and not results[1].successful
     assert 'more than 4096' in results[1].reason
+
+
+def _stroke_min_request(values: list[float]) -> SetParameters.Request:
+    return SetParameters.Request(parameters=[
+        _raw('limits.stroke_min', ParameterType.PARAMETER_DOUBLE, double_value=v)
+        for v in values])
+
+
+def test_conflicting_values_are_sorted_out_within_a_budget(client):
+    """Issue 12 #4: values each in range that conflict with another parameter
+    are found by halving the request, with a bounded number of validations;
+    what the budget does not reach fails with a reason, never silently."""
+    old_min, stroke_max = client.get_params(['limits.stroke_min', 'limits.stroke_max'])
+    reference = answer(client)
+    n = MAX_PARAMETERS_PER_REQUEST
+    # 255 distinct valid values, then one above stroke_max: the last one fails
+    values = [old_min - 1e-3 + k * 1e-6 for k in range(n - 1)] + [stroke_max + 0.1]
+    results = client.call('set', _stroke_min_request(values), timeout=30.0).results
+    assert [r.successful for r in results] == [True] * (n - 1) + [False]
+    assert 'must be < limits.stroke_max' in results[-1].reason, results[-1].reason
+    kept = values[-2]
+    assert client.get_params(['limits.stroke_min']) == [kept]
+    # every value conflicts: the budget decides some, the rest fail saying why
+    values = [stroke_max + 0.01 + k * 1e-6 for k in range(n)]
+    results = client.call('set', _stroke_min_request(values), timeout=30.0).results
+    assert not any(r.successful for r in results)
+    decided = [r for r in results if 'must be < limits.stroke_max' in r.reason]
+    undecided = [r for r in results if 'finding which ones fail needs more than' in r.reason]
+    assert 1 <= len(decided) <= MAX_VALIDATIONS_PER_REQUEST
+    assert len(decided) + len(undecided) == n
+    assert client.get_params(['limits.stroke_min']) == [kept]
+    [result] = client.set_params({'limits.stroke_min': old_min})
+    assert result.successful, result.reason
+    np.testing.assert_allclose(answer(client), reference, rtol=0, atol=1e-9)
 
 
 # ---------------------------------------------------------------------------
