@@ -667,9 +667,8 @@ static int pose_of(const double *P, const double *q, const double *qd, pose_term
    platform's and the rod's accelerations read directly): the actuator forces
    of the scene fx, friction excluded */
 static void actuator_forces(const double *P, int fx, const pose_terms *p, const double *Gd,
-                            const double *qd, const double *qdd, double *force)
+                            const double *qd, const double *qdd, double *force, body_state *st)
 {
-    body_state st[N_BODIES];
     double tau[12];
     body_states(P, fx, &p->g, p->V, Gd, qd, qdd, st);
     double tau_43 = joint_forces(P, fx, &p->g, st, tau);          /* eq. (18)-(22) */
@@ -684,7 +683,7 @@ static void actuator_forces(const double *P, int fx, const pose_terms *p, const 
 
 /* the rest of solver._solve at a pose p, then the status rule: the row */
 static void solve_at(const double *P, int fx, const pose_terms *p, const double *qd,
-                     const double *qdd, double *out)
+                     const double *qdd, double *out, body_state *st)
 {
     const geometric *g = &p->g;
     double S[12], Gamma[12], Gdyn[12], force[3], rate[3];
@@ -697,7 +696,7 @@ static void solve_at(const double *P, int fx, const pose_terms *p, const double 
             Gdyn[j] = p->K[0][j] * qdd[0] + p->K[1][j] * qdd[1] + p->K[2][j] * qdd[2];
         Gd = Gdyn;
     }
-    actuator_forces(P, fx, p, Gd, qd, qdd, force);
+    actuator_forces(P, fx, p, Gd, qd, qdd, force, st);
     for (int m = 0; m < 3; m++)
         rate[m] = p->V[ACTUATED[m]];
     if (fx & E_FRICTION) {
@@ -762,10 +761,11 @@ static void solve_at(const double *P, int fx, const pose_terms *p, const double 
     out[O_INFO] = info;
 }
 
-/* one sample into the row `out`; returns 1 when p holds its pose (the input
-   is finite and every loop closes), 0 when the sample stopped before */
+/* one sample into the row `out`; returns 1 when p holds its pose and st its
+   bodies (the input is finite and every loop closes), 0 when the sample
+   stopped before */
 static int solve_posed(const double *P, int fx, const double *q, const double *qd,
-                       const double *qdd, double *out, pose_terms *p)
+                       const double *qdd, double *out, pose_terms *p, body_state *st)
 {
     memset(out, 0, OUT_SIZE * sizeof(double));
     /* non-finite input: nothing is computed (status.first_bad_input) */
@@ -781,7 +781,7 @@ static int solve_posed(const double *P, int fx, const double *q, const double *q
         stop(P, -1, failed, out);
         return 0;
     }
-    solve_at(P, fx, p, qd, qdd, out);
+    solve_at(P, fx, p, qd, qdd, out, st);
     return 1;
 }
 
@@ -789,69 +789,67 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
                       const double *qdd, double *out)
 {
     pose_terms p;
-    solve_posed(P, fx, q, qd, qdd, out, &p);
+    body_state st[N_BODIES];
+    solve_posed(P, fx, q, qd, qdd, out, &p, st);
 }
 
 /* ------------------------------------------------------------------------ */
 /* Forward dynamics (forward_dynamics.affine_terms): f = M qdd + b           */
 /* ------------------------------------------------------------------------ */
 static const double REST[3] = {0.0, 0.0, 0.0};
-static const double UNIT[3][3] = {{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, {0.0, 0.0, 1.0}};
 
-/* M of f = M qdd + b at a pose: every term of the recursion is affine in qdd
-   (eq. 15-17: Gamma = K qdd + Q^-1 (velocity terms); eq. 18-23 linear in the
-   body accelerations; friction reads the leg rates only), so column j of M is
-   the force of the accelerations of a unit qdd e_j alone (joint accelerations
-   K e_j; no gravity, velocity products, friction: they are in b). Those
-   accelerations of a body are its velocities per unit qd_j (a_j, and eps_j in
-   body axes w_j), so by virtual power (eq. 23) M = J^-T Mq with
-   Mq[i][j] = sum over the moving bodies of m a_i . a_j + w_i . I w_j: the
-   recursion's three passes in one sum (the same M to rounding,
-   test_twin_kernel.py). */
 /* acc and eps of the bodies for the joint accelerations G = K e_j and the
-   unit qdd e_j alone: body_states' formulas without velocity terms, its
-   centres of mass (st) reused, so that the frames are built once for the
-   three columns */
+   unit qdd e_j alone: body_states' formulas without velocity terms, on the
+   centres of mass com of the pose (0 for a body at rest) */
 static void unit_accelerations(const double *P, const geometric *g, const double *G, int j,
-                               const body_state *st, v3 *acc, v3 *eps)
+                               const v3 *com, v3 *acc, v3 *eps)
 {
     v3 Gdd = vec(j == 0, j == 1, 0.0);
     v3 eA = vec(0.0, 0.0, G[0]);
     eps[CYL_A] = eps[PIS_A] = eA;
-    acc[CYL_A] = cross(eA, st[CYL_A].com);
-    acc[PIS_A] = add(scale(G[1], g->dA), cross(eA, st[PIS_A].com));
+    acc[CYL_A] = cross(eA, com[CYL_A]);
+    acc[PIS_A] = add(scale(G[1], g->dA), cross(eA, com[PIS_A]));
     eps[ROD] = vec(0.0, 0.0, G[0] + G[2]);
-    acc[ROD] = add(Gdd, cross(eps[ROD], sub(st[ROD].com, g->G)));
+    acc[ROD] = add(Gdd, cross(eps[ROD], sub(com[ROD], g->G)));
     double roll_dd = j == 2;
     eps[PLATFORM] = eps[PAYLOAD] = vec(roll_dd * g->l.x, roll_dd * g->l.y, G[0] + G[2]);
-    acc[PLATFORM] = add(Gdd, cross(eps[PLATFORM], sub(st[PLATFORM].com, g->G)));
-    acc[PAYLOAD] = add(Gdd, cross(eps[PAYLOAD], sub(st[PAYLOAD].com, g->G)));
+    acc[PLATFORM] = add(Gdd, cross(eps[PLATFORM], sub(com[PLATFORM], g->G)));
+    acc[PAYLOAD] = add(Gdd, cross(eps[PAYLOAD], sub(com[PAYLOAD], g->G)));
     double base_x = P[P_D2] + P[P_D3] + P[P_D4];
     for (int leg = 0; leg < 2; leg++) {
         int k = leg ? 6 : 3, cyl = leg ? CYL_C : CYL_B, pis = leg ? PIS_C : PIS_B;
         v3 P1 = vec(base_x, 0.0, leg ? -P[P_D5] : P[P_D5]);
         v3 d = leg ? g->dC : g->dB, e2 = leg ? g->e2C : g->e2B;
         eps[cyl] = eps[pis] = vec(G[k + 1] * e2.x, G[k + 1] * e2.y, G[k]);
-        acc[cyl] = cross(eps[cyl], sub(st[cyl].com, P1));
-        acc[pis] = add(scale(G[k + 2], d), cross(eps[pis], sub(st[pis].com, P1)));
+        acc[cyl] = cross(eps[cyl], sub(com[cyl], P1));
+        acc[pis] = add(scale(G[k + 2], d), cross(eps[pis], sub(com[pis], P1)));
     }
     for (int c = 0; c < 2; c++) {
         int i = c ? CRANK_E : CRANK_D;
         v3 P1 = vec(c ? P[P_D2] : P[P_D2] + P[P_D3], 0.0, 0.0);
         eps[i] = vec(0.0, 0.0, G[c ? 10 : 9]);
-        acc[i] = cross(eps[i], sub(st[i].com, P1));
+        acc[i] = cross(eps[i], sub(com[i], P1));
     }
 }
 
-static void mass_matrix(const double *P, int fx, const pose_terms *p, double *M)
+/* M of f = M qdd + b at a pose p whose bodies (frames, centres of mass, which
+   move) the solve's body_states left in st: every term of the recursion is
+   affine in qdd (eq. 15-17: Gamma = K qdd + Q^-1 (velocity terms); eq. 18-23
+   linear in the body accelerations; friction reads the leg rates only), so
+   column j of M is the force of the accelerations of a unit qdd e_j alone
+   (joint accelerations K e_j; no gravity, velocity products, friction: they
+   are in b). Those accelerations of a body are its velocities per unit qd_j
+   (a_j, and eps_j in body axes w_j), so by virtual power (eq. 23)
+   M = J^-T Mq with Mq[i][j] = sum over the moving bodies of
+   m a_i . a_j + w_i . I w_j: the recursion's three passes in one sum (the
+   same M to rounding, test_twin_kernel.py). */
+static void mass_matrix(const double *P, const pose_terms *p, const body_state *st, double *M)
 {
-    const int linear = fx & ~(E_GRAVITY | E_VP | E_FRICTION);
-    body_state st[N_BODIES];
-    v3 acc[3][N_BODIES], eps[3][N_BODIES];
-    memset(st, 0, sizeof st);      /* bodies at rest keep no centre: read as 0, not summed */
-    body_states(P, linear, &p->g, p->V, p->K[0], REST, UNIT[0], st);   /* frames, centres */
+    v3 com[N_BODIES], acc[3][N_BODIES], eps[3][N_BODIES];
+    for (int b = 0; b < N_BODIES; b++)
+        com[b] = st[b].moving ? st[b].com : vec(0.0, 0.0, 0.0);
     for (int j = 0; j < 3; j++)
-        unit_accelerations(P, &p->g, p->K[j], j, st, acc[j], eps[j]);
+        unit_accelerations(P, &p->g, p->K[j], j, com, acc[j], eps[j]);
     double Mq[3][3] = {{0.0}};
     for (int b = 0; b < N_BODIES; b++) {
         if (!st[b].moving)
@@ -880,13 +878,14 @@ static void affine_one(const double *P, int fx, const double *q, const double *q
                        double *out, double *M, double *b)
 {
     pose_terms p;
+    body_state st[N_BODIES];
     memset(M, 0, 9 * sizeof(double));
     memset(b, 0, 3 * sizeof(double));
-    if (!solve_posed(P, fx, q, qd, REST, out, &p) || out[O_STATUS] >= S_UNREACHABLE)
+    if (!solve_posed(P, fx, q, qd, REST, out, &p, st) || out[O_STATUS] >= S_UNREACHABLE)
         return;
     for (int m = 0; m < 3; m++)
         b[m] = out[O_FORCE + m];
-    mass_matrix(P, fx, &p, M);
+    mass_matrix(P, &p, st, M);
     for (int i = 0; i < 9; i++)
         if (!isfinite(M[i]))
             M[i] = 0.0;
