@@ -181,7 +181,9 @@ static void unit_leg(v3 P4, v3 P1, double *L, v3 *d, double *h, v3 *e2)
 
 static const int ANGLES[8] = {0, 2, 3, 4, 6, 7, 9, 10};
 
-static void inverse_geometry(const double *P, const double *q, geometric *g)
+/* angles 0: the joint angles (raw[ANGLES]) are left 0, for a caller that
+   reads no joint angle (the twin's RK4 stages) */
+static void inverse_geometry(const double *P, const double *q, geometric *g, int angles)
 {
     const double d1 = P[P_D1], d2 = P[P_D2], d3 = P[P_D3], d4 = P[P_D4], d5 = P[P_D5];
     const double l5 = P[P_L5], l6 = P[P_L6], b = P[P_B], h = P[P_H];
@@ -225,21 +227,23 @@ static void inverse_geometry(const double *P, const double *q, geometric *g)
     unit_leg(g->C4, C1, &g->LC, &g->dC, &g->hC, &g->e2C);
     g->dD = vec((g->D2.x - d2 - d3) / l5, g->D2.y / l5, 0.0);
     g->dE = vec((g->E2.x - d2) / l6, g->E2.y / l6, 0.0);
-    double theta_A = atan2(g->dA.y, g->dA.x);
     const double *L0 = P + P_L0;
     double *raw = g->raw;
-    raw[0] = theta_A;
     raw[1] = g->LA - L0[0];
-    raw[2] = beta - theta_A;
-    raw[3] = atan2(g->dB.y, g->dB.x);
-    raw[4] = -atan2(g->dB.z, g->hB);
     raw[5] = g->LB - L0[1];
-    raw[6] = atan2(g->dC.y, g->dC.x);
-    raw[7] = -atan2(g->dC.z, g->hC);
     raw[8] = g->LC - L0[2];
-    raw[9] = atan2(g->dD.y, g->dD.x);
-    raw[10] = atan2(g->dE.y, g->dE.x);
     raw[11] = (h - d1) - u;
+    if (angles) {
+        double theta_A = atan2(g->dA.y, g->dA.x);
+        raw[0] = theta_A;
+        raw[2] = beta - theta_A;
+        raw[3] = atan2(g->dB.y, g->dB.x);
+        raw[4] = -atan2(g->dB.z, g->hB);
+        raw[6] = atan2(g->dC.y, g->dC.x);
+        raw[7] = -atan2(g->dC.z, g->hC);
+        raw[9] = atan2(g->dD.y, g->dD.x);
+        raw[10] = atan2(g->dE.y, g->dE.x);
+    }
     const double tiny = 1e-9;
     g->failed = !(disc_d >= 0.0) ? LOOP_D
               : !(disc_e >= 0.0) ? LOOP_E
@@ -252,7 +256,7 @@ static void inverse_geometry(const double *P, const double *q, geometric *g)
         raw[i] = raw[i] - P[P_ZERO + i];
     for (int i = 0; i < 8; i++) {
         int j = ANGLES[i];
-        raw[j] = pymod(raw[j] + M_PI, 2.0 * M_PI) - M_PI;
+        raw[j] = angles ? pymod(raw[j] + M_PI, 2.0 * M_PI) - M_PI : 0.0;
     }
 }
 
@@ -629,11 +633,12 @@ typedef struct {
 } pose_terms;
 
 /* eq. (5)-(12), (14): fills p; returns the first loop that cannot close, or -1 */
-static int pose_of(const double *P, const double *q, const double *qd, pose_terms *p)
+static int pose_of(const double *P, const double *q, const double *qd, pose_terms *p,
+                   int angles)
 {
     geometric *g = &p->g;
     double cols[3][12];
-    inverse_geometry(P, q, g);                                    /* eq. (5)-(8) */
+    inverse_geometry(P, q, g, angles);                            /* eq. (5)-(8) */
     if (g->failed >= 0)
         return g->failed;
     factorize(P, g, &p->f);                                       /* eq. (12) */
@@ -765,7 +770,8 @@ static void solve_at(const double *P, int fx, const pose_terms *p, const double 
    bodies (the input is finite and every loop closes), 0 when the sample
    stopped before */
 static int solve_posed(const double *P, int fx, const double *q, const double *qd,
-                       const double *qdd, double *out, pose_terms *p, body_state *st)
+                       const double *qdd, double *out, pose_terms *p, body_state *st,
+                       int angles)
 {
     memset(out, 0, OUT_SIZE * sizeof(double));
     /* non-finite input: nothing is computed (status.first_bad_input) */
@@ -776,7 +782,7 @@ static int solve_posed(const double *P, int fx, const double *q, const double *q
             return 0;
         }
     }
-    int failed = pose_of(P, q, qd, p);
+    int failed = pose_of(P, q, qd, p, angles);
     if (failed >= 0) {
         stop(P, -1, failed, out);
         return 0;
@@ -790,7 +796,7 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
 {
     pose_terms p;
     body_state st[N_BODIES];
-    solve_posed(P, fx, q, qd, qdd, out, &p, st);
+    solve_posed(P, fx, q, qd, qdd, out, &p, st, 1);
 }
 
 /* ------------------------------------------------------------------------ */
@@ -875,13 +881,14 @@ static void mass_matrix(const double *P, const pose_terms *p, const body_state *
    (unreachable, invalid input); a non-finite entry of M (exact singularity)
    is 0, as solve's numbers are. */
 static void affine_one(const double *P, int fx, const double *q, const double *qd,
-                       double *out, double *M, double *b)
+                       double *out, double *M, double *b, int angles)
 {
     pose_terms p;
     body_state st[N_BODIES];
     memset(M, 0, 9 * sizeof(double));
     memset(b, 0, 3 * sizeof(double));
-    if (!solve_posed(P, fx, q, qd, REST, out, &p, st) || out[O_STATUS] >= S_UNREACHABLE)
+    if (!solve_posed(P, fx, q, qd, REST, out, &p, st, angles)
+            || out[O_STATUS] >= S_UNREACHABLE)
         return;
     for (int m = 0; m < 3; m++)
         b[m] = out[O_FORCE + m];
@@ -972,7 +979,7 @@ static int stage(const double *P, int fx, const tabulated_law *law, Py_ssize_t j
                  const double *q, const double *qd, double *qdd, double *force)
 {
     double row[OUT_SIZE], M[9], b[3], rhs[3];
-    affine_one(P, fx, q, qd, row, M, b);
+    affine_one(P, fx, q, qd, row, M, b, 0);     /* no joint angle read here */
     if (row[O_STATUS] >= S_NEAR_SINGULAR)
         return 0;
     for (int m = 0; m < 3; m++) {
@@ -1199,7 +1206,7 @@ static PyObject *py_affine(PyObject *self, PyObject *const *args, Py_ssize_t nar
             goto done;
     double *out = (double *)views[1].buf;
     affine_one((const double *)views[0].buf, (int)fx, x, x + 3, out, (double *)views[2].buf,
-               (double *)views[3].buf);
+               (double *)views[3].buf, 1);
     result = Py_BuildValue("(iiddd)", (int)out[O_STATUS], (int)out[O_INFO], out[O_BETA],
                            out[O_KIN], out[O_JAC]);
 done:
