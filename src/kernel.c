@@ -181,7 +181,9 @@ static void unit_leg(v3 P4, v3 P1, double *L, v3 *d, double *h, v3 *e2)
 
 static const int ANGLES[8] = {0, 2, 3, 4, 6, 7, 9, 10};
 
-static void inverse_geometry(const double *P, const double *q, geometric *g)
+/* angles 0: the joint angles (raw[ANGLES]) are left 0, for a caller that
+   reads no joint angle (the twin's RK4 stages) */
+static void inverse_geometry(const double *P, const double *q, geometric *g, int angles)
 {
     const double d1 = P[P_D1], d2 = P[P_D2], d3 = P[P_D3], d4 = P[P_D4], d5 = P[P_D5];
     const double l5 = P[P_L5], l6 = P[P_L6], b = P[P_B], h = P[P_H];
@@ -225,21 +227,23 @@ static void inverse_geometry(const double *P, const double *q, geometric *g)
     unit_leg(g->C4, C1, &g->LC, &g->dC, &g->hC, &g->e2C);
     g->dD = vec((g->D2.x - d2 - d3) / l5, g->D2.y / l5, 0.0);
     g->dE = vec((g->E2.x - d2) / l6, g->E2.y / l6, 0.0);
-    double theta_A = atan2(g->dA.y, g->dA.x);
     const double *L0 = P + P_L0;
     double *raw = g->raw;
-    raw[0] = theta_A;
     raw[1] = g->LA - L0[0];
-    raw[2] = beta - theta_A;
-    raw[3] = atan2(g->dB.y, g->dB.x);
-    raw[4] = -atan2(g->dB.z, g->hB);
     raw[5] = g->LB - L0[1];
-    raw[6] = atan2(g->dC.y, g->dC.x);
-    raw[7] = -atan2(g->dC.z, g->hC);
     raw[8] = g->LC - L0[2];
-    raw[9] = atan2(g->dD.y, g->dD.x);
-    raw[10] = atan2(g->dE.y, g->dE.x);
     raw[11] = (h - d1) - u;
+    if (angles) {
+        double theta_A = atan2(g->dA.y, g->dA.x);
+        raw[0] = theta_A;
+        raw[2] = beta - theta_A;
+        raw[3] = atan2(g->dB.y, g->dB.x);
+        raw[4] = -atan2(g->dB.z, g->hB);
+        raw[6] = atan2(g->dC.y, g->dC.x);
+        raw[7] = -atan2(g->dC.z, g->hC);
+        raw[9] = atan2(g->dD.y, g->dD.x);
+        raw[10] = atan2(g->dE.y, g->dE.x);
+    }
     const double tiny = 1e-9;
     g->failed = !(disc_d >= 0.0) ? LOOP_D
               : !(disc_e >= 0.0) ? LOOP_E
@@ -252,7 +256,7 @@ static void inverse_geometry(const double *P, const double *q, geometric *g)
         raw[i] = raw[i] - P[P_ZERO + i];
     for (int i = 0; i < 8; i++) {
         int j = ANGLES[i];
-        raw[j] = pymod(raw[j] + M_PI, 2.0 * M_PI) - M_PI;
+        raw[j] = angles ? pymod(raw[j] + M_PI, 2.0 * M_PI) - M_PI : 0.0;
     }
 }
 
@@ -629,11 +633,12 @@ typedef struct {
 } pose_terms;
 
 /* eq. (5)-(12), (14): fills p; returns the first loop that cannot close, or -1 */
-static int pose_of(const double *P, const double *q, const double *qd, pose_terms *p)
+static int pose_of(const double *P, const double *q, const double *qd, pose_terms *p,
+                   int angles)
 {
     geometric *g = &p->g;
     double cols[3][12];
-    inverse_geometry(P, q, g);                                    /* eq. (5)-(8) */
+    inverse_geometry(P, q, g, angles);                            /* eq. (5)-(8) */
     if (g->failed >= 0)
         return g->failed;
     factorize(P, g, &p->f);                                       /* eq. (12) */
@@ -667,9 +672,8 @@ static int pose_of(const double *P, const double *q, const double *qd, pose_term
    platform's and the rod's accelerations read directly): the actuator forces
    of the scene fx, friction excluded */
 static void actuator_forces(const double *P, int fx, const pose_terms *p, const double *Gd,
-                            const double *qd, const double *qdd, double *force)
+                            const double *qd, const double *qdd, double *force, body_state *st)
 {
-    body_state st[N_BODIES];
     double tau[12];
     body_states(P, fx, &p->g, p->V, Gd, qd, qdd, st);
     double tau_43 = joint_forces(P, fx, &p->g, st, tau);          /* eq. (18)-(22) */
@@ -684,7 +688,7 @@ static void actuator_forces(const double *P, int fx, const pose_terms *p, const 
 
 /* the rest of solver._solve at a pose p, then the status rule: the row */
 static void solve_at(const double *P, int fx, const pose_terms *p, const double *qd,
-                     const double *qdd, double *out)
+                     const double *qdd, double *out, body_state *st)
 {
     const geometric *g = &p->g;
     double S[12], Gamma[12], Gdyn[12], force[3], rate[3];
@@ -697,7 +701,7 @@ static void solve_at(const double *P, int fx, const pose_terms *p, const double 
             Gdyn[j] = p->K[0][j] * qdd[0] + p->K[1][j] * qdd[1] + p->K[2][j] * qdd[2];
         Gd = Gdyn;
     }
-    actuator_forces(P, fx, p, Gd, qd, qdd, force);
+    actuator_forces(P, fx, p, Gd, qd, qdd, force, st);
     for (int m = 0; m < 3; m++)
         rate[m] = p->V[ACTUATED[m]];
     if (fx & E_FRICTION) {
@@ -762,10 +766,12 @@ static void solve_at(const double *P, int fx, const pose_terms *p, const double 
     out[O_INFO] = info;
 }
 
-/* one sample into the row `out`; returns 1 when p holds its pose (the input
-   is finite and every loop closes), 0 when the sample stopped before */
+/* one sample into the row `out`; returns 1 when p holds its pose and st its
+   bodies (the input is finite and every loop closes), 0 when the sample
+   stopped before */
 static int solve_posed(const double *P, int fx, const double *q, const double *qd,
-                       const double *qdd, double *out, pose_terms *p)
+                       const double *qdd, double *out, pose_terms *p, body_state *st,
+                       int angles)
 {
     memset(out, 0, OUT_SIZE * sizeof(double));
     /* non-finite input: nothing is computed (status.first_bad_input) */
@@ -776,12 +782,12 @@ static int solve_posed(const double *P, int fx, const double *q, const double *q
             return 0;
         }
     }
-    int failed = pose_of(P, q, qd, p);
+    int failed = pose_of(P, q, qd, p, angles);
     if (failed >= 0) {
         stop(P, -1, failed, out);
         return 0;
     }
-    solve_at(P, fx, p, qd, qdd, out);
+    solve_at(P, fx, p, qd, qdd, out, st);
     return 1;
 }
 
@@ -789,69 +795,67 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
                       const double *qdd, double *out)
 {
     pose_terms p;
-    solve_posed(P, fx, q, qd, qdd, out, &p);
+    body_state st[N_BODIES];
+    solve_posed(P, fx, q, qd, qdd, out, &p, st, 1);
 }
 
 /* ------------------------------------------------------------------------ */
 /* Forward dynamics (forward_dynamics.affine_terms): f = M qdd + b           */
 /* ------------------------------------------------------------------------ */
 static const double REST[3] = {0.0, 0.0, 0.0};
-static const double UNIT[3][3] = {{1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, {0.0, 0.0, 1.0}};
 
-/* M of f = M qdd + b at a pose: every term of the recursion is affine in qdd
-   (eq. 15-17: Gamma = K qdd + Q^-1 (velocity terms); eq. 18-23 linear in the
-   body accelerations; friction reads the leg rates only), so column j of M is
-   the force of the accelerations of a unit qdd e_j alone (joint accelerations
-   K e_j; no gravity, velocity products, friction: they are in b). Those
-   accelerations of a body are its velocities per unit qd_j (a_j, and eps_j in
-   body axes w_j), so by virtual power (eq. 23) M = J^-T Mq with
-   Mq[i][j] = sum over the moving bodies of m a_i . a_j + w_i . I w_j: the
-   recursion's three passes in one sum (the same M to rounding,
-   test_twin_kernel.py). */
 /* acc and eps of the bodies for the joint accelerations G = K e_j and the
-   unit qdd e_j alone: body_states' formulas without velocity terms, its
-   centres of mass (st) reused, so that the frames are built once for the
-   three columns */
+   unit qdd e_j alone: body_states' formulas without velocity terms, on the
+   centres of mass com of the pose (0 for a body at rest) */
 static void unit_accelerations(const double *P, const geometric *g, const double *G, int j,
-                               const body_state *st, v3 *acc, v3 *eps)
+                               const v3 *com, v3 *acc, v3 *eps)
 {
     v3 Gdd = vec(j == 0, j == 1, 0.0);
     v3 eA = vec(0.0, 0.0, G[0]);
     eps[CYL_A] = eps[PIS_A] = eA;
-    acc[CYL_A] = cross(eA, st[CYL_A].com);
-    acc[PIS_A] = add(scale(G[1], g->dA), cross(eA, st[PIS_A].com));
+    acc[CYL_A] = cross(eA, com[CYL_A]);
+    acc[PIS_A] = add(scale(G[1], g->dA), cross(eA, com[PIS_A]));
     eps[ROD] = vec(0.0, 0.0, G[0] + G[2]);
-    acc[ROD] = add(Gdd, cross(eps[ROD], sub(st[ROD].com, g->G)));
+    acc[ROD] = add(Gdd, cross(eps[ROD], sub(com[ROD], g->G)));
     double roll_dd = j == 2;
     eps[PLATFORM] = eps[PAYLOAD] = vec(roll_dd * g->l.x, roll_dd * g->l.y, G[0] + G[2]);
-    acc[PLATFORM] = add(Gdd, cross(eps[PLATFORM], sub(st[PLATFORM].com, g->G)));
-    acc[PAYLOAD] = add(Gdd, cross(eps[PAYLOAD], sub(st[PAYLOAD].com, g->G)));
+    acc[PLATFORM] = add(Gdd, cross(eps[PLATFORM], sub(com[PLATFORM], g->G)));
+    acc[PAYLOAD] = add(Gdd, cross(eps[PAYLOAD], sub(com[PAYLOAD], g->G)));
     double base_x = P[P_D2] + P[P_D3] + P[P_D4];
     for (int leg = 0; leg < 2; leg++) {
         int k = leg ? 6 : 3, cyl = leg ? CYL_C : CYL_B, pis = leg ? PIS_C : PIS_B;
         v3 P1 = vec(base_x, 0.0, leg ? -P[P_D5] : P[P_D5]);
         v3 d = leg ? g->dC : g->dB, e2 = leg ? g->e2C : g->e2B;
         eps[cyl] = eps[pis] = vec(G[k + 1] * e2.x, G[k + 1] * e2.y, G[k]);
-        acc[cyl] = cross(eps[cyl], sub(st[cyl].com, P1));
-        acc[pis] = add(scale(G[k + 2], d), cross(eps[pis], sub(st[pis].com, P1)));
+        acc[cyl] = cross(eps[cyl], sub(com[cyl], P1));
+        acc[pis] = add(scale(G[k + 2], d), cross(eps[pis], sub(com[pis], P1)));
     }
     for (int c = 0; c < 2; c++) {
         int i = c ? CRANK_E : CRANK_D;
         v3 P1 = vec(c ? P[P_D2] : P[P_D2] + P[P_D3], 0.0, 0.0);
         eps[i] = vec(0.0, 0.0, G[c ? 10 : 9]);
-        acc[i] = cross(eps[i], sub(st[i].com, P1));
+        acc[i] = cross(eps[i], sub(com[i], P1));
     }
 }
 
-static void mass_matrix(const double *P, int fx, const pose_terms *p, double *M)
+/* M of f = M qdd + b at a pose p whose bodies (frames, centres of mass, which
+   move) the solve's body_states left in st: every term of the recursion is
+   affine in qdd (eq. 15-17: Gamma = K qdd + Q^-1 (velocity terms); eq. 18-23
+   linear in the body accelerations; friction reads the leg rates only), so
+   column j of M is the force of the accelerations of a unit qdd e_j alone
+   (joint accelerations K e_j; no gravity, velocity products, friction: they
+   are in b). Those accelerations of a body are its velocities per unit qd_j
+   (a_j, and eps_j in body axes w_j), so by virtual power (eq. 23)
+   M = J^-T Mq with Mq[i][j] = sum over the moving bodies of
+   m a_i . a_j + w_i . I w_j: the recursion's three passes in one sum (the
+   same M to rounding, test_twin_kernel.py). */
+static void mass_matrix(const double *P, const pose_terms *p, const body_state *st, double *M)
 {
-    const int linear = fx & ~(E_GRAVITY | E_VP | E_FRICTION);
-    body_state st[N_BODIES];
-    v3 acc[3][N_BODIES], eps[3][N_BODIES];
-    memset(st, 0, sizeof st);      /* bodies at rest keep no centre: read as 0, not summed */
-    body_states(P, linear, &p->g, p->V, p->K[0], REST, UNIT[0], st);   /* frames, centres */
+    v3 com[N_BODIES], acc[3][N_BODIES], eps[3][N_BODIES];
+    for (int b = 0; b < N_BODIES; b++)
+        com[b] = st[b].moving ? st[b].com : vec(0.0, 0.0, 0.0);
     for (int j = 0; j < 3; j++)
-        unit_accelerations(P, &p->g, p->K[j], j, st, acc[j], eps[j]);
+        unit_accelerations(P, &p->g, p->K[j], j, com, acc[j], eps[j]);
     double Mq[3][3] = {{0.0}};
     for (int b = 0; b < N_BODIES; b++) {
         if (!st[b].moving)
@@ -877,16 +881,18 @@ static void mass_matrix(const double *P, int fx, const pose_terms *p, double *M)
    (unreachable, invalid input); a non-finite entry of M (exact singularity)
    is 0, as solve's numbers are. */
 static void affine_one(const double *P, int fx, const double *q, const double *qd,
-                       double *out, double *M, double *b)
+                       double *out, double *M, double *b, int angles)
 {
     pose_terms p;
+    body_state st[N_BODIES];
     memset(M, 0, 9 * sizeof(double));
     memset(b, 0, 3 * sizeof(double));
-    if (!solve_posed(P, fx, q, qd, REST, out, &p) || out[O_STATUS] >= S_UNREACHABLE)
+    if (!solve_posed(P, fx, q, qd, REST, out, &p, st, angles)
+            || out[O_STATUS] >= S_UNREACHABLE)
         return;
     for (int m = 0; m < 3; m++)
         b[m] = out[O_FORCE + m];
-    mass_matrix(P, fx, &p, M);
+    mass_matrix(P, &p, st, M);
     for (int i = 0; i < 9; i++)
         if (!isfinite(M[i]))
             M[i] = 0.0;
@@ -973,7 +979,7 @@ static int stage(const double *P, int fx, const tabulated_law *law, Py_ssize_t j
                  const double *q, const double *qd, double *qdd, double *force)
 {
     double row[OUT_SIZE], M[9], b[3], rhs[3];
-    affine_one(P, fx, q, qd, row, M, b);
+    affine_one(P, fx, q, qd, row, M, b, 0);     /* no joint angle read here */
     if (row[O_STATUS] >= S_NEAR_SINGULAR)
         return 0;
     for (int m = 0; m < 3; m++) {
@@ -1200,7 +1206,7 @@ static PyObject *py_affine(PyObject *self, PyObject *const *args, Py_ssize_t nar
             goto done;
     double *out = (double *)views[1].buf;
     affine_one((const double *)views[0].buf, (int)fx, x, x + 3, out, (double *)views[2].buf,
-               (double *)views[3].buf);
+               (double *)views[3].buf, 1);
     result = Py_BuildValue("(iiddd)", (int)out[O_STATUS], (int)out[O_INFO], out[O_BETA],
                            out[O_KIN], out[O_JAC]);
 done:

@@ -86,12 +86,14 @@ def affine_terms(model: Model, q: Sequence[float], qd: Sequence[float]
     (check the status first).
 
     With the compiled kernel (:mod:`.kernel`), one call: the pose's geometry
-    and Jacobians once, b from the recursion at qdd = 0, column j of M from the
-    recursion for the unit acceleration e_j without gravity, velocity products
-    and friction (the terms of b; friction reads the leg rates, not qdd, so f
-    stays affine in qdd with it). Otherwise, the reference: four solves,
-    b = solve(q, qd, 0).force and M e_j = solve(q, qd, e_j).force - b; the
-    two agree to rounding (test_forward_dynamics.py).
+    and Jacobians once, b = the force of the solve at qdd = 0, and M from the
+    bodies' accelerations for the unit accelerations e_j alone (no gravity,
+    velocity products, friction: the terms of b; friction reads the leg
+    rates, not qdd, so f stays affine in qdd with it), which are their
+    velocities per unit qd_j: M = J^-T sum m a_i . a_j + w_i . I w_j by virtual
+    power (eq. 23). Otherwise, the reference: four solves, b = solve(q, qd,
+    0).force and M e_j = solve(q, qd, e_j).force - b. The two agree to
+    rounding (test_twin_kernel.py).
     """
     if kernel._enabled:
         q3, qd3 = three_numbers('q', q), three_numbers('qd', qd)
