@@ -137,9 +137,9 @@ class CycleStats:
 
     def reject(self, reason: str, message: str) -> None:
         self.rejected[reason] += 1
-        if reason in QUIET_REASONS:
-            return
         self.last_message = message
+        if reason in QUIET_REASONS:         # expected: counted and shown, the level stays
+            return
         self.note(ERROR if reason in ERROR_REASONS else WARN, f'rejected ({reason})')
 
     def solved(self, seconds: float, cond: float, jacobian_cond: float,

@@ -174,6 +174,15 @@ class Client:
             and all(c.service_is_ready() for c in self.srv.values())), timeout)
         assert ok, 'node not discovered in time:\n' + node.output()[-3000:]
 
+    def explain(self) -> str:
+        """For a failure message: the node's last /diagnostics values and the
+        end of its log (why setpoints were not answered)."""
+        self.spin_until(lambda: False, 1.5)      # one more diagnostics period
+        values = [diagnostic_values(m, self.status_name) for m in self.diagnostics]
+        last = next((v for v in reversed(values) if v), {})
+        log = self.watch.output()[-3000:] if self.watch is not None else ''
+        return f'\nlast diagnostics: {last}\nnode log:\n{log}'
+
     def wait_actuator(self, count: int, timeout: float = 5.0) -> bool:
         return self.spin_until(lambda: len(self.actuator) >= count, timeout)
 

@@ -79,6 +79,7 @@ def test_full_lifecycle_over_the_services():
         assert not client.answered(stamp, 1.0)
         values = client.wait_diagnostics(lambda v: int(v.get('rejected inactive', 0)) >= 3)
         assert values['lifecycle state'] == 'inactive'
+        assert 'received while inactive' in values['last rejection'], values
         assert client.change(Transition.TRANSITION_ACTIVATE)
         assert client.state() == 'active'
         assert not client.spin_until(lambda: any(stamp_ns(m) == stamp

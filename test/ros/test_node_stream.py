@@ -76,7 +76,8 @@ def test_paper_motions_at_200hz_match_solver(client, model):
     elapsed = stream(client, stamps, q, qd, qdd)
     assert elapsed < len(q) / RATE * 1.25, f'publisher could not keep 200 Hz ({elapsed:.2f} s)'
     assert client.wait_actuator(first + len(q), timeout=10.0), \
-        f'lost {first + len(q) - len(client.actuator)} of {len(q)} setpoints at 200 Hz'
+        f'lost {first + len(q) - len(client.actuator)} of {len(q)} setpoints at 200 Hz' \
+        + client.explain()
     got = received_since(client, first)
     assert len(got) == len(q)
     assert [stamp_ns(m) for m in got] == [int(s) for s in stamps], 'order or stamps differ'
