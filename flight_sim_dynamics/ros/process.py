@@ -19,10 +19,12 @@ down themselves once the executor has stopped.
 """
 from __future__ import annotations
 
+import atexit
 import os
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 from typing import IO, Any, Sequence
 
@@ -97,23 +99,46 @@ def stop_node(proc: subprocess.Popen, timeout: float = 5.0) -> int | None:
 
 #: The signals that request a stop of an executable.
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
-_stop: list[int] = []
+#: Seconds after a first stop signal during which more are the same request:
+#: Ctrl-C under ``ros2 launch`` reaches each process twice (the terminal
+#: signals the whole process group, and launch forwards SIGINT to its children).
+REPEAT_WINDOW = 2.0
+_stop: list[float] = []
 
 
 def _on_stop_signal(signum: int, frame: Any) -> None:
-    if _stop:       # a second Ctrl-C: the stop hangs, end it the usual way
-        signal.signal(signum, signal.SIG_DFL)
-        raise KeyboardInterrupt
-    _stop.append(signum)
+    now = time.monotonic()
+    if not _stop:
+        _stop.append(now)
+        return
+    if now - _stop[0] < REPEAT_WINDOW:
+        return
+    # a later signal: the stop hangs; end the process by the signal itself, as
+    # without a handler (no KeyboardInterrupt raised inside a callback)
+    signal.signal(signum, signal.SIG_DFL)
+    os.kill(os.getpid(), signum)
+
+
+def _ignore_stop_signals() -> None:
+    for signum in STOP_SIGNALS:
+        signal.signal(signum, signal.SIG_IGN)
 
 
 def stop_on_signals() -> None:
-    """Make SIGINT and SIGTERM set :func:`stop_requested` (a second one
-    interrupts as Ctrl-C does). Main thread only, as Python's signal handlers.
+    """Make SIGINT and SIGTERM set :func:`stop_requested`; repeats within
+    :data:`REPEAT_WINDOW` s are the same request, a later one ends the process
+    at once (by that signal). Main thread only, as Python's signal handlers.
+
+    Once the interpreter exits they are ignored: its finalisation puts a
+    Python handler back to the default action, so the repeat of a Ctrl-C
+    that arrived then killed a process that had stopped cleanly (exit -2
+    instead of 0 under ``ros2 launch``).
     """
     _stop.clear()
     for signum in STOP_SIGNALS:
         signal.signal(signum, _on_stop_signal)
+    atexit.unregister(_ignore_stop_signals)
+    atexit.register(_ignore_stop_signals)
 
 
 def stop_requested() -> bool:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import os
+import signal
 import subprocess
 import sys
 import tempfile
@@ -80,8 +81,13 @@ class NodeProcess:
             time.sleep(0.02)
         return True
 
-    def stop(self, timeout: float = 5.0) -> int:
-        """SIGINT (as Ctrl-C), then SIGKILL if it does not exit in ``timeout`` s."""
+    def stop(self, timeout: float = 5.0, repeat_after: float | None = None) -> int:
+        """SIGINT (as Ctrl-C), then SIGKILL if it does not exit in ``timeout`` s.
+        ``repeat_after``: a second SIGINT that many seconds after the first, as
+        a Ctrl-C under ``ros2 launch`` arrives (the terminal's, then launch's)."""
+        if repeat_after is not None and self.alive():
+            self.proc.send_signal(signal.SIGINT)
+            time.sleep(repeat_after)
         stop_node(self.proc, timeout)
         if self._final_output is None:
             self._final_output = self.output()

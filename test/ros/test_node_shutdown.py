@@ -24,8 +24,8 @@ STOPS = 10
 SEED = 15
 
 
-def assert_silent_stop(proc: NodeProcess, what: str) -> None:
-    rc = proc.stop(timeout=10.0)
+def assert_silent_stop(proc: NodeProcess, what: str, repeat_after: float | None = None) -> None:
+    rc = proc.stop(timeout=10.0, repeat_after=repeat_after)
     out = proc.output()
     assert rc == 0, f'{what}: exit status {rc}\n{out[-3000:]}'
     for word in ('FATAL', 'Traceback'):
@@ -94,3 +94,32 @@ def test_planner_stops_silently_while_streaming():
             time.sleep(rng.uniform(0.05, 0.3))
         finally:
             assert_silent_stop(planner, f'planner, stop {i}')
+
+
+@pytest.mark.parametrize('process', ['node', 'planner'])
+def test_ctrl_c_under_ros2_launch_stops_silently(process):
+    """Ctrl-C in the terminal of ``ros2 launch`` reaches every process twice
+    (the terminal signals the process group, launch forwards SIGINT): found
+    by the manual check with the real ``ros2 launch`` (the planner raised
+    KeyboardInterrupt in its timer callback, FATAL). Both signals are one
+    stop request. The node is stopped while it answers a 1 kHz stream."""
+    rng = random.Random(SEED + 2)
+    stream = PlannerProcess('--rate', '1000', '--loop', '--wait', '0') \
+        if process == 'node' else None
+    try:
+        for i in range(STOPS // 2):
+            if process == 'planner':
+                proc = PlannerProcess('--rate', '5000', '--loop', '--wait', '0')
+                ready = 'publishing'
+            else:
+                proc = NodeProcess('-r', '__node:=fsd_launch_stop', params_file=None)
+                ready = 'active: answering setpoints'
+            try:
+                assert proc.wait_output(ready), proc.output()[-3000:]
+                time.sleep(rng.uniform(0.2, 0.5))
+            finally:
+                assert_silent_stop(proc, f'{process}, stop {i}',
+                                   repeat_after=rng.uniform(0.0, 0.05))
+    finally:
+        if stream is not None:
+            assert_silent_stop(stream, 'the streaming planner')
