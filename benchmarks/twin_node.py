@@ -10,7 +10,7 @@ of the demo planner's looping paper motions, computed here). Measured:
   drop steps) and dropped steps, from its /diagnostics;
 * its real-time factor: simulated time over wall time, from its steps.
 
-    python -m benchmarks.twin_node [--seconds 60] [--rate 1000] [--tick-rate 250]
+    python -m benchmarks.twin_node [--seconds 60] [--rate 1000] [--tick-rate 100]
 
 The issue's target: at most 20 % of one core and no overrun at 1 kHz. Use
 an unused ROS_DOMAIN_ID (the figures include whatever else talks there).
@@ -34,6 +34,7 @@ from sensor_msgs.msg import JointState
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.cli.bench_report import machine_header
+from flight_sim_dynamics.config.schema import SIM_PARAMETERS
 from flight_sim_dynamics.core.model import LEG_NAMES
 from flight_sim_dynamics.core.motions import PAPER_EXAMPLES, PlannerSequence
 from flight_sim_dynamics.ros.process import SIM_MODULE, start_node, stop_node
@@ -52,8 +53,9 @@ def build_parser() -> argparse.ArgumentParser:
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument('--seconds', type=float, default=60.0, help='length of the run (default 60)')
     p.add_argument('--rate', type=float, default=1000.0, help="the twin's rate (default 1000 Hz)")
-    p.add_argument('--tick-rate', type=float, default=250.0,
-                   help="the twin's tick rate (default 250 Hz)")
+    tick_rate = next(s.default for s in SIM_PARAMETERS if s.name == 'tick_rate')
+    p.add_argument('--tick-rate', type=float, default=tick_rate,
+                   help=f"the twin's tick rate (default: the node's, {tick_rate:g} Hz)")
     p.add_argument('--command-rate', type=float, default=100.0,
                    help='commands per second (default 100)')
     return p

@@ -327,7 +327,7 @@ SIM_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('rate', 'double', 1000.0,
               'integration rate of servos and plant: one RK4 step per 1/rate s of '
               'simulated time', 'Hz', minimum=1.0, maximum=100000.0),
-    ParamSpec('tick_rate', 'double', 250.0,
+    ParamSpec('tick_rate', 'double', 100.0,
               'rate of the node\'s loop: each tick makes the steps due by the steady clock '
               '(sub-stepping at rate) and publishes the state', 'Hz',
               minimum=1.0, maximum=10000.0),

@@ -20,6 +20,13 @@ one, so the measured leg lengths, rates and delivered forces of the current
 state come with it: four evaluations of M and b per step (one more after a
 new command, whose force law differs).
 
+With the compiled kernel enabled, :meth:`TwinStepper.advance` hands the
+steps to the kernel's RK4 loop (:func:`.kernel.integrate_rows`, the held
+command as a constant table: the same operations) and evaluates the first
+stage once at the state reached, for the measured values; a step the kernel
+cannot finish is taken by the Python loop, as :func:`.simulation.integrate`
+does.
+
 When a stage state is unreachable, near a singularity or not finite, the
 stepper stops (:attr:`TwinStepper.outcome`, :attr:`TwinStepper.detail`) and
 holds the last state reached, at rest: it never produces NaN.
@@ -31,6 +38,7 @@ from typing import Sequence
 
 import numpy as np
 
+from . import kernel
 from .model import Model
 from .simulation import Servo, _stage, deliver
 from .solver import Solution
@@ -69,6 +77,7 @@ class TwinStepper:
         self._first: tuple[np.ndarray, np.ndarray, Solution] | None = None
         self._base: Solution | None = None
         self._held: Solution | None = None       # the solve of the last good state
+        self._tables: tuple | None = None        # (steps, the kernel's law) of the command
         self._evaluate_first()
 
     # -- the command ------------------------------------------------------------------
@@ -86,6 +95,7 @@ class TwinStepper:
             values.append(arr)
         self._length_ref, self._rate_ref, self._ff = values
         self._first = None
+        self._tables = None
         if self.outcome is Status.OK:
             self._evaluate_first()
 
@@ -121,40 +131,76 @@ class TwinStepper:
         """Advance by ``steps`` RK4 steps (fewer when it stops); returns the
         number of steps made.
         """
-        h = self.step
         done = 0
+        if steps > 0 and self.outcome is Status.OK and kernel.enabled():
+            done = self._advance_compiled(steps)
         while done < steps and self.outcome is Status.OK:
-            if self._first is None and not self._evaluate_first():
+            if not self._python_step():
                 break
-            a1 = self._first[0]
-            q, qd = self.q, self.qd
-            q2, v2 = q + 0.5 * h * qd, qd + 0.5 * h * a1
-            a2, _, status, detail = _stage(self.plant, q2, v2, self._law, 1)
-            if status is Status.OK:
-                q3, v3 = q + 0.5 * h * v2, qd + 0.5 * h * a2
-                a3, _, status, detail = _stage(self.plant, q3, v3, self._law, 1)
-            if status is Status.OK:
-                q4, v4 = q + h * v3, qd + h * a3
-                a4, _, status, detail = _stage(self.plant, q4, v4, self._law, 2)
-            if status is Status.OK:
-                q_new = q + (h / 6.0) * (qd + 2.0 * (v2 + v3) + v4)
-                qd_new = qd + (h / 6.0) * (a1 + 2.0 * (a2 + a3) + a4)
-                if not (np.all(np.isfinite(q_new)) and np.all(np.isfinite(qd_new))):
-                    status, detail = Status.INVALID_INPUT, 'state not finite: forces too large'
-            if status is not Status.OK:
-                self._stop(status, f'step from t = {self.time:.6g} s: {detail}')
-                break
-            previous = (self.q, self.qd)
-            self.q, self.qd = q_new, qd_new
-            self.steps += 1
-            self.time = self.steps * h
             done += 1
-            if not self._evaluate_first():
-                self.q = previous[0]         # hold the last state that could be simulated
-                self.steps -= 1
-                self.time = self.steps * h
-                break
         return done
+
+    def _advance_compiled(self, steps: int) -> int:
+        """Up to ``steps`` steps in the kernel; the steps made."""
+        if self._tables is None or self._tables[0] != steps:
+            # the held command as the kernel's tables; kept until the next command
+            n = 2 * steps + 1
+            self._tables = (steps, (
+                np.tile(self._ff, (n, 1)), np.tile(self._length_ref, (n, 1)),
+                np.tile(self._rate_ref, (n, 1)), self._kp, self._kd, float(self._max_force),
+                float(self._max_speed), True))
+        law = self._tables[1]
+        rows = tuple(np.empty((steps + 1, 3)) for _ in range(4))
+        rows[0][0], rows[1][0] = self.q, self.qd
+        reached = min(kernel.integrate_rows(self.plant, law, self.step, 0, steps, rows), steps)
+        if reached == 0:
+            return 0                         # the Python loop takes this step
+        self.q, self.qd = rows[0][reached].copy(), rows[1][reached].copy()
+        self._set_steps(self.steps + reached)
+        if self._evaluate_first():
+            return reached
+        # hold the last state that could be simulated, as the Python loop does
+        self.q = rows[0][reached - 1].copy()
+        self._set_steps(self.steps - 1)
+        self._base = None
+        _stage(self.plant, self.q, rows[1][reached - 1], self._law, 0)
+        self._held = self._base
+        return reached - 1
+
+    def _set_steps(self, steps: int) -> None:
+        self.steps = steps
+        self.time = steps * self.step
+
+    def _python_step(self) -> bool:
+        """One RK4 step in Python; False when the stepper stopped instead."""
+        h = self.step
+        if self._first is None and not self._evaluate_first():
+            return False
+        a1 = self._first[0]
+        q, qd = self.q, self.qd
+        q2, v2 = q + 0.5 * h * qd, qd + 0.5 * h * a1
+        a2, _, status, detail = _stage(self.plant, q2, v2, self._law, 1)
+        if status is Status.OK:
+            q3, v3 = q + 0.5 * h * v2, qd + 0.5 * h * a2
+            a3, _, status, detail = _stage(self.plant, q3, v3, self._law, 1)
+        if status is Status.OK:
+            q4, v4 = q + h * v3, qd + h * a3
+            a4, _, status, detail = _stage(self.plant, q4, v4, self._law, 2)
+        if status is Status.OK:
+            q_new = q + (h / 6.0) * (qd + 2.0 * (v2 + v3) + v4)
+            qd_new = qd + (h / 6.0) * (a1 + 2.0 * (a2 + a3) + a4)
+            if not (np.all(np.isfinite(q_new)) and np.all(np.isfinite(qd_new))):
+                status, detail = Status.INVALID_INPUT, 'state not finite: forces too large'
+        if status is not Status.OK:
+            self._stop(status, f'step from t = {self.time:.6g} s: {detail}')
+            return False
+        self.q, self.qd = q_new, qd_new
+        self._set_steps(self.steps + 1)
+        if not self._evaluate_first():
+            self.q = q                       # hold the last state that could be simulated
+            self._set_steps(self.steps - 1)
+            return False
+        return True
 
     # -- the measured state ----------------------------------------------------------------
     @property

@@ -19,7 +19,7 @@ import pytest
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics import Status
-from flight_sim_dynamics.core import motions
+from flight_sim_dynamics.core import kernel, motions
 from flight_sim_dynamics.core.simulation import Reference, Servo, simulate
 from flight_sim_dynamics.core.twin import TwinStepper
 
@@ -174,3 +174,39 @@ def test_unreachable_start_is_a_status(model, servo):
     assert not twin.running and twin.outcome is Status.UNREACHABLE
     assert twin.advance(3) == 0
     assert np.all(np.isfinite(twin.length))
+
+
+def _run_stepper(model, servo, commands, chunk):
+    """The stepper fed ``commands`` (one per ``chunk`` steps): its states."""
+    twin = TwinStepper(model, servo, STEP)
+    states = []
+    for length, rate, force in commands:
+        twin.command(length, rate, force)
+        twin.advance(chunk)
+        states.append((twin.q.copy(), twin.qd.copy(), twin.length.copy(), twin.rate.copy(),
+                       twin.force.copy(), twin.steps, twin.outcome))
+    return states
+
+
+@pytest.mark.skipif(not kernel.available(), reason='compiled kernel not built')
+@pytest.mark.parametrize('far', [False, True])
+def test_compiled_steps_equal_python_steps(model, servo, far):
+    """Several steps per call (as the node ticks) through the kernel equal the
+    Python loop: on a moving reference, and up to the stop and the state held
+    when the commands drive the platform out of the workspace."""
+    plant = replace(model, limits=replace(model.limits, max_force=1e6)) if far else model
+    motion = motions.get('general')
+    t = np.arange(0.0, 1.0, 4 * STEP)
+    ref = fsd.solve_batch(model, *motion.trajectory(t))
+    push = np.array([1.0, -1.0, 1.0]) * (t[:, None] if far else 0.0)
+    commands = list(zip(ref.length + push, ref.rate, ref.force))
+    with kernel.use_kernel(True):
+        compiled = _run_stepper(plant, servo, commands, 4)
+    with kernel.use_kernel(False):
+        python = _run_stepper(plant, servo, commands, 4)
+    assert [s[5:] for s in compiled] == [s[5:] for s in python]
+    if far:
+        assert python[-1][6] is not Status.OK       # it did stop
+    for got, want in zip(compiled, python):
+        for a, b in zip(got[:5], want[:5]):
+            np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)

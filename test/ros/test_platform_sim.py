@@ -26,6 +26,7 @@ from geometry_msgs.msg import PoseStamped, TwistStamped
 from sensor_msgs.msg import JointState
 
 import flight_sim_dynamics as fsd
+from flight_sim_dynamics.config.schema import SIM_PARAMETERS
 from flight_sim_dynamics.core.model import LEG_NAMES
 from flight_sim_dynamics.core.motions import PlannerSequence
 from flight_sim_dynamics.ros.inputs import quaternion_to_rpy
@@ -156,7 +157,8 @@ def test_simulated_pose_follows_the_commanded_one(pipeline):
     end = t0 + round((n - 1) * 1e9 / RATE)
     assert client.spin_until(lambda: twin.poses and stamp(twin.poses[-1]) > end, 5.0)
     poses = [m for m in twin.poses[first_pose:] if t0 <= stamp(m) <= end]
-    assert len(poses) > 0.5 * sequence.period * 250     # ticks at 250 Hz
+    tick_rate = next(s.default for s in SIM_PARAMETERS if s.name == 'tick_rate')
+    assert len(poses) > 0.5 * sequence.period * tick_rate     # one pose per tick
     errors = []
     for m in poses:
         q_ref, _, _, _ = sequence.sample((stamp(m) - t0) * 1e-9)
