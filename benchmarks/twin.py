@@ -15,11 +15,12 @@
   the page);
 * open-loop error growth: the inverse-dynamics forces of a 6 s motion near
   the workspace's edge (:func:`edge_motion`) fed back open loop, RK4 at 1 kHz:
-  the largest pose error up to every 0.5 s.
+  the largest pose error up to every 0.5 s, and a figure of it over time
+  (twin_open_loop.png; not in ``--quick``).
 
-Prints figures and tables; writes them to out/twin.md (the figure to
-out/twin_tracking.png), or with ``--update-docs`` between the markers of
-docs/twin.md (the figure to docs/twin_tracking.png).
+Prints figures and tables; writes them to out/twin.md (the figures to
+out/twin_tracking.png and out/twin_open_loop.png), or with ``--update-docs``
+between the markers of docs/twin.md (the figures to docs/).
 
     python -m benchmarks.twin [--bandwidth 5] [--repeats 3] [--quick] [--update-docs]
 """
@@ -203,14 +204,20 @@ def plot_tracking(runs: dict[tuple[str, str], fsd.Simulation], title: str, path:
         fig.savefig(f, format='png')
 
 
-def growth_rows(plant: fsd.Model, step_s: float = 0.5) -> list[list[str]]:
-    """Open loop on the edge motion: the largest pose error up to every 0.5 s."""
+def open_loop_edge(plant: fsd.Model) -> tuple[fsd.Simulation, np.ndarray, fsd.Solution]:
+    """Open loop on the edge motion, fed its inverse-dynamics forces: the run,
+    its pose error against the motion per row, the motion's solve.
+    """
     t = np.arange(int(round(EDGE_DURATION * 1000)) + 1) / 1000.0
     q, qd, qdd = edge_motion(t)
     sol = fsd.solve_batch(plant, q, qd, qdd)
     sim = simulate(plant, forces=(t, sol.force), initial=(q[0], qd[0]))
-    n = len(sim.t)
-    error = np.abs(sim.q - q[:n])
+    return sim, np.abs(sim.q - q[:len(sim.t)]), sol
+
+
+def growth_rows(sim: fsd.Simulation, error: np.ndarray, sol: fsd.Solution,
+                step_s: float = 0.5) -> list[list[str]]:
+    """The largest pose error of :func:`open_loop_edge` up to every 0.5 s."""
     rows = []
     for end in np.arange(step_s, EDGE_DURATION + 1e-9, step_s):
         upto = sim.t <= end + 1e-9
@@ -225,8 +232,29 @@ def growth_rows(plant: fsd.Model, step_s: float = 0.5) -> list[list[str]]:
     return rows + [[peak[0], peak[1], '', ''], ['statuses of the motion', statuses, '', '']]
 
 
+def plot_growth(sim: fsd.Simulation, error: np.ndarray, path: Path) -> None:
+    """The open-loop pose error of :func:`open_loop_edge` over time, log scale."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7.0, 3.2), dpi=110, layout='constrained')
+    ax = fig.subplots()
+    floor = 1e-16
+    for column, label in ((0, 'surge, m'), (1, 'heave, m'), (2, 'roll, rad')):
+        ax.semilogy(sim.t, np.maximum(error[:, column], floor), label=label, linewidth=1.0)
+    ax.set_xlabel('time, s')
+    ax.set_ylabel('open-loop pose error')
+    ax.set_title('Open loop under the inverse-dynamics forces, 6 s motion near the '
+                 'workspace edge', fontsize='small')
+    ax.grid(True, which='major', alpha=0.3)
+    ax.legend(fontsize='small')
+    with atomic_output(path) as f:
+        fig.savefig(f, format='png')
+
+
 def report(args: argparse.Namespace, argv: Sequence[str], figure: Path) -> str:
-    """The page (markdown); writes the tracking figure to ``figure``."""
+    """The page (markdown); writes the tracking figure to ``figure`` and the
+    open-loop growth figure beside it.
+    """
     plant = fsd.load_model()
     servo = Servo.for_bandwidth(plant, args.bandwidth, DEFAULT_DAMPING)
     motions = ('vertical',) if args.quick else TEST_MOTIONS
@@ -250,9 +278,13 @@ def report(args: argparse.Namespace, argv: Sequence[str], figure: Path) -> str:
                   'peak force N', 'outcome'], tracking_rows(runs)),
            f'![leg length tracking error by motion and feed-forward scene]({figure.name})\n']
     if not args.quick:
+        sim, error, sol = open_loop_edge(plant)
+        growth_figure = figure.with_name('twin_open_loop.png')
+        plot_growth(sim, error, growth_figure)
         out += ['### Open-loop error growth, 6 s motion near the workspace edge\n',
                 table(['up to t s', 'surge/heave max error m', 'roll max error rad', 'note'],
-                      growth_rows(plant))]
+                      growth_rows(sim, error, sol)),
+                f'![open-loop pose error over time]({growth_figure.name})\n']
     out += ['### Machine and command\n', '\n'.join(machine_header(argv)).replace(
         'flight-sim-dynamics bench', 'python -m benchmarks.twin') + '\n']
     return '\n'.join(out)

@@ -180,6 +180,29 @@ class Client:
             and all(c.service_is_ready() for c in self.srv.values())), timeout)
         assert ok, 'node not discovered in time:\n' + node.output()[-3000:]
 
+    def round_trip(self, next_stamp: Callable[[], int], timeout: float = 20.0) -> None:
+        """Discovery, both ways: matching seen from this side (wait_for_node)
+        does not mean the node's readers and writers have matched too, and
+        what is published before they have is lost (seen under load: the
+        first 0.7 s of a 200 Hz stream). Sends setpoints at rest (stamps
+        from ``next_stamp``) until one is answered on actuator_states and
+        joint_states and the node's diagnostics have counted a twist and an
+        acceleration."""
+        zero = (0.0, 0.0, 0.0)
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            stamp = next_stamp()
+            self.send(stamp, zero, zero, zero)
+            answered = self.spin_until(lambda: any(
+                stamp_ns(m) == stamp for m in [a for _, a in self.actuator[-3:]]) and any(
+                stamp_ns(m) == stamp for m in self.joints[-3:]), 0.25)
+            if answered:
+                self.wait_diagnostics(lambda v: int(v.get('received twist', 0)) > 0
+                                      and int(v.get('received accel', 0)) > 0,
+                                      max(0.5, deadline - time.monotonic()))
+                return
+        raise AssertionError('no setpoint answered in time (discovery)\n' + self.explain())
+
     def explain(self) -> str:
         """For a failure message: the node's last /diagnostics values and the
         end of its log (why setpoints were not answered)."""
