@@ -19,12 +19,13 @@ namespace (:class:`DuplicateGuard`; both would answer every setpoint, unless
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import socket
 import sys
 import time
 import uuid
-from typing import Any, Sequence
+from typing import Any, Iterator, Sequence
 
 import rclpy
 import rclpy.task
@@ -129,6 +130,28 @@ class DuplicateGuard:
                                          'it is told to exit')
 
 
+@contextlib.contextmanager
+def running(program: str, argv: Sequence[str]) -> Iterator[list[Any]]:
+    """The frame of every executable of the package (node, twin, demo planner):
+    Ctrl-C and SIGTERM request a stop, seen between callbacks
+    (:func:`.process.stop_on_signals`, issue 15 #3), and rclpy is initialised
+    without its own signal handlers. The nodes the block appends to the
+    yielded list are destroyed, and rclpy shut down, on the way out; a
+    KeyboardInterrupt or an external shutdown ends the block quietly.
+    """
+    stop_on_signals()
+    rclpy.init(args=[program, *argv], signal_handler_options=SignalHandlerOptions.NO)
+    nodes: list[Any] = []
+    try:
+        yield nodes
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        for node in nodes:
+            node.destroy_node()
+        rclpy.try_shutdown()
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the node until Ctrl-C / SIGTERM. ``argv``: arguments after the
     program name (None: sys.argv[1:]), ROS arguments after ``--ros-args``.
@@ -140,16 +163,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         # file) comes as rclpy's private _rclpy_pybind11 error types
         return refuse(_params_file_problem(argv) or f'invalid ROS arguments: {exc}')
     args = build_parser().parse_args(own)
-    # Ctrl-C / SIGTERM request a stop, seen between callbacks (process.py, issue 15 #3)
-    stop_on_signals()
-    rclpy.init(args=['dynamics_node', *argv], signal_handler_options=SignalHandlerOptions.NO)
-    node = None
-    executor = None
-    try:
+    with running('dynamics_node', argv) as nodes:
         try:
             node = DynamicsNode()
         except (prm.ParameterError, ParameterException) as exc:
             return refuse(f'invalid parameters: {exc}')
+        nodes.append(node)
         duplicate = None
         if not node.get_parameter('allow_duplicate_name').value:
             duplicate = DuplicateGuard(node).found
@@ -160,12 +179,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         spin(executor, until=[node.finalized] + ([duplicate] if duplicate else []))
         if duplicate is not None and duplicate.done():
             return refuse(duplicate.result())
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
     return 0
 
 

@@ -21,16 +21,15 @@ from typing import Any, Sequence
 import rclpy
 import rclpy.task
 from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.signals import SignalHandlerOptions
 from rclpy.time import Time
 
 from ..core.motions import PLANNER_MOTIONS as MOTIONS
 from ..core.motions import PlannerSequence
 from .inputs import rpy_to_quaternion
-from .process import stop_on_signals, stop_requested
+from .node import running
+from .process import stop_requested
 
 ALL = 'all'
 CHOICES = (*MOTIONS, ALL)
@@ -190,15 +189,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.no_twist and not args.no_accel:
         build_parser().error('--no-twist needs --no-accel (accelerations without rates '
                              'are not a stream the node expects)')
-    # Ctrl-C / SIGTERM request a stop, seen between callbacks (process.py, issue 15 #3)
-    stop_on_signals()
-    rclpy.init(args=['demo_planner', *argv], signal_handler_options=SignalHandlerOptions.NO)
     from rclpy.experimental import EventsExecutor
-    node = None
-    try:
+    with running('demo_planner', argv) as nodes:
         sequence = PlannerSequence(motions_of(args.example), loop=args.loop)
         node = PlannerNode(sequence, args.rate, twist=not args.no_twist,
                            accel=not args.no_accel)
+        nodes.append(node)
         executor = EventsExecutor()
         executor.add_node(node)
         log = node.get_logger()
@@ -215,14 +211,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             # let the last messages leave (reliable): wait until acknowledged
             node.pose_pub.wait_for_all_acked(rclpy.duration.Duration(seconds=2.0))
         log.info(f'sent {node.sent} setpoints')
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
     return 0
-
 
 if __name__ == '__main__':
     sys.exit(main())

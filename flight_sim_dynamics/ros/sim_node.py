@@ -15,14 +15,11 @@ import sys
 from typing import Sequence
 
 import rclpy
-from rclpy.signals import SignalHandlerOptions
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
 
 from ..config import parameters as prm
-from .node import DEFAULT_EXECUTOR, EXECUTORS, make_executor, refuse, spin
+from .node import DEFAULT_EXECUTOR, EXECUTORS, make_executor, refuse, running, spin
 from .platform_sim import PlatformSim
-from .process import stop_on_signals
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -50,23 +47,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as exc:  # noqa: BLE001 - rcl's refusal comes as rclpy's private types
         return refuse(f'invalid ROS arguments: {exc}')
     args = build_parser().parse_args(own)
-    stop_on_signals()       # Ctrl-C / SIGTERM: a quiet stop between callbacks, as the node
-    rclpy.init(args=['platform_sim', *argv], signal_handler_options=SignalHandlerOptions.NO)
-    node = None
-    try:
+    with running('platform_sim', argv) as nodes:
         try:
             node = PlatformSim()
         except (prm.ParameterError, ParameterException) as exc:
             return refuse(f'invalid parameters: {exc}')
+        nodes.append(node)
         executor = make_executor(args.executor)
         executor.add_node(node)
         spin(executor)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
     return 0
 
 
