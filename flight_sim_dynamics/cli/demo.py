@@ -67,6 +67,12 @@ class Monitor(Node):
         self.velocity.append(list(msg.velocity))
         self.effort.append(list(msg.effort))
 
+    def clear(self) -> None:
+        """Forget the answers received so far (the diagnostics stay)."""
+        for records in (self.stamps, self.received_at, self.position, self.velocity,
+                        self.effort):
+            records.clear()
+
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
         for status in msg.status:
             if status.name.endswith(': ' + DIAGNOSTIC_TASK):
@@ -75,6 +81,27 @@ class Monitor(Node):
                 name = LEVEL_NAMES.get(level, str(level))
                 self.status = name if status.message in ('', 'OK') else \
                     f'{name} ({status.message})'
+
+
+def round_trip(executor: Any, planner: PlannerNode, monitor: Monitor,
+               timeout: float = 10.0) -> bool:
+    """Probe setpoints (at rest, stamped 1 s back) until one is answered and
+    the node's diagnostics have counted a twist and an acceleration: the
+    node's readers and writers have matched too, not only ours (else the
+    first answers of the stream can be lost). The probes' answers are not
+    kept.
+    """
+    deadline = time.monotonic() + timeout
+    answered = False
+    while not answered and time.monotonic() < deadline:
+        stamp = planner.get_clock().now().nanoseconds - 1_000_000_000
+        planner.probe(stamp)
+        answered = spin_until(executor, lambda: stamp in monitor.stamps[-5:], timeout=0.2)
+    if answered:     # the node's diagnostics period (default 1 s) bounds this wait
+        spin_until(executor, lambda: all(int(monitor.diagnostics.get(f'received {kind}', 0)) > 0
+                                         for kind in ('twist', 'accel')), timeout=3.0)
+    monitor.clear()
+    return answered
 
 
 class TwinMonitor(Node):
@@ -213,6 +240,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 1
         if twin_down():
             print('[demo] the twin did not come up; its log:\n' + twin_log.read_text()[-2000:])
+            return 1
+        if not round_trip(executor, planner, monitor):
+            print('[demo] no probe setpoint answered in 10 s; the node log:\n'
+                  + log_path.read_text()[-2000:])
             return 1
         print(f'[demo] node up; planner: {", ".join(sequence.names)} at {args.rate:g} Hz, '
               f'{sequence.period:.1f} s')

@@ -287,6 +287,26 @@ def _reference_problem(sol: Solution, times: np.ndarray, what: str) -> None:
                          f'({bad.size} of {times.size} samples cannot be tracked)')
 
 
+def _reference(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+               times: np.ndarray, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Leg lengths, rates and forces of ``model`` on the reference samples;
+    ValueError at the first one that cannot be tracked. With the kernel its
+    result rows are read directly: no Solution and no wording of the samples
+    at a limit, which only the error needs (about 1.5 ms of a 30 ms run).
+    """
+    if kernel.enabled():
+        rows = kernel.solve_rows(model, q, qd, qdd)
+        severity = np.array([SEVERITY[s] for s in kernel.STATUS_BY_CODE])[
+            rows[:, kernel.O_STATUS].astype(np.intp)]
+        if not np.any(severity >= SEVERITY[Status.NEAR_SINGULAR]):
+            out = kernel.OUT
+            return (rows[:, out['length']].copy(), rows[:, out['rate']].copy(),
+                    rows[:, out['force']].copy())
+    sol = solve_batch(model, q, qd, qdd)
+    _reference_problem(sol, times, what)
+    return np.array(sol.length), np.array(sol.rate), np.array(sol.force)
+
+
 def simulate(plant: Model, *, forces: ForceHistory | tuple | None = None,
              reference: Reference | MotionLike | None = None,
              feedforward: Model | None = None,
@@ -325,15 +345,12 @@ def simulate(plant: Model, *, forces: ForceHistory | tuple | None = None,
     steps = _grid(reference.start, reference.end, step)
     times = reference.start + 0.5 * step * np.arange(2 * steps + 1)
     q_ref, qd_ref, qdd_ref = reference.motion(times)
-    kinematics = solve_batch(plant, q_ref, qd_ref, qdd_ref)
-    _reference_problem(kinematics, times, 'the reference motion')
-    length_ref, rate_ref = np.array(kinematics.length), np.array(kinematics.rate)
+    length_ref, rate_ref, plant_force = _reference(plant, q_ref, qd_ref, qdd_ref, times,
+                                                   'the reference motion')
     if feedforward is plant:         # the plant's own model: the same batch
-        ff = np.array(kinematics.force)
+        ff = plant_force
     elif feedforward is not None:
-        ff_sol = solve_batch(feedforward, q_ref, qd_ref, qdd_ref)
-        _reference_problem(ff_sol, times, 'the feed-forward model')
-        ff = np.array(ff_sol.force)
+        ff = _reference(feedforward, q_ref, qd_ref, qdd_ref, times, 'the feed-forward model')[2]
     else:
         ff = np.zeros_like(length_ref)
     servo = servo if servo is not None else Servo.for_bandwidth(plant)

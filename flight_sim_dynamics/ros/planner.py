@@ -114,6 +114,22 @@ class PlannerNode(Node):
             return
         q, qd, qdd, label = self.sequence.sample(t)
         stamp_ns = self._t0_ns + round(k * 1e9 / self.rate)
+        self._send(stamp_ns, q, qd, qdd)
+        self.sent += 1
+        if self.on_sample is not None:
+            self.on_sample(stamp_ns, label)
+
+    def probe(self, stamp_ns: int) -> None:
+        """One setpoint at rest at the sequence's first pose, stamped
+        ``stamp_ns`` (before :meth:`start`; not counted in :attr:`sent`): a
+        caller that sees it answered knows the whole chain has matched, both
+        ways (matching seen from one side does not say the other side has
+        matched, and what is published before is lost).
+        """
+        q = self.sequence.sample(0.0)[0]
+        self._send(stamp_ns, q, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+
+    def _send(self, stamp_ns: int, q: Any, qd: Any, qdd: Any) -> None:
         stamp = Time(nanoseconds=stamp_ns).to_msg()
         pose = self._pose
         pose.header.stamp = stamp
@@ -134,9 +150,6 @@ class PlannerNode(Node):
             ac.accel.linear.x, ac.accel.linear.z, ac.accel.angular.x = \
                 float(qdd[0]), float(qdd[1]), float(qdd[2])
             self.accel_pub.publish(ac)
-        self.sent += 1
-        if self.on_sample is not None:
-            self.on_sample(stamp_ns, label)
 
 
 def spin_until(executor: Any, predicate: Any, timeout: float | None = None,
