@@ -36,13 +36,6 @@ class Stamps:
         return stamps
 
 
-@pytest.fixture(scope='module', autouse=True)
-def discovered(client):
-    """Both sides matched before the first counted stream (a loss of the
-    first 0.7 s of the 200 Hz stream was seen under load)."""
-    client.round_trip(lambda: int(Stamps.take(1)[0]))
-
-
 def stream(client: Client, stamps, q, qd, qdd, rate: float = RATE, order: str = 'pta') -> float:
     """Publish setpoints paced at ``rate`` (spinning in between); returns the
     time taken."""
