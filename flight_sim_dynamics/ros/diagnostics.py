@@ -7,6 +7,9 @@ from __future__ import annotations
 import math
 from typing import NamedTuple, Sequence
 
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
 from ..core.model import Limits
 from .inputs import (ACCEL, ERROR_REASONS, PLATFORM, POSE, QUIET_REASONS, REJECTION_REASONS,
                      TWIST, UNFOLLOWABLE_COMPONENTS)
@@ -17,9 +20,29 @@ from .inputs import (ACCEL, ERROR_REASONS, PLATFORM, POSE, QUIET_REASONS, REJECT
 DIAGNOSTIC_TASK = 'inverse dynamics'
 
 
-def diagnostic_name(node_fqn: str) -> str:
-    """The status name of the node ``node_fqn`` in /diagnostics."""
-    return f'{node_fqn}: {DIAGNOSTIC_TASK}'
+def diagnostic_name(node_fqn: str, task: str = DIAGNOSTIC_TASK) -> str:
+    """The status name of the node ``node_fqn`` (doing ``task``) in /diagnostics."""
+    return f'{node_fqn}: {task}'
+
+
+class DiagnosticsOutput:
+    """A node's /diagnostics message: one DiagnosticArray holding its one
+    status (``name``, ``hardware_id``), reused every period.
+    """
+
+    def __init__(self, name: str, hardware_id: str = '') -> None:
+        self.status = DiagnosticStatus(name=name, hardware_id=hardware_id)
+        self.msg = DiagnosticArray(status=[self.status])
+
+    def fill(self, level: int, message: str, values: Sequence[tuple[str, str]],
+             stamp: Time) -> DiagnosticArray:
+        """The message of this period: ``level``, ``message``, the key/values."""
+        status = self.status
+        status.level = bytes([level])
+        status.message = message
+        status.values = [KeyValue(key=k, value=v) for k, v in values]
+        self.msg.header.stamp = stamp
+        return self.msg
 
 
 # Diagnostic levels (same numbers as diagnostic_msgs/DiagnosticStatus).

@@ -27,7 +27,7 @@ import sys
 import time
 from typing import Any, Callable, Sequence
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
@@ -46,7 +46,7 @@ from ..core.model import JOINT_NAMES, LEG_NAMES
 from . import wire
 from .cycle import Runtime, runtime_from_values
 from .descriptors import plain
-from .diagnostics import ERROR, WARN, diagnostic_name
+from .diagnostics import ERROR, WARN, DiagnosticsOutput, diagnostic_name
 from .inputs import ACCEL, BAD_SETPOINT, INACTIVE, PLATFORM, POSE, TWIST, SetpointError
 from .intake import SetpointIntake
 from .markers import MarkerBuilder
@@ -106,9 +106,7 @@ class DynamicsNode(LifecycleNode):
         self._latest_until = 0.0
         # Timers on the steady clock: they keep ticking with use_sim_time and no /clock.
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self._diag_msg = DiagnosticArray()
-        self._diag_status = DiagnosticStatus(name=diagnostic_name(self.get_fully_qualified_name()))
-        self._diag_msg.status = [self._diag_status]
+        self._diag = DiagnosticsOutput(diagnostic_name(self.get_fully_qualified_name()))
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._on_parameters_set)
 
@@ -220,7 +218,7 @@ class DynamicsNode(LifecycleNode):
                                                    self._fast)
         self._joint_out = wire.JointStateOutput(JOINT_NAMES, config.output_joint_states_frame_id,
                                                 2, self._fast)
-        self._diag_status.hardware_id = config.diagnostics_hardware_id
+        self._diag.status.hardware_id = config.diagnostics_hardware_id
         options = QoSOverridingOptions(QOS_POLICIES, callback=check_qos)
         try:
             self._actuator_pub = self.create_lifecycle_publisher(
@@ -425,12 +423,8 @@ class DynamicsNode(LifecycleNode):
             level, message, values = self._stats.report(time.monotonic(), exact_cond)
             values.insert(1, ('scene', self._runtime.model.scene))
             values.insert(1, ('lifecycle state', 'active' if self._active else 'inactive'))
-            status = self._diag_status
-            status.level = bytes([level])
-            status.message = message
-            status.values = [KeyValue(key=k, value=v) for k, v in values]
-            self._diag_msg.header.stamp = self.get_clock().now().to_msg()
-            self._diag_pub.publish(self._diag_msg)
+            self._diag_pub.publish(self._diag.fill(level, message, values,
+                                                   self.get_clock().now().to_msg()))
         except Exception as exc:  # noqa: BLE001
             self._intake.internal_error(exc)
 
@@ -480,7 +474,7 @@ class DynamicsNode(LifecycleNode):
         self._intake.reconfigure(staged)
         new = staged.config
         self._stats.parameter_changes += 1
-        self._diag_status.hardware_id = new.diagnostics_hardware_id
+        self._diag.status.hardware_id = new.diagnostics_hardware_id
         if new.output_frame_id != old.output_frame_id:
             self._actuator_out = wire.JointStateOutput(LEG_NAMES, new.output_frame_id, 3,
                                                        self._fast)

@@ -58,20 +58,26 @@ def make_executor(name: str, context: Any = None) -> Any:
     return SingleThreadedExecutor(context=context)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog='dynamics_node',
-        description='ROS 2 node of flight_sim_dynamics: subscribes pose_setpoint, '
-                    'twist_setpoint, accel_setpoint (one setpoint: the three with one stamp) '
-                    'and platform_setpoint (trajectory_msgs/JointTrajectory over surge, '
-                    'heave, roll: one setpoint per point); publishes actuator_states, '
-                    'joint_states and /diagnostics. ROS arguments go after --ros-args, e.g. '
-                    '--ros-args --params-file config/flight_sim_dynamics.yaml '
-                    '-r __ns:=/sim -p limits.max_force:=500.0',
-        epilog='See docs/node.md for topics, parameters and QoS.')
+def executable_parser(prog: str, description: str, epilog: str) -> argparse.ArgumentParser:
+    """The command line of a node executable: its own options before
+    ``--ros-args`` (the executor).
+    """
+    parser = argparse.ArgumentParser(prog=prog, description=description, epilog=epilog)
     parser.add_argument('--executor', choices=EXECUTORS, default=DEFAULT_EXECUTOR,
                         help=f'rclpy executor (default: {DEFAULT_EXECUTOR})')
     return parser
+
+
+def build_parser() -> argparse.ArgumentParser:
+    return executable_parser(
+        'dynamics_node',
+        'ROS 2 node of flight_sim_dynamics: subscribes pose_setpoint, twist_setpoint, '
+        'accel_setpoint (one setpoint: the three with one stamp) and platform_setpoint '
+        '(trajectory_msgs/JointTrajectory over surge, heave, roll: one setpoint per '
+        'point); publishes actuator_states, joint_states and /diagnostics. ROS arguments '
+        'go after --ros-args, e.g. --ros-args --params-file '
+        'config/flight_sim_dynamics.yaml -r __ns:=/sim -p limits.max_force:=500.0',
+        'See docs/node.md for topics, parameters and QoS.')
 
 
 def refuse(message: str) -> int:

@@ -28,7 +28,7 @@ import math
 import time
 from typing import Any
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
@@ -38,7 +38,7 @@ from ..config.schema import SIM_NODE_NAME, SIM_PARAMETERS
 from ..core.model import LEG_NAMES
 from . import wire
 from .descriptors import descriptor_for, plain, ros_value
-from .diagnostics import ERROR, LogThrottle
+from .diagnostics import ERROR, DiagnosticsOutput, LogThrottle, diagnostic_name
 from .inputs import SetpointError, rpy_to_quaternion
 from .node_parameters import ROS_PARAMETERS
 from .qos import default_qos
@@ -95,10 +95,8 @@ class PlatformSim(Node):
         self._command_sub = self.create_subscription(JointState, 'actuator_commands',
                                                      self._on_command, default_qos())
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
-        self._diag_msg = DiagnosticArray()
-        self._diag_status = DiagnosticStatus(
-            name=f'{self.get_fully_qualified_name()}: {SIM_TASK}', hardware_id=SIM_NODE_NAME)
-        self._diag_msg.status = [self._diag_status]
+        self._diag = DiagnosticsOutput(diagnostic_name(self.get_fully_qualified_name(), SIM_TASK),
+                                       SIM_NODE_NAME)
         # Timers on the steady clock: they keep ticking with use_sim_time and no /clock.
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._tick_timer = self.create_timer(self._tick_period, self._on_tick, clock=steady)
@@ -212,11 +210,7 @@ class PlatformSim(Node):
                 time.monotonic(), self.twin, self._started_at is not None, self._rate)
             if level == ERROR and self._throttle('stopped', time.monotonic()) is not None:
                 self.get_logger().error(message)
-            status = self._diag_status
-            status.level = bytes([level])
-            status.message = message
-            status.values = [KeyValue(key=k, value=v) for k, v in values]
-            self._diag_msg.header.stamp = self.get_clock().now().to_msg()
-            self._diag_pub.publish(self._diag_msg)
+            self._diag_pub.publish(self._diag.fill(level, message, values,
+                                                   self.get_clock().now().to_msg()))
         except Exception as exc:  # noqa: BLE001
             self._internal_error(exc)

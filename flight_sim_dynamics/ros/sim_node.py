@@ -18,23 +18,20 @@ import rclpy
 from rclpy.exceptions import ParameterException
 
 from ..config import parameters as prm
-from .node import DEFAULT_EXECUTOR, EXECUTORS, make_executor, refuse, running, spin
+from .node import executable_parser, make_executor, refuse, running, spin
 from .platform_sim import PlatformSim
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog='platform_sim',
-        description='Digital twin of the flight simulator as a ROS 2 node: subscribes '
-                    'actuator_commands (JointState: leg length and rate references, '
-                    'feed-forward forces, the layout of dynamics_node\'s actuator_states), '
-                    'runs actuator servos and plant in real time and publishes platform_pose, '
-                    'platform_twist, measured_actuator_states and /diagnostics. Connect it to '
-                    'dynamics_node with --ros-args -r actuator_commands:=actuator_states.',
-        epilog='See docs/twin_node.md for topics and parameters.')
-    parser.add_argument('--executor', choices=EXECUTORS, default=DEFAULT_EXECUTOR,
-                        help=f'rclpy executor (default: {DEFAULT_EXECUTOR})')
-    return parser
+    return executable_parser(
+        'platform_sim',
+        'Digital twin of the flight simulator as a ROS 2 node: subscribes '
+        'actuator_commands (JointState: leg length and rate references, feed-forward '
+        'forces, the layout of dynamics_node\'s actuator_states), runs actuator servos and '
+        'plant in real time and publishes platform_pose, platform_twist, '
+        'measured_actuator_states and /diagnostics. Connect it to dynamics_node with '
+        '--ros-args -r actuator_commands:=actuator_states.',
+        'See docs/twin_node.md for topics and parameters.')
 
 
 def main(argv: Sequence[str] | None = None) -> int:
