@@ -40,6 +40,7 @@ end at the last state reached. Never a NaN.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Callable
@@ -287,6 +288,12 @@ def _reference_problem(sol: Solution, times: np.ndarray, what: str) -> None:
                          f'({bad.size} of {times.size} samples cannot be tracked)')
 
 
+@functools.cache
+def _kernel_severity() -> np.ndarray:
+    """SEVERITY of each kernel status code (the kernel is built)."""
+    return np.array([SEVERITY[s] for s in kernel.STATUS_BY_CODE])
+
+
 def _reference(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
                times: np.ndarray, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Leg lengths, rates and forces of ``model`` on the reference samples;
@@ -296,8 +303,7 @@ def _reference(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
     """
     if kernel.enabled():
         rows = kernel.solve_rows(model, q, qd, qdd)
-        severity = np.array([SEVERITY[s] for s in kernel.STATUS_BY_CODE])[
-            rows[:, kernel.O_STATUS].astype(np.intp)]
+        severity = _kernel_severity()[rows[:, kernel.O_STATUS].astype(np.intp)]
         if not np.any(severity >= SEVERITY[Status.NEAR_SINGULAR]):
             out = kernel.OUT
             return (rows[:, out['length']].copy(), rows[:, out['rate']].copy(),

@@ -78,6 +78,7 @@ class TwinStepper:
         self._base: Solution | None = None
         self._held: Solution | None = None       # the solve of the last good state
         self._tables: tuple | None = None        # (steps, the kernel's law) of the command
+        self._rows = tuple(np.empty((0, 3)) for _ in range(4))   # the kernel's q, qd, qdd, f
         self._evaluate_first()
 
     # -- the command ------------------------------------------------------------------
@@ -150,7 +151,9 @@ class TwinStepper:
                 np.tile(self._rate_ref, (n, 1)), self._kp, self._kd, float(self._max_force),
                 float(self._max_speed), True))
         law = self._tables[1]
-        rows = tuple(np.empty((steps + 1, 3)) for _ in range(4))
+        if len(self._rows[0]) < steps + 1:      # grown once, reused every tick
+            self._rows = tuple(np.empty((steps + 1, 3)) for _ in range(4))
+        rows = tuple(r[:steps + 1] for r in self._rows)
         rows[0][0], rows[1][0] = self.q, self.qd
         reached = min(kernel.integrate_rows(self.plant, law, self.step, 0, steps, rows), steps)
         if reached == 0:
