@@ -1066,6 +1066,25 @@ static int get_params(PyObject *obj, Py_buffer *view)
     return 0;
 }
 
+/* The arguments of a one-sample binding: exactly `expected` of them, the
+   effects bit set in args[1] and `n` floats from args[first] on; -1 with a
+   Python error set otherwise. */
+static int one_sample_args(const char *name, PyObject *const *args, Py_ssize_t nargs,
+                           Py_ssize_t expected, int first, int n, long *fx, double *x)
+{
+    if (nargs != expected) {
+        PyErr_Format(PyExc_TypeError, "%s() takes %d arguments", name, (int)expected);
+        return -1;
+    }
+    for (int i = 0; i < n; i++) {
+        x[i] = PyFloat_AsDouble(args[first + i]);
+        if (x[i] == -1.0 && PyErr_Occurred())
+            return -1;
+    }
+    *fx = PyLong_AsLong(args[1]);
+    return (*fx == -1 && PyErr_Occurred()) ? -1 : 0;
+}
+
 PyDoc_STRVAR(solve_doc,
 "solve(params, effects, out, q0, q1, q2, qd0, qd1, qd2, qdd0, qdd1, qdd2)\n"
 "    -> (status, info, beta, kinematic_condition, jacobian_condition)\n\n"
@@ -1074,18 +1093,9 @@ PyDoc_STRVAR(solve_doc,
 
 static PyObject *py_solve(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 12) {
-        PyErr_SetString(PyExc_TypeError, "solve() takes 12 arguments");
-        return NULL;
-    }
     double x[9];
-    for (int i = 0; i < 9; i++) {
-        x[i] = PyFloat_AsDouble(args[3 + i]);
-        if (x[i] == -1.0 && PyErr_Occurred())
-            return NULL;
-    }
-    long fx = PyLong_AsLong(args[1]);
-    if (fx == -1 && PyErr_Occurred())
+    long fx;
+    if (one_sample_args("solve", args, nargs, 12, 3, 9, &fx, x) < 0)
         return NULL;
     Py_buffer pv, ov;
     if (get_params(args[0], &pv) < 0)
@@ -1182,18 +1192,9 @@ PyDoc_STRVAR(affine_doc,
 
 static PyObject *py_affine(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 11) {
-        PyErr_SetString(PyExc_TypeError, "affine() takes 11 arguments");
-        return NULL;
-    }
     double x[6];
-    for (int i = 0; i < 6; i++) {
-        x[i] = PyFloat_AsDouble(args[5 + i]);
-        if (x[i] == -1.0 && PyErr_Occurred())
-            return NULL;
-    }
-    long fx = PyLong_AsLong(args[1]);
-    if (fx == -1 && PyErr_Occurred())
+    long fx;
+    if (one_sample_args("affine", args, nargs, 11, 5, 6, &fx, x) < 0)
         return NULL;
     static const Py_ssize_t sizes[4] = {P_SIZE, OUT_SIZE, 9, 3};
     static const char *const names[4] = {"packed model", "out", "M", "b"};
