@@ -94,7 +94,9 @@ class StampSynchroniser(Generic[P, R]):
       :data:`JOIN_WINDOW`; 0, the default: never), such partial setpoints
       are ``joining`` (a quiet reason), not faults: a twist or accel whose
       stream has not yet counted (no setpoint has had one) arriving for a
-      setpoint already released (not ``late``), a twist or accel stamped
+      setpoint already released (not ``late``; the window is its own topic's,
+      from that topic's first message: on a loaded host a topic can match
+      more than a window after the others), a twist or accel stamped
       before the first pose (never completed: the pose topic is in order;
       not ``no_pose``) and, before any pose, a pose-less stamp pushed out
       (not ``overflow``).
@@ -127,6 +129,8 @@ class StampSynchroniser(Generic[P, R]):
         self._join_until: float | None = None   # end of the joining window (monotonic s)
         self._first_pose: int | None = None     # stamp of the first pose since start / reset
         self._in_join = False                   # the last call was in the joining window
+        # end of each twist/accel topic's own joining window (its first message opens it)
+        self._stream_join_until: dict[str, float] = {}
 
     # -- public --------------------------------------------------------------
     @property
@@ -189,6 +193,7 @@ class StampSynchroniser(Generic[P, R]):
         released: list[Setpoint[P, R]] = []
         rejected: list[Rejected] = []
         joining = self._joining(now)
+        stream_joining = kind != POSE and self._stream_joining(kind, now)
         seen = self._discarded.get(stamp_ns)
         if seen is not None:
             if kind in seen:
@@ -201,7 +206,7 @@ class StampSynchroniser(Generic[P, R]):
         if last is not None and stamp_ns <= last:
             if kind != POSE:
                 # an old message proves its stream alive; it is not its newest stamp
-                if joining and self._newest[kind] is None:
+                if stream_joining and self._newest[kind] is None:
                     rejected.append(_joined(kind, stamp_ns, 'its topic matched after the pose '
                                                             'topic; its setpoint was answered'))
                 else:
@@ -318,6 +323,11 @@ class StampSynchroniser(Generic[P, R]):
             self._join_until = now + self.join_window
         self._in_join = now < self._join_until
         return self._in_join
+
+    def _stream_joining(self, kind: str, now: float) -> bool:
+        """Whether ``now`` is in the joining window of the ``kind`` topic."""
+        until = self._stream_join_until.setdefault(kind, now + self.join_window)
+        return now < until
 
     def _restarted(self, stamp_ns: int, last: int) -> bool:
         """A setpoint (pose or whole) stamped ``stamp_ns`` <= ``last``: True
