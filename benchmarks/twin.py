@@ -22,7 +22,7 @@ Prints figures and tables; writes them to out/twin.md (the figures to
 out/twin_tracking.png and out/twin_open_loop.png), or with ``--update-docs``
 between the markers of docs/twin.md (the figures to docs/).
 
-    python -m benchmarks.twin [--bandwidth 5] [--repeats 3] [--quick] [--update-docs]
+    python -m benchmarks.twin [--bandwidth 5] [--repeats 31] [--quick] [--update-docs]
 """
 from __future__ import annotations
 
@@ -44,14 +44,18 @@ from flight_sim_dynamics.config.scenes import available_scenes
 from flight_sim_dynamics.core import forward_dynamics as fd
 from flight_sim_dynamics.core import kernel
 from flight_sim_dynamics.core.motions import TEST_MOTIONS, get
+from flight_sim_dynamics.core.reference_tables import reference_tables
 from flight_sim_dynamics.core.simulation import (DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING,
-                                                 Reference, Servo, simulate)
+                                                 DEFAULT_STEP, Reference, Servo, TabulatedLaw,
+                                                 integrate, simulate, step_count)
 
 ROOT = Path(__file__).resolve().parents[1]
 FIGURE = 'twin_tracking.png'
 #: Simulated seconds timed on the Python code (2 to 3 s of wall time a run);
 #: --quick: a tenth.
 FALLBACK_SECONDS = 0.5
+#: Timed runs of the Python code at most (each takes seconds).
+PYTHON_REPEATS = 3
 DEFAULT_OUT = Path('out') / 'twin.md'
 DOCS = ROOT / 'docs' / 'twin.md'
 BEGIN, END = '<!-- twin-benchmark:begin -->', '<!-- twin-benchmark:end -->'
@@ -77,13 +81,27 @@ def table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
     return '\n'.join(lines) + '\n'
 
 
-def _real_time_factor(call, repeats: int) -> tuple[str, fsd.Simulation]:
+#: The machine-speed probe: a fixed pure-Python loop (about 2 ms), timed before
+#: every timed run. On the shared 2-core machine of docs/twin.md its speed
+#: drops to 60 % of its best for seconds at a time, and every figure with it.
+PROBE = 100_000
+
+
+def _probe() -> float:
+    start = time.perf_counter()
+    sum(range(PROBE))
+    return time.perf_counter() - start
+
+
+def _real_time_factor(call, repeats: int, probes: list[float]) -> tuple[str, fsd.Simulation]:
     """Simulated seconds (up to where the run ends or stops) per wall-clock
     second, the median of ``repeats`` runs and the best (on a shared machine
     the best is what the code can do, the median what it did); the last run.
+    Appends the probe's time before each run to ``probes``.
     """
     factors = []
     for _ in range(repeats):
+        probes.append(_probe())
         start = time.perf_counter()
         sim = call()
         factors.append((sim.t[-1] - sim.t[0]) / (time.perf_counter() - start))
@@ -94,8 +112,9 @@ def _real_time_factor(call, repeats: int) -> tuple[str, fsd.Simulation]:
 def speed_rows(plant: fsd.Model, repeats: int, motion: str, fallback_s: float
                ) -> list[list[str]]:
     """Real-time factors (median and best of ``repeats`` runs; the Python code
-    on the first ``fallback_s`` seconds) and per-stage costs, kernel and Python
-    code in the same process.
+    on the first ``fallback_s`` seconds, at most PYTHON_REPEATS runs), the
+    machine's speed while timing (:data:`PROBE`) and per-stage costs, kernel
+    and Python code in the same process.
     """
     reference = get(motion)
     head = replace(Reference.from_motion(reference), end=fallback_s)
@@ -103,14 +122,16 @@ def speed_rows(plant: fsd.Model, repeats: int, motion: str, fallback_s: float
     forces = (t, fsd.solve_batch(plant, q, qd, qdd).force)
     rows = int(round(fallback_s * 1000.0)) + 1
     head_forces = (t[:rows], forces[1][:rows])
-    factors = []
+    factors, probes = [], []
     for on in (True, False):
+        runs = repeats if on else min(repeats, PYTHON_REPEATS)
         with kernel.use_kernel(on):
             factors.append(
                 (_real_time_factor(lambda: simulate(plant, reference=reference if on else head,
-                                                    feedforward=plant), repeats),
+                                                    feedforward=plant), runs, probes),
                  _real_time_factor(lambda: simulate(plant, forces=forces if on else head_forces),
-                                   repeats)))
+                                   runs, probes)))
+    speed = [min(probes) / p for p in probes]
     state = (q[len(q) // 2], qd[len(q) // 2])
     M, b, _ = fd.affine_terms(plant, *state)
     with kernel.use_kernel(False):
@@ -119,10 +140,15 @@ def speed_rows(plant: fsd.Model, repeats: int, motion: str, fallback_s: float
              _time_us(lambda: fd.solve_accelerations(M, b, b)),
              _time_us(lambda: fsd.solve(plant, state[0], state[1], (0.0, 0.0, 0.0)))]
     ((closed, _), (opened, run)), ((closed_py, _), (opened_py, _)) = factors
+    with kernel.use_kernel(True):
+        phases = phase_row(plant, motion, repeats)
     python = f'Python code (FSD_KERNEL=0), first {fallback_s:g} s'
     stops = '' if run.outcome == 'ok' else f' (it stops at {run.t[-1]:.3g} s: {run.outcome})'
     return [[f'closed loop, RK4 1 kHz, {motion}, full feed-forward: real-time factor',
              closed],
+            ['machine speed while timing: a fixed Python loop before each run, median / '
+             'slowest, of its best', f'{statistics.median(speed):.0%} / {min(speed):.0%}'],
+            phases,
             [f'the same, {python}', closed_py],
             [f'open loop, RK4 1 kHz, {motion}: real-time factor{stops}', opened],
             [f'the same, {python}', opened_py],
@@ -133,6 +159,38 @@ def speed_rows(plant: fsd.Model, repeats: int, motion: str, fallback_s: float
             ['cond(M) and LU solve (numpy; the Python loop): median per stage',
              f'{stage[1]:.1f} us'],
             ['one `fsd.solve`: median', f'{stage[2]:.1f} us']]
+
+
+def phase_row(plant: fsd.Model, motion: str, repeats: int) -> list[str]:
+    """The phases of one closed-loop run through the kernel, each timed alone
+    (median of ``repeats``), as ``simulate`` would run them one after another
+    (it overlaps all but the first and the RK4 loop on the worker threads).
+    """
+    reference = Reference.from_motion(get(motion))
+    steps = step_count(reference.start, reference.end, DEFAULT_STEP)
+    times = reference.start + 0.5 * DEFAULT_STEP * np.arange(2 * steps + 1)
+    motion_ms, (q, qd, qdd) = _time_ms(lambda: reference.motion(times), repeats)
+    tables_ms, (length, rate, force) = _time_ms(
+        lambda: reference_tables(plant, q, qd, qdd, times, motion), repeats)
+    servo = Servo.for_bandwidth(plant)
+    law = TabulatedLaw(force, length, rate, np.array(servo.kp), np.array(servo.kd),
+                       plant.limits.max_force, plant.limits.max_speed, True)
+    loop_ms, run = _time_ms(lambda: integrate(plant, reference.start, DEFAULT_STEP, steps,
+                                              q[0], qd[0], law), repeats)
+    result_ms, _ = _time_ms(lambda: fsd.solve_batch(plant, *run[1:4]), repeats)
+    return ['the closed loop\'s phases, each alone: reference motion / reference tables / '
+            'RK4 loop / result rows (median)',
+            f'{motion_ms:.1f} / {tables_ms:.1f} / {loop_ms:.1f} / {result_ms:.1f} ms']
+
+
+def _time_ms(call, repeats: int) -> tuple[float, object]:
+    """Median wall time (ms) of ``repeats`` calls, and the last result."""
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        out = call()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times) * 1e3, out
 
 
 def _time_us(call, n: int = 2000) -> float:
@@ -319,7 +377,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                        help='write between the markers of docs/twin.md instead')
     p.add_argument('--bandwidth', type=float, default=DEFAULT_BANDWIDTH_HZ, metavar='HZ',
                    help=f'servo bandwidth of the gains (default {DEFAULT_BANDWIDTH_HZ:g} Hz)')
-    p.add_argument('--repeats', type=int, default=3, help='timed runs, median of (3)')
+    p.add_argument('--repeats', type=int, default=31,
+                   help=f'timed runs, median of (31; the Python code: at most {PYTHON_REPEATS})')
     p.add_argument('--quick', action='store_true',
                    help='smoke run: one motion, one scene, no growth table (figures meaningless)')
     args = p.parse_args(argv)

@@ -202,17 +202,19 @@ def affine_row(model: Model, q: tuple, qd: tuple
 
 
 def integrate_rows(model: Model, law: tuple, step: float, k0: int, steps: int,
-                   rows: tuple) -> int:
-    """RK4 of :func:`.simulation.integrate` in the kernel, from row k0 on:
-    ``law`` = (ff, length_ref, rate_ref, kp, kd, max_force, max_speed, servo)
-    (:class:`.simulation.TabulatedLaw`), ``rows`` = (q, qd, qdd, force), each a
-    writable C-contiguous (steps + 1, 3) float64 array, the state of row k0 in
-    q, qd. Returns the first row whose step the kernel did not complete (a
-    stage that stops or that it leaves to the Python code), steps + 1 when all
-    did.
+                   rows: tuple, stop: int | None = None) -> int:
+    """RK4 of :func:`.simulation.integrate` in the kernel, rows k0 to stop - 1
+    (default: to the end, steps): ``law`` = (ff, length_ref, rate_ref, kp, kd,
+    max_force, max_speed, servo) (:class:`.simulation.TabulatedLaw`; its
+    tables are read up to stage 2 min(stop, steps)), ``rows`` = (q, qd, qdd,
+    force), each a writable C-contiguous (steps + 1, 3) float64 array, the
+    state of row k0 in q, qd. Returns the first row whose step the kernel did
+    not complete (a stage that stops or that it leaves to the Python code),
+    ``stop`` when all did (the state reached is then row stop's q, qd).
     """
     params, bits = prepared(model)
-    return _kernel.integrate(params, bits, *law, step, k0, steps, *rows)
+    stop = steps + 1 if stop is None else stop
+    return _kernel.integrate(params, bits, *law, step, k0, stop, steps, *rows)
 
 
 #: A batch at least twice this long is split across the usable cores (the
@@ -231,25 +233,33 @@ def usable_cores() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def solve_rows(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-    """N samples ((N, 3) float64 arrays) through the kernel: (N, OUT_SIZE) rows.
-    Long batches run in as many threads as there are usable cores (each row is
-    computed alone, so the result does not depend on the split).
-    """
+def pool() -> ThreadPoolExecutor:
+    """The kernel's worker threads (one per usable core), made on first use."""
     global _pool
+    if _pool is None:
+        _pool = ThreadPoolExecutor(max_workers=usable_cores(), thread_name_prefix='fsd-kernel')
+    return _pool
+
+
+def solve_rows(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+               out: np.ndarray | None = None, threads: bool = True) -> np.ndarray:
+    """N samples ((N, 3) float64 arrays) through the kernel: (N, OUT_SIZE) rows
+    (into ``out`` when given: a C-contiguous float64 array of that shape).
+    Long batches run in as many threads as there are usable cores (each row is
+    computed alone, so the result does not depend on the split); ``threads``
+    False: in the calling thread (a job already in :func:`pool`).
+    """
     params, bits = prepared(model)
     arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in (q, qd, qdd)]
     n = arrays[0].shape[0]
-    out = np.empty((n, OUT_SIZE))
-    parts = min(usable_cores(), n // THREAD_MIN_SAMPLES)
+    out = np.empty((n, OUT_SIZE)) if out is None else out
+    parts = min(usable_cores(), n // THREAD_MIN_SAMPLES) if threads else 1
     if parts < 2:
         _kernel.solve_batch(params, bits, *arrays, out)
         return out
-    if _pool is None:
-        _pool = ThreadPoolExecutor(max_workers=usable_cores(), thread_name_prefix='fsd-kernel')
     bounds = np.linspace(0, n, parts + 1).astype(int)
-    jobs = [_pool.submit(_kernel.solve_batch, params, bits,
-                         *(a[lo:hi] for a in arrays), out[lo:hi])
+    jobs = [pool().submit(_kernel.solve_batch, params, bits,
+                          *(a[lo:hi] for a in arrays), out[lo:hi])
             for lo, hi in zip(bounds[:-1], bounds[1:])]
     for job in jobs:
         job.result()

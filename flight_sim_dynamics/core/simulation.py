@@ -40,7 +40,6 @@ end at the last state reached. Never a NaN.
 """
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 from typing import Callable
@@ -52,7 +51,8 @@ from .forward_dynamics import affine_terms, require_inertia, solve_accelerations
 from .interpolation import ForceHistory, MotionLike, Reference, finite_rows
 from .interpolation import node_slopes as node_slopes   # re-exported: part of this API
 from .model import Model
-from .solver import Solution, solve_batch
+from .reference_tables import ClosedLoopPipeline, reference_tables
+from .solver import Solution, batch_from_rows, solve_batch
 from .status import SEVERITY, Status
 
 DEFAULT_STEP = 1e-3              # s: RK4 at 1 kHz
@@ -198,7 +198,7 @@ def _stage(plant: Model, q: np.ndarray, qd: np.ndarray, law: ForceLaw, j: int
 
 
 def integrate(plant: Model, t0: float, step: float, steps: int, q0: np.ndarray,
-              qd0: np.ndarray, law: ForceLaw) -> tuple:
+              qd0: np.ndarray, law: ForceLaw, pipeline: ClosedLoopPipeline | None = None) -> tuple:
     """RK4 of (q, qd) from (q0, qd0) at t0 over ``steps`` steps; the force law
     is evaluated at half-step index j (time t0 + j step / 2). Returns t, q, qd,
     qdd, force (arrays of the rows reached), outcome, outcome detail.
@@ -207,7 +207,9 @@ def integrate(plant: Model, t0: float, step: float, steps: int, q0: np.ndarray,
     enabled (:func:`.kernel.integrate_rows`: the same operations, no Python
     per stage); the kernel hands every step it cannot finish (a stage that
     stops, M it cannot surely solve) to the loop below, which takes it and
-    gives the kernel the rest.
+    gives the kernel the rest. With a ``pipeline`` (whose tables ``law``
+    reads) the rows go piece by piece: each waits for its stages' tables, and
+    each finished piece is handed back for its result rows.
     """
     h = step
     rows = tuple(np.zeros((steps + 1, 3)) for _ in range(4))
@@ -222,10 +224,20 @@ def integrate(plant: Model, t0: float, step: float, steps: int, q0: np.ndarray,
     while k <= steps:
         if tables is not None:
             rq[k], rqd[k] = q, qd
-            k = kernel.integrate_rows(plant, tables, h, k, steps, rows)
+            for stop in ([steps + 1] if pipeline is None else pipeline.stops_after(k)):
+                if pipeline is not None:
+                    pipeline.need(min(stop, steps))
+                reached = kernel.integrate_rows(plant, tables, h, k, steps, rows, stop)
+                if pipeline is not None:
+                    pipeline.finished(reached, rows)
+                k = reached
+                if reached < stop:
+                    break
             if k > steps:
                 break
             q, qd = rq[k].copy(), rqd[k].copy()
+        if pipeline is not None:
+            pipeline.need(min(k + 1, steps))
         rq[k], rqd[k] = q, qd
         a1, f1, status, detail = _stage(plant, q, qd, law, 2 * k)
         rqdd[k], rf[k] = a1, f1
@@ -251,10 +263,12 @@ def integrate(plant: Model, t0: float, step: float, steps: int, q0: np.ndarray,
             outcome, why, n = status, (f'step from t = {t0 + k * h:.6g} s: {detail}'), k + 1
             break
         k += 1
+        if pipeline is not None:
+            pipeline.finished(k, rows)
     return (t0 + h * np.arange(n), rq[:n], rqd[:n], rqdd[:n], rf[:n], outcome, why)
 
 
-def _grid(start: float, end: float, step: float) -> int:
+def step_count(start: float, end: float, step: float) -> int:
     """Number of whole steps from start to end (validated step)."""
     if not (math.isfinite(step) and step > 0):
         raise ValueError(f'step must be a positive number of seconds, got {step!r}')
@@ -276,41 +290,6 @@ def _state(initial: tuple | None, default: tuple[np.ndarray, np.ndarray]
         raise ValueError('initial must be (q, qd): two triples') from None
     q0, qd0 = finite_rows('initial q', [q0])[0], finite_rows('initial qd', [qd0])[0]
     return q0, qd0
-
-
-def _reference_problem(sol: Solution, times: np.ndarray, what: str) -> None:
-    """ValueError at the first reference sample that cannot be tracked."""
-    code = np.array([SEVERITY[s] for s in sol.status])
-    bad = np.flatnonzero(code >= SEVERITY[Status.NEAR_SINGULAR])
-    if bad.size:
-        i = int(bad[0])
-        raise ValueError(f'{what} at t = {times[i]:.6g} s: {sol.status[i]}: {sol.detail[i]} '
-                         f'({bad.size} of {times.size} samples cannot be tracked)')
-
-
-@functools.cache
-def _kernel_severity() -> np.ndarray:
-    """SEVERITY of each kernel status code (the kernel is built)."""
-    return np.array([SEVERITY[s] for s in kernel.STATUS_BY_CODE])
-
-
-def _reference(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
-               times: np.ndarray, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Leg lengths, rates and forces of ``model`` on the reference samples;
-    ValueError at the first one that cannot be tracked. With the kernel its
-    result rows are read directly: no Solution and no wording of the samples
-    at a limit, which only the error needs (about 1.5 ms of a 30 ms run).
-    """
-    if kernel.enabled():
-        rows = kernel.solve_rows(model, q, qd, qdd)
-        severity = _kernel_severity()[rows[:, kernel.O_STATUS].astype(np.intp)]
-        if not np.any(severity >= SEVERITY[Status.NEAR_SINGULAR]):
-            out = kernel.OUT
-            return (rows[:, out['length']].copy(), rows[:, out['rate']].copy(),
-                    rows[:, out['force']].copy())
-    sol = solve_batch(model, q, qd, qdd)
-    _reference_problem(sol, times, what)
-    return np.array(sol.length), np.array(sol.rate), np.array(sol.force)
 
 
 def simulate(plant: Model, *, forces: ForceHistory | tuple | None = None,
@@ -339,7 +318,7 @@ def simulate(plant: Model, *, forces: ForceHistory | tuple | None = None,
             forces = ForceHistory(*forces)
         if feedforward is not None or servo is not None:
             raise ValueError('feedforward and servo apply to closed loop (reference) only')
-        steps = _grid(forces.start, forces.end, step)
+        steps = step_count(forces.start, forces.end, step)
         stage_force = forces(forces.start + 0.5 * step * np.arange(2 * steps + 1))
         q0, qd0 = _state(initial, (_REST, _REST))
         t, q, qd, qdd, force, outcome, why = integrate(
@@ -348,36 +327,48 @@ def simulate(plant: Model, *, forces: ForceHistory | tuple | None = None,
         return _result(plant, t, q, qd, qdd, force, outcome, why)
     if not isinstance(reference, Reference):
         reference = Reference.from_motion(reference)
-    steps = _grid(reference.start, reference.end, step)
+    steps = step_count(reference.start, reference.end, step)
     times = reference.start + 0.5 * step * np.arange(2 * steps + 1)
     q_ref, qd_ref, qdd_ref = reference.motion(times)
-    length_ref, rate_ref, plant_force = _reference(plant, q_ref, qd_ref, qdd_ref, times,
-                                                   'the reference motion')
-    if feedforward is plant:         # the plant's own model: the same batch
-        ff = plant_force
-    elif feedforward is not None:
-        ff = _reference(feedforward, q_ref, qd_ref, qdd_ref, times, 'the feed-forward model')[2]
-    else:
-        ff = np.zeros_like(length_ref)
     servo = servo if servo is not None else Servo.for_bandwidth(plant)
-    kp, kd = np.array(servo.kp), np.array(servo.kd)
-    law = TabulatedLaw(ff, length_ref, rate_ref, kp, kd, plant.limits.max_force,
-                       plant.limits.max_speed, True)
     q0, qd0 = _state(initial, (q_ref[0], qd_ref[0]))
+    pipeline = None
+    if kernel.enabled():
+        pipeline = ClosedLoopPipeline(plant, feedforward, q_ref, qd_ref, qdd_ref, times, steps)
+        length_ref, rate_ref, ff = pipeline.length_ref, pipeline.rate_ref, pipeline.ff
+    else:
+        length_ref, rate_ref, plant_force = reference_tables(plant, q_ref, qd_ref, qdd_ref, times,
+                                                       'the reference motion')
+        if feedforward is plant:         # the plant's own model: the same batch
+            ff = plant_force
+        elif feedforward is not None:
+            ff = reference_tables(feedforward, q_ref, qd_ref, qdd_ref, times,
+                            'the feed-forward model')[2]
+        else:
+            ff = np.zeros_like(length_ref)
+    law = TabulatedLaw(ff, length_ref, rate_ref, np.array(servo.kp), np.array(servo.kd),
+                       plant.limits.max_force, plant.limits.max_speed, True)
     t, q, qd, qdd, force, outcome, why = integrate(plant, reference.start, step, steps,
-                                                   q0, qd0, law)
+                                                   q0, qd0, law, pipeline)
     rows = slice(0, 2 * len(t), 2)
+    result_rows = None
+    if pipeline is not None:
+        pipeline.check()                 # also the reference after a run that stopped
+        result_rows = pipeline.result_rows(q, qd, qdd)
     return _result(plant, t, q, qd, qdd, force, outcome, why,
-                   q - q_ref[rows], length_ref[rows])
+                   q - q_ref[rows], length_ref[rows], result_rows)
 
 
 def _result(plant: Model, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
             force: np.ndarray, outcome: Status, why: str, pose_error: np.ndarray | None = None,
-            length_ref: np.ndarray | None = None) -> Simulation:
+            length_ref: np.ndarray | None = None,
+            result_rows: np.ndarray | None = None) -> Simulation:
     """The rows of a run, with lengths, rates and statuses from one batch solve
-    (its forces are the delivered ones, to rounding: f = M qdd + b).
+    (its forces are the delivered ones, to rounding: f = M qdd + b), or from
+    the kernel's ``result_rows`` of that batch.
     """
-    sol = solve_batch(plant, q, qd, qdd)
+    sol = (solve_batch(plant, q, qd, qdd) if result_rows is None
+           else batch_from_rows(plant, result_rows, (q, qd, qdd)))
     length = np.array(sol.length)
     return Simulation(t=t, q=q, qd=qd, qdd=qdd, length=length, rate=np.array(sol.rate),
                       force=force, status=np.asarray(sol.status), detail=tuple(sol.detail),

@@ -366,7 +366,7 @@ def solve_batch(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) ->
     n = arrays[0].shape[0]
     arrays = (arrays[0], _as_batch('qd', qd, n), _as_batch('qdd', qdd, n))
     if kernel._enabled:
-        return _batch_from_rows(model, kernel.solve_rows(model, *arrays), arrays)
+        return batch_from_rows(model, kernel.solve_rows(model, *arrays), arrays)
     if n > BATCH_CHUNK:     # cache-sized pieces: about twice as fast for long batches
         parts = [_solve_arrays(model, *(a[i:i + BATCH_CHUNK] for a in arrays))
                  for i in range(0, n, BATCH_CHUNK)]
@@ -377,7 +377,7 @@ def solve_batch(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) ->
     return _solve_arrays(model, *arrays)
 
 
-def _batch_from_rows(model: Model, rows: np.ndarray, arrays: tuple) -> Solution:
+def batch_from_rows(model: Model, rows: np.ndarray, arrays: tuple) -> Solution:
     """The Solution of a batch from the kernel's result rows (views, no copies)."""
     n = rows.shape[0]
     code = rows[:, kernel.O_STATUS].astype(np.int8)

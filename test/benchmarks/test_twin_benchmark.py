@@ -22,6 +22,9 @@ def test_quick_run_writes_the_tables(tmp_path, capsys):
         assert heading in text
     assert '| closed loop, RK4 1 kHz, vertical, full feed-forward: real-time factor |' in text
     assert text.count('| the same, Python code (FSD_KERNEL=0), first 0.05 s |') == 2
+    speed = next(line for line in text.splitlines() if line.startswith('| machine speed'))
+    median, slowest = (float(v.strip(' %|')) for v in speed.split(' | ')[-1].split('/'))
+    assert 0 < slowest <= median <= 100     # 4 probes: one of them is the best
     figure = out.parent / twin.FIGURE
     assert figure.read_bytes().startswith(b'\x89PNG') and f']({twin.FIGURE})' in text
     rows = [line for line in text.splitlines() if line.startswith('| vertical |')]

@@ -176,3 +176,59 @@ def test_tabulated_law_checks_its_tables():
     with pytest.raises(ValueError, match='rate_ref has shape'):
         TabulatedLaw(np.zeros((5, 3)), np.zeros((5, 3)), np.zeros((4, 3)), np.zeros(3),
                      np.zeros(3))
+
+
+def held(heave_after: float, at: float, end: float) -> Reference:
+    """Rest at the centre, then from ``at`` on a heave of ``heave_after``."""
+    def motion(t):
+        q = np.zeros((np.size(t), 3))
+        q[:, 1] = np.where(np.asarray(t) >= at, heave_after, 0.0)
+        return q, np.zeros_like(q), np.zeros_like(q)
+    return Reference(motion, 0.0, end)
+
+
+def fields(sim) -> dict:
+    return {name: getattr(sim, name) for name in
+            ('t', 'q', 'qd', 'qdd', 'force', 'length', 'rate', 'pose_error', 'length_error')}
+
+
+@needs_kernel
+@pytest.mark.parametrize('feedforward', ['plant', 'payload', None])
+def test_closed_loop_in_pieces_equals_one_piece(monkeypatch, feedforward):
+    """The kernel's closed loop runs in pieces (reference tables solved ahead
+    on the worker threads, result rows behind): odd piece sizes give the
+    numbers of one piece exactly, with the same statuses and details."""
+    from flight_sim_dynamics.core import reference_tables
+    ff = {'plant': MODEL, 'payload': MODELS['payload'], None: None}[feedforward]
+    reference = replace(Reference.from_motion(motions.get('violent')), start=0.5, end=1.0)
+    runs = []
+    for first, piece in ((10**9, 10**9), (7, 23), (1, 1)):
+        monkeypatch.setattr(reference_tables, 'FIRST_PIECE', first)
+        monkeypatch.setattr(reference_tables, 'PIECE', piece)
+        with kernel.use_kernel(True):
+            runs.append(simulate(MODEL, reference=reference, feedforward=ff))
+    one = runs[0]
+    assert one.outcome == Status.OK and Status.LIMIT in set(one.status)  # words a limit row
+    for sim in runs[1:]:
+        for name, value in fields(sim).items():
+            np.testing.assert_array_equal(value, fields(one)[name], err_msg=name)
+        assert list(sim.status) == list(one.status) and sim.detail == one.detail
+
+
+@needs_kernel
+def test_a_closed_loop_that_stops_early_in_pieces():
+    """A run that stops in its first piece (the kernel hands the stopping step
+    to the Python code) equals the Python loop; and a reference that cannot be
+    followed after the stop is still refused, as before the run."""
+    initial = ((0.0, 0.0, 1.0), (0.0, 0.0, 3.0))     # rolling into the singularity
+    fast, slow = both(lambda: simulate(MODEL, reference=held(0.0, 1.0, 1.0),
+                                       feedforward=MODEL, initial=initial))
+    assert fast.outcome == slow.outcome == Status.NEAR_SINGULAR
+    assert fast.outcome_detail == slow.outcome_detail and len(fast.t) == len(slow.t) < 100
+    for name, value in fields(fast).items():
+        np.testing.assert_allclose(value, fields(slow)[name], rtol=0,
+                                   atol=1e-9 * max(np.abs(value).max(), 1.0), err_msg=name)
+    for on in (True, False):
+        with kernel.use_kernel(on), pytest.raises(
+                ValueError, match=r'the reference motion at t = 0\.9 s: unreachable'):
+            simulate(MODEL, reference=held(-0.8, 0.9, 1.0), feedforward=MODEL, initial=initial)
