@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import faulthandler
 import os
 import socket
 import sys
@@ -47,6 +48,13 @@ EXECUTORS = ('events', 'single')
 DEFAULT_EXECUTOR = 'events'
 #: Longest spin between two looks at a requested stop (Ctrl-C, SIGTERM), s.
 SPIN_STEP = 0.1
+#: Seconds the middleware gets to release the nodes and shut down on the way
+#: out (it takes milliseconds). Past them the process ends anyway, with the
+#: Python stacks of its threads on stderr and exit status 1 (faulthandler's
+#: watchdog: a C thread, which runs while rclpy holds the GIL in a destroy).
+#: Seen once in CI: a start refused for a bad QoS override printed its
+#: ``error:`` line and then hung for 30 s in this teardown.
+TEARDOWN_TIMEOUT = 10.0
 
 
 def make_executor(name: str, context: Any = None) -> Any:
@@ -142,8 +150,9 @@ def running(program: str, argv: Sequence[str]) -> Iterator[list[Any]]:
     Ctrl-C and SIGTERM request a stop, seen between callbacks
     (:func:`.process.stop_on_signals`, issue 15 #3), and rclpy is initialised
     without its own signal handlers. The nodes the block appends to the
-    yielded list are destroyed, and rclpy shut down, on the way out; a
-    KeyboardInterrupt or an external shutdown ends the block quietly.
+    yielded list are destroyed, and rclpy shut down, on the way out, within
+    :data:`TEARDOWN_TIMEOUT`; a KeyboardInterrupt or an external shutdown
+    ends the block quietly.
     """
     stop_on_signals()
     rclpy.init(args=[program, *argv], signal_handler_options=SignalHandlerOptions.NO)
@@ -153,9 +162,14 @@ def running(program: str, argv: Sequence[str]) -> Iterator[list[Any]]:
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
-        for node in nodes:
-            node.destroy_node()
-        rclpy.try_shutdown()
+        sys.stdout.flush()
+        faulthandler.dump_traceback_later(TEARDOWN_TIMEOUT, exit=True)
+        try:
+            for node in nodes:
+                node.destroy_node()
+            rclpy.try_shutdown()
+        finally:
+            faulthandler.cancel_dump_traceback_later()
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -12,6 +12,9 @@ here comes at a random moment (seeded) once the process streams.
 from __future__ import annotations
 
 import random
+import subprocess
+import sys
+import textwrap
 import time
 
 import pytest
@@ -123,3 +126,28 @@ def test_ctrl_c_under_ros2_launch_stops_silently(process):
     finally:
         if stream is not None:
             assert_silent_stop(stream, 'the streaming planner')
+
+
+def test_a_teardown_that_hangs_still_ends_the_process():
+    """The middleware gets ``TEARDOWN_TIMEOUT`` s to release the nodes on the
+    way out (seen once in CI: a refused start hung 30 s after its ``error:``
+    line). A destroy that never returns: the process ends anyway, exit 1,
+    with the Python stacks that show where it hung."""
+    script = textwrap.dedent('''
+        import time
+        from flight_sim_dynamics.ros import node
+        node.TEARDOWN_TIMEOUT = 0.5
+
+        class Stuck:
+            def destroy_node(self):
+                time.sleep(120)          # a middleware that never lets go
+
+        with node.running('stuck', []) as nodes:
+            nodes.append(Stuck())
+        print('after the teardown')
+    ''')
+    proc = subprocess.run([sys.executable, '-c', script], capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 1, proc.stderr
+    assert 'Timeout' in proc.stderr and 'in destroy_node' in proc.stderr, proc.stderr
+    assert 'after the teardown' not in proc.stdout
