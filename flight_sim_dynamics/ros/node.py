@@ -26,7 +26,7 @@ import socket
 import sys
 import time
 import uuid
-from typing import Any, Iterator, Sequence
+from typing import Any, Callable, Iterator, NoReturn, Sequence, TypeVar
 
 import rclpy
 import rclpy.task
@@ -48,6 +48,7 @@ EXECUTORS = ('events', 'single')
 DEFAULT_EXECUTOR = 'events'
 #: Longest spin between two looks at a requested stop (Ctrl-C, SIGTERM), s.
 SPIN_STEP = 0.1
+N = TypeVar('N', bound=Node)
 #: Seconds the middleware gets to release the nodes and shut down on the way
 #: out (it takes milliseconds). Past them the process ends anyway, with the
 #: Python stacks of its threads on stderr and exit status 1 (faulthandler's
@@ -88,10 +89,34 @@ def build_parser() -> argparse.ArgumentParser:
         'See docs/node.md for topics, parameters and QoS.')
 
 
-def refuse(message: str) -> int:
-    """A start-up the node cannot make: one ``error:`` line on stderr, exit 2."""
+def refuse(message: str) -> NoReturn:
+    """A start-up the executable cannot make: one ``error:`` line on stderr,
+    then exit status 2 (SystemExit, as argparse's usage errors; inside
+    :func:`running` the line comes before the teardown).
+    """
     print('error: ' + ' '.join(str(message).split()), file=sys.stderr)
-    return 2
+    raise SystemExit(2)
+
+
+def own_options(program: str, parser: argparse.ArgumentParser,
+                argv: Sequence[str]) -> argparse.Namespace:
+    """The executable's own options (those before ``--ros-args``); a ROS
+    argument or params file rcl refuses is refused (:func:`refuse`).
+    """
+    try:
+        own = rclpy.utilities.remove_ros_args([program, *argv])[1:]
+    except Exception as exc:  # noqa: BLE001 - rcl's refusal (bad ROS arguments or params
+        # file) comes as rclpy's private _rclpy_pybind11 error types
+        refuse(_params_file_problem(argv) or f'invalid ROS arguments: {exc}')
+    return parser.parse_args(own)
+
+
+def create(node_class: Callable[[], N]) -> N:
+    """The node ``node_class()``; invalid parameters are refused (:func:`refuse`)."""
+    try:
+        return node_class()
+    except (prm.ParameterError, ParameterException) as exc:
+        refuse(f'invalid parameters: {exc}')
 
 
 def _params_file_problem(argv: Sequence[str]) -> str | None:
@@ -177,28 +202,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     program name (None: sys.argv[1:]), ROS arguments after ``--ros-args``.
     """
     argv = list(sys.argv[1:] if argv is None else argv)
-    try:
-        own = rclpy.utilities.remove_ros_args(['dynamics_node', *argv])[1:]
-    except Exception as exc:  # noqa: BLE001 - rcl's refusal (bad ROS arguments or params
-        # file) comes as rclpy's private _rclpy_pybind11 error types
-        return refuse(_params_file_problem(argv) or f'invalid ROS arguments: {exc}')
-    args = build_parser().parse_args(own)
+    args = own_options('dynamics_node', build_parser(), argv)
     with running('dynamics_node', argv) as nodes:
-        try:
-            node = DynamicsNode()
-        except (prm.ParameterError, ParameterException) as exc:
-            return refuse(f'invalid parameters: {exc}')
+        node = create(DynamicsNode)
         nodes.append(node)
         duplicate = None
         if not node.get_parameter('allow_duplicate_name').value:
             duplicate = DuplicateGuard(node).found
         if node.get_parameter('autostart').value and not node.start():
-            return refuse(node.failure)
+            refuse(node.failure)
         executor = make_executor(args.executor)
         executor.add_node(node)
         spin(executor, until=[node.finalized] + ([duplicate] if duplicate else []))
         if duplicate is not None and duplicate.done():
-            return refuse(duplicate.result())
+            refuse(duplicate.result())
     return 0
 
 

@@ -28,7 +28,7 @@ from rclpy.time import Time
 from ..core.motions import PLANNER_MOTIONS as MOTIONS
 from ..core.motions import PlannerSequence
 from .inputs import rpy_to_quaternion
-from .node import running
+from .node import own_options, running
 from .process import stop_requested
 
 ALL = 'all'
@@ -195,8 +195,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the demo planner until the sequence is sent (or Ctrl-C with --loop)."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    own = rclpy.utilities.remove_ros_args(['demo_planner', *argv])[1:]
-    args = build_parser().parse_args(own)
+    args = own_options('demo_planner', build_parser(), argv)
     if not (args.rate > 0 and args.rate <= 10000):
         build_parser().error('--rate must be in (0, 10000] Hz')
     if args.no_twist and not args.no_accel:

@@ -14,11 +14,7 @@ import argparse
 import sys
 from typing import Sequence
 
-import rclpy
-from rclpy.exceptions import ParameterException
-
-from ..config import parameters as prm
-from .node import executable_parser, make_executor, refuse, running, spin
+from .node import create, executable_parser, make_executor, own_options, running, spin
 from .platform_sim import PlatformSim
 
 
@@ -39,16 +35,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     program name (None: sys.argv[1:]), ROS arguments after ``--ros-args``.
     """
     argv = list(sys.argv[1:] if argv is None else argv)
-    try:
-        own = rclpy.utilities.remove_ros_args(['platform_sim', *argv])[1:]
-    except Exception as exc:  # noqa: BLE001 - rcl's refusal comes as rclpy's private types
-        return refuse(f'invalid ROS arguments: {exc}')
-    args = build_parser().parse_args(own)
+    args = own_options('platform_sim', build_parser(), argv)
     with running('platform_sim', argv) as nodes:
-        try:
-            node = PlatformSim()
-        except (prm.ParameterError, ParameterException) as exc:
-            return refuse(f'invalid parameters: {exc}')
+        node = create(PlatformSim)
         nodes.append(node)
         executor = make_executor(args.executor)
         executor.add_node(node)

@@ -38,11 +38,25 @@ def test_bad_start_up_is_one_error_line_and_exit_2(case, tmp_path):
         '      viscous: [0, 0.5, 1]\n')
     args, words = CASES[case]
     args = [a.replace('{tmp}', str(tmp_path)) for a in args]
-    proc = subprocess.run([sys.executable, '-m', 'flight_sim_dynamics.ros.node',
-                           '--ros-args', *args],
+    assert_refused('flight_sim_dynamics.ros.node', args, words)
+
+
+def assert_refused(module: str, args: list[str], words: str) -> None:
+    proc = subprocess.run([sys.executable, '-m', module, '--ros-args', *args],
                           cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2, proc.stdout + proc.stderr
     assert 'Traceback' not in proc.stderr + proc.stdout, proc.stderr
     errors = [line for line in proc.stderr.splitlines() if line.startswith('error:')]
     assert len(errors) == 1, proc.stderr
     assert words in errors[0], errors[0]
+
+
+@pytest.mark.parametrize('module', ['flight_sim_dynamics.ros.sim_node',
+                                    'flight_sim_dynamics.ros.planner'])
+@pytest.mark.parametrize('case', ['missing params file', 'malformed ROS arguments'])
+def test_the_other_executables_refuse_alike(module, case, tmp_path):
+    """The twin and the demo planner read their arguments with the node's
+    code (``node.own_options``): the planner printed a traceback for bad ROS
+    arguments, the twin rcl's message for a missing params file."""
+    args, words = CASES[case]
+    assert_refused(module, [a.replace('{tmp}', str(tmp_path)) for a in args], words)
