@@ -172,9 +172,7 @@ def phase_row(plant: fsd.Model, motion: str, repeats: int) -> list[str]:
     motion_ms, (q, qd, qdd) = _time_ms(lambda: reference.motion(times), repeats)
     tables_ms, (length, rate, force) = _time_ms(
         lambda: reference_tables(plant, q, qd, qdd, times, motion), repeats)
-    servo = Servo.for_bandwidth(plant)
-    law = TabulatedLaw(force, length, rate, np.array(servo.kp), np.array(servo.kd),
-                       plant.limits.max_force, plant.limits.max_speed, True)
+    law = TabulatedLaw.servo_law(plant, Servo.for_bandwidth(plant), force, length, rate)
     loop_ms, run = _time_ms(lambda: integrate(plant, reference.start, DEFAULT_STEP, steps,
                                               q[0], qd[0], law), repeats)
     result_ms, _ = _time_ms(lambda: fsd.solve_batch(plant, *run[1:4]), repeats)

@@ -178,6 +178,13 @@ class TabulatedLaw:
                 raise ValueError(f'{name} has shape {value.shape}')
             object.__setattr__(self, name, value)
 
+    @classmethod
+    def servo_law(cls, plant: Model, servo: Servo, ff: np.ndarray, length_ref: np.ndarray,
+                  rate_ref: np.ndarray) -> 'TabulatedLaw':
+        """The closed loop's law: ``servo``'s gains, the plant's actuator limits."""
+        return cls(ff, length_ref, rate_ref, np.array(servo.kp), np.array(servo.kd),
+                   plant.limits.max_force, plant.limits.max_speed, True)
+
     def __call__(self, j: int, base: Solution) -> np.ndarray:
         if not self.servo:
             return self.ff[j]
@@ -346,8 +353,7 @@ def simulate(plant: Model, *, forces: ForceHistory | tuple | None = None,
                             'the feed-forward model')[2]
         else:
             ff = np.zeros_like(length_ref)
-    law = TabulatedLaw(ff, length_ref, rate_ref, np.array(servo.kp), np.array(servo.kd),
-                       plant.limits.max_force, plant.limits.max_speed, True)
+    law = TabulatedLaw.servo_law(plant, servo, ff, length_ref, rate_ref)
     t, q, qd, qdd, force, outcome, why = integrate(plant, reference.start, step, steps,
                                                    q0, qd0, law, pipeline)
     rows = slice(0, 2 * len(t), 2)
