@@ -1,15 +1,8 @@
-#!/usr/bin/env python3
-"""Print the node's parameters as Markdown tables, from parameters.SPECS
-(the same schema the node declares its ParameterDescriptors from).
+"""The parameter tables of docs/node.md (dynamics_node) and docs/twin.md
+(platform_sim), from the declarations the nodes make their descriptors from.
 
-    python -m scripts.node_param_table            # node parameters + model parameters
-    python -m scripts.node_param_table --node     # node parameters only
-    python -m scripts.node_param_table --twin     # the twin node platform_sim's
-
-(from the repository root).
-
-The per-body rows (bodies.<body>.mass/com/inertia) are folded into one row
-each, with the body names listed once.
+    python -m scripts.node_param_table            # print the tables
+    python -m scripts.node_param_table --update   # write them into docs/node.md, docs/twin.md
 """
 from __future__ import annotations
 
@@ -21,65 +14,68 @@ from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.config.schema import SIM_PARAMETERS
 from flight_sim_dynamics.core.model import BODY_NAMES
 
+from . import DOCS, replace_block
+
 TYPES = {'double': 'double', 'double_array': 'double[]', 'integer': 'int',
          'string': 'string', 'bool': 'bool'}
-
-
-def value_range(spec: prm.ParamSpec) -> str:
-    return spec.range_text.replace('|', '\\|')
+HEADER = ['| name | type | unit | default | range | meaning |', '|---|---|---|---|---|---|']
 
 
 def default(spec: prm.ParamSpec) -> str:
     value = spec.default
     if isinstance(value, list):
-        if len(value) > 3:
-            return 'see YAML'
-        return '[' + ', '.join(f'{v:g}' for v in value) + ']'
+        return 'see YAML' if len(value) > 3 else '[' + ', '.join(f'{v:g}' for v in value) + ']'
     if isinstance(value, float):
         return f'{value:g}'
     return f'`{value}`' if isinstance(value, str) else str(value)
 
 
-def row(name: str, spec: prm.ParamSpec, description: str | None = None) -> str:
-    text = (description or spec.description).replace('|', '\\|')
-    return (f'| `{name}` | {TYPES[spec.kind]} | {spec.unit or "-"} | {default(spec)} '
-            f'| {value_range(spec)} | {text} |')
-
-
-def table(specs: list[prm.ParamSpec]) -> list[str]:
-    lines = ['| name | type | unit | default | range | meaning |',
-             '|---|---|---|---|---|---|']
-    folded = set()
+def table(specs: Sequence[prm.ParamSpec]) -> list[str]:
+    """One row per parameter; the per-body rows (bodies.<body>.*) folded into one
+    each, the lengths (geometry.*) into one.
+    """
+    lines, folded = list(HEADER), set()
+    lengths = [s.name.split('.')[1] for s in specs if s.name.startswith('geometry.')]
     for spec in specs:
-        parts = spec.name.split('.')
-        if parts[0] == 'bodies' and len(parts) == 3:
+        name, meaning, value = spec.name, spec.description, default(spec)
+        parts = name.split('.')
+        if parts[0] == 'geometry':
+            if 'geometry' in folded:
+                continue
+            folded.add('geometry')
+            name, value = 'geometry.<length>', 'see YAML'
+            meaning = ('the lengths of docs/design/mechanism.md: ' + ', '.join(lengths))
+        elif parts[0] == 'bodies' and len(parts) == 3:
             if parts[2] in folded:
                 continue
             folded.add(parts[2])
-            meaning = spec.description.replace(parts[1], '<body>')
-            lines.append(row(f'bodies.<body>.{parts[2]}', spec, meaning)
-                         .replace(f'| {default(spec)} |', '| see YAML |'))
-        else:
-            lines.append(row(spec.name, spec))
+            name, value = f'bodies.<body>.{parts[2]}', 'see YAML'
+            meaning = meaning.replace(parts[1], '<body>')
+        cells = [f'`{name}`', TYPES[spec.kind], spec.unit or '-', value, spec.range_text, meaning]
+        lines.append('| ' + ' | '.join(c.replace('|', '\\|') for c in cells) + ' |')
     return lines
+
+
+def blocks() -> dict[tuple[str, str], str]:
+    """(page, marker name) -> the table text."""
+    bodies = '`<body>` is one of ' + ', '.join(f'`{b}`' for b in BODY_NAMES) + '.'
+    node = '\n'.join(['Node parameters:', '', *table(prm.NODE_PARAMETERS), '',
+                      'Model parameters (the names of the YAML file; `load_model` reads them '
+                      'too):', '', *table(prm.MODEL_PARAMETERS), '', bodies])
+    return {('node.md', 'node-parameters'): node,
+            ('twin.md', 'twin-parameters'): '\n'.join(table(SIM_PARAMETERS))}
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog='python -m scripts.node_param_table',
                                      description=__doc__.split('\n\n')[0])
-    parser.add_argument('--node', action='store_true', help='node parameters only')
-    parser.add_argument('--twin', action='store_true',
-                        help="the twin node platform_sim's parameters only")
+    parser.add_argument('--update', action='store_true',
+                        help='write the tables between their markers in docs/')
     args = parser.parse_args(argv)
-    if args.twin:
-        print('\n'.join(table(list(SIM_PARAMETERS))))
-        return 0
-    print('\n'.join(table(list(prm.NODE_PARAMETERS))))
-    if not args.node:
-        print()
-        print('\n'.join(table(list(prm.MODEL_PARAMETERS))))
-        print()
-        print('`<body>` is one of ' + ', '.join(f'`{b}`' for b in BODY_NAMES) + '.')
+    for (page, name), text in blocks().items():
+        print(text, end='\n\n')
+        if args.update:
+            replace_block(DOCS / page, name, text)
     return 0
 
 

@@ -1,6 +1,6 @@
-"""The documentation generators under scripts/ (run as ``python -m scripts.<name>``
-from the repository root): the reproduction table of docs/reproduction.md,
-regenerated into a temporary copy, and the node parameter table."""
+"""The documentation generators under scripts/ (``python -m scripts.<name>``
+from the repository root) regenerate what the pages show, and the committed
+pages are current."""
 from __future__ import annotations
 
 import shutil
@@ -9,47 +9,74 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from flight_sim_dynamics.cli import csv_io
+from scripts import DOCS, block, markers, replace_block
+from scripts import node_param_table
 
 ROOT = Path(__file__).resolve().parent.parent
-BEGIN, END = '<!-- reproduction-table:begin -->', '<!-- reproduction-table:end -->'
 
 
-def test_reproduction_table_updates_a_copy_of_the_page(tmp_path):
+def test_reproduction_table_regenerates_the_page(tmp_path):
     page = tmp_path / 'reproduction.md'
-    shutil.copy(ROOT / 'docs' / 'reproduction.md', page)
+    shutil.copy(DOCS / 'reproduction.md', page)
     before = page.read_text()
     figures, work = tmp_path / 'figures', tmp_path / 'work'
     proc = subprocess.run([sys.executable, '-m', 'scripts.reproduction_table', '--figures',
                            str(figures), '--work', str(work), '--update', str(page)],
                           cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-3000:]
-    after = page.read_text()
-    # only the marked block changed, and it is what the command printed
-    head, rest = after.split(BEGIN, 1)
-    block, tail = rest.split(END, 1)
-    assert head == before.split(BEGIN, 1)[0] and tail == before.split(END, 1)[1]
-    assert block.strip() == proc.stdout.strip()
+    # the committed page is current: regenerating it changes nothing
+    assert page.read_text() == before
+    assert block(page, 'reproduction-table') == proc.stdout.strip('\n')
     for name in ('vertical', 'rectilinear', 'general'):
         assert (figures / f'{name}.png').read_bytes()[:4] == b'\x89PNG'
+        assert (DOCS / f'{name}.png').is_file()
     # the peak |force| of leg A of the general motion is the one of the solve output
     out = csv_io.read_csv(work / 'out' / 'general.csv', required=('t', 'force_a'),
                           allow_extra=True, text_columns=('status',))
     i = int(np.argmax(np.abs(out['force_a'])))
-    row = next(line for line in block.splitlines() if line.startswith('| general | A |'))
+    row = next(line for line in proc.stdout.splitlines() if line.startswith('| general | A |'))
     cells = [c.strip() for c in row.strip('|').split('|')]
     assert float(cells[2].replace('−', '-')) == round(float(out['force_a'][i]), 3)
     assert float(cells[3]) == round(float(out['t'][i]), 2)
 
 
-def test_node_param_table_lists_every_node_parameter():
-    from flight_sim_dynamics.config.parameters import NODE_PARAMETERS
+def test_parameter_tables_are_current_and_complete():
+    from flight_sim_dynamics.config.parameters import MODEL_PARAMETERS, NODE_PARAMETERS
+    from flight_sim_dynamics.config.schema import SIM_PARAMETERS
 
-    proc = subprocess.run([sys.executable, '-m', 'scripts.node_param_table', '--node'],
+    generated = node_param_table.blocks()
+    for (page, name), text in generated.items():
+        assert block(DOCS / page, name) == text, \
+            f'docs/{page} is stale: run python -m scripts.node_param_table --update'
+    node = generated[('node.md', 'node-parameters')]
+    twin = generated[('twin.md', 'twin-parameters')]
+    for spec in NODE_PARAMETERS:
+        assert f'| `{spec.name}` |' in node, spec.name
+    for spec in MODEL_PARAMETERS:
+        folded = spec.name.startswith(('geometry.', 'bodies.'))
+        name = spec.name.rsplit('.', 1)[-1] if folded else f'`{spec.name}`'
+        assert name in node, spec.name
+    for spec in SIM_PARAMETERS:
+        assert f'| `{spec.name}` |' in twin, spec.name
+
+
+def test_node_param_table_prints_without_writing():
+    proc = subprocess.run([sys.executable, '-m', 'scripts.node_param_table'],
                           cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
-    lines = proc.stdout.splitlines()
-    assert lines[0].startswith('| name | type | unit | default |')
-    for spec in NODE_PARAMETERS:
-        assert any(line.startswith(f'| `{spec.name}` |') for line in lines), spec.name
+    assert proc.stdout.count('| name | type | unit | default | range | meaning |') == 3
+
+
+def test_replace_block_touches_only_the_block(tmp_path):
+    begin, end = markers('x')
+    page = tmp_path / 'page.md'
+    page.write_text(f'head\n{begin}\nold\n{end}\ntail\n')
+    replace_block(page, 'x', 'new\n')
+    assert page.read_text() == f'head\n{begin}\nnew\n{end}\ntail\n'
+    page.write_text('no markers\n')
+    with pytest.raises(SystemExit):
+        replace_block(page, 'x', 'new')
+    assert page.read_text() == 'no markers\n'
