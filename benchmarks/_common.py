@@ -12,11 +12,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def commit() -> str:
-    try:
-        return subprocess.run(['git', 'rev-parse', '--short', 'HEAD'], cwd=ROOT, text=True,
-                              capture_output=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return 'unknown'
+    git = subprocess.run(['git', 'rev-parse', '--short', 'HEAD'], cwd=ROOT, text=True,
+                         capture_output=True)
+    return git.stdout.strip() or 'unknown'
 
 
 def header(what: str) -> str:

@@ -121,9 +121,7 @@ def drive_main(rate: float, seconds: float) -> int:
     stamp = struct.Struct('<iI' if samples[0][0][1] == 1 else '>iI')
     period_ns = int(round(1e9 / rate))
     n = int(round(seconds * rate))
-    sent = [math.nan] * n
-    got = [math.nan] * n
-    late = {'n': 0}
+    sent, got, late = [math.nan] * n, [math.nan] * n, {'n': 0}
 
     def on_answer(data: bytes) -> None:
         now = time.monotonic()
@@ -175,23 +173,21 @@ def stream(target: str, rate: float, seconds: float, env: dict[str, str],
     from flight_sim_dynamics.ros.process import start_node, stop_node
 
     log = log_dir / f'{target}_{rate:g}.log'
-    if target == 'node':
-        proc = start_node(PARAMS_FILE, log=log, env=env, cwd=ROOT)
-    else:
-        proc = subprocess.Popen([sys.executable, '-m', 'benchmarks.node', 'echo'], cwd=ROOT,
-                                env=env, stdout=open(log, 'w'), stderr=subprocess.STDOUT,
-                                start_new_session=True)
+    proc = (start_node(PARAMS_FILE, log=log, env=env, cwd=ROOT) if target == 'node' else
+            subprocess.Popen([sys.executable, '-m', 'benchmarks.node', 'echo'], cwd=ROOT,
+                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                             start_new_session=True))
     try:
-        driver = subprocess.run([sys.executable, '-m', 'benchmarks.node', 'drive', '--rate',
-                                 f'{rate:g}', '--seconds', f'{seconds:g}'], cwd=ROOT, env=env,
-                                capture_output=True, text=True, timeout=seconds + 120)
+        driver = subprocess.run([sys.executable, '-m', 'benchmarks.node', 'drive', f'{rate:g}',
+                                 f'{seconds:g}'], cwd=ROOT, env=env, capture_output=True,
+                                text=True, timeout=seconds + 120)
     finally:
         stop_node(proc)
     lines = [line for line in driver.stdout.splitlines() if line.startswith('{')]
     result = json.loads(lines[-1]) if lines else {'error': driver.stderr[-2000:]}
     if 'error' in result:
         raise RuntimeError(f'{target} at {rate:g} Hz: {result["error"]}\n'
-                           + log.read_text()[-2000:])
+                           + (log.read_text()[-2000:] if log.exists() else ''))
     lat = sorted(result['latency_ms'])
     pct = (lambda q: lat[min(len(lat) - 1, int(q * len(lat)))]) if lat else lambda q: math.nan
     return dict(answered=len(lat), lost=result['sent'] - len(lat), median=pct(0.5),
@@ -200,15 +196,12 @@ def stream(target: str, rate: float, seconds: float, env: dict[str, str],
 
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    if argv[:1] == ['echo']:
+    if argv[:1] == ['echo']:                  # the processes this one starts
         return echo_main()
+    if argv[:1] == ['drive']:
+        return drive_main(float(argv[1]), float(argv[2]))
     p = argparse.ArgumentParser(prog='python -m benchmarks.node',
                                 description=__doc__.split('\n\n')[0])
-    if argv[:1] == ['drive']:
-        p.add_argument('--rate', type=float, required=True)
-        p.add_argument('--seconds', type=float, required=True)
-        args = p.parse_args(argv[1:])
-        return drive_main(args.rate, args.seconds)
     p.add_argument('--rate', type=float, default=1000.0, help='setpoints per second')
     p.add_argument('--seconds', type=float, default=5.0, help='per stream')
     p.add_argument('--repeats', type=int, default=3, help='streams per target (median of)')

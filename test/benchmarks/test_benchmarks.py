@@ -55,7 +55,6 @@ def test_csv_prints_the_end_to_end_times():
     assert all(v > 0 for v in numbers(t['CSV in, .npz out']))
 
 
-@pytest.mark.slow
 def test_twin_prints_the_real_time_factors_and_writes_the_figure(tmp_path):
     png = tmp_path / 'tracking.png'
     rows = run('benchmarks.twin', '--quick', '--out', str(png))
