@@ -70,9 +70,9 @@ def echo_main() -> int:
             seen[i] = msg
             if all(seen):
                 del got[key]
-                for out, n in ((legs, 3), (joints, JOINTS)):
-                    out.header.stamp = msg.header.stamp
-                    out.position = out.velocity = out.effort = [0.1] * n
+                legs.header.stamp = joints.header.stamp = msg.header.stamp
+                legs.position = legs.velocity = legs.effort = [0.1] * 3   # as the node:
+                joints.position = joints.velocity = [0.1] * JOINTS       # 3 and 2 arrays
                 pubs[0].publish(legs)
                 pubs[1].publish(joints)
         return callback
