@@ -24,10 +24,10 @@ def states(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def per_call_us(model: fsd.Model, calls: int) -> float:
-    Q, Qd, Qdd = (a.tolist() for a in states(200))
+    rows = list(zip(*(a.tolist() for a in states(200))))
     start = time.perf_counter()
     for i in range(calls):
-        fsd.solve(model, Q[i % 200], Qd[i % 200], Qdd[i % 200])
+        fsd.solve(model, *rows[i % 200])
     return (time.perf_counter() - start) / calls * 1e6
 
 
