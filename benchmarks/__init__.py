@@ -1,13 +1,7 @@
-"""Benchmarks and measurement tools of flight_sim_dynamics (not installed).
+"""Scripts that print figures (not installed; run from the repository root).
 
-Run from the repository root, each as a module::
-
-    python -m benchmarks.performance [--quick] [--out out/performance.md]
-    python -m benchmarks.bench_node [--rates 200 1000] [--echo]
-    python -m benchmarks.bench_callbacks [--setpoints 5000]
-    python -m benchmarks.estimation [--rates 50 100 200] [--markdown]
-    python -m benchmarks.twin [--bandwidth 5] [--quick] [--update-docs]
-
-They print and write figures and tables; what the figures mean is written
-by people (README, docs/).
+python -m benchmarks.solve     # solve us per call, solve_batch us per sample
+python -m benchmarks.node      # the node's round trip next to a same-traffic echo
+python -m benchmarks.twin      # the twin's real-time factor (--out PNG: tracking figure)
+python -m benchmarks.csv       # flight-sim-dynamics solve end to end
 """

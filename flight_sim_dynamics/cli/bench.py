@@ -1,222 +1,275 @@
-"""What accuracy costs in time: ``flight-sim-dynamics bench``.
+"""What each effect costs and buys: ``flight-sim-dynamics bench``.
 
-For every packaged scene and for the single-effect variants of the ``full``
-model (``full`` without one of its effects, ``full`` with friction) this
-measures
-
-* the time of one control cycle, :func:`flight_sim_dynamics.solve` in this
-  process (median and 99th percentile over ``--cycles`` calls, states cycled
-  through the samples of the four test motions), and the throughput of
-  :func:`flight_sim_dynamics.solve_batch` (samples per second);
-* the actuator-force error against the ``full`` model (maximum and RMS over
-  the samples and the three legs, in N and in % of the full model's peak
-  |force| on that motion) on the paper's three motions and on a violent
-  motion-cueing-like motion (:func:`violent_motion`);
-
-and the accuracy cost of not receiving accelerations (estimated by the node's
-:class:`~flight_sim_dynamics.ros.estimator.DerivativeEstimator` from exact twists,
-or rates and accelerations both from poses, sampled at 60, 250 and 1000 Hz),
-plus the other speed/accuracy trades the solver offers (the ``cond(Q)``
-diagnostic, ``solve_batch`` on one sample). It prints the tables and writes
-``<out-dir>/scenes.md`` and ``<out-dir>/scenes.png`` (time per cycle against
-force error, one point per variant): ``out/`` by default, the repository's
-``docs/`` only with ``--update-docs``.
-
-Timing method: the timed cases (variants) are interleaved call by call, in
-an order shuffled anew for each state, so background load on a shared
-machine hits all of them alike; each call is timed alone with
-``time.perf_counter_ns``; the differences to ``full`` are medians of the
-differences of per-block medians (blocks of ``--block`` states, paired), with
-a sign test over the blocks. No rclpy needed.
-
-The measurements are in :mod:`.bench_cases`, the tables, page and figure in
-:mod:`.bench_report`.
+For every packaged scene, ``full`` without each of its effects and ``full``
+with each effect no scene adds (friction), the median and p99 time of one
+control cycle (:func:`flight_sim_dynamics.solve`, the variants interleaved
+call by call in an order shuffled per state, so that the load of other
+processes hits them alike) against the actuator-force error relative to the
+``full`` model (eq. 6) on the test motions (the paper's three and
+``violent``); and what missing accelerations cost: the force error when the
+node's derivative estimator supplies them (from exact twists, or rates and
+accelerations from poses) at 60, 250 and 1000 Hz. Prints the tables, writes
+``scenes.md`` and ``scenes.png`` (time per cycle against force error) to
+``--out-dir`` (``out/``), or to the repository's ``docs/`` with ``--update-docs``.
 """
 from __future__ import annotations
 
 import argparse
 import math
 import os
+import platform
+import random
 import sys
 import time
-from functools import partial
-from typing import Sequence
+from dataclasses import dataclass, replace
+from typing import Callable, Sequence
 
 import numpy as np
 
 import flight_sim_dynamics as fsd
 
-from ..core.motions import TEST_MOTIONS as MOTIONS
-from ..core.motions import duration, motion, sample_times
-from ..ros.estimator import ESTIMATORS
-from .bench_cases import (Case, EstimatorCall, Results, batch_throughput, estimator_cases,
-                          motion_set, solve_cond, time_cases, variant_errors, variants)
-from .bench_report import (additions_table, estimator_table, extras_table, load_average,
-                           machine_header, main_table, markdown, plot, rms_table,
-                           summary_table, write_text)
+from ..config.scenes import available_scenes
+from ..core import kernel
+from ..core.effects import EFFECT_NAMES
+from ..core.model import Model
+from ..core.motions import TEST_MOTIONS, duration, motion, sample_times
+from ..ros.estimator import ESTIMATORS, DerivativeEstimator
 
-#: Where ``--update-docs`` writes: the repository's docs/ (run from its root).
 DOCS_DIR = 'docs'
 DEFAULT_OUT_DIR = 'out'
+ESTIMATOR_RATES = (60.0, 250.0, 1000.0)
+#: Samples before the estimator's history is full; its error is reported after.
+STARTUP_SAMPLES = 4
+#: The estimator drawn on the figure (the node's default).
+FIGURE_ESTIMATOR = 'backward2'
 
 
-def command_line(args: argparse.Namespace) -> list[str]:
-    """The options of this run that differ from the defaults (as typed)."""
-    defaults = build_parser().parse_args([])
-    out = []
-    where = (['--out-dir', args.out_dir] if args.out_dir is not None else []) + \
-        (['--update-docs'] if args.update_docs else [])
-    if args.quick:
-        return ['--quick'] + where + (['--no-plot'] if args.no_plot else [])
-    out += where
-    for name in ('cycles', 'block', 'warmup', 'batch_repeats', 'error_rate'):
-        value = getattr(args, name)
-        if value != getattr(defaults, name):
-            out += ['--' + name.replace('_', '-'), f'{value:g}' if isinstance(value, float)
-                    else str(value)]
-    if args.no_plot:
-        out.append('--no-plot')
+@dataclass(frozen=True)
+class Variant:
+    key: str
+    kind: str          # 'reference', 'scene', 'drops' (full minus one effect), 'adds'
+    model: Model
+
+
+def variants() -> list[Variant]:
+    """``full``, the other packaged scenes, ``full`` minus each of its effects,
+    ``full`` plus each effect no scene adds.
+    """
+    full = fsd.load_model(scene='full')
+    out = [Variant('full', 'reference', full)]
+    added = set()
+    for name in available_scenes():
+        if name != 'full':
+            model = fsd.load_model(scene=name)
+            extra = set(model.effects.enabled()) - set(full.effects.enabled())
+            added |= extra
+            out.append(Variant(name, 'adds' if extra else 'scene', model))
+    for effect in full.effects.enabled():
+        out.append(Variant(f'full - {effect}', 'drops', full.with_effects(
+            full.effects.without(effect), scene=f'full_without_{effect}')))
+    for effect in EFFECT_NAMES:
+        if not getattr(full.effects, effect) and effect not in added:
+            out.append(Variant(f'full + {effect}', 'adds', full.with_effects(
+                replace(full.effects, **{effect: True}), scene=f'full_with_{effect}')))
     return out
 
 
-# ----------------------------------------------------------------------------
-# Command line
-# ----------------------------------------------------------------------------
+def exact_motions(rate: float) -> dict[str, tuple[np.ndarray, ...]]:
+    """t, q, qd, qdd of every test motion sampled at ``rate`` Hz."""
+    out = {}
+    for name in TEST_MOTIONS:
+        t = sample_times(rate, duration(name))
+        out[name] = (t, *motion(name, t))
+    return out
+
+
+def force_errors(model: Model, motions: dict, reference: dict[str, np.ndarray]
+                 ) -> dict[str, float]:
+    """Max |force - reference force| (N, over samples and legs) per motion."""
+    return {name: float(np.abs(fsd.solve_batch(model, *m[1:]).force - reference[name]).max())
+            for name, m in motions.items()}
+
+
+def estimated(method: str, rate: float, name: str, twist: bool
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The poses q, and the rates and accelerations the node's estimator gives for motion
+    ``name`` streamed at ``rate`` Hz (poses and exact twists, or poses only).
+    """
+    t = sample_times(rate, duration(name))
+    q, qd, _ = motion(name, t)
+    est = DerivativeEstimator(method)
+    rates, accs = np.empty_like(q), np.empty_like(q)
+    for k in range(len(t)):
+        rates[k], accs[k] = est.update(float(t[k]), tuple(q[k].tolist()),
+                                       tuple(qd[k].tolist()) if twist else None, None)
+    return q, rates, accs
+
+
+def estimator_errors(full: Model, name: str = 'violent') -> list[tuple[str, str, float, float]]:
+    """(source, method, rate, max force error N after start-up) on ``name``."""
+    out = []
+    for source in ('pose + twist', 'pose only'):
+        for method in ESTIMATORS:
+            for rate in ESTIMATOR_RATES:
+                q, qd, qdd = estimated(method, rate, name, source == 'pose + twist')
+                exact = fsd.solve_batch(full, *motion(name, sample_times(rate, duration(name))))
+                f = fsd.solve_batch(full, q, qd, qdd).force
+                k = STARTUP_SAMPLES
+                out.append((source, method, rate, float(np.abs(f[k:] - exact.force[k:]).max())))
+    return out
+
+
+def time_per_cycle(models: dict[str, Model], states: list, cycles: int
+                   ) -> dict[str, tuple[float, float]]:
+    """(median, p99) us of one ``fsd.solve`` per model, interleaved call by call."""
+    calls: list[Callable] = [lambda s, m=m: fsd.solve(m, *s) for m in models.values()]
+    for call in calls:
+        for s in states[:100]:                                     # warm-up
+            call(s)
+    times = [[0] * cycles for _ in calls]
+    order = list(range(len(calls)))
+    rng = random.Random(1)
+    clock = time.perf_counter_ns
+    for k in range(cycles):
+        s = states[k % len(states)]
+        rng.shuffle(order)
+        for i in order:
+            t0 = clock()
+            calls[i](s)
+            times[i][k] = clock() - t0
+    return {key: (float(np.median(t)) / 1e3, float(np.percentile(t, 99)) / 1e3)
+            for key, t in zip(models, times)}
+
+
+def table(columns: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    return '\n'.join(['| ' + ' | '.join(columns) + ' |',
+                      '| :--- |' + ' ---: |' * (len(columns) - 1)]
+                     + ['| ' + ' | '.join(r) + ' |' for r in rows])
+
+
+def plot(points: list[tuple[str, str, float, float]], peak: float, path: str) -> None:
+    """One row per variant, most accurate first: max force error on ``violent``
+    (log axis, 'exact' for 0 N) and median time per cycle.
+    """
+    from matplotlib.figure import Figure
+
+    points = sorted(points, key=lambda p: (p[2], p[0]))
+    positive = [p[2] for p in points if p[2] > 0]
+    floor = 10 ** (math.floor(math.log10(min(positive, default=1.0))) - 1)
+    colour = {'reference': 'black', 'scene': 'tab:blue', 'drops': 'tab:red', 'adds': 'tab:green',
+              'estimated': 'tab:orange'}
+    fig = Figure(figsize=(11.0, 0.32 * len(points) + 1.8), dpi=110, layout='constrained')
+    ax_e, ax_t = fig.subplots(1, 2, sharey=True, width_ratios=(3, 2))
+    y = np.arange(len(points))
+    colours = [colour[p[1]] for p in points]
+    ax_e.barh(y, [max(p[2], floor) for p in points], left=floor / 10, color=colours)
+    for k, p in enumerate(points):
+        ax_e.text(max(p[2], floor) * 1.15, k, 'exact' if p[2] == 0 else f'{p[2]:.3g} N',
+                  va='center', fontsize=8)
+        ax_t.text(p[3], k, f' {p[3]:.1f} us', va='center', fontsize=8)
+    ax_e.set_xscale('log')
+    ax_e.set_xlim(floor / 10, max(positive, default=1.0) * 20)
+    ax_e.set_yticks(y, [p[0] for p in points], fontsize=8.5)
+    ax_e.set_xlabel(f'max |force error| vs full on the violent motion (N; peak {peak:.0f} N)')
+    ax_t.barh(y, [p[3] for p in points], color=colours)
+    ax_t.set_xlim(0, max(p[3] for p in points) * 1.3)
+    ax_t.set_xlabel('median time per cycle, fsd.solve (us)')
+    ax_e.invert_yaxis()
+    fig.suptitle('What each effect costs and buys, most accurate first', fontsize='medium')
+    fig.savefig(path, format='png')
+
+
 def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument('--cycles', type=int, default=10_000, metavar='N',
                    help='timed fsd.solve calls per variant (default 10000)')
-    p.add_argument('--block', type=int, default=250, metavar='N',
-                   help='calls per interleaved timing block (default 250)')
-    p.add_argument('--warmup', type=int, default=300, metavar='N',
-                   help='untimed calls per variant first (default 300)')
-    p.add_argument('--batch-repeats', type=int, default=15, metavar='N',
-                   help='solve_batch calls per variant for the throughput (best of; '
-                        'default 15)')
     p.add_argument('--error-rate', type=float, default=1000.0, metavar='HZ',
                    help='sampling rate of the motions for the force errors (default 1000)')
     p.add_argument('--quick', action='store_true',
-                   help='a fast smoke run (200 cycles, blocks of 50, 200 Hz errors, '
-                        '2 batch repeats): numbers only roughly meaningful')
+                   help='a smoke run (500 cycles, 200 Hz errors): figures only rough')
     where = p.add_mutually_exclusive_group()
     where.add_argument('--out-dir', default=None, metavar='DIR',
                        help=f'where scenes.md and scenes.png go (default {DEFAULT_OUT_DIR})')
     where.add_argument('--update-docs', action='store_true',
-                       help=f'write them to {DOCS_DIR}/ instead, replacing the committed '
-                            'ones (run from the repository root)')
+                       help=f'write them to {DOCS_DIR}/ (run from the repository root)')
     p.add_argument('--no-plot', action='store_true', help='do not write scenes.png')
 
 
-def output_dir(args: argparse.Namespace) -> str:
-    """The directory the page and the figure go to: ``--out-dir``, ``out`` by
-    default, the repository's docs/ with ``--update-docs`` (which must be
-    there: the tool never creates a docs/ elsewhere).
-    """
-    if not args.update_docs:
-        return args.out_dir or DEFAULT_OUT_DIR
-    if not os.path.isfile(os.path.join(DOCS_DIR, 'scenes.md')):
-        raise ValueError(f'--update-docs: no {DOCS_DIR}/scenes.md here; run it from the '
-                         'repository root, or give --out-dir')
-    return DOCS_DIR
-
-
 def run(args: argparse.Namespace) -> int:
-    """Run the benchmark (the ``bench`` subcommand's handler); returns 0."""
-    t_start = time.perf_counter()
-    header = machine_header(command_line(args))
+    """The ``bench`` subcommand; returns 0."""
+    command = ' '.join(['flight-sim-dynamics bench']
+                       + (['--quick'] if args.quick else [f'--cycles {args.cycles}',
+                                                          f'--error-rate {args.error_rate:g}'])
+                       + (['--update-docs'] if args.update_docs else [])
+                       + (['--no-plot'] if args.no_plot else []))
     if args.quick:
-        args.cycles, args.block, args.warmup = 200, 50, 20
-        args.error_rate, args.batch_repeats = 200.0, 2
-    for name in ('cycles', 'block', 'batch_repeats'):
-        if getattr(args, name) < 1:
-            raise ValueError(f'--{name.replace("_", "-")} must be at least 1')
-    if args.warmup < 0 or not (math.isfinite(args.error_rate) and args.error_rate >= 10.0):
-        raise ValueError('--warmup must be >= 0 and --error-rate >= 10 Hz')
-    out_dir = output_dir(args)
+        args.cycles, args.error_rate = 500, 200.0
+    if args.cycles < 1 or not (math.isfinite(args.error_rate) and args.error_rate >= 10.0):
+        raise ValueError('--cycles must be >= 1 and --error-rate >= 10 Hz')
+    out_dir = args.out_dir or DEFAULT_OUT_DIR
+    if args.update_docs:
+        if not os.path.isfile(os.path.join(DOCS_DIR, 'scenes.md')):
+            raise ValueError(f'--update-docs: no {DOCS_DIR}/scenes.md here; run it from the '
+                             'repository root, or give --out-dir')
+        out_dir = DOCS_DIR
     os.makedirs(out_dir, exist_ok=True)
-
-    def progress(msg: str) -> None:
-        print(f'[bench] {msg}', file=sys.stderr, flush=True)
-
     vs = variants()
     full = vs[0].model
-    ms = motion_set(full, args.error_rate)
-    progress('force errors of the variants')
-    errors = {v.key: variant_errors(v, ms) for v in vs}
-    progress('estimator errors')
-    est = estimator_cases(full, ms.peak)
+    motions = exact_motions(args.error_rate)
+    reference = {name: fsd.solve_batch(full, *m[1:]).force for name, m in motions.items()}
+    peak = {name: float(np.abs(f).max()) for name, f in reference.items()}
+    errors = {v.key: force_errors(v.model, motions, reference) for v in vs}
+    states = [tuple(tuple(x) for x in row) for name in TEST_MOTIONS
+              for row in zip(*(a.tolist() for a in motion(name, sample_times(
+                  100.0, duration(name)))))]
+    timing = time_per_cycle({v.key: v.model for v in vs}, states, args.cycles)
+    estimates = estimator_errors(full)
 
-    # States for the per-cycle timing: the four motions at 100 Hz, plain floats.
-    states = []
-    for name in MOTIONS:
-        q, qd, qdd = motion(name, sample_times(100.0, duration(name)))
-        states += [(tuple(a.tolist()), tuple(b.tolist()), tuple(c.tolist()))
-                   for a, b, c in zip(q, qd, qdd)]
-    batch1 = [tuple(np.array([s], dtype=float) for s in state) for state in states]
-    cases = {v.key: Case(partial(fsd.solve, v.model), states) for v in vs}
-    extras = {
-        'full + cond(Q)': 'full solve and reading `sol.cond`, the exact 2-norm condition '
-                          'number of Q (an SVD, computed on first access only)',
-        'solve_batch, N = 1': '`fsd.solve_batch(full, ...)` on a batch of one sample',
-    }
-    cases['full + cond(Q)'] = Case(partial(solve_cond, full), states)
-    cases['solve_batch, N = 1'] = Case(partial(fsd.solve_batch, full), batch1)
-    for method in ESTIMATORS:
-        for twist in (True, False):
-            key = f'estimator {method}, {"pose + twist" if twist else "pose only"}'
-            extras[key] = (f'`DerivativeEstimator("{method}").update` alone (250 Hz stamps), '
-                           + ('accelerations from exact twists' if twist
-                              else 'rates and accelerations from poses'))
-            cases[key] = Case(EstimatorCall(method, 250.0, twist), states)
-    progress(f'timing {len(cases)} cases x {args.cycles} cycles')
-    timing = time_cases(cases, args.cycles, args.block, args.warmup, progress)
+    def pct(e: float, name: str) -> str:
+        share = 100 * e / peak[name]
+        return f'{e:.3g} N ({share:.0f} %)' if share >= 10 else f'{e:.3g} N ({share:.2g} %)'
 
-    progress('solve_batch throughput')
-    Q = np.concatenate([ms.q[m] for m in MOTIONS])
-    Qd = np.concatenate([ms.qd[m] for m in MOTIONS])
-    Qdd = np.concatenate([ms.qdd[m] for m in MOTIONS])
-    throughput = batch_throughput({v.key: v.model for v in vs}, Q, Qd, Qdd, args.batch_repeats)
-    single = np.array([fsd.solve(full, *s).force for s in states])
-    arrays = [np.array([s[i] for s in states]) for i in range(3)]
-    max_diff = float(np.abs(fsd.solve_batch(full, *arrays).force - single).max())
-
-    res = Results(variants=vs, timing=timing, throughput=throughput, errors=errors,
-                  estimators=est, peaks=ms.peak, error_rate=args.error_rate,
-                  cycles=args.cycles, block=args.block, n_states=len(states),
-                  batch_samples=len(Q), batch_repeats=args.batch_repeats, extras=extras,
-                  max_abs_batch_vs_single=max_diff)
-    res.wall_s = time.perf_counter() - t_start
-    text = markdown(res, header, load_average())
-    md_path = os.path.join(out_dir, 'scenes.md')
-    write_text(md_path, text)
+    effects = table(['variant', 'kind', 'median us', 'p99 us']
+                    + [f'max force error, {name}' for name in TEST_MOTIONS],
+                    [[f'`{v.key}`', v.kind, f'{timing[v.key][0]:.1f}', f'{timing[v.key][1]:.1f}']
+                     + [pct(errors[v.key][name], name) for name in TEST_MOTIONS] for v in vs])
+    estimator = table(['streamed', 'estimator', 'rate Hz', 'max force error, violent'],
+                      [[s, m, f'{r:g}', pct(e, 'violent')] for s, m, r, e in estimates])
+    text = '\n\n'.join([
+        '# What each effect costs and buys: scenes and effects',
+        f'Time of one `fsd.solve` ({args.cycles} calls per variant, interleaved) against '
+        f'the actuator-force error relative to `full`, motions sampled at '
+        f'{args.error_rate:g} Hz; peak force of `full`: '
+        + ', '.join(f'{n} {p:.1f} N' for n, p in peak.items()) + '.',
+        effects, '## Missing accelerations',
+        'The `full` model solved with the rates and accelerations the node estimates '
+        f'(after the first {STARTUP_SAMPLES} samples) against the exact ones.', estimator,
+        *([] if args.no_plot else ['![time per cycle against force error](scenes.png)']),
+        '## Machine and command',
+        f'`{command}`; {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, '
+        f'load average {os.getloadavg()[0]:.2f}; Python {platform.python_version()}, numpy '
+        f'{np.__version__}; compiled kernel {"on" if kernel.enabled() else "off"}.'])
+    with open(os.path.join(out_dir, 'scenes.md'), 'w') as f:
+        f.write(text + '\n')
     if not args.no_plot:
-        plot(res, os.path.join(out_dir, 'scenes.png'))
-    print('## Summary\n\n' + summary_table(res) + '\n')
-    print(main_table(res) + '\n')
-    print(rms_table(res) + '\n')
-    print(additions_table(res) + '\n')
-    print(estimator_table(res) + '\n')
-    print(extras_table(res))
-    progress(f'wrote {md_path}' + ('' if args.no_plot else
-                                   f' and {os.path.join(out_dir, "scenes.png")}')
-             + f' in {time.perf_counter() - t_start:.0f} s')
+        points = [(v.key, v.kind, errors[v.key]['violent'], timing[v.key][0]) for v in vs]
+        points += [(f'full, {s} at {r:g} Hz', 'estimated', e, timing['full'][0])
+                   for s, m, r, e in estimates if m == FIGURE_ESTIMATOR]
+        plot(points, peak['violent'], os.path.join(out_dir, 'scenes.png'))
+    print(effects + '\n\n' + estimator)
+    print(f'wrote {os.path.join(out_dir, "scenes.md")}'
+          + ('' if args.no_plot else ' and scenes.png'), file=sys.stderr)
     return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog='flight-sim-dynamics bench',
-        description='Measure solve time per cycle against force error for every scene and '
-                    'single-effect variant, and the cost of estimating missing '
-                    'accelerations; writes scenes.md and scenes.png (to out/ unless told '
-                    'otherwise).')
+    p = argparse.ArgumentParser(prog='flight-sim-dynamics bench',
+                                description=__doc__.split('\n\n')[0])
     configure(p)
     return p
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
-    args = build_parser().parse_args(argv)
-    return run(args)
+    return run(build_parser().parse_args(argv))
 
 
 if __name__ == '__main__':

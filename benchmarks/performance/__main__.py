@@ -1,6 +1,0 @@
-"""``python -m benchmarks.performance``."""
-import sys
-
-from .run import main
-
-sys.exit(main())

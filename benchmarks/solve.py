@@ -1,0 +1,75 @@
+"""Solve cost: ``fsd.solve`` per call and ``fsd.solve_batch`` per sample, through
+the compiled kernel and through the Python code (FSD_KERNEL=0), in one run.
+
+    python -m benchmarks.solve [--repeats 5] [--quick]
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from typing import Callable, Sequence
+
+import numpy as np
+
+import flight_sim_dynamics as fsd
+from flight_sim_dynamics.core import kernel
+
+from ._common import header, table
+
+
+def states(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """N samples of the paper's general motion over 3 s."""
+    return fsd.trajectories.paper_example('general', np.linspace(0.0, 3.0, n))
+
+
+def per_call_us(model: fsd.Model, calls: int) -> float:
+    rows = list(zip(*(a.tolist() for a in states(200))))
+    start = time.perf_counter()
+    for i in range(calls):
+        fsd.solve(model, *rows[i % 200])
+    return (time.perf_counter() - start) / calls * 1e6
+
+
+def per_sample_us(model: fsd.Model, batch: tuple) -> float:
+    start = time.perf_counter()
+    fsd.solve_batch(model, *batch)
+    return (time.perf_counter() - start) / len(batch[0]) * 1e6
+
+
+def median(call: Callable[[], float], repeats: int) -> float:
+    return statistics.median(call() for _ in range(repeats))
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog='python -m benchmarks.solve',
+                                description=__doc__.splitlines()[0])
+    p.add_argument('--repeats', type=int, default=5, help='median of this many runs')
+    p.add_argument('--quick', action='store_true', help='1 run, N up to 10k')
+    args = p.parse_args(argv)
+    repeats = 1 if args.quick else args.repeats
+    sizes = (1_000, 10_000) if args.quick else (1_000, 10_000, 100_000)
+    calls = 200 if args.quick else 2000
+    model = fsd.load_model()
+    paths = [('kernel', True), ('Python', False)] if kernel.available() else [('Python', False)]
+    figures: dict[str, list[float]] = {}
+    for label, on in paths:
+        with kernel.use_kernel(on):
+            fsd.solve_batch(model, *states(10))                  # warm-up
+            row = [median(lambda: per_call_us(model, calls), repeats)]
+            for n in sizes:
+                batch = states(n)
+                row.append(median(lambda: per_sample_us(model, batch), repeats))
+        figures[label] = row
+    print(header(f'median of {repeats}; {calls} solves per run'))
+    rows = [[label] + [f'{v:.2f}' for v in values] for label, values in figures.items()]
+    if len(figures) == 2:
+        rows.append(['Python / kernel'] + [f'{p / k:.1f}x' for k, p in
+                                           zip(figures['kernel'], figures['Python'])])
+    print(table(['path', 'solve us/call'] + [f'solve_batch us/sample N={n:,}' for n in sizes],
+                rows))
+    return 0
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

@@ -1,0 +1,76 @@
+"""Each benchmark script in its quickest form prints its table, every figure a
+finite number. No figure is judged: speed is measured, never asserted."""
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def run(*args: str) -> list[list[str]]:
+    """The table rows ``python -m benchmarks.<args>`` prints, cells split."""
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+    proc = subprocess.run([sys.executable, '-m', *args], cwd=ROOT, capture_output=True,
+                          text=True, timeout=600, env=env)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    lines = proc.stdout.splitlines()
+    assert lines[0].startswith('# ') and 'commit' in lines[0]
+    return [[c.strip() for c in line.strip('|').split('|')] for line in lines
+            if line.startswith('| ')]
+
+
+def numbers(cells: list[str]) -> list[float]:
+    values = [float(c.replace(',', '').rstrip('x')) for c in cells]
+    assert all(math.isfinite(v) for v in values), cells
+    return values
+
+
+def table(rows: list[list[str]], first_column: str) -> dict[str, list[str]]:
+    """The table whose header starts with ``first_column``: its rows by first cell."""
+    start = next(i for i, r in enumerate(rows) if r[0] == first_column)
+    out = {}
+    for r in rows[start + 1:]:
+        if len(r) != len(rows[start]) or r[0] in rows[start]:
+            break
+        out[r[0]] = r[1:]
+    return out
+
+
+def test_solve_prints_kernel_and_python_figures():
+    t = table(run('benchmarks.solve', '--quick'), 'path')
+    assert {'kernel', 'Python', 'Python / kernel'} <= set(t)
+    for path in ('kernel', 'Python'):
+        assert all(v > 0 for v in numbers(t[path]))
+
+
+def test_csv_prints_the_end_to_end_times():
+    t = table(run('benchmarks.csv', '--quick'), 'flight-sim-dynamics solve')
+    assert all(v > 0 for v in numbers(t['CSV in, CSV out']))
+    assert all(v > 0 for v in numbers(t['CSV in, .npz out']))
+
+
+def test_twin_prints_the_real_time_factors_and_writes_the_figure(tmp_path):
+    png = tmp_path / 'tracking.png'
+    rows = run('benchmarks.twin', '--quick', '--out', str(png))
+    speed = table(rows, 'path')
+    for path in ('kernel', 'Python'):
+        assert all(v > 0 for v in numbers(speed[path][1:]))
+    tracking = table(rows, 'motion')
+    assert len(numbers(tracking['vertical'][1:])) == 2      # max and RMS of a row
+    assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
+
+
+@pytest.mark.ros
+def test_node_prints_the_node_next_to_the_echo():
+    t = table(run('benchmarks.node', '--quick'), 'target')
+    for target in ('echo', 'node'):
+        median, p99, worst = numbers(t[target][:3])
+        assert 0 < median <= p99 <= worst
+        lost, sent = (int(v) for v in t[target][3].split(' / '))
+        assert sent > 0 and 0 <= lost <= sent
