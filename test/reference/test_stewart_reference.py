@@ -132,6 +132,17 @@ def test_leg_spin_matters():
     assert relative(axial, changed).max() > 1e3 * RTOL
 
 
+def test_base_axes_do_not_act_on_legs_without_axial_inertia():
+    """With inertia_along = 0 (Tsai's legs) the U-joints' first axes drop out of the forces."""
+    q, qd, qdd = random_motion(6, "violent", n=10)
+    tilted = sr.tsai_2000()
+    geometry = tilted["flight_sim_dynamics"]["ros__parameters"]["geometry"]
+    geometry["base_axes"] = [0.6, 0.0, 0.8] * 6  # not across the legs, not horizontal
+    f = sr.forces_pinocchio(HEXAPODS["tsai2000"], q, qd, qdd)
+    np.testing.assert_allclose(sr.forces_lagrange(sr.machine_from_dict(tilted), q, qd, qdd), f,
+                               rtol=0, atol=RTOL * np.abs(f).max())
+
+
 TSAI_T = np.linspace(0.0, 2.0 * np.pi / sr.TSAI_OMEGA, 121)  # one period
 
 
