@@ -60,10 +60,6 @@ JOINT_COLUMNS: tuple[str, ...] = (tuple(JOINT_NAMES) + tuple(f'{j}_rate' for j i
 #: Columns ``plot`` needs (any others are ignored).
 PLOT_COLUMNS: tuple[str, ...] = ('t',) + tuple(_per_leg('force') + _per_leg('power'))
 
-UNITS = {'t': 's', 'length': 'm', 'stroke': 'm', 'rate': 'm/s', 'acceleration': 'm/s^2',
-         'force': 'N', 'power': 'W', 'beta': 'rad', 'cond': '1', 'kinematic_condition': '1',
-         'jacobian_condition': '1'}
-
 
 POSE_INPUT = ('t', 'surge', 'heave', 'roll')
 RATE_COLUMNS = ('surge_rate', 'heave_rate', 'roll_rate')
