@@ -149,49 +149,29 @@ class LiveSummary:
                 f'forces A/B/C {text} N  status {status}')
 
 
-def _shade_segments(ax, sequence: PlannerSequence, labelled: bool) -> None:
-    """The motions of the sequence as grey bands (named above the first axes),
-    a grid and the legend.
-    """
+def _shade_segments(axes, sequence: PlannerSequence) -> None:
+    """The motions of the sequence as grey bands, named above the first axes."""
     for label, start, end in sequence.segments:
-        if label != 'return':
+        if label == 'return':
+            continue
+        for ax in axes:
             ax.axvspan(start, end, color='0.93', zorder=0)
-            if labelled:
-                ax.text(0.5 * (start + end), 1.0, label, transform=ax.get_xaxis_transform(),
-                        ha='center', va='bottom', fontsize=8)
-    ax.grid(True, alpha=0.3)
-    ax.legend(loc='upper right', fontsize=8)
-
-
-def _save(fig, path: Path) -> None:
-    import matplotlib.pyplot as plt
-
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+        axes[0].text(0.5 * (start + end), 1.0, label, transform=axes[0].get_xaxis_transform(),
+                     ha='center', va='bottom', fontsize=8)
 
 
 def plot(monitor: Monitor, sequence: PlannerSequence, t0_ns: int, path: Path) -> None:
     """Forces and powers (effort x velocity) of the received messages vs time."""
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    from .plotting import force_power_figure
 
     t = (np.array(monitor.stamps, dtype=np.int64) - t0_ns) * 1e-9
     force = np.array(monitor.effort)
-    power = force * np.array(monitor.velocity)
-    fig, (ax_f, ax_p) = plt.subplots(2, 1, sharex=True, figsize=(10, 6.5))
-    for i, leg in enumerate('ABC'):
-        ax_f.plot(t, force[:, i], label=f'leg {leg}')
-        ax_p.plot(t, power[:, i], label=f'leg {leg}')
-    for ax in (ax_f, ax_p):
-        _shade_segments(ax, sequence, ax is ax_f)
-    ax_f.set_ylabel('force f (N)')
-    ax_p.set_ylabel('power f dL/dt (W)')
-    ax_p.set_xlabel('setpoint stamp (s from start)')
-    fig.suptitle(f'actuator_states received from the node: {len(t)} messages', y=0.995)
-    _save(fig, path)
+    fig = force_power_figure(t, force, force * np.array(monitor.velocity),
+                             title=f'actuator_states received from the node: {len(t)} messages')
+    _shade_segments(fig.axes[:2], sequence)
+    fig.axes[1].set_xlabel('setpoint stamp (s from start)')
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
 
 
 def start_twin(log: Path) -> subprocess.Popen:
@@ -219,12 +199,11 @@ def plot_tracking(t: np.ndarray, simulated: np.ndarray, commanded: np.ndarray,
     """Commanded against simulated surge, heave and roll, and the tracking
     error, against time.
     """
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     error = simulated - commanded
-    fig, axes = plt.subplots(4, 1, sharex=True, figsize=(10, 9))
+    fig = Figure(figsize=(10, 9), layout='constrained')
+    axes = fig.subplots(4, 1, sharex=True)
     for i, (name, unit) in enumerate((('surge', 'm'), ('heave', 'm'), ('roll', 'rad'))):
         axes[i].plot(t, commanded[:, i], color='0.3', lw=2.5, alpha=0.5, label='commanded')
         axes[i].plot(t, simulated[:, i], color='tab:blue', lw=1.0, label='simulated (twin)')
@@ -233,13 +212,15 @@ def plot_tracking(t: np.ndarray, simulated: np.ndarray, commanded: np.ndarray,
         axes[3].plot(t, 1e3 * error[:, i], label=label)
     axes[3].set_ylabel('simulated - commanded')
     axes[3].set_xlabel('stamp (s from start)')
+    _shade_segments(axes, sequence)
     for ax in axes:
-        _shade_segments(ax, sequence, ax is axes[0])
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc='upper right', fontsize=8)
     peak = np.abs(error).max(axis=0) if len(t) else np.full(3, np.nan)
     fig.suptitle(f'digital twin (platform_sim) driven by dynamics_node: {len(t)} poses; max error '
-                 f'{1e3 * peak[0]:.2f} mm, {1e3 * peak[1]:.2f} mm, {1e3 * peak[2]:.2f} mrad',
-                 y=0.995)
-    _save(fig, path)
+                 f'{1e3 * peak[0]:.2f} mm, {1e3 * peak[1]:.2f} mm, {1e3 * peak[2]:.2f} mrad')
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
 
 
 def twin_summary(t: np.ndarray, simulated: np.ndarray, commanded: np.ndarray) -> str:
