@@ -171,8 +171,8 @@ def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond:
     qd = pick(('surge_rate', 'heave_rate', 'roll_rate'))
     qdd = pick(('surge_acc', 'heave_acc', 'roll_acc'))
     sol = fsd.solve_batch(model, q, qd, qdd)
-    words = [str(s) for s in sol.status]
-    report_statuses(table, sol, words)
+    report_not_ok(f'{table.path}: ', sol.status, sol.detail,
+                  lambda i: f'line {int(table.lines[i])}')
     columns = [data[:, col['t']]]
     for field in ('length', 'stroke', 'rate', 'force', 'power', 'acceleration'):
         columns.append(np.asarray(getattr(sol, field), dtype=float))
@@ -187,23 +187,21 @@ def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond:
         for field in ('joints', 'joint_rates', 'joint_accelerations'):
             columns.append(np.asarray(getattr(sol, field), dtype=float))
         names = names + JOINT_COLUMNS
-    return names, np.column_stack(columns), words
+    return names, np.column_stack(columns), [str(s) for s in sol.status]
 
 
-def report_statuses(table: csv_io.Table, sol, words: list[str]) -> None:
-    """Nothing is dropped silently: rows whose status is not ok are written (with
-    their status; unreachable and invalid ones as zeros) and summarised here.
-    ``words``: str() of each status.
+def report_not_ok(prefix: str, status: Sequence, detail: Sequence,
+                  where: Callable[[int], str]) -> None:
+    """Nothing is dropped silently: rows whose status is not ok are written
+    (with their status) and summarised on standard error, the first one
+    placed by ``where(row)``.
     """
+    words = [str(s) for s in status]
     bad = [i for i, w in enumerate(words) if w != 'ok']
-    if not bad:
-        return
-    counts = Counter(words[i] for i in bad)
-    first = bad[0]
-    summary = ', '.join(f'{n} {name}' for name, n in sorted(counts.items()))
-    print(f'warning: {table.path}: {len(bad)} of {len(words)} rows are not '
-          f'ok ({summary}); first at line {int(table.lines[first])}: '
-          f'{sol.status[first]}: {sol.detail[first]}', file=sys.stderr)
+    if bad:
+        summary = ', '.join(f'{n} {w}' for w, n in sorted(Counter(words[i] for i in bad).items()))
+        print(f'warning: {prefix}{len(bad)} of {len(words)} rows are not ok ({summary}); first '
+              f'at {where(bad[0])}: {status[bad[0]]}: {detail[bad[0]]}', file=sys.stderr)
 
 
 def read_trajectory(path: str | os.PathLike[str], model: Model) -> csv_io.Table:

@@ -34,7 +34,7 @@ from ..core.motions import MOTIONS
 from ..core.simulation import (DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, DEFAULT_STEP,
                                ForceHistory, Reference, Servo, Simulation, simulate)
 from .csv_io import TRAJECTORY_COLUMNS, read_csv, write_csv
-from .main import load_model
+from .main import load_model, report_not_ok
 
 LEGS = ('a', 'b', 'c')
 FORCE_COLUMNS = ('t',) + tuple(f'force_{leg}' for leg in LEGS)
@@ -147,15 +147,7 @@ def table_of(sim: Simulation) -> tuple[tuple[str, ...], np.ndarray]:
 
 def _report(sim: Simulation) -> int:
     """Warnings on standard error: rows that are not ok, and a stop."""
-    bad = [i for i, s in enumerate(sim.status) if s != fsd.Status.OK]
-    if bad:
-        counts: dict[str, int] = {}
-        for i in bad:
-            counts[str(sim.status[i])] = counts.get(str(sim.status[i]), 0) + 1
-        summary = ', '.join(f'{n} {name}' for name, n in sorted(counts.items()))
-        print(f'warning: {len(bad)} of {len(sim.t)} rows are not ok ({summary}); first at '
-              f't = {sim.t[bad[0]]:.6g} s: {sim.status[bad[0]]}: {sim.detail[bad[0]]}',
-              file=sys.stderr)
+    report_not_ok('', sim.status, sim.detail, lambda i: f't = {sim.t[i]:.6g} s')
     if sim.outcome != fsd.Status.OK:
         print(f'warning: simulation stopped: {sim.outcome}: {sim.outcome_detail}; '
               f'{len(sim.t)} rows written', file=sys.stderr)
