@@ -1,26 +1,18 @@
 """Tables on disk for the command line: CSV (numbers only, SI units) and
 numpy's ``.npz``.
 
-Reading a CSV is strict. A file is a header line of column names followed by
-rows of decimal numbers separated by commas. Every value must be a finite
-decimal number (``1``, ``-0.5``, ``2.5e-3``); ``nan``, ``inf``, empty cells,
-blank lines and rows with too few or too many values are errors, reported as
-:class:`CsvError` naming the file, the line (1 = the header) and the column
-(1-based number and name). The rows are parsed in C (numpy); only when that
-fails does a line-by-line scan run, to find the cell to name.
+A CSV file is a header line of column names and rows of finite decimal
+numbers (``1``, ``-0.5``, ``2.5e-3``) separated by commas; anything else
+(``nan``, ``inf``, empty cells, blank lines, rows of the wrong length) is a
+:class:`CsvError` naming the file, the line (1 = the header) and the column.
+The rows are parsed in C (numpy); a line scan runs only to name a bad cell.
+Writing is exact (:func:`format_value`) and atomic (:func:`atomic_output`):
+a failed run never leaves a partial file and never clobbers an old one.
 
-Writing is exact: every float is written as Python's ``repr`` gives it (the
-shortest decimal that reads back as the identical double; an integral value
-without its ``.0``), see :func:`format_value`. Files are written to a
-temporary file in the destination directory and moved into place with
-:func:`os.replace` (:func:`atomic_output`), so a failed run never leaves a
-partial file and never clobbers an old one.
-
-``.npz`` (by the output's suffix, :func:`write_table`): the same columns
-without any text formatting (the fast choice for large batches), one array
-per column named like the CSV column, shape (N,): float64 for the numbers,
-``status`` as strings; ``names``: the column names in the CSV's order (status
-last). Loaded with ``np.load(path)`` (no pickle needed).
+An ``.npz`` (chosen by the output's suffix, :func:`write_table`) holds the
+same columns without text formatting (the fast choice for large batches):
+one array per column, float64, ``status`` as strings, and ``names``, the
+column order; ``np.load(path)`` reads it (no pickle).
 """
 from __future__ import annotations
 
@@ -52,8 +44,8 @@ class CsvError(ValueError):
 
     def __init__(self, message: str, *, path: str | None = None, line: int | None = None,
                  column: int | None = None, name: str | None = None) -> None:
-        self.message, self.path, self.line, self.column, self.name = (message, path, line,
-                                                                      column, name)
+        self.message, self.path, self.line, self.column = message, path, line, column
+        self.name = name
         where = [path if path is not None else '<input>']
         if line is not None:
             where.append(f'line {line}')
@@ -84,9 +76,6 @@ class Table:
         return self.data.shape[0]
 
 
-# ----------------------------------------------------------------------------
-# Reading
-# ----------------------------------------------------------------------------
 _ALLOWED_BYTES = b'0123456789.eE+-, \t\r\n'
 _NUMBER = re.compile(r'[ \t]*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?[ \t]*\Z', re.ASCII)
 
@@ -217,9 +206,7 @@ def parse_csv(data: bytes, path: str = '<input>', *, required: Sequence[str],
 
 
 def _parse(body: bytes, nrows: int, ncol: int) -> np.ndarray | None:
-    """The rows of ``body`` parsed in C; None if anything is wrong (then
-    :func:`_raise_first_error` names the cell).
-    """
+    """The rows of ``body`` parsed in C; None if anything is wrong."""
     if body.translate(None, _ALLOWED_BYTES):   # letters, quotes, NUL, non-ASCII...
         return None
     body = body.replace(b'\r\n', b'\n')
@@ -265,19 +252,18 @@ def _raise_first_error(rows: list[bytes], names: Sequence[str], path: str,
                 raise CsvError(f"'{shown}' is not a {'finite ' if finite is False else ''}number",
                                path=path, line=line, column=j + 1, name=names[j])
         if len(cells) != ncol:
-            what = 'missing' if len(cells) < ncol else 'extra'
-            raise CsvError(f'{what} value (the row has {len(cells)} values, the header '
-                           f'{ncol} columns)', path=path, line=line, column=min(len(cells), ncol) + 1,
-                           name=names[len(cells)] if len(cells) < ncol else None)
+            short = len(cells) < ncol
+            raise CsvError(f"{'missing' if short else 'extra'} value (the row has {len(cells)} "
+                           f'values, the header {ncol} columns)', path=path, line=line,
+                           column=len(cells) + 1 if short else ncol + 1,
+                           name=names[len(cells)] if short else None)
     raise CsvError('cannot be read as rows of numbers', path=path)
 
 
 def read_table(path: str | os.PathLike[str], *, required: Sequence[str],
                optional: Sequence[str] = ()) -> Table:
-    """The output of ``solve`` (CSV, ``-`` for standard input, or .npz by its
-    suffix): the columns ``required`` (and ``optional`` ones the file has),
-    its ``status`` words in ``Table.text`` when it has them; other columns
-    are ignored.
+    """The output of ``solve`` (CSV, ``-`` for standard input, or .npz): the
+    columns ``required`` and ``optional`` and the ``status`` words it has.
     """
     if is_npz(path):
         return read_npz(path, required=required, optional=optional)
@@ -291,10 +277,8 @@ def is_npz(path: str | os.PathLike[str]) -> bool:
 
 def read_npz(path: str | os.PathLike[str], *, required: Sequence[str],
              optional: Sequence[str] = ()) -> Table:
-    """The numeric columns of an .npz written by :func:`write_npz` as a Table
-    (``lines``: the line each row has in the CSV form; its ``status`` strings
-    in ``text``). CsvError naming the file and the column when ``required``
-    columns are missing or hold anything but finite numbers.
+    """:func:`read_table` of an .npz written by :func:`write_npz` (``lines``:
+    the lines the rows have in the CSV form).
     """
     shown = os.fspath(path)
     try:
@@ -338,9 +322,6 @@ def read_npz(path: str | os.PathLike[str], *, required: Sequence[str],
                  else np.empty((n, 0)), lines=np.arange(2, n + 2), text=text)
 
 
-# ----------------------------------------------------------------------------
-# Writing: exact, with Python's own float repr
-# ----------------------------------------------------------------------------
 def format_value(x: float) -> str:
     """The text of one value in the files written here: Python's ``repr``
     (the shortest decimal that reads back as the same double, the sign of zero
@@ -382,16 +363,13 @@ def _format_blocks(data: np.ndarray, words: Sequence[str] | None,
 @contextlib.contextmanager
 def atomic_output(path: str | os.PathLike[str]) -> Iterator[IO[bytes]]:
     """Open ``path`` for binary writing so that it appears complete or not at
-    all: the data goes to a temporary file in the same directory, which
-    replaces ``path`` only when the block finishes without an exception (the
-    old file, if any, is untouched otherwise). ``-`` writes to standard output.
-
-    What is at ``path`` is respected: a character device, FIFO or socket
-    (``/dev/null``, ``/dev/stdout``, a named pipe) is written through, never
-    replaced; a symbolic link is followed and its target replaced (the link
-    stays); a replaced file keeps its mode; a read-only file is refused. A
-    SIGTERM or SIGHUP during the write removes the temporary file and ends
-    the process with status 128 + the signal, as the signal would.
+    all: a temporary file in the same directory replaces ``path`` only when
+    the block finishes without an exception; ``-`` writes to standard output.
+    A character device, FIFO or socket (``/dev/null``, a named pipe) is
+    written through; a symbolic link's target is replaced (the link stays); a
+    replaced file keeps its mode; a read-only file is refused. A SIGTERM or
+    SIGHUP during the write removes the temporary file and ends the process
+    with status 128 + the signal.
     """
     if os.fspath(path) == '-':
         yield sys.stdout.buffer
@@ -451,28 +429,23 @@ def _errors_named(shown: str) -> Iterator[None]:
         raise CsvError(f'cannot write: {exc.strerror or exc}', path=shown) from None
 
 
-class _Terminated(BaseException):
-    """A catchable termination signal, raised where the write is."""
-
-
 @contextlib.contextmanager
 def _signals_end_the_write() -> Iterator[None]:
-    """SIGTERM and SIGHUP raise inside the block (so that the temporary file is
-    removed on the way out) and then end the process as the signal would;
-    the previous handlers are restored. Only the main thread gets signals.
+    """SIGTERM and SIGHUP end the process with status 128 + the signal, as
+    the signal would, but raised inside the block (SystemExit), so that the
+    temporary file is removed on the way out; the previous handlers are
+    restored. Only the main thread gets signals.
     """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
 
     def handler(signum: int, frame: object) -> None:
-        raise _Terminated(signum)
+        raise SystemExit(128 + signum)
 
     old = {s: signal.signal(s, handler) for s in (signal.SIGTERM, signal.SIGHUP)}
     try:
         yield
-    except _Terminated as exc:
-        raise SystemExit(128 + exc.args[0]) from None
     finally:
         for s, h in old.items():
             signal.signal(s, h)

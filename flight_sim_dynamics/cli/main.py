@@ -1,16 +1,7 @@
-"""Command line: ``flight-sim-dynamics`` (also ``python -m flight_sim_dynamics``).
-
-Subcommands::
-
-    flight-sim-dynamics example {vertical,rectilinear,general} [--rate HZ] -o traj.csv
-    flight-sim-dynamics solve traj.csv -o out.csv|out.npz [--params FILE] [--joints]
-    flight-sim-dynamics plot out.csv|out.npz -o fig.png [--title TEXT]
-    flight-sim-dynamics animate out.csv|out.npz -o motion.gif|motion.mp4|still.png
-    flight-sim-dynamics simulate (--forces F.csv | --motion NAME | --reference T.csv) -o sim.csv
-    flight-sim-dynamics node ...           # the ROS 2 node (needs rclpy)
-    flight-sim-dynamics sim ...            # the digital twin node platform_sim (needs rclpy)
-    flight-sim-dynamics demo-planner ...   # the demo set-point planner (needs rclpy)
-    flight-sim-dynamics demo ...           # the end-to-end demo (needs rclpy)
+"""Command line: ``flight-sim-dynamics COMMAND`` (also ``python -m
+flight_sim_dynamics``); ``--help`` lists the commands. ``node``, ``sim``,
+``demo-planner`` and ``demo`` hand the rest of the command line to their
+module (they need rclpy), the others are parsed here.
 
 Every error ends the run with exit status 2 and one line ``error: ...`` on
 standard error (no traceback), and leaves no partial output file: outputs are
@@ -264,52 +255,6 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
 
 # ----------------------------------------------------------------------------
-# plot
-# ----------------------------------------------------------------------------
-def _configure_plot(p: argparse.ArgumentParser) -> None:
-    p.add_argument('input', metavar='OUT_CSV_OR_NPZ',
-                   help='output of solve, CSV or .npz (needs ' + ','.join(PLOT_COLUMNS) + ')')
-    p.add_argument('-o', '--output', required=True, metavar='IMAGE',
-                   help='image to write; the format follows the extension (.png, .svg, .pdf)')
-    p.add_argument('--title', default=None,
-                   help='figure title (default: from the input file name)')
-    p.add_argument('--dpi', type=int, default=100, help='resolution of raster images '
-                   '(default 100)')
-
-
-#: The paper's figures for each example (force figure, power figure).
-PAPER_FIGURES = {'vertical': (3, 4), 'rectilinear': (5, 6), 'general': (7, 8)}
-
-
-def default_title(path: str) -> str:
-    """Title from the file name; the paper's examples name their figures."""
-    stem = os.path.splitext(os.path.basename(path))[0] if path != '-' else 'stdin'
-    if stem in PAPER_FIGURES:
-        f, p = PAPER_FIGURES[stem]
-        return f"{stem} example: actuator forces and powers (cf. the paper's Figs. {f} and {p})"
-    return f'{stem}: input forces and powers of actuators A, B, C'
-
-
-def cmd_plot(args: argparse.Namespace) -> int:
-    from . import plotting
-
-    plotting.output_format(args.output)      # fail before reading a large file
-    if not 1 <= args.dpi <= 1200:
-        raise CliError(f'--dpi must be between 1 and 1200, got {args.dpi}')
-    table = csv_io.read_table(args.input, required=PLOT_COLUMNS, optional=LENGTH_COLUMNS)
-    force = np.column_stack([table[n] for n in _per_leg('force')])
-    power = np.column_stack([table[n] for n in _per_leg('power')])
-    title = args.title if args.title is not None else default_title(args.input)
-    # solve writes the rows it cannot solve as zeros; a leg length is never 0
-    lengths = [n for n in LENGTH_COLUMNS if n in table.names]
-    unsolved = (np.all(np.column_stack([table[n] for n in lengths]) == 0.0, axis=1)
-                if lengths else None)
-    plotting.plot_forces_powers(table['t'], force, power, args.output, title=title,
-                                dpi=args.dpi, unsolved=unsolved)
-    return 0
-
-
-# ----------------------------------------------------------------------------
 # forward
 # ----------------------------------------------------------------------------
 def _configure_forward(p: argparse.ArgumentParser) -> None:
@@ -428,7 +373,7 @@ SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
     'solve': ('inverse dynamics of every row of a trajectory CSV',
               _configure_solve, cmd_solve),
     'plot': ('plot actuator forces and powers against time (like the paper\'s Figs. 3-8)',
-             _configure_plot, cmd_plot),
+             *_lazy('flight_sim_dynamics.cli.plotting')),
     'forward': ('forward kinematics: the pose (surge, heave, roll) from three leg lengths',
                 _configure_forward, cmd_forward),
     'bench': ('time per cycle against force error for every scene and single-effect variant, '

@@ -483,8 +483,8 @@ def test_plot_figure_contents():
         labels = [text.get_text() for text in ax.get_legend().get_texts()]
         assert labels == ['actuator A', 'actuator B', 'actuator C']
     assert np.array_equal(ax_p.get_lines()[2].get_ydata(), -3 * t)
-    assert 'vertical' in cli.default_title('out/vertical.csv')
-    assert 'Figs. 3 and 4' in cli.default_title('out/vertical.csv')
+    assert 'vertical' in cli_plotting().default_title('out/vertical.csv')
+    assert 'Figs. 3 and 4' in cli_plotting().default_title('out/vertical.csv')
 
 
 def cli_plotting():

@@ -10,7 +10,6 @@ import textwrap
 import time
 
 import pytest
-import yaml
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import yaml_io
