@@ -184,31 +184,8 @@ def markdown(results: Sequence[RollResult], motions: Sequence[MotionReport], mod
                     'boundary within the stroke limits '
                     f'({"zoom" if results[0].zoom is not None else "overview"})',
                     'near_singular'), bounds(results, model)))
-    rows = []
-    for r in results:
-        clip = ' (clipped)' if r.areas.clipped else ''
-        rows.append([f'{r.roll_deg:+g} deg'] + [
-            _intervals_text(line, which) for line in (r.surge_line, r.heave_line)
-            for which in ('reachable', 'within stroke limits')]
-            + [f'{r.areas.reachable:.3f}{clip}', f'{r.areas.within:.3f}'])
-    out.append('## Reachable ranges\n\nIntervals in m along the two axes through the central '
-               'configuration, the one through it first ("also": the other pieces); each end '
-               'names the constraint just beyond it. Areas in m^2.\n\n' + _md_table(
-                   ('roll', 'reachable surge at heave 0', 'within stroke limits',
-                    'reachable heave at surge 0', 'within stroke limits', 'reachable area',
-                    'area within stroke limits'), rows))
-    rows = [[m.name, _fmt_statuses(m.statuses),
-             f'{m.end_pose[0]:.3f}, {m.end_pose[1]:.3f}, {math.degrees(m.end_pose[2]):.1f}',
-             '; '.join(f'{leg} {lo:+.3f} .. {hi:+.3f}'
-                       for leg, lo, hi in zip(LEGS, m.stroke_min, m.stroke_max)),
-             f'{m.max_cond:.3g}', f'{m.max_kinematic_condition:.3g}',
-             f'{m.max_jacobian_condition:.3g}'] for m in motions]
-    out.append("## The paper's motions\n\nSolved at 100 Hz with their rates and accelerations "
-               '(eq. 6); the star in a panel marks where the general motion is when its roll '
-               "equals the panel's.\n\n" + _md_table(
-                   ('motion', 'status', 'end pose (surge m, heave m, roll deg)',
-                    'strokes A, B, C (m)', 'max cond(Q)', 'max kinematic condition',
-                    'max Jacobian condition'), rows))
+    out.append('## Reachable ranges and the paper\'s motions\n\n```text\n'
+               + '\n'.join(summary_lines(results, motions, model)) + '\n```\n')
     return '\n'.join(out)
 
 
