@@ -37,7 +37,7 @@ setup(
         ('share/' + package_name + '/launch', sorted(glob('launch/*.launch.py'))),
     ],
     python_requires='>=3.10',
-    # matplotlib is optional: only plot, bench and workspace draw figures
+    # matplotlib is optional: only plot, animate, bench, workspace and the demo draw figures
     # (pip install '.[plot]'); the library and the node never import it.
     install_requires=['setuptools', 'numpy', 'PyYAML'],
     extras_require={'plot': ['matplotlib'],

@@ -995,20 +995,19 @@ static int stage(const double *P, int fx, const tabulated_law *law, Py_ssize_t j
     return solve3(M, rhs, qdd);
 }
 
-/* RK4 rows k0..stop - 1 (simulation.integrate, same operations in the same
-   order; k0 < stop <= steps + 1): each of q, qd, qdd, force is (steps + 1) x 3;
-   the state of row k0 is read from q, qd. Returns the first row whose step did
-   not complete (stop when all did; the state reached is then row stop's q and
-   qd, unless stop is steps + 1); its q and qd hold the state reached, its qdd
-   and force are left for the Python code, which takes that step itself. */
+/* RK4 rows k0..steps (simulation.integrate, same operations in the same
+   order; k0 <= steps): each of q, qd, qdd, force is (steps + 1) x 3; the state
+   of row k0 is read from q, qd. Returns the first row whose step did not
+   complete (steps + 1 when all did); its q and qd hold the state reached, its
+   qdd and force are left for the Python code, which takes that step itself. */
 static Py_ssize_t rk4(const double *P, int fx, const tabulated_law *law, double h,
-                      Py_ssize_t k0, Py_ssize_t stop, Py_ssize_t steps, double *Q, double *QD,
+                      Py_ssize_t k0, Py_ssize_t steps, double *Q, double *QD,
                       double *QDD, double *F)
 {
     double q[3], qd[3];
     memcpy(q, Q + 3 * k0, sizeof q);
     memcpy(qd, QD + 3 * k0, sizeof qd);
-    for (Py_ssize_t k = k0; k < stop; k++) {
+    for (Py_ssize_t k = k0; k <= steps; k++) {
         double a1[3], a2[3], a3[3], a4[3], f1[3], f[3], q2[3], v2[3], q3[3], v3[3], q4[3],
                v4[3];
         memcpy(Q + 3 * k, q, sizeof q);
@@ -1049,11 +1048,7 @@ static Py_ssize_t rk4(const double *P, int fx, const tabulated_law *law, double 
         memcpy(QDD + 3 * k, a1, sizeof a1);
         memcpy(F + 3 * k, f1, sizeof f1);
     }
-    if (stop <= steps) {
-        memcpy(Q + 3 * stop, q, sizeof q);
-        memcpy(QD + 3 * stop, qd, sizeof qd);
-    }
-    return stop;
+    return steps + 1;
 }
 
 /* ------------------------------------------------------------------------ */
@@ -1223,36 +1218,33 @@ done:
 
 PyDoc_STRVAR(integrate_doc,
 "integrate(params, effects, ff, length_ref, rate_ref, kp, kd, max_force, max_speed,\n"
-"          servo, h, k0, stop, steps, q, qd, qdd, force) -> int\n\n"
-"simulation.integrate for a TabulatedLaw, rows k0 to stop - 1 (k0 < stop <= steps + 1;\n"
-"the state of row k0 read from q, qd): ff, length_ref, rate_ref are (2 steps + 1, 3)\n"
-"stage tables (read up to stage 2 min(stop, steps)), kp and kd 3 gains, servo 0\n"
-"(apply ff) or 1 (servo and deliver); q, qd, qdd, force are writable (steps + 1, 3)\n"
-"rows. Returns the first row whose step did not complete (stop when all did: the\n"
-"state reached is row stop's q, qd): its q, qd hold the state reached, the Python\n"
-"code takes that step. Releases the GIL while it runs.");
+"          servo, h, k0, steps, q, qd, qdd, force) -> int\n\n"
+"simulation.integrate for a TabulatedLaw, rows k0 to steps (0 <= k0 <= steps; the\n"
+"state of row k0 read from q, qd): ff, length_ref, rate_ref are (2 steps + 1, 3)\n"
+"stage tables, kp and kd 3 gains, servo 0 (apply ff) or 1 (servo and deliver); q,\n"
+"qd, qdd, force are writable (steps + 1, 3) rows. Returns the first row whose step\n"
+"did not complete (steps + 1 when all did): its q, qd hold the state reached, the\n"
+"Python code takes that step. Releases the GIL while it runs.");
 
 static PyObject *py_integrate(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 18) {
-        PyErr_SetString(PyExc_TypeError, "integrate() takes 18 arguments");
+    if (nargs != 17) {
+        PyErr_SetString(PyExc_TypeError, "integrate() takes 17 arguments");
         return NULL;
     }
     long fx = PyLong_AsLong(args[1]);
     int servo = PyObject_IsTrue(args[9]);
     double max_force = PyFloat_AsDouble(args[7]), max_speed = PyFloat_AsDouble(args[8]);
     double h = PyFloat_AsDouble(args[10]);
-    Py_ssize_t k0 = PyLong_AsSsize_t(args[11]), stop = PyLong_AsSsize_t(args[12]),
-               steps = PyLong_AsSsize_t(args[13]);
+    Py_ssize_t k0 = PyLong_AsSsize_t(args[11]), steps = PyLong_AsSsize_t(args[12]);
     if (PyErr_Occurred())
         return NULL;
-    if (steps < 1 || k0 < 0 || k0 >= stop || stop > steps + 1
-            || steps > (PY_SSIZE_T_MAX / 64)) {
-        PyErr_SetString(PyExc_ValueError, "need 0 <= k0 < stop <= steps + 1, steps >= 1");
+    if (steps < 1 || k0 < 0 || k0 > steps || steps > (PY_SSIZE_T_MAX / 64)) {
+        PyErr_SetString(PyExc_ValueError, "need 0 <= k0 <= steps, steps >= 1");
         return NULL;
     }
     /* buffers: params, ff, length_ref, rate_ref, kp, kd, q, qd, qdd, force */
-    static const int arg[10] = {0, 2, 3, 4, 5, 6, 14, 15, 16, 17};
+    static const int arg[10] = {0, 2, 3, 4, 5, 6, 13, 14, 15, 16};
     static const char *const names[10] = {"packed model", "ff", "length_ref", "rate_ref",
                                           "kp", "kd", "q", "qd", "qdd", "force"};
     Py_ssize_t stages = 3 * (2 * steps + 1), rows = 3 * (steps + 1);
@@ -1275,7 +1267,7 @@ static PyObject *py_integrate(PyObject *self, PyObject *const *args, Py_ssize_t 
         law.servo = servo;
         Py_ssize_t reached;
         Py_BEGIN_ALLOW_THREADS
-        reached = rk4((const double *)views[0].buf, (int)fx, &law, h, k0, stop, steps,
+        reached = rk4((const double *)views[0].buf, (int)fx, &law, h, k0, steps,
                       (double *)views[6].buf, (double *)views[7].buf, (double *)views[8].buf,
                       (double *)views[9].buf);
         Py_END_ALLOW_THREADS

@@ -4,29 +4,164 @@ from the front, with the three actuator forces as bars and the status of
 each frame; written as .gif (Pillow, installed with matplotlib), .mp4 (needs
 the ffmpeg encoder) or, for one frame, .png.
 
-The points drawn are the solver's (cli/animation_frames.py,
-core/mechanism.py): the same rule as the RViz markers. Uses matplotlib's
-object-oriented API (no pyplot); imported only by this command.
+What each frame draws is computed first, as numbers (:func:`frames`): the
+input holds no pose, so the pose of each frame is recovered from its leg
+lengths by forward kinematics (:func:`~..core.forward_kinematics.poses_along`;
+a pose is the one whose lengths are these, to 1e-12 m) unless the file also
+has ``surge,heave,roll`` columns. The drawn points are then the solver's
+(:func:`~..core.mechanism.mechanism_points` of eq. 5-8, the rule of the RViz
+markers too), in the REP-103 simulator base frame. A row without a solution
+(status ``unreachable`` or ``invalid_input``, which ``solve`` writes as
+zeros; or, without a status column, all leg lengths 0) is not drawn as a
+machine with zero forces: its frame repeats the last pose drawn (at first the
+central configuration) marked unsolved and without forces, as the markers do.
+
+Drawn with matplotlib's object-oriented API (no pyplot), imported only by
+this command.
 """
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import shutil
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from typing import Sequence, TextIO
 
 import numpy as np
 
 import flight_sim_dynamics as fsd
 
-from . import animation_frames as af
-from .common import CliError, load_model
-from .csv_io import atomic_output
+from .csv_io import atomic_output, read_table
+from .main import LENGTH_COLUMNS, CliError, load_model
 from .plotting import ACTUATORS, LEG_COLOURS
-from ..core.mechanism import JOINTS, PLATE_OUTLINE, SEGMENTS
+from ..core.forward_kinematics import poses_along
+from ..core.kinematics import UnreachablePoseError, inverse_geometry
+from ..core.mechanism import JOINTS, PLATE_OUTLINE, SEGMENTS, Point3, mechanism_points
+from ..core.vectors import backend
+
+POSE_COLUMNS = ('surge', 'heave', 'roll')
+FORCE_COLUMNS = ('force_a', 'force_b', 'force_c')
+#: Columns the animation needs (others are ignored).
+REQUIRED = ('t',) + LENGTH_COLUMNS + FORCE_COLUMNS
+#: Statuses whose rows hold no solution (every number 0).
+VOID = (str(fsd.Status.UNREACHABLE), str(fsd.Status.INVALID_INPUT))
+
+_SCALAR = backend(False)
+
+
+@dataclass(frozen=True)
+class Solved:
+    """The columns of a solved trajectory the animation reads."""
+
+    path: str
+    t: np.ndarray            # (N,) s
+    lengths: np.ndarray      # (N, 3) m, L_A, L_B, L_C
+    force: np.ndarray        # (N, 3) N, f_A, f_B, f_C
+    status: list[str]        # one word per row ('ok' when the file has none)
+    pose: np.ndarray | None  # (N, 3) surge, heave, roll if the file has them
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One frame: row ``row`` of the input at time ``t``. ``solved`` False:
+    the row has no solution, ``points`` are the last pose drawn (or the
+    central configuration), ``force`` None and ``note`` says why and which.
+    """
+
+    row: int
+    t: float
+    status: str
+    solved: bool
+    points: dict[str, Point3]
+    force: tuple[float, float, float] | None
+    note: str = ''
+
+
+def read_solved(path: str) -> Solved:
+    """Read the output of ``solve`` (CSV, '-' for standard input, or .npz)."""
+    table = read_table(path, required=REQUIRED, optional=POSE_COLUMNS)
+    words = table.text.get('status', ['ok'] * len(table))
+    pose = None
+    if all(n in table.names for n in POSE_COLUMNS):
+        pose = np.column_stack([table[n] for n in POSE_COLUMNS])
+    return Solved(path=table.path, t=table['t'].copy(),
+                  lengths=np.column_stack([table[n] for n in LENGTH_COLUMNS]),
+                  force=np.column_stack([table[n] for n in FORCE_COLUMNS]),
+                  status=list(words), pose=pose)
+
+
+def frame_rows(t: np.ndarray, fps: float, every: int | None) -> np.ndarray:
+    """Indices of the rows drawn: every ``every``-th row, or (None) a stride
+    that plays the trajectory at about real time at ``fps`` frames per second
+    (from the median time step of ``t``).
+    """
+    if every is None:
+        steps = np.diff(t)
+        step = float(np.median(steps)) if steps.size else 0.0
+        every = max(1, round(1.0 / (fps * step))) if step > 0 else 1
+    return np.arange(0, len(t), every)
+
+
+def unsolved(solved: Solved) -> np.ndarray:
+    """Rows without a solution (status, or every leg length 0)."""
+    void = np.isin(np.asarray(solved.status, dtype=object), VOID)
+    return void | np.all(solved.lengths == 0.0, axis=1)
+
+
+def frames(model: fsd.Model, solved: Solved, rows: np.ndarray) -> list[Frame]:
+    """The frames of ``rows`` (module docstring: poses, unsolved rows)."""
+    rows = np.asarray(rows, dtype=int)
+    void = unsolved(solved)[rows]
+    if solved.pose is not None:
+        poses = [solved.pose[i] for i in rows]
+        why = [''] * len(rows)
+    else:
+        found = poses_along(model, solved.lengths[rows[~void]])
+        it = iter(found)
+        poses, why = [], []
+        for v in void:
+            r = None if v else next(it)
+            ok = r is not None and r.status == fsd.Status.OK
+            poses.append(r.pose if ok else None)
+            why.append('' if v or ok else f'no pose of these leg lengths ({r.status})')
+    last = mechanism_points(model, inverse_geometry(model, (0.0, 0.0, 0.0), _SCALAR))
+    shown = 'the central configuration'
+    out = []
+    for k, i in enumerate(rows):
+        points = None
+        if not void[k] and poses[k] is not None:
+            q = tuple(float(v) for v in poses[k])
+            try:
+                points = mechanism_points(model, inverse_geometry(model, q, _SCALAR))
+            except UnreachablePoseError as exc:      # a pose column of the file
+                why[k] = f'pose unreachable: {exc}'
+        word = solved.status[i]
+        if points is None:
+            out.append(Frame(int(i), float(solved.t[i]), word, False, last, None,
+                             f"{why[k] or 'no solution'}; grey: {shown}"))
+        else:
+            last, shown = points, 'the last solved pose'
+            out.append(Frame(int(i), float(solved.t[i]), word, True, points,
+                             tuple(float(f) for f in solved.force[i])))
+    return out
+
+
+def check_options(fps: float, every: int | None, dpi: int) -> None:
+    """The rendering options, or a CliError naming the bad one."""
+    if not (math.isfinite(fps) and 0 < fps <= 100):
+        raise CliError(f'--fps must be a number of frames per second in (0, 100], got {fps:g}')
+    if every is not None and every < 1:
+        raise CliError(f'--every must be a positive number of rows, got {every}')
+    if not 10 <= dpi <= 600:
+        raise CliError(f'--dpi must be between 10 and 600, got {dpi}')
+
 
 #: Output suffix -> the matplotlib movie writer that encodes it (None: a still).
 ENCODERS = {'.gif': 'pillow', '.mp4': 'ffmpeg', '.png': None}
@@ -52,7 +187,7 @@ def configure(p: argparse.ArgumentParser) -> None:
     """The options of ``animate``."""
     p.add_argument('input', metavar='OUT_CSV_OR_NPZ',
                    help="output of solve, CSV ('-' for standard input) or .npz; needs "
-                        + ','.join(af.REQUIRED) + ' (and reads status); the pose of each '
+                        + ','.join(REQUIRED) + ' (and reads status); the pose of each '
                         'frame comes from its leg lengths (forward kinematics) unless the '
                         'file has surge,heave,roll')
     p.add_argument('-o', '--output', required=True, metavar='GIF_MP4_OR_PNG',
@@ -98,36 +233,36 @@ def run(args: argparse.Namespace) -> int:
     if encoder is not None and not encoder_available(encoder):
         raise CliError(f"writing {suffix} needs the {encoder} encoder, which is not installed "
                        f"(no '{encoder}' found by matplotlib); install it or write a .gif")
-    af.check_options(args.fps, args.every, args.dpi)
+    check_options(args.fps, args.every, args.dpi)
     if args.at is not None and not np.isfinite(args.at):
         raise CliError(f'--at must be a time in seconds, got {args.at:g}')
     folder = os.path.dirname(os.path.abspath(args.output))
     if not os.path.isdir(folder):        # before rendering, not after
         raise CliError(f"cannot write '{args.output}': directory '{folder}' does not exist")
     model = load_model(args.params)
-    solved = af.read_solved(args.input)
+    solved = read_solved(args.input)
     if encoder is None:
         at = 0.5 * (solved.t[0] + solved.t[-1]) if args.at is None else args.at
         row = int(np.argmin(np.abs(solved.t - at)))
-        before = np.flatnonzero(~af.unsolved(solved)[:row])
+        before = np.flatnonzero(~unsolved(solved)[:row])
         # an unsolved row shows the last solved pose before it, as in the movie
         rows = np.array([int(before[-1]), row] if before.size else [row])
     else:
-        rows = af.frame_rows(solved.t, args.fps, args.every)
-    frames = af.frames(model, solved, rows)
+        rows = frame_rows(solved.t, args.fps, args.every)
+    drawn = frames(model, solved, rows)
     stem = os.path.splitext(os.path.basename(solved.path))[0]
     title = args.title if args.title is not None else f'{stem}: the mechanism'
-    scene = Scene(model, frames, title)
+    scene = Scene(model, drawn, title)
     if encoder is None:
-        scene.draw(frames[-1])
+        scene.draw(drawn[-1])
         with atomic_output(args.output) as f:
             scene.fig.savefig(f, format='png', dpi=args.dpi)
         return 0
-    render(scene, frames, args.output, encoder, args.fps, args.dpi)
+    render(scene, drawn, args.output, encoder, args.fps, args.dpi)
     return 0
 
 
-def render(scene: Scene, frames: Sequence[af.Frame], output: str, encoder: str, fps: float,
+def render(scene: Scene, frames: Sequence[Frame], output: str, encoder: str, fps: float,
            dpi: int, progress: TextIO | None = None) -> None:
     """Encode every frame into ``output`` (atomically: a failed run leaves no
     partial file), with progress lines on ``progress`` (standard error).
@@ -173,7 +308,7 @@ class Scene:
     frame. Axis ranges hold every frame, so that the views do not jump.
     """
 
-    def __init__(self, model: fsd.Model, frames: Sequence[af.Frame], title: str) -> None:
+    def __init__(self, model: fsd.Model, frames: Sequence[Frame], title: str) -> None:
         from matplotlib.figure import Figure
 
         self.fig = Figure(figsize=FIGSIZE, dpi=DEFAULT_DPI)
@@ -233,7 +368,7 @@ class Scene:
         self.fig.legend(handles=handles, loc='lower center', ncol=len(handles),
                         frameon=False, bbox_to_anchor=(0.5, 0.0))
 
-    def _label_legs(self, model: fsd.Model, frame: af.Frame) -> None:
+    def _label_legs(self, model: fsd.Model, frame: Frame) -> None:
         """Names of the legs at their base joints (fixed), below the ground."""
         for axis, ax, _ in self.views:
             names = {'A': 'A1', 'B': 'B1', 'C': 'C1'} if axis else {'A': 'A1', 'B, C': 'B1'}
@@ -243,7 +378,7 @@ class Scene:
                             xytext=(0, -5), textcoords='offset points', ha='center',
                             va='top', color=LEG_COLOURS[leg], fontweight='bold')
 
-    def _force_axes(self, model: fsd.Model, frames: Sequence[af.Frame]) -> None:
+    def _force_axes(self, model: fsd.Model, frames: Sequence[Frame]) -> None:
         ax = self.ax_force
         forces = np.array([f.force for f in frames if f.force is not None]).reshape(-1)
         lo = min(0.0, float(forces.min())) if forces.size else 0.0
@@ -264,7 +399,7 @@ class Scene:
         self.void_text = ax.text(1.0, 0.5 * (lo + hi), '', ha='center', va='center',
                                  color='0.35', fontsize='medium', fontweight='bold')
 
-    def draw(self, frame: af.Frame) -> None:
+    def draw(self, frame: Frame) -> None:
         """Move every artist to ``frame`` (a row without a solution: grey, no
         force bars).
         """

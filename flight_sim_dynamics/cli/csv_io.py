@@ -1,32 +1,32 @@
-"""CSV reading and writing for the command line (numbers only, SI units).
+"""Tables on disk for the command line: CSV (numbers only, SI units) and
+numpy's ``.npz``.
 
-Reading is strict and fast. A file is a header line of column names followed
-by rows of decimal numbers separated by commas. Every value must be a finite
-decimal number (``1``, ``-0.5``, ``2.5e-3``); ``nan``, ``inf``, empty cells,
-blank lines and rows with too few or too many values are errors, reported as
-:class:`CsvError` naming the file, the line (1 = the header) and the column
-(1-based number and name). The fast path parses the whole file in C (numpy);
-only when it fails does a line-by-line scan run to find the exact cell.
+A CSV file is a header line of column names and rows of finite decimal
+numbers (``1``, ``-0.5``, ``2.5e-3``) separated by commas; anything else
+(``nan``, ``inf``, empty cells, blank lines, rows of the wrong length) is a
+:class:`CsvError` naming the file, the line (1 = the header) and the column.
+The rows are parsed in C (numpy); a line scan runs only to name a bad cell.
+Writing is exact (:func:`format_value`) and atomic (:func:`atomic_output`):
+a failed run never leaves a partial file and never clobbers an old one.
 
-Writing is exact: every float is written as Python's ``repr`` gives it (the
-shortest decimal that reads back as the identical double; an integral value
-without its ``.0``), see :func:`format_value`. For large batches the binary
-``.npz`` output of ``solve`` is the faster choice (benchmarks/csv_output.py).
-Files are written to a temporary file in the destination directory and moved
-into place with :func:`os.replace` (:func:`atomic_output`), so a failed run
-never leaves a partial file and never clobbers an old one.
+An ``.npz`` (chosen by the output's suffix, :func:`write_table`) holds the
+same columns without text formatting (the fast choice for large batches):
+one array per column, float64, ``status`` as strings, and ``names``, the
+column order; ``np.load(path)`` reads it (no pickle).
 """
 from __future__ import annotations
 
 import contextlib
+import difflib
 import os
+import re
 import signal
 import stat
+import sys
 import tempfile
 import threading
-import re
-import sys
-from dataclasses import dataclass
+import zipfile
+from dataclasses import dataclass, field
 from typing import IO, Iterator, Sequence
 
 import numpy as np
@@ -35,41 +35,39 @@ import numpy as np
 TRAJECTORY_COLUMNS = ('t', 'surge', 'heave', 'roll',
                       'surge_rate', 'heave_rate', 'roll_rate',
                       'surge_acc', 'heave_acc', 'roll_acc')
+#: Name of the .npz array that lists the columns in order.
+NAMES_KEY = 'names'
 
 
 class CsvError(ValueError):
-    """A CSV file cannot be read: names the file, line and column."""
+    """A table cannot be read or written: names the file, line and column."""
 
     def __init__(self, message: str, *, path: str | None = None, line: int | None = None,
                  column: int | None = None, name: str | None = None) -> None:
-        self.message = message
-        self.path = path
-        self.line = line
-        self.column = column
+        self.message, self.path, self.line, self.column = message, path, line, column
         self.name = name
-        super().__init__(self._text())
-
-    def _text(self) -> str:
-        where = [self.path if self.path is not None else '<input>']
-        if self.line is not None:
-            where.append(f'line {self.line}')
-        if self.column is not None:
-            where.append(f'column {self.column}' + (f' ({self.name})' if self.name else ''))
-        return f"{', '.join(where)}: {self.message}"
+        where = [path if path is not None else '<input>']
+        if line is not None:
+            where.append(f'line {line}')
+        if column is not None:
+            where.append(f'column {column}' + (f' ({name})' if name else ''))
+        super().__init__(f"{', '.join(where)}: {message}")
 
 
 @dataclass(frozen=True)
 class Table:
-    """A parsed CSV file: ``data[i, j]`` is the value of column ``names[j]`` in
+    """A parsed table: ``data[i, j]`` is the value of column ``names[j]`` in
     data row ``i``, read from line ``lines[i]`` of the file; ``skipped``: the
-    columns of the file not read (``skip_extra``).
+    columns of the file not read (``skip_extra``); ``text``: the words of the
+    ``text_columns`` the file has, one per row.
     """
 
     path: str
     names: tuple[str, ...]
     data: np.ndarray      # (N, ncol) float64
     lines: np.ndarray     # (N,) int, 1-based line numbers (header = 1)
-    skipped: tuple[str, ...] = ()     # columns of the file left out (skip_extra)
+    skipped: tuple[str, ...] = ()
+    text: dict[str, list[str]] = field(default_factory=dict)
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.data[:, self.names.index(name)]
@@ -78,11 +76,7 @@ class Table:
         return self.data.shape[0]
 
 
-# ----------------------------------------------------------------------------
-# Reading
-# ----------------------------------------------------------------------------
 _ALLOWED_BYTES = b'0123456789.eE+-, \t\r\n'
-_BLANK = b' \t\r\n'
 _NUMBER = re.compile(r'[ \t]*[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?[ \t]*\Z', re.ASCII)
 
 
@@ -91,9 +85,7 @@ def _display(path: str | os.PathLike[str]) -> str:
 
 
 def read_bytes(path: str | os.PathLike[str]) -> bytes:
-    """The file's contents (``-``: standard input). OSError is re-raised as
-    CsvError with a plain message.
-    """
+    """The file's contents (``-``: standard input); CsvError if it cannot be read."""
     if os.fspath(path) == '-':
         return sys.stdin.buffer.read()
     try:
@@ -111,38 +103,34 @@ def parse_header(raw: bytes, path: str, *, required: Sequence[str],
     and (unless ``allow_extra``) unknown names.
     """
     try:
-        text = raw.decode('utf-8')
+        text = raw.decode('utf-8').rstrip('\r')
     except UnicodeDecodeError:
         raise CsvError('header is not valid UTF-8 text', path=path, line=1) from None
-    text = text.lstrip('\ufeff').rstrip('\r')
     names = tuple(cell.strip() for cell in text.split(','))
     expected = ','.join(required)
     if not text.strip():
         raise CsvError(f'empty header line; expected column names {expected}',
                        path=path, line=1)
+    seen: dict[str, int] = {}
     for j, name in enumerate(names):
         if not name:
             raise CsvError('empty column name in the header', path=path, line=1, column=j + 1)
-    seen: dict[str, int] = {}
-    for j, name in enumerate(names):
         if name in seen:
             raise CsvError(f"duplicate column '{name}' (also column {seen[name] + 1})",
                            path=path, line=1, column=j + 1, name=name)
         seen[name] = j
     missing = [n for n in required if n not in seen]
-    if not allow_extra:
-        unknown = [(j, n) for j, n in enumerate(names) if n not in required]
-        if unknown:
-            j0, _ = unknown[0]
-            listed = ', '.join(f"'{n}' (column {j + 1})" + _did_you_mean(n, missing)
-                               for j, n in unknown)
-            also = (f"; missing {', '.join(repr(m) for m in missing)}" if missing else '')
-            raise CsvError(f'unknown column{"s" if len(unknown) > 1 else ""} {listed}{also}; '
-                           f'expected exactly the columns {expected} (any order)',
-                           path=path, line=1, column=j0 + 1, name=unknown[0][1])
+    unknown = [(j, n) for j, n in enumerate(names) if n not in required]
+    if unknown and not allow_extra:
+        listed = ', '.join(f"'{n}' (column {j + 1})" + _did_you_mean(n, missing)
+                           for j, n in unknown)
+        also = f"; missing {', '.join(repr(m) for m in missing)}" if missing else ''
+        raise CsvError(f'unknown column{"s" if len(unknown) > 1 else ""} {listed}{also}; '
+                       f'expected exactly the columns {expected} (any order)',
+                       path=path, line=1, column=unknown[0][0] + 1, name=unknown[0][1])
     if missing:
         near = [f"'{n}' (column {j + 1}){_did_you_mean(n, missing)}"
-                for j, n in enumerate(names) if n not in required and _did_you_mean(n, missing)]
+                for j, n in unknown if _did_you_mean(n, missing)]
         raise CsvError(f'missing column{"s" if len(missing) > 1 else ""} '
                        f"{', '.join(repr(m) for m in missing)}; "
                        f'the header must name {expected} (any order)'
@@ -152,11 +140,8 @@ def parse_header(raw: bytes, path: str, *, required: Sequence[str],
 
 def _did_you_mean(name: str, candidates: Sequence[str]) -> str:
     lowered = {c.lower(): c for c in candidates}
-    if name.lower() in lowered:
-        return f" (did you mean '{lowered[name.lower()]}'?)"
-    import difflib      # only for this error message
-
-    close = difflib.get_close_matches(name, candidates, n=1)
+    close = ([lowered[name.lower()]] if name.lower() in lowered
+             else difflib.get_close_matches(name, candidates, n=1))
     return f" (did you mean '{close[0]}'?)" if close else ''
 
 
@@ -168,99 +153,67 @@ def read_csv(path: str | os.PathLike[str], *, required: Sequence[str],
 
     Raises :class:`CsvError` naming the line and column of the first problem.
     """
-    display = _display(path)
-    data = read_bytes(path)
-    return parse_csv(data, display, required=required, allow_extra=allow_extra,
-                     text_columns=text_columns, skip_extra=skip_extra)
+    return parse_csv(read_bytes(path), _display(path), required=required,
+                     allow_extra=allow_extra, text_columns=text_columns, skip_extra=skip_extra)
 
 
 def parse_csv(data: bytes, path: str = '<input>', *, required: Sequence[str],
               allow_extra: bool = False, text_columns: Sequence[str] = (),
               skip_extra: bool = False) -> Table:
     """:func:`read_csv` on the bytes of a file. Columns named in ``text_columns``
-    (words such as ``status``) are skipped, not parsed as numbers; with
-    ``skip_extra`` so is every column not in ``required`` (any content), and
-    ``Table.skipped`` names them. Errors name the file's own column numbers.
+    (words such as ``status``) are read as words (``Table.text``), not as
+    numbers; with ``skip_extra`` every column not in ``required`` is left out
+    (any content), and ``Table.skipped`` names them. Errors name the file's
+    own column numbers.
     """
-    if data.startswith(b'\xef\xbb\xbf'):
-        data = data[3:]
-    if not data or data.isspace():
+    data = data.removeprefix(b'\xef\xbb\xbf')
+    if not data.strip():
         raise CsvError('the file is empty; expected a header line '
                        f"{','.join(required)} and rows of numbers", path=path, line=1)
-    end = data.find(b'\n')
-    header = data if end < 0 else data[:end]
+    header, _, body = data.partition(b'\n')
     all_names = parse_header(header, path, required=required,
                              allow_extra=allow_extra or skip_extra)
-    skip = frozenset(j for j, name in enumerate(all_names)
-                     if name in text_columns or (skip_extra and name not in required))
-    keep = [j for j in range(len(all_names)) if j not in skip]
-    names = tuple(all_names[j] for j in keep)
-    # one copy of the rows, without the trailing blank lines (they are fine;
-    # any other blank line is a row with every value missing)
-    body = data[end + 1:_content_end(data)] if end >= 0 else b''
+    # trailing blank lines are fine; any other blank line is a row of missing values
+    body = body.rstrip(b' \t\r\n')
     if not body:
         raise CsvError('no data rows after the header', path=path, line=2)
-    nrows = _count(body, b'\n') + 1
+    skip = [j for j, name in enumerate(all_names)
+            if name in text_columns or (skip_extra and name not in required)]
+    keep = [j for j in range(len(all_names)) if j not in skip]
+    rows = body.split(b'\n')
     values = None
-    if skip:
-        rows = [line.split(b',') for line in body.split(b'\n')]
-        if all(len(cells) == len(all_names) for cells in rows):
-            kept = b'\n'.join(b','.join(cells[j] for j in keep) for cells in rows)
-            values = _parse_fast(kept, nrows, len(keep))
+    if not skip:
+        values = _parse(body, len(rows), len(keep))
     else:
-        values = _parse_fast(body, nrows, len(keep))
+        cells = [row.split(b',') for row in rows]
+        if all(len(c) == len(all_names) for c in cells):
+            values = _parse(b'\n'.join(b','.join(c[j] for j in keep) for c in cells),
+                            len(rows), len(keep))
     if values is None:
-        values = _parse_slow(body, all_names, path, skip)  # raises on the first bad cell
+        _raise_first_error(rows, all_names, path, keep)
     bad = ~np.isfinite(values)
     if bad.any():  # e.g. 1e999: a valid literal, but not a finite double
-        i, j = np.argwhere(bad)[0]
-        cell = body.split(b'\n')[i].split(b',')[keep[j]].decode().strip()
+        i, k = np.argwhere(bad)[0]
+        cell = rows[i].split(b',')[keep[k]].decode().strip()
         raise CsvError(f"'{cell}' is not a finite number", path=path, line=int(i) + 2,
-                       column=keep[j] + 1, name=names[j])
-    skipped = tuple(all_names[j] for j in sorted(skip) if all_names[j] not in text_columns)
-    return Table(path=path, names=names, data=values, lines=np.arange(2, nrows + 2),
-                 skipped=skipped)
+                       column=keep[k] + 1, name=all_names[keep[k]])
+    text = {all_names[j]: [c[j].decode('utf-8', 'replace').strip() for c in cells]
+            for j in skip if all_names[j] in text_columns}
+    return Table(path=path, names=tuple(all_names[j] for j in keep), data=values,
+                 lines=np.arange(2, len(rows) + 2),
+                 skipped=tuple(all_names[j] for j in skip if all_names[j] not in text_columns),
+                 text=text)
 
 
-def text_column(data: bytes, name: str) -> list[str] | None:
-    """The words of column ``name`` (e.g. ``status``) of a file whose bytes
-    :func:`parse_csv` has read with it in ``text_columns``, one per row;
-    None when the header has no such column.
-    """
-    if data.startswith(b'\xef\xbb\xbf'):
-        data = data[3:]
-    lines = data[:_content_end(data)].split(b'\n')
-    names = [cell.strip() for cell in lines[0].decode('utf-8', 'replace').split(',')]
-    if name not in names:
-        return None
-    j = names.index(name)
-    return [line.split(b',')[j].decode('utf-8', 'replace').strip() for line in lines[1:]]
-
-
-def _content_end(data: bytes) -> int:
-    """len(data.rstrip(_BLANK)), without copying a large file."""
-    tail = data[-4096:]
-    kept = len(tail.rstrip(_BLANK))
-    return len(data) - len(tail) + kept if kept else len(data.rstrip(_BLANK))
-
-
-def _count(data: bytes, byte: bytes) -> int:
-    """data.count(byte) for a single byte, about twice as fast (numpy)."""
-    return int(np.count_nonzero(np.frombuffer(data, dtype=np.uint8) == byte[0]))
-
-
-def _parse_fast(body: bytes, nrows: int, ncol: int) -> np.ndarray | None:
-    """Parse ``body`` (the rows) in C; None if anything looks wrong (then the
-    slow scan finds and reports the offending cell).
-    """
+def _parse(body: bytes, nrows: int, ncol: int) -> np.ndarray | None:
+    """The rows of ``body`` parsed in C; None if anything is wrong."""
     if body.translate(None, _ALLOWED_BYTES):   # letters, quotes, NUL, non-ASCII...
         return None
-    if b'\r' in body:
-        body = body.replace(b'\r\n', b'\n')
-    if _count(body, b',') != nrows * (ncol - 1):
+    body = body.replace(b'\r\n', b'\n')
+    if body.count(b',') != nrows * (ncol - 1):
         return None
     # numpy's C parser accepts, on these characters, exactly the cells _NUMBER
-    # accepts (test_cli checks it). It refuses a row whose number of cells
+    # accepts (test_csv_io checks it). It refuses a row whose number of cells
     # differs from the first row's and skips blank lines: so with nrows rows
     # read and nrows * (ncol - 1) commas in all, every row has ncol cells.
     try:
@@ -268,20 +221,15 @@ def _parse_fast(body: bytes, nrows: int, ncol: int) -> np.ndarray | None:
                             dtype=np.float64, ndmin=2)
     except ValueError:
         return None
-    if values.shape != (nrows, ncol):
-        return None
-    return values
+    return values if values.shape == (nrows, ncol) else None
 
 
-def _parse_slow(body: bytes, names: Sequence[str], path: str,
-                skip: frozenset[int] = frozenset()) -> np.ndarray:
-    """Line-by-line parse that raises CsvError at the first malformed cell;
-    the columns in ``skip`` (0-based) may hold anything and are left out.
+def _raise_first_error(rows: list[bytes], names: Sequence[str], path: str,
+                       keep: Sequence[int]) -> None:
+    """CsvError at the first malformed cell of ``rows`` (line 2 on); the
+    columns not in ``keep`` may hold anything.
     """
     ncol = len(names)
-    keep = [j for j in range(ncol) if j not in skip]
-    rows = body.split(b'\n')
-    out = np.empty((len(rows), len(keep)))
     for i, raw in enumerate(rows):
         line = i + 2
         try:
@@ -291,41 +239,87 @@ def _parse_slow(body: bytes, names: Sequence[str], path: str,
         if not text.strip():
             raise CsvError(f'empty line; expected {ncol} values', path=path, line=line)
         cells = text.split(',')
-        for k, j in enumerate(keep):
-            if j >= len(cells):
-                break
-            cell = cells[j]
-            shown = cell.strip()
+        for j in keep[:len(cells)]:
+            shown = cells[j].strip()
             if not shown:
                 raise CsvError('missing value', path=path, line=line, column=j + 1,
                                name=names[j])
             try:
-                value = float(cell)
+                finite = bool(np.isfinite(float(cells[j])))
             except ValueError:
-                value = None
-            if value is None or not _NUMBER.match(cell) or not np.isfinite(value):
-                if value is not None and not np.isfinite(value):
-                    msg = f"'{shown}' is not a finite number"
-                else:
-                    msg = f"'{shown}' is not a number"
-                raise CsvError(msg, path=path, line=line, column=j + 1, name=names[j])
-            out[i, k] = value
-        if len(cells) < ncol:
-            raise CsvError(f'missing value (the row has {len(cells)} values, '
-                           f'the header {ncol} columns)', path=path, line=line,
-                           column=len(cells) + 1, name=names[len(cells)])
-        if len(cells) > ncol:
-            raise CsvError(f'extra value (the row has {len(cells)} values, '
-                           f'the header {ncol} columns)', path=path, line=line,
-                           column=ncol + 1)
-    return out
+                finite = None
+            if not (finite and _NUMBER.match(cells[j])):
+                raise CsvError(f"'{shown}' is not a {'finite ' if finite is False else ''}number",
+                               path=path, line=line, column=j + 1, name=names[j])
+        if len(cells) != ncol:
+            short = len(cells) < ncol
+            raise CsvError(f"{'missing' if short else 'extra'} value (the row has {len(cells)} "
+                           f'values, the header {ncol} columns)', path=path, line=line,
+                           column=len(cells) + 1 if short else ncol + 1,
+                           name=names[len(cells)] if short else None)
+    raise CsvError('cannot be read as rows of numbers', path=path)
 
 
-# ----------------------------------------------------------------------------
-# Writing: exact, with Python's own float repr
-# ----------------------------------------------------------------------------
-#: Rows formatted per block (the block's text stays small).
-BLOCK_ROWS = 4096
+def read_table(path: str | os.PathLike[str], *, required: Sequence[str],
+               optional: Sequence[str] = ()) -> Table:
+    """The output of ``solve`` (CSV, ``-`` for standard input, or .npz): the
+    columns ``required`` and ``optional`` and the ``status`` words it has.
+    """
+    if is_npz(path):
+        return read_npz(path, required=required, optional=optional)
+    return read_csv(path, required=required, allow_extra=True, text_columns=('status',))
+
+
+def is_npz(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` names an .npz file (by its suffix, any case)."""
+    return os.fspath(path).lower().endswith('.npz')
+
+
+def read_npz(path: str | os.PathLike[str], *, required: Sequence[str],
+             optional: Sequence[str] = ()) -> Table:
+    """:func:`read_table` of an .npz written by :func:`write_npz` (``lines``:
+    the lines the rows have in the CSV form).
+    """
+    shown = os.fspath(path)
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            arrays = {key: npz[key] for key in npz.files}
+    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+        raise CsvError(f'cannot read as .npz: {exc}', path=shown) from None
+    if NAMES_KEY not in arrays:
+        raise CsvError(f"no '{NAMES_KEY}' array: not an .npz written by solve", path=shown)
+    names = tuple(str(n) for n in arrays[NAMES_KEY])
+    missing = [n for n in required if n not in names or n not in arrays]
+    if missing:
+        raise CsvError(f"missing column{'s' if len(missing) > 1 else ''} "
+                       f"{', '.join(repr(m) for m in missing)}; it has {', '.join(names)}",
+                       path=shown)
+    kept = tuple(n for n in names if n in required or (n in optional and n in arrays))
+    columns = []
+    for name in kept:
+        column = arrays[name]
+        where = dict(path=shown, column=names.index(name) + 1, name=name)
+        if column.ndim != 1 or column.dtype.kind not in 'fiu':
+            raise CsvError(f'not a 1-D array of numbers ({column.dtype}, shape {column.shape})',
+                           **where)
+        if columns and column.shape != columns[0].shape:
+            raise CsvError(f'{column.size} rows, column {kept[0]!r} has {columns[0].size}',
+                           **where)
+        bad = np.flatnonzero(~np.isfinite(column))
+        if bad.size:
+            raise CsvError(f'{column[bad[0]]} in row {bad[0] + 1} is not a finite number',
+                           **where)
+        columns.append(np.asarray(column, dtype=np.float64))
+    n = columns[0].size if columns else 0
+    text = {}
+    if 'status' in arrays:
+        status = arrays['status']
+        if status.ndim != 1 or status.dtype.kind != 'U' or status.size != n:
+            raise CsvError(f'not {n} strings ({status.dtype}, shape {status.shape})',
+                           path=shown, name='status')
+        text['status'] = status.tolist()
+    return Table(path=shown, names=kept, data=np.column_stack(columns) if columns
+                 else np.empty((n, 0)), lines=np.arange(2, n + 2), text=text)
 
 
 def format_value(x: float) -> str:
@@ -337,27 +331,6 @@ def format_value(x: float) -> str:
     return text[:-2] if text.endswith('.0') else text
 
 
-def _format_blocks(data: np.ndarray, words: Sequence[str] | None = None,
-                   block_rows: int = BLOCK_ROWS) -> Iterator[bytes]:
-    """The rows of ``data`` (2-D float64) as text, each value as
-    :func:`format_value` gives it, ``block_rows`` rows at a time; ``words``
-    (one per row) end each row as a last column.
-    """
-    nrows, ncol = data.shape
-    sep = ',' if ncol else ''
-    for start in range(0, nrows, block_rows):
-        rows = data[start:start + block_rows].tolist()
-        if words is None:
-            text = ''.join([','.join(map(repr, row)) + '\n' for row in rows])
-            text = text.replace('.0\n', '\n')
-        else:
-            text = ''.join([','.join(map(repr, row)) + sep + word + '\n'
-                            for row, word in zip(rows, words[start:start + block_rows])])
-        # repr writes integral values as 'd.0'; a '.0' before a separator is
-        # only ever that (the words come last and hold no comma)
-        yield text.replace('.0,', ',').encode()
-
-
 def format_table(data: np.ndarray, *, chunk_values: int = 8192) -> bytes:
     """Rows of comma-separated exact decimals (:func:`format_value`), each row
     ending in a newline; formatted in blocks of about ``chunk_values`` numbers.
@@ -365,23 +338,38 @@ def format_table(data: np.ndarray, *, chunk_values: int = 8192) -> bytes:
     data = np.asarray(data, dtype=np.float64)
     if data.ndim != 2:
         raise ValueError(f'expected a 2-D array, got shape {data.shape}')
-    block_rows = max(1, chunk_values // max(data.shape[1], 1))
-    return b''.join(_format_blocks(data, block_rows=block_rows))
+    return b''.join(_format_blocks(data, None, max(1, chunk_values // max(data.shape[1], 1))))
+
+
+def _format_blocks(data: np.ndarray, words: Sequence[str] | None,
+                   step: int = 1024) -> Iterator[bytes]:
+    """The rows of ``data`` as :func:`format_table` writes them, ``step`` rows
+    at a time (the text of a block stays small); ``words`` (one per row) end
+    each row as a last column.
+    """
+    sep = ',' if data.shape[1] else ''
+    for start in range(0, data.shape[0], step):
+        rows = [','.join(map(repr, row)) for row in data[start:start + step].tolist()]
+        if words is None:
+            text = '\n'.join(rows + ['']).replace('.0\n', '\n')
+        else:
+            text = ''.join([row + sep + word + '\n'
+                            for row, word in zip(rows, words[start:start + step])])
+        # repr writes integral values as 'd.0'; a '.0' before a separator is
+        # only ever that (the words come last and hold no comma)
+        yield text.replace('.0,', ',').encode()
 
 
 @contextlib.contextmanager
 def atomic_output(path: str | os.PathLike[str]) -> Iterator[IO[bytes]]:
     """Open ``path`` for binary writing so that it appears complete or not at
-    all: the data goes to a temporary file in the same directory, which
-    replaces ``path`` only when the block finishes without an exception (the
-    old file, if any, is untouched otherwise). ``-`` writes to standard output.
-
-    What is at ``path`` is respected: a character device, FIFO or socket
-    (``/dev/null``, ``/dev/stdout``, a named pipe) is written through, never
-    replaced; a symbolic link is followed and its target replaced (the link
-    stays); a replaced file keeps its mode; a read-only file is refused. A
-    SIGTERM or SIGHUP during the write removes the temporary file and ends
-    the process with status 128 + the signal, as the signal would.
+    all: a temporary file in the same directory replaces ``path`` only when
+    the block finishes without an exception; ``-`` writes to standard output.
+    A character device, FIFO or socket (``/dev/null``, a named pipe) is
+    written through; a symbolic link's target is replaced (the link stays); a
+    replaced file keeps its mode; a read-only file is refused. A SIGTERM or
+    SIGHUP during the write removes the temporary file and ends the process
+    with status 128 + the signal.
     """
     if os.fspath(path) == '-':
         yield sys.stdout.buffer
@@ -441,28 +429,23 @@ def _errors_named(shown: str) -> Iterator[None]:
         raise CsvError(f'cannot write: {exc.strerror or exc}', path=shown) from None
 
 
-class _Terminated(BaseException):
-    """A catchable termination signal, raised where the write is."""
-
-
 @contextlib.contextmanager
 def _signals_end_the_write() -> Iterator[None]:
-    """SIGTERM and SIGHUP raise inside the block (so that the temporary file is
-    removed on the way out) and then end the process as the signal would;
-    the previous handlers are restored. Only the main thread gets signals.
+    """SIGTERM and SIGHUP end the process with status 128 + the signal, as
+    the signal would, but raised inside the block (SystemExit), so that the
+    temporary file is removed on the way out; the previous handlers are
+    restored. Only the main thread gets signals.
     """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
 
     def handler(signum: int, frame: object) -> None:
-        raise _Terminated(signum)
+        raise SystemExit(128 + signum)
 
     old = {s: signal.signal(s, handler) for s in (signal.SIGTERM, signal.SIGHUP)}
     try:
         yield
-    except _Terminated as exc:
-        raise SystemExit(128 + exc.args[0]) from None
     finally:
         for s, h in old.items():
             signal.signal(s, h)
@@ -473,17 +456,44 @@ def write_csv(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarr
     """Write a header and the rows of ``data`` (N, len(names)), exactly, atomically;
     ``text = (name, values)`` appends one column of plain words (no commas).
     """
-    data = np.asarray(data, dtype=np.float64)
-    if data.ndim != 2 or data.shape[1] != len(names):
-        raise ValueError(f'{len(names)} column names for data of shape {data.shape}')
-    header = ','.join(names)
-    words = None
-    if text is not None:
-        name, words = text
-        if len(words) != data.shape[0] or any(',' in w or '\n' in w for w in set(words)):
-            raise ValueError(f'text column {name!r}: one word per row expected')
-        header += ',' + name
+    data, words = _checked(names, data, text)
+    header = ','.join(names) + (',' + text[0] if text is not None else '')
     with atomic_output(path) as f:
         f.write((header + '\n').encode())
         for part in _format_blocks(data, words):     # written as formatted
             f.write(part)
+
+
+def write_npz(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarray,
+              text: tuple[str, Sequence[str]] | None = None) -> None:
+    """:func:`write_csv` as numpy's .npz (module docstring), atomically."""
+    data, words = _checked(names, data, text)
+    arrays = {name: data[:, j] for j, name in enumerate(names)}
+    order = list(names)
+    if text is not None:
+        arrays[text[0]] = np.asarray(words, dtype=str)
+        order.append(text[0])
+    if len(set(order)) != len(order) or NAMES_KEY in order:
+        raise ValueError(f'column names must be distinct and not {NAMES_KEY!r}: {order}')
+    arrays[NAMES_KEY] = np.asarray(order, dtype=str)
+    with atomic_output(path) as f:
+        np.savez(f, **arrays)
+
+
+def write_table(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarray,
+                text: tuple[str, Sequence[str]] | None = None) -> None:
+    """:func:`write_npz` if ``path`` ends in .npz, else :func:`write_csv`."""
+    (write_npz if is_npz(path) else write_csv)(path, names, data, text)
+
+
+def _checked(names: Sequence[str], data: np.ndarray, text: tuple[str, Sequence[str]] | None
+             ) -> tuple[np.ndarray, Sequence[str] | None]:
+    data = np.asarray(data, dtype=np.float64)
+    if data.ndim != 2 or data.shape[1] != len(names):
+        raise ValueError(f'{len(names)} column names for data of shape {data.shape}')
+    if text is None:
+        return data, None
+    name, words = text
+    if len(words) != data.shape[0] or any(',' in w or '\n' in w for w in set(words)):
+        raise ValueError(f'text column {name!r}: one word per row expected')
+    return data, words

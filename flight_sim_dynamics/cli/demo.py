@@ -13,18 +13,20 @@
    next to the PNG, ``<name>_node.log``). About 25 s in all.
 
 With ``--twin`` the twin node ``platform_sim`` runs too, driven by the node's
-``actuator_states`` (:mod:`.demo_twin`); its simulated pose is plotted
-against the commanded motion, with the tracking error, to ``<name>_twin.png``
-(its log: ``<name>_twin.log``).
+``actuator_states`` (``-r actuator_commands:=actuator_states``); its simulated
+pose is plotted against the commanded motion, with the tracking error, to
+``<name>_twin.png`` (its log: ``<name>_twin.log``).
 """
 from __future__ import annotations
 
 import argparse
+import subprocess
 import sys
 import time
 from pathlib import Path
 from typing import Any, Sequence
 
+import numpy as np
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
@@ -38,9 +40,10 @@ from ..ros.planner import PlannerNode, setpoint_qos, spin_until
 from ..ros.diagnostics import DIAGNOSTIC_TASK, LEVEL_NAMES
 from ..ros.inputs import quaternion_to_rpy
 from ..ros.qos import default_qos
-from ..ros.process import start_node, stop_node
-from .demo_twin import plot_tracking, start_twin, tracking
-from .demo_twin import summary as twin_summary
+from ..ros.process import SIM_MODULE, start_node, stop_node
+
+#: How the twin reads the dynamics node's answers: one remap.
+TWIN_REMAP = ('-r', 'actuator_commands:=actuator_states')
 
 
 class Monitor(Node):
@@ -146,37 +149,89 @@ class LiveSummary:
                 f'forces A/B/C {text} N  status {status}')
 
 
+def _shade_segments(axes, sequence: PlannerSequence) -> None:
+    """The motions of the sequence as grey bands, named above the first axes."""
+    for label, start, end in sequence.segments:
+        if label == 'return':
+            continue
+        for ax in axes:
+            ax.axvspan(start, end, color='0.93', zorder=0)
+        axes[0].text(0.5 * (start + end), 1.0, label, transform=axes[0].get_xaxis_transform(),
+                     ha='center', va='bottom', fontsize=8)
+
+
 def plot(monitor: Monitor, sequence: PlannerSequence, t0_ns: int, path: Path) -> None:
     """Forces and powers (effort x velocity) of the received messages vs time."""
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-    import numpy as np
+    from .plotting import force_power_figure
 
     t = (np.array(monitor.stamps, dtype=np.int64) - t0_ns) * 1e-9
     force = np.array(monitor.effort)
-    power = force * np.array(monitor.velocity)
-    fig, (ax_f, ax_p) = plt.subplots(2, 1, sharex=True, figsize=(10, 6.5))
-    for i, leg in enumerate('ABC'):
-        ax_f.plot(t, force[:, i], label=f'leg {leg}')
-        ax_p.plot(t, power[:, i], label=f'leg {leg}')
-    for ax in (ax_f, ax_p):
-        for label, start, end in sequence.segments:
-            if label != 'return':
-                ax.axvspan(start, end, color='0.93', zorder=0)
-                if ax is ax_f:
-                    ax.text(0.5 * (start + end), 1.0, label, transform=ax.get_xaxis_transform(),
-                            ha='center', va='bottom', fontsize=8)
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc='upper right', fontsize=8)
-    ax_f.set_ylabel('force f (N)')
-    ax_p.set_ylabel('power f dL/dt (W)')
-    ax_p.set_xlabel('setpoint stamp (s from start)')
-    fig.suptitle(f'actuator_states received from the node: {len(t)} messages', y=0.995)
-    fig.tight_layout()
+    fig = force_power_figure(t, force, force * np.array(monitor.velocity),
+                             title=f'actuator_states received from the node: {len(t)} messages')
+    _shade_segments(fig.axes[:2], sequence)
+    fig.axes[1].set_xlabel('setpoint stamp (s from start)')
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
+
+
+def start_twin(log: Path) -> subprocess.Popen:
+    """``platform_sim`` as a process, remapped to the dynamics node's output
+    (default parameters: the packaged plant, 1 kHz, 5 Hz servos).
+    """
+    return start_node(None, TWIN_REMAP, log=log, module=SIM_MODULE)
+
+
+def tracking(monitor: TwinMonitor, sequence: PlannerSequence, t0_ns: int, end_ns: int
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(t s from the start, simulated q (N, 3), commanded q (N, 3)) of the
+    poses stamped within the planner's run.
+    """
+    rows = np.array([r for r in monitor.rows if t0_ns <= r[0] <= end_ns], dtype=float)
+    if rows.size == 0:
+        return np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3))
+    t = (rows[:, 0] - t0_ns) * 1e-9
+    commanded = np.array([sequence.sample(ti)[0] for ti in t])
+    return t, rows[:, 1:], commanded
+
+
+def plot_tracking(t: np.ndarray, simulated: np.ndarray, commanded: np.ndarray,
+                  sequence: PlannerSequence, path: Path) -> None:
+    """Commanded against simulated surge, heave and roll, and the tracking
+    error, against time.
+    """
+    from matplotlib.figure import Figure
+
+    error = simulated - commanded
+    fig = Figure(figsize=(10, 9), layout='constrained')
+    axes = fig.subplots(4, 1, sharex=True)
+    for i, (name, unit) in enumerate((('surge', 'm'), ('heave', 'm'), ('roll', 'rad'))):
+        axes[i].plot(t, commanded[:, i], color='0.3', lw=2.5, alpha=0.5, label='commanded')
+        axes[i].plot(t, simulated[:, i], color='tab:blue', lw=1.0, label='simulated (twin)')
+        axes[i].set_ylabel(f'{name} ({unit})')
+    for i, label in enumerate(('surge (mm)', 'heave (mm)', 'roll (mrad)')):
+        axes[3].plot(t, 1e3 * error[:, i], label=label)
+    axes[3].set_ylabel('simulated - commanded')
+    axes[3].set_xlabel('stamp (s from start)')
+    _shade_segments(axes, sequence)
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc='upper right', fontsize=8)
+    peak = np.abs(error).max(axis=0) if len(t) else np.full(3, np.nan)
+    fig.suptitle(f'digital twin (platform_sim) driven by dynamics_node: {len(t)} poses; max error '
+                 f'{1e3 * peak[0]:.2f} mm, {1e3 * peak[1]:.2f} mm, {1e3 * peak[2]:.2f} mrad')
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+
+
+def twin_summary(t: np.ndarray, simulated: np.ndarray, commanded: np.ndarray) -> str:
+    """One line: poses and max / RMS tracking error per coordinate."""
+    if not len(t):
+        return 'no twin pose received within the run'
+    e = simulated - commanded
+    peak, rms = np.abs(e).max(axis=0), np.sqrt((e * e).mean(axis=0))
+    return (f'{len(t)} twin poses; tracking error max / RMS: surge {1e3 * peak[0]:.2f} / '
+            f'{1e3 * rms[0]:.2f} mm, heave {1e3 * peak[1]:.2f} / {1e3 * rms[1]:.2f} mm, roll '
+            f'{1e3 * peak[2]:.2f} / {1e3 * rms[2]:.2f} mrad')
 
 
 def build_parser() -> argparse.ArgumentParser:

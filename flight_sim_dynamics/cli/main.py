@@ -1,16 +1,7 @@
-"""Command line: ``flight-sim-dynamics`` (also ``python -m flight_sim_dynamics``).
-
-Subcommands::
-
-    flight-sim-dynamics example {vertical,rectilinear,general} [--rate HZ] -o traj.csv
-    flight-sim-dynamics solve traj.csv -o out.csv|out.npz [--params FILE] [--joints]
-    flight-sim-dynamics plot out.csv|out.npz -o fig.png [--title TEXT]
-    flight-sim-dynamics animate out.csv|out.npz -o motion.gif|motion.mp4|still.png
-    flight-sim-dynamics simulate (--forces F.csv | --motion NAME | --reference T.csv) -o sim.csv
-    flight-sim-dynamics node ...           # the ROS 2 node (needs rclpy)
-    flight-sim-dynamics sim ...            # the digital twin node platform_sim (needs rclpy)
-    flight-sim-dynamics demo-planner ...   # the demo set-point planner (needs rclpy)
-    flight-sim-dynamics demo ...           # the end-to-end demo (needs rclpy)
+"""Command line: ``flight-sim-dynamics COMMAND`` (also ``python -m
+flight_sim_dynamics``); ``--help`` lists the commands. ``node``, ``sim``,
+``demo-planner`` and ``demo`` hand the rest of the command line to their
+module (they need rclpy), the others are parsed here.
 
 Every error ends the run with exit status 2 and one line ``error: ...`` on
 standard error (no traceback), and leaves no partial output file: outputs are
@@ -20,22 +11,25 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import importlib
 import math
 import os
 import sys
+from collections import Counter
 from typing import Callable, Sequence
 
 import numpy as np
 
 import flight_sim_dynamics as fsd
 
-from . import csv_io, npz_io
-from .common import CliError, load_model, write_table
-from .trajectory_input import read_trajectory
+from . import csv_io
 from .csv_io import TRAJECTORY_COLUMNS, CsvError
-from ..core.model import JOINT_NAMES
+from ..config.scenes import SceneError
+from ..core.forward_kinematics import poses_along
+from ..core.model import JOINT_NAMES, Model
 from ..core.trajectories import DURATION, PAPER_EXAMPLES, paper_example, sample_times
+from ..ros.estimator import DerivativeEstimator
 
 PROG = 'flight-sim-dynamics'
 DEFAULT_RATE_HZ = 100.0
@@ -57,9 +51,30 @@ JOINT_COLUMNS: tuple[str, ...] = (tuple(JOINT_NAMES) + tuple(f'{j}_rate' for j i
 #: Columns ``plot`` needs (any others are ignored).
 PLOT_COLUMNS: tuple[str, ...] = ('t',) + tuple(_per_leg('force') + _per_leg('power'))
 
-UNITS = {'t': 's', 'length': 'm', 'stroke': 'm', 'rate': 'm/s', 'acceleration': 'm/s^2',
-         'force': 'N', 'power': 'W', 'beta': 'rad', 'cond': '1', 'kinematic_condition': '1',
-         'jacobian_condition': '1'}
+
+POSE_INPUT = ('t', 'surge', 'heave', 'roll')
+RATE_COLUMNS = ('surge_rate', 'heave_rate', 'roll_rate')
+ACC_COLUMNS = ('surge_acc', 'heave_acc', 'roll_acc')
+LENGTH_COLUMNS = ('length_a', 'length_b', 'length_c')
+
+
+class CliError(Exception):
+    """A user error: printed as ``error: <message>``, exit status 2."""
+
+
+def load_model(params: str | None, scene: str | None = None, option: str = '--params',
+               scene_option: str = '--scene') -> Model:
+    """The model of ``--params`` (None: packaged defaults) and ``--scene``; a
+    CliError names the option at fault (``option``, ``scene_option``).
+    """
+    if params is not None and not os.path.isfile(params):
+        raise CliError(f"{option} {params}: no such file")
+    try:
+        return fsd.load_model(params, scene=scene)
+    except SceneError as exc:           # before its parent class ParameterError
+        raise CliError(f'{scene_option}: {exc}') from None
+    except fsd.ParameterError as exc:
+        raise CliError(f"{option} {params or '(packaged defaults)'}: {exc}") from None
 
 
 class _Parser(argparse.ArgumentParser):
@@ -147,8 +162,8 @@ def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond:
     qd = pick(('surge_rate', 'heave_rate', 'roll_rate'))
     qdd = pick(('surge_acc', 'heave_acc', 'roll_acc'))
     sol = fsd.solve_batch(model, q, qd, qdd)
-    words = _status_words(sol.status)
-    report_statuses(table, sol, words)
+    report_not_ok(f'{table.path}: ', sol.status, sol.detail,
+                  lambda i: f'line {int(table.lines[i])}')
     columns = [data[:, col['t']]]
     for field in ('length', 'stroke', 'rate', 'force', 'power', 'acceleration'):
         columns.append(np.asarray(getattr(sol, field), dtype=float))
@@ -163,127 +178,124 @@ def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond:
         for field in ('joints', 'joint_rates', 'joint_accelerations'):
             columns.append(np.asarray(getattr(sol, field), dtype=float))
         names = names + JOINT_COLUMNS
-    return names, _stack_columns(columns, len(names)), words.tolist()
+    return names, np.column_stack(columns), [str(s) for s in sol.status]
 
 
-#: Rows per block when gathering the output columns (the block stays in cache).
-STACK_ROWS = 1024
-
-
-def _stack_columns(columns: Sequence[np.ndarray], width: int) -> np.ndarray:
-    """np.column_stack of 1-D and (N, k) arrays (``width`` columns in all),
-    block by block of rows: the fields of a batch solution are strided views
-    of one wide array of result rows, and a pass over all the rows per column
-    would fetch every row from memory again each time.
+def report_not_ok(prefix: str, status: Sequence, detail: Sequence,
+                  where: Callable[[int], str]) -> None:
+    """Nothing is dropped silently: rows whose status is not ok are written
+    (with their status) and summarised on standard error, the first one
+    placed by ``where(row)``.
     """
-    parts, j = [], 0
-    for c in columns:
-        k = 1 if c.ndim == 1 else c.shape[1]
-        parts.append((j if c.ndim == 1 else slice(j, j + k), c))
-        j += k
-    if j != width:
-        raise ValueError(f'{j} columns for {width} names')
-    n = columns[0].shape[0]
-    out = np.empty((n, width))
-    for start in range(0, n, STACK_ROWS):
-        rows = slice(start, start + STACK_ROWS)
-        for where, c in parts:
-            out[rows, where] = c[rows]
-    return out
+    words = [str(s) for s in status]
+    bad = [i for i, w in enumerate(words) if w != 'ok']
+    if bad:
+        summary = ', '.join(f'{n} {w}' for w, n in sorted(Counter(words[i] for i in bad).items()))
+        print(f'warning: {prefix}{len(bad)} of {len(words)} rows are not ok ({summary}); first '
+              f'at {where(bad[0])}: {status[bad[0]]}: {detail[bad[0]]}', file=sys.stderr)
 
 
-def _status_words(status) -> np.ndarray:
-    """str() of every status (an object array), computed once per distinct
-    status: they are a handful of Status members repeated over the rows.
+def read_trajectory(path: str | os.PathLike[str], model: Model) -> csv_io.Table:
+    """The trajectory table of ``path`` with every column of
+    :data:`~.csv_io.TRAJECTORY_COLUMNS`: read, or, when the file gives poses
+    only (or poses and rates), estimated as the node estimates them (causal
+    backward differences, :class:`~..ros.estimator.DerivativeEstimator`);
+    notes on standard error name what was ignored and what was estimated. A
+    group of three columns is estimated only when none of them is named (a
+    partial group is read, so that the reader reports the missing column).
     """
-    status = np.asarray(status, dtype=object).reshape(-1)
-    words = np.empty(status.size, dtype=object)
-    todo = np.ones(status.size, dtype=bool)
-    while todo.any():
-        i = int(np.argmax(todo))
-        same = todo & np.equal(status, np.array(status[i], dtype=object))
-        same[i] = True
-        words[same] = str(status[i])
-        todo &= ~same
-    return words
-
-
-def report_statuses(table: csv_io.Table, sol, words: np.ndarray | None = None) -> None:
-    """Nothing is dropped silently: rows whose status is not ok are written (with
-    their status; unreachable and invalid ones as zeros) and summarised here.
-    ``words``: str() of each status, if already known (:func:`_status_words`).
-    """
-    from collections import Counter
-
-    if words is None:
-        words = _status_words(sol.status)
-    bad = np.flatnonzero(words != 'ok')
-    if not bad.size:
-        return
-    counts = Counter(words[bad].tolist())
-    first = int(bad[0])
-    summary = ', '.join(f'{n} {name}' for name, n in sorted(counts.items()))
-    print(f'warning: {table.path}: {bad.size} of {len(sol.status)} rows are not '
-          f'ok ({summary}); first at line {int(table.lines[first])}: '
-          f'{sol.status[first]}: {sol.detail[first]}', file=sys.stderr)
+    raw = csv_io.read_bytes(path)
+    header = raw.partition(b'\n')[0].decode('utf-8', 'replace').lstrip('\ufeff')
+    named = {n.strip() for n in header.split(',')}
+    rates, accelerations = (any(n in named for n in group)
+                            for group in (RATE_COLUMNS, ACC_COLUMNS))
+    required = POSE_INPUT + (RATE_COLUMNS if rates else ()) + (ACC_COLUMNS if accelerations
+                                                                 else ())
+    table = csv_io.parse_csv(raw, '<stdin>' if os.fspath(path) == '-' else os.fspath(path),
+                             required=required, skip_extra=True)
+    if table.skipped:
+        print(f"note: {table.path}: ignoring column{'s' if len(table.skipped) > 1 else ''} "
+              f"{', '.join(repr(n) for n in table.skipped)}; solve reads "
+              + ','.join(TRAJECTORY_COLUMNS), file=sys.stderr)
+    if rates and accelerations:
+        return table
+    method = model.values.get('estimator.method', 'backward2')
+    gap = model.values.get('estimator.max_gap', 0.5)
+    estimator = DerivativeEstimator(method, gap)
+    t, q = table['t'], table.data[:, [table.names.index(n) for n in POSE_INPUT[1:]]]
+    qd_in = table.data[:, [table.names.index(n) for n in RATE_COLUMNS]] if rates else None
+    qd, qdd = np.empty_like(q), np.empty_like(q)
+    for i in range(len(table)):
+        given = tuple(qd_in[i]) if qd_in is not None else None
+        qd[i], qdd[i] = estimator.update(float(t[i]), tuple(q[i]), given, None)
+    added = [(names, v) for names, v, given in ((RATE_COLUMNS, qd, rates),
+                                                (ACC_COLUMNS, qdd, accelerations)) if not given]
+    table = dataclasses.replace(table, names=table.names + sum((n for n, _ in added), ()),
+                                data=np.column_stack([table.data] + [v for _, v in added]))
+    what = ' and '.join(w for w, given in (('rates', rates), ('accelerations', accelerations))
+                        if not given)
+    print(f'note: {table.path}: no {what} columns: estimated from the poses as the node '
+          f'does ({method} backward differences, causal; the first rows start from '
+          'rest)', file=sys.stderr)
+    restart = ~((np.diff(t) > 0.0) & (np.diff(t) <= gap))
+    if restart.any():
+        print(f'warning: {table.path}: the estimate starts again from rest at '
+              f'{int(restart.sum())} row(s), first line '
+              f'{int(table.lines[int(np.argmax(restart)) + 1])}: t does not increase, or '
+              f'steps by more than estimator.max_gap = {gap:g} s', file=sys.stderr)
+    return table
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
     model = load_model(args.params, args.scene)
     table = read_trajectory(args.input, model)
     names, data, status = solve_table(model, table, joints=args.joints, exact_cond=args.cond)
-    write_table(args.output, names, data, text=('status', status))
+    csv_io.write_table(args.output, names, data, text=('status', status))
     return 0
 
 
 # ----------------------------------------------------------------------------
-# plot
+# forward
 # ----------------------------------------------------------------------------
-def _configure_plot(p: argparse.ArgumentParser) -> None:
-    p.add_argument('input', metavar='OUT_CSV_OR_NPZ',
-                   help='output of solve, CSV or .npz (needs ' + ','.join(PLOT_COLUMNS) + ')')
-    p.add_argument('-o', '--output', required=True, metavar='IMAGE',
-                   help='image to write; the format follows the extension (.png, .svg, .pdf)')
-    p.add_argument('--title', default=None,
-                   help='figure title (default: from the input file name)')
-    p.add_argument('--dpi', type=int, default=100, help='resolution of raster images '
-                   '(default 100)')
+def _configure_forward(p: argparse.ArgumentParser) -> None:
+    p.add_argument('lengths', nargs='*', type=float, metavar='L',
+                   help='three leg lengths L_A L_B L_C (m, joint centre to joint centre)')
+    p.add_argument('--csv', metavar='CSV', default=None,
+                   help="instead: a CSV with columns length_a,length_b,length_c, e.g. the "
+                        "output of solve (a column t is copied through, others ignored); "
+                        "writes [t,]surge,heave,roll,status to -o")
+    p.add_argument('-o', '--output', metavar='CSV', default=None,
+                   help="output CSV for --csv ('-' for standard output)")
+    p.add_argument('--params', metavar='YAML', default=None,
+                   help='parameter file (default: the packaged parameters)')
 
 
-#: The paper's figures for each example (force figure, power figure).
-PAPER_FIGURES = {'vertical': (3, 4), 'rectilinear': (5, 6), 'general': (7, 8)}
-
-
-def default_title(path: str) -> str:
-    """Title from the file name; the paper's examples name their figures."""
-    stem = os.path.splitext(os.path.basename(path))[0] if path != '-' else 'stdin'
-    if stem in PAPER_FIGURES:
-        f, p = PAPER_FIGURES[stem]
-        return f"{stem} example: actuator forces and powers (cf. the paper's Figs. {f} and {p})"
-    return f'{stem}: input forces and powers of actuators A, B, C'
-
-
-def cmd_plot(args: argparse.Namespace) -> int:
-    from . import plotting
-
-    plotting.output_format(args.output)      # fail before reading a large file
-    if not 1 <= args.dpi <= 1200:
-        raise CliError(f'--dpi must be between 1 and 1200, got {args.dpi}')
-    if npz_io.is_npz(args.input):
-        table = npz_io.read_npz(args.input, required=PLOT_COLUMNS,
-                                optional=tuple(_per_leg('length')))
-    else:
-        table = csv_io.read_csv(args.input, required=PLOT_COLUMNS, allow_extra=True,
-                                text_columns=('status',))
-    force = np.column_stack([table[n] for n in _per_leg('force')])
-    power = np.column_stack([table[n] for n in _per_leg('power')])
-    title = args.title if args.title is not None else default_title(args.input)
-    # solve writes the rows it cannot solve as zeros; a leg length is never 0
-    lengths = [n for n in _per_leg('length') if n in table.names]
-    unsolved = (np.all(np.column_stack([table[n] for n in lengths]) == 0.0, axis=1)
-                if lengths else None)
-    plotting.plot_forces_powers(table['t'], force, power, args.output, title=title,
-                                dpi=args.dpi, unsolved=unsolved)
+def cmd_forward(args: argparse.Namespace) -> int:
+    """Pose from measured leg lengths (safeguarded Newton, see forward_kinematics)."""
+    model = load_model(args.params)
+    if args.csv is None:
+        if len(args.lengths) != 3:
+            raise CliError(f'expected three leg lengths L_A L_B L_C, got {len(args.lengths)}')
+        result = fsd.forward_kinematics(model, args.lengths)
+        surge, heave, roll = (float(v) for v in result.pose)
+        print(f'surge={surge!r} heave={heave!r} roll={roll!r} status={result.status} '
+              f'residual={result.residual:.3g} iterations={result.iterations}'
+              + (f' detail={result.detail!r}' if result.detail else ''))
+        return 0 if result.status == fsd.Status.OK else 1
+    if args.lengths or args.output is None:
+        raise CliError('--csv takes no lengths on the command line, and needs -o OUTPUT')
+    table = csv_io.read_csv(args.csv, required=LENGTH_COLUMNS, allow_extra=True,
+                            text_columns=('status',))
+    results = poses_along(model, np.column_stack([table[n] for n in LENGTH_COLUMNS]))
+    status = [str(r.status) for r in results]
+    extra = ['t'] if 't' in table.names else []
+    data = np.column_stack([table[n] for n in extra] + [np.array([r.pose for r in results])])
+    csv_io.write_csv(args.output, tuple(extra) + ('surge', 'heave', 'roll'), data,
+                     text=('status', status))
+    bad = sum(s != 'ok' for s in status)
+    if bad:
+        print(f'warning: {table.path}: {bad} of {len(status)} rows have no pose '
+              '(status column)', file=sys.stderr)
     return 0
 
 
@@ -361,9 +373,9 @@ SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
     'solve': ('inverse dynamics of every row of a trajectory CSV',
               _configure_solve, cmd_solve),
     'plot': ('plot actuator forces and powers against time (like the paper\'s Figs. 3-8)',
-             _configure_plot, cmd_plot),
+             *_lazy('flight_sim_dynamics.cli.plotting')),
     'forward': ('forward kinematics: the pose (surge, heave, roll) from three leg lengths',
-                *_lazy('flight_sim_dynamics.cli.forward')),
+                _configure_forward, cmd_forward),
     'bench': ('time per cycle against force error for every scene and single-effect variant, '
               'and the cost of estimating missing accelerations (writes scenes.md, scenes.png)',
               *_lazy('flight_sim_dynamics.cli.bench')),
@@ -421,6 +433,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.command is None:
             parser.print_help(sys.stderr)
             return 2
+        args.argv = argv[1:]            # the options as given (workspace's markdown names them)
         return args.handler(args)
     except KeyboardInterrupt:
         print('error: interrupted', file=sys.stderr)

@@ -1,4 +1,5 @@
-"""Force and power plots of the three actuators (the paper's Figs. 3-8).
+"""``flight-sim-dynamics plot``: force and power plots of the three actuators
+(the paper's Figs. 3-8) from the output of ``solve``.
 
 Uses matplotlib's object-oriented API (``matplotlib.figure.Figure``, no
 pyplot, no global backend state): rendering goes through the Agg canvas, so
@@ -6,12 +7,14 @@ no display is needed.
 """
 from __future__ import annotations
 
+import argparse
 import os
 from typing import Sequence
 
 import numpy as np
 
-from .csv_io import atomic_output
+from .csv_io import atomic_output, read_table
+from .main import LENGTH_COLUMNS, PLOT_COLUMNS, CliError
 
 ACTUATORS = ('A', 'B', 'C')
 #: The colour of each actuator in every figure (plot, animate).
@@ -97,3 +100,46 @@ def plot_forces_powers(t: np.ndarray, force: np.ndarray, power: np.ndarray,
     fig = force_power_figure(t, force, power, title=title, unsolved=unsolved)
     with atomic_output(output) as f:
         fig.savefig(f, format=fmt, dpi=dpi)
+
+
+def configure(p: argparse.ArgumentParser) -> None:
+    """The options of ``plot``."""
+    p.add_argument('input', metavar='OUT_CSV_OR_NPZ',
+                   help='output of solve, CSV or .npz (needs ' + ','.join(PLOT_COLUMNS) + ')')
+    p.add_argument('-o', '--output', required=True, metavar='IMAGE',
+                   help='image to write; the format follows the extension (.png, .svg, .pdf)')
+    p.add_argument('--title', default=None,
+                   help='figure title (default: from the input file name)')
+    p.add_argument('--dpi', type=int, default=100, help='resolution of raster images '
+                   '(default 100)')
+
+
+#: The paper's figures for each example (force figure, power figure).
+PAPER_FIGURES = {'vertical': (3, 4), 'rectilinear': (5, 6), 'general': (7, 8)}
+
+
+def default_title(path: str) -> str:
+    """Title from the file name; the paper's examples name their figures."""
+    stem = os.path.splitext(os.path.basename(path))[0] if path != '-' else 'stdin'
+    if stem in PAPER_FIGURES:
+        f, p = PAPER_FIGURES[stem]
+        return f"{stem} example: actuator forces and powers (cf. the paper's Figs. {f} and {p})"
+    return f'{stem}: input forces and powers of actuators A, B, C'
+
+
+def run(args: argparse.Namespace) -> int:
+    """The ``plot`` command."""
+    output_format(args.output)      # fail before reading a large file
+    if not 1 <= args.dpi <= 1200:
+        raise CliError(f'--dpi must be between 1 and 1200, got {args.dpi}')
+    table = read_table(args.input, required=PLOT_COLUMNS, optional=LENGTH_COLUMNS)
+    force, power = (np.column_stack([table[f'{field}_{leg}'] for leg in 'abc'])
+                    for field in ('force', 'power'))
+    title = args.title if args.title is not None else default_title(args.input)
+    # solve writes the rows it cannot solve as zeros; a leg length is never 0
+    lengths = [n for n in LENGTH_COLUMNS if n in table.names]
+    unsolved = (np.all(np.column_stack([table[n] for n in lengths]) == 0.0, axis=1)
+                if lengths else None)
+    plot_forces_powers(table['t'], force, power, args.output, title=title, dpi=args.dpi,
+                       unsolved=unsolved)
+    return 0

@@ -23,19 +23,18 @@ the stop, warns on standard error and exits with status 1.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 
 import numpy as np
 
 import flight_sim_dynamics as fsd
 
-from ..config.scenes import SceneError
 from ..core.model import Model
 from ..core.motions import MOTIONS
 from ..core.simulation import (DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, DEFAULT_STEP,
                                ForceHistory, Reference, Servo, Simulation, simulate)
 from .csv_io import TRAJECTORY_COLUMNS, read_csv, write_csv
+from .main import load_model, report_not_ok
 
 LEGS = ('a', 'b', 'c')
 FORCE_COLUMNS = ('t',) + tuple(f'force_{leg}' for leg in LEGS)
@@ -90,18 +89,6 @@ def configure(p: argparse.ArgumentParser) -> None:
                         "configuration (open loop), the reference's start (closed loop)")
 
 
-def _model(option: str, params: str | None, scene: str | None) -> Model:
-    """A model, or ValueError naming the command-line option at fault."""
-    if params is not None and not os.path.isfile(params):
-        raise ValueError(f'{option} {params}: no such file')
-    try:
-        return fsd.load_model(params, scene=scene)
-    except SceneError as exc:
-        raise ValueError(f'{option}: {exc}') from None
-    except fsd.ParameterError as exc:
-        raise ValueError(f"{option} {params or '(packaged defaults)'}: {exc}") from None
-
-
 def _closed_loop_only(args: argparse.Namespace) -> None:
     given = [name for name, value in (('--feedforward', args.feedforward),
                                       ('--bandwidth', args.bandwidth), ('--gains', args.gains))
@@ -122,8 +109,8 @@ def run(args: argparse.Namespace) -> int:
     """The ``simulate`` subcommand; 0 when the run reached its end, 1 when it stopped."""
     _closed_loop_only(args)
     plant_params = args.plant_params if args.plant_params is not None else args.params
-    plant = _model('--plant-params' if args.plant_params else '--params', plant_params,
-                   args.plant_scene)
+    plant = load_model(plant_params, args.plant_scene,
+                       '--plant-params' if args.plant_params else '--params', '--plant-scene')
     initial = None if args.initial is None else (args.initial[:3], args.initial[3:])
     if args.forces is not None:
         table = read_csv(args.forces, required=FORCE_COLUMNS, allow_extra=True,
@@ -139,7 +126,8 @@ def run(args: argparse.Namespace) -> int:
         else:
             reference = Reference.from_motion(MOTIONS[args.motion])
         scene = args.feedforward if args.feedforward is not None else args.plant_scene
-        feedforward = None if scene == 'none' else _model('--feedforward', args.params, scene)
+        feedforward = None if scene == 'none' else load_model(args.params, scene,
+                                                                   scene_option='--feedforward')
         sim = simulate(plant, reference=reference, feedforward=feedforward,
                        servo=_servo(args, plant), initial=initial, step=args.step)
     names, data = table_of(sim)
@@ -159,15 +147,7 @@ def table_of(sim: Simulation) -> tuple[tuple[str, ...], np.ndarray]:
 
 def _report(sim: Simulation) -> int:
     """Warnings on standard error: rows that are not ok, and a stop."""
-    bad = [i for i, s in enumerate(sim.status) if s != fsd.Status.OK]
-    if bad:
-        counts: dict[str, int] = {}
-        for i in bad:
-            counts[str(sim.status[i])] = counts.get(str(sim.status[i]), 0) + 1
-        summary = ', '.join(f'{n} {name}' for name, n in sorted(counts.items()))
-        print(f'warning: {len(bad)} of {len(sim.t)} rows are not ok ({summary}); first at '
-              f't = {sim.t[bad[0]]:.6g} s: {sim.status[bad[0]]}: {sim.detail[bad[0]]}',
-              file=sys.stderr)
+    report_not_ok('', sim.status, sim.detail, lambda i: f't = {sim.t[i]:.6g} s')
     if sim.outcome != fsd.Status.OK:
         print(f'warning: simulation stopped: {sim.outcome}: {sim.outcome_detail}; '
               f'{len(sim.t)} rows written', file=sys.stderr)

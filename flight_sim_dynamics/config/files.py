@@ -1,6 +1,8 @@
 """Parameter files: where the packaged one is, which ``--params-file`` a ROS
 command line gives, and how a ROS 2 parameter YAML file is read into flat
-dotted names (as ROS 2 flattens them), by the rules of :mod:`.yaml_io`.
+dotted names (as ROS 2 flattens them), by the rules of :mod:`.yaml_io`, each
+value of a known name type- and range-checked against the schema with the
+file named (:func:`check_file_values`).
 """
 from __future__ import annotations
 
@@ -11,6 +13,8 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from .errors import ParameterError
+from .schema import SPECS
+from .validation import check_value
 from .yaml_io import read_yaml
 
 NODE_NAME = 'flight_sim_dynamics'
@@ -57,6 +61,19 @@ def flatten(tree: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
     return flat
 
 
+def check_file_values(flat: Mapping[str, Any], source: str) -> None:
+    """Check every value of a parameter of the schema in ``flat`` (read from the
+    file ``source``) against its spec: ParameterError naming the key and the
+    file. Unknown names are left to :func:`.validation.check_names`.
+    """
+    for key, value in flat.items():
+        if key in SPECS:
+            try:
+                check_value(SPECS[key], value)
+            except ParameterError as exc:
+                raise ParameterError(exc.key, exc.value, f'{exc.reason} in {source}') from None
+
+
 def section_applies(section: str, node: str) -> bool:
     """Whether a params-file section applies to the node of fully qualified
     name ``node`` (``/ns/flight_sim_dynamics``), as rcl decides: the node's
@@ -101,6 +118,7 @@ def read_params_file(path: str | os.PathLike[str],
     if not found:
         raise ParameterError('params_file', source,
                              f"no section for node '{NODE_NAME}' (or '/**')")
+    check_file_values(flat, source)
     return flat
 
 

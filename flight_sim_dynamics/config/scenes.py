@@ -12,7 +12,7 @@ from typing import Any, Mapping
 
 from ..core.effects import EFFECT_NAMES, Effects
 from .errors import ParameterError, did_you_mean
-from .files import default_params_path, flatten
+from .files import check_file_values, default_params_path, flatten
 from .schema import MODEL_PARAMETERS
 from .yaml_io import read_yaml
 
@@ -58,7 +58,11 @@ def scene_path(scene: str | os.PathLike[str]) -> Path:
     if text.endswith(('.yaml', '.yml')) or os.sep in text:
         return Path(text)
     path = scenes_dir() / f'{text}.yaml'
-    if not path.is_file():
+    try:
+        found = path.is_file()
+    except OSError:             # e.g. a name too long for the file system
+        found = False
+    if not found:
         available = available_scenes()
         raise SceneError(text, 'no such scene; available: ' + ', '.join(available)
                          + did_you_mean(text, available))
@@ -107,6 +111,10 @@ def load_scene(scene: str | os.PathLike[str] | None = None) -> Scene:
         if key not in _MODEL_NAMES:
             raise SceneError(name, f"parameter '{key}' is not a model parameter"
                              + did_you_mean(key, _MODEL_NAMES))
+    try:
+        check_file_values(parameters, str(path))
+    except ParameterError as exc:
+        raise SceneError(name, f"key '{exc.key}': {exc.reason}") from None
     packaged = path.resolve().parent == scenes_dir().resolve()
     return Scene(name=name, description=description, effects=Effects(**effects),
                  parameters=parameters, path=None if packaged else path)

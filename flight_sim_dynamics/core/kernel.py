@@ -22,7 +22,6 @@ the Python code needs none of them.
 from __future__ import annotations
 
 import os
-from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from operator import attrgetter
 from types import ModuleType
@@ -202,65 +201,23 @@ def affine_row(model: Model, q: tuple, qd: tuple
 
 
 def integrate_rows(model: Model, law: tuple, step: float, k0: int, steps: int,
-                   rows: tuple, stop: int | None = None) -> int:
-    """RK4 of :func:`.simulation.integrate` in the kernel, rows k0 to stop - 1
-    (default: to the end, steps): ``law`` = (ff, length_ref, rate_ref, kp, kd,
-    max_force, max_speed, servo) (:class:`.simulation.TabulatedLaw`; its
-    tables are read up to stage 2 min(stop, steps)), ``rows`` = (q, qd, qdd,
-    force), each a writable C-contiguous (steps + 1, 3) float64 array, the
-    state of row k0 in q, qd. Returns the first row whose step the kernel did
-    not complete (a stage that stops or that it leaves to the Python code),
-    ``stop`` when all did (the state reached is then row stop's q, qd).
+                   rows: tuple) -> int:
+    """RK4 of :func:`.simulation.integrate` in the kernel, rows k0 to steps:
+    ``law`` = (ff, length_ref, rate_ref, kp, kd, max_force, max_speed, servo)
+    (:class:`.simulation.TabulatedLaw`), ``rows`` = (q, qd, qdd, force), each
+    a writable C-contiguous (steps + 1, 3) float64 array, the state of row k0
+    in q, qd. Returns the first row whose step the kernel did not complete (a
+    stage that stops or that it leaves to the Python code), steps + 1 when
+    all did.
     """
     params, bits = prepared(model)
-    stop = steps + 1 if stop is None else stop
-    return _kernel.integrate(params, bits, *law, step, k0, stop, steps, *rows)
+    return _kernel.integrate(params, bits, *law, step, k0, steps, *rows)
 
 
-#: A batch at least twice this long is split across the usable cores (the
-#: kernel releases the GIL); shorter ones run in the calling thread. Measured
-#: on 2 cores (scene full, violent motion, best of 30): 6001 rows 7.3 ms in
-#: one thread, 4.5 ms in two; 3001 rows 4.4 ms, 3.0 ms; 1000 rows alike.
-THREAD_MIN_SAMPLES = 1024
-_pool: ThreadPoolExecutor | None = None
-
-
-def usable_cores() -> int:
-    """Cores this process may run on (its CPU affinity), at least 1."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:          # not Linux
-        return max(1, os.cpu_count() or 1)
-
-
-def pool() -> ThreadPoolExecutor:
-    """The kernel's worker threads (one per usable core), made on first use."""
-    global _pool
-    if _pool is None:
-        _pool = ThreadPoolExecutor(max_workers=usable_cores(), thread_name_prefix='fsd-kernel')
-    return _pool
-
-
-def solve_rows(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
-               out: np.ndarray | None = None, threads: bool = True) -> np.ndarray:
-    """N samples ((N, 3) float64 arrays) through the kernel: (N, OUT_SIZE) rows
-    (into ``out`` when given: a C-contiguous float64 array of that shape).
-    Long batches run in as many threads as there are usable cores (each row is
-    computed alone, so the result does not depend on the split); ``threads``
-    False: in the calling thread (a job already in :func:`pool`).
-    """
+def solve_rows(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+    """N samples ((N, 3) float64 arrays) through the kernel: (N, OUT_SIZE) rows."""
     params, bits = prepared(model)
     arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in (q, qd, qdd)]
-    n = arrays[0].shape[0]
-    out = np.empty((n, OUT_SIZE)) if out is None else out
-    parts = min(usable_cores(), n // THREAD_MIN_SAMPLES) if threads else 1
-    if parts < 2:
-        _kernel.solve_batch(params, bits, *arrays, out)
-        return out
-    bounds = np.linspace(0, n, parts + 1).astype(int)
-    jobs = [pool().submit(_kernel.solve_batch, params, bits,
-                          *(a[lo:hi] for a in arrays), out[lo:hi])
-            for lo, hi in zip(bounds[:-1], bounds[1:])]
-    for job in jobs:
-        job.result()
+    out = np.empty((arrays[0].shape[0], OUT_SIZE))
+    _kernel.solve_batch(params, bits, *arrays, out)
     return out

@@ -89,11 +89,6 @@ class Geometry:
         return self.F - np.array([0.0, 0.0, self.d5])
 
     @property
-    def G0(self) -> np.ndarray:
-        """Point G at the central configuration."""
-        return np.array([self.d2 + self.d3 + self.d4, self.h_G, 0.0])
-
-    @property
     def L0(self) -> np.ndarray:
         """Leg lengths at zero stroke: s_A + l2, s_B + l4, s_C + l4 (eq. 8)."""
         return np.array([self.s_A + self.l2, self.s_B + self.l4, self.s_C + self.l4])

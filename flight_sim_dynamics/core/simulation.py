@@ -51,8 +51,7 @@ from .forward_dynamics import affine_terms, require_inertia, solve_accelerations
 from .interpolation import ForceHistory, MotionLike, Reference, finite_rows
 from .interpolation import node_slopes as node_slopes   # re-exported: part of this API
 from .model import Model
-from .reference_tables import ClosedLoopPipeline, reference_tables
-from .solver import Solution, batch_from_rows, solve_batch
+from .solver import Solution, solve_batch
 from .status import SEVERITY, Status
 
 DEFAULT_STEP = 1e-3              # s: RK4 at 1 kHz
@@ -205,7 +204,7 @@ def _stage(plant: Model, q: np.ndarray, qd: np.ndarray, law: ForceLaw, j: int
 
 
 def integrate(plant: Model, t0: float, step: float, steps: int, q0: np.ndarray,
-              qd0: np.ndarray, law: ForceLaw, pipeline: ClosedLoopPipeline | None = None) -> tuple:
+              qd0: np.ndarray, law: ForceLaw) -> tuple:
     """RK4 of (q, qd) from (q0, qd0) at t0 over ``steps`` steps; the force law
     is evaluated at half-step index j (time t0 + j step / 2). Returns t, q, qd,
     qdd, force (arrays of the rows reached), outcome, outcome detail.
@@ -214,9 +213,7 @@ def integrate(plant: Model, t0: float, step: float, steps: int, q0: np.ndarray,
     enabled (:func:`.kernel.integrate_rows`: the same operations, no Python
     per stage); the kernel hands every step it cannot finish (a stage that
     stops, M it cannot surely solve) to the loop below, which takes it and
-    gives the kernel the rest. With a ``pipeline`` (whose tables ``law``
-    reads) the rows go piece by piece: each waits for its stages' tables, and
-    each finished piece is handed back for its result rows.
+    gives the kernel the rest.
     """
     h = step
     rows = tuple(np.zeros((steps + 1, 3)) for _ in range(4))
@@ -231,20 +228,10 @@ def integrate(plant: Model, t0: float, step: float, steps: int, q0: np.ndarray,
     while k <= steps:
         if tables is not None:
             rq[k], rqd[k] = q, qd
-            for stop in ([steps + 1] if pipeline is None else pipeline.stops_after(k)):
-                if pipeline is not None:
-                    pipeline.need(min(stop, steps))
-                reached = kernel.integrate_rows(plant, tables, h, k, steps, rows, stop)
-                if pipeline is not None:
-                    pipeline.finished(reached, rows)
-                k = reached
-                if reached < stop:
-                    break
+            k = kernel.integrate_rows(plant, tables, h, k, steps, rows)
             if k > steps:
                 break
             q, qd = rq[k].copy(), rqd[k].copy()
-        if pipeline is not None:
-            pipeline.need(min(k + 1, steps))
         rq[k], rqd[k] = q, qd
         a1, f1, status, detail = _stage(plant, q, qd, law, 2 * k)
         rqdd[k], rf[k] = a1, f1
@@ -270,9 +257,22 @@ def integrate(plant: Model, t0: float, step: float, steps: int, q0: np.ndarray,
             outcome, why, n = status, (f'step from t = {t0 + k * h:.6g} s: {detail}'), k + 1
             break
         k += 1
-        if pipeline is not None:
-            pipeline.finished(k, rows)
     return (t0 + h * np.arange(n), rq[:n], rqd[:n], rqdd[:n], rf[:n], outcome, why)
+
+
+def reference_tables(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+                     times: np.ndarray, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Leg lengths, rates and forces of ``model`` on the reference samples
+    (the inverse dynamics, eq. 5-23); ValueError at the first sample that
+    cannot be tracked (unreachable, near a singularity).
+    """
+    sol = solve_batch(model, q, qd, qdd)
+    bad = [i for i, s in enumerate(sol.status) if SEVERITY[s] >= SEVERITY[Status.NEAR_SINGULAR]]
+    if bad:
+        i = bad[0]
+        raise ValueError(f'{what} at t = {times[i]:.6g} s: {sol.status[i]}: {sol.detail[i]} '
+                         f'({len(bad)} of {times.size} samples cannot be tracked)')
+    return np.array(sol.length), np.array(sol.rate), np.array(sol.force)
 
 
 def step_count(start: float, end: float, step: float) -> int:
@@ -339,42 +339,30 @@ def simulate(plant: Model, *, forces: ForceHistory | tuple | None = None,
     q_ref, qd_ref, qdd_ref = reference.motion(times)
     servo = servo if servo is not None else Servo.for_bandwidth(plant)
     q0, qd0 = _state(initial, (q_ref[0], qd_ref[0]))
-    pipeline = None
-    if kernel.enabled():
-        pipeline = ClosedLoopPipeline(plant, feedforward, q_ref, qd_ref, qdd_ref, times, steps)
-        length_ref, rate_ref, ff = pipeline.length_ref, pipeline.rate_ref, pipeline.ff
+    length_ref, rate_ref, plant_force = reference_tables(plant, q_ref, qd_ref, qdd_ref, times,
+                                                         'the reference motion')
+    if feedforward is plant:         # the plant's own model: the same batch
+        ff = plant_force
+    elif feedforward is not None:
+        ff = reference_tables(feedforward, q_ref, qd_ref, qdd_ref, times,
+                              'the feed-forward model')[2]
     else:
-        length_ref, rate_ref, plant_force = reference_tables(plant, q_ref, qd_ref, qdd_ref, times,
-                                                       'the reference motion')
-        if feedforward is plant:         # the plant's own model: the same batch
-            ff = plant_force
-        elif feedforward is not None:
-            ff = reference_tables(feedforward, q_ref, qd_ref, qdd_ref, times,
-                            'the feed-forward model')[2]
-        else:
-            ff = np.zeros_like(length_ref)
+        ff = np.zeros_like(length_ref)
     law = TabulatedLaw.servo_law(plant, servo, ff, length_ref, rate_ref)
     t, q, qd, qdd, force, outcome, why = integrate(plant, reference.start, step, steps,
-                                                   q0, qd0, law, pipeline)
+                                                   q0, qd0, law)
     rows = slice(0, 2 * len(t), 2)
-    result_rows = None
-    if pipeline is not None:
-        pipeline.check()                 # also the reference after a run that stopped
-        result_rows = pipeline.result_rows(q, qd, qdd)
     return _result(plant, t, q, qd, qdd, force, outcome, why,
-                   q - q_ref[rows], length_ref[rows], result_rows)
+                   q - q_ref[rows], length_ref[rows])
 
 
 def _result(plant: Model, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
             force: np.ndarray, outcome: Status, why: str, pose_error: np.ndarray | None = None,
-            length_ref: np.ndarray | None = None,
-            result_rows: np.ndarray | None = None) -> Simulation:
+            length_ref: np.ndarray | None = None) -> Simulation:
     """The rows of a run, with lengths, rates and statuses from one batch solve
-    (its forces are the delivered ones, to rounding: f = M qdd + b), or from
-    the kernel's ``result_rows`` of that batch.
+    (its forces are the delivered ones, to rounding: f = M qdd + b).
     """
-    sol = (solve_batch(plant, q, qd, qdd) if result_rows is None
-           else batch_from_rows(plant, result_rows, (q, qd, qdd)))
+    sol = solve_batch(plant, q, qd, qdd)
     length = np.array(sol.length)
     return Simulation(t=t, q=q, qd=qd, qdd=qdd, length=length, rate=np.array(sol.rate),
                       force=force, status=np.asarray(sol.status), detail=tuple(sol.detail),

@@ -70,7 +70,7 @@ class Solution:
         return np.ndim(self.force) == 2
 
     @cached_property
-    def geometric(self) -> Geometric | tuple | None:
+    def geometric(self) -> Geometric | None:
         """Positions of every joint (:class:`.kinematics.Geometric`), recomputed
         from ``pose`` on first access (the kernel keeps none); None when the
         pose is unreachable or the input invalid (single solve only).
@@ -92,9 +92,8 @@ class Solution:
         """
         if self.geometric is None:
             return np.zeros((12, 12))
-        pieces = self.geometric if isinstance(self.geometric, tuple) else (self.geometric,)
         with np.errstate(all='ignore'):
-            Q = np.concatenate([connectivity_matrix(self.model, g)[0] for g in pieces])
+            Q = connectivity_matrix(self.model, self.geometric)[0]
         if not self._batch:
             return Q[0]
         Q[np.asarray([SEVERITY[s] >= 3 for s in self.status], dtype=bool)] = 0.0
@@ -348,11 +347,6 @@ def _solve_floats(model: Model, q: tuple, qd: tuple, qdd: tuple) -> Solution:
                          geometric=None if code >= SEVERITY[Status.UNREACHABLE] else g)
 
 
-#: Samples per piece of a long batch in the Python code (the working set of a
-#: piece stays in cache).
-BATCH_CHUNK = 8192
-
-
 def solve_batch(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> Solution:
     """Inverse kinematics and dynamics (eq. 5-23) for N samples at once, vectorised.
 
@@ -367,13 +361,6 @@ def solve_batch(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) ->
     arrays = (arrays[0], _as_batch('qd', qd, n), _as_batch('qdd', qdd, n))
     if kernel._enabled:
         return batch_from_rows(model, kernel.solve_rows(model, *arrays), arrays)
-    if n > BATCH_CHUNK:     # cache-sized pieces: about twice as fast for long batches
-        parts = [_solve_arrays(model, *(a[i:i + BATCH_CHUNK] for a in arrays))
-                 for i in range(0, n, BATCH_CHUNK)]
-        fields = {name: np.concatenate([getattr(p, name) for p in parts])
-                  for name in _CHECKED + ('jacobian', 'beta', 'status') + _CONDITIONS}
-        return _new_solution(**fields, detail=sum((p.detail for p in parts), ()), model=model,
-                             pose=arrays[0], geometric=tuple(p.geometric for p in parts))
     return _solve_arrays(model, *arrays)
 
 

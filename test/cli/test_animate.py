@@ -14,7 +14,7 @@ import pytest
 from PIL import Image
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.cli import animate, animation_frames as af
+from flight_sim_dynamics.cli import animate
 from flight_sim_dynamics.cli import csv_io
 from flight_sim_dynamics.cli.main import main
 from flight_sim_dynamics.core.mechanism import JOINTS, SEGMENTS
@@ -75,10 +75,10 @@ def test_renders_a_gif_with_the_expected_frames(tmp_path, capsys):
 
 def test_default_stride_plays_in_about_real_time():
     t = sample_times(100.0)                        # 301 rows over 3 s
-    rows = af.frame_rows(t, 25.0, None)
+    rows = animate.frame_rows(t, 25.0, None)
     assert np.array_equal(rows, np.arange(0, 301, 4))
-    assert np.array_equal(af.frame_rows(t, 25.0, 7), np.arange(0, 301, 7))
-    assert np.array_equal(af.frame_rows(t[:1], 25.0, None), [0])
+    assert np.array_equal(animate.frame_rows(t, 25.0, 7), np.arange(0, 301, 7))
+    assert np.array_equal(animate.frame_rows(t[:1], 25.0, None), [0])
 
 
 @pytest.mark.parametrize('output', ['out.csv', 'out.npz'])
@@ -87,10 +87,10 @@ def test_frames_are_the_solver_joint_positions(tmp_path, output):
     (forward kinematics); the points drawn are then the solver's positions of
     the trajectory's own pose, and the legs are as long as the file says."""
     out, q = solve(tmp_path, output=output)
-    solved = af.read_solved(str(out))
+    solved = animate.read_solved(str(out))
     assert solved.pose is None and solved.status == ['ok'] * 61
-    rows = af.frame_rows(solved.t, 25.0, 3)
-    frames = af.frames(MODEL, solved, rows)
+    rows = animate.frame_rows(solved.t, 25.0, 3)
+    frames = animate.frames(MODEL, solved, rows)
     assert [f.row for f in frames] == list(range(0, 61, 3))
     for frame in frames:
         assert frame.solved and frame.status == 'ok'
@@ -110,17 +110,17 @@ def test_pose_columns_are_used_when_present(tmp_path):
     text = out.read_text().splitlines()
     rows = [f'{line},{",".join(repr(float(v)) for v in q[i])}' for i, line in enumerate(text[1:])]
     (tmp_path / 'posed.csv').write_text('\n'.join([text[0] + ',surge,heave,roll'] + rows) + '\n')
-    solved = af.read_solved(str(tmp_path / 'posed.csv'))
+    solved = animate.read_solved(str(tmp_path / 'posed.csv'))
     assert np.array_equal(solved.pose, q)
-    for frame in af.frames(MODEL, solved, np.arange(len(q))):
+    for frame in animate.frames(MODEL, solved, np.arange(len(q))):
         np.testing.assert_allclose(frame.points['B4'], expected_points(q[frame.row])['B4'],
                                    rtol=0, atol=1e-12)
 
 
 def test_rows_without_a_solution_are_drawn_as_such(tmp_path, capsys):
     out, _ = solve(tmp_path, unreachable=slice(30, 40))
-    solved = af.read_solved(str(out))
-    frames = af.frames(MODEL, solved, np.arange(len(solved)))
+    solved = animate.read_solved(str(out))
+    frames = animate.frames(MODEL, solved, np.arange(len(solved)))
     for frame in frames:
         void = 30 <= frame.row < 40
         assert frame.solved is not void
@@ -133,10 +133,10 @@ def test_rows_without_a_solution_are_drawn_as_such(tmp_path, capsys):
     assert header.endswith(',status')
     (tmp_path / 'bare.csv').write_text('\n'.join(
         [header.rsplit(',', 1)[0]] + [line.rsplit(',', 1)[0] for line in lines]) + '\n')
-    bare = af.read_solved(str(tmp_path / 'bare.csv'))
-    assert np.array_equal(af.unsolved(bare), af.unsolved(solved))
+    bare = animate.read_solved(str(tmp_path / 'bare.csv'))
+    assert np.array_equal(animate.unsolved(bare), animate.unsolved(solved))
     # the first rows unsolved: the central configuration, said so
-    first = af.frames(MODEL, solved, np.arange(30, 45))
+    first = animate.frames(MODEL, solved, np.arange(30, 45))
     assert not first[0].solved and 'central configuration' in first[0].note
     central = expected_points((0.0, 0.0, 0.0))
     for name in JOINTS:

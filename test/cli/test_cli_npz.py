@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from flight_sim_dynamics.cli import csv_io, npz_io
+from flight_sim_dynamics.cli import csv_io
 from flight_sim_dynamics.cli import main as cli
 from flight_sim_dynamics.cli.csv_io import TRAJECTORY_COLUMNS
 from flight_sim_dynamics.core.trajectories import paper_example, sample_times
@@ -72,7 +72,7 @@ def test_plot_reads_npz(tmp_path, trajectory):
     assert cli.main(['plot', str(tmp_path / 'o.npz'), '-o', str(tmp_path / 'f.svg'),
                      '--title', 'from npz']) == 0
     assert 'from npz' in (tmp_path / 'f.svg').read_text()
-    table = npz_io.read_npz(tmp_path / 'o.npz', required=cli.PLOT_COLUMNS)
+    table = csv_io.read_npz(tmp_path / 'o.npz', required=cli.PLOT_COLUMNS)
     assert table.names == cli.PLOT_COLUMNS and table.data.shape == (61, 7)
 
 
@@ -80,8 +80,8 @@ def test_bad_npz_is_one_error_line(tmp_path, capsys):
     cases = {
         'garbage.npz': lambda p: p.write_bytes(b'not a zip'),
         'nonames.npz': lambda p: np.savez(p, t=np.zeros(3)),
-        'missing.npz': lambda p: npz_io.write_npz(p, ('t', 'force_a'), np.zeros((3, 2))),
-        'nan.npz': lambda p: npz_io.write_npz(p, cli.PLOT_COLUMNS,
+        'missing.npz': lambda p: csv_io.write_npz(p, ('t', 'force_a'), np.zeros((3, 2))),
+        'nan.npz': lambda p: csv_io.write_npz(p, cli.PLOT_COLUMNS,
                                               np.full((3, 7), np.nan)),
     }
     expected = {'garbage.npz': 'cannot read as .npz', 'nonames.npz': "no 'names' array",
@@ -97,9 +97,9 @@ def test_bad_npz_is_one_error_line(tmp_path, capsys):
 
 def test_write_npz_checks_its_arguments(tmp_path):
     with pytest.raises(ValueError, match='column names'):
-        npz_io.write_npz(tmp_path / 'x.npz', ('a',), np.zeros((2, 2)))
+        csv_io.write_npz(tmp_path / 'x.npz', ('a',), np.zeros((2, 2)))
     with pytest.raises(ValueError, match='one word per row'):
-        npz_io.write_npz(tmp_path / 'x.npz', ('a',), np.zeros((2, 1)), text=('s', ['ok']))
+        csv_io.write_npz(tmp_path / 'x.npz', ('a',), np.zeros((2, 1)), text=('s', ['ok']))
     with pytest.raises(ValueError, match='distinct'):
-        npz_io.write_npz(tmp_path / 'x.npz', ('names',), np.zeros((2, 1)))
+        csv_io.write_npz(tmp_path / 'x.npz', ('names',), np.zeros((2, 1)))
     assert not (tmp_path / 'x.npz').exists()

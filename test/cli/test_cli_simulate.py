@@ -146,7 +146,7 @@ def test_initial_state_option(tmp_path):
     ('t,force_a,force_b,force_c\n0,1,2,3\n1,1,2,3\n', ['--plant-scene', 'quasi_static'],
      "scene 'quasi_static' computes no inertia"),
     ('t,force_a,force_b,force_c\n0,1,2,3\n1,1,2,3\n', ['--plant-scene', 'nope'],
-     "--params: scene 'nope': no such scene"),
+     "--plant-scene: scene 'nope': no such scene"),
     ('t,force_a,force_b,force_c\n0,1,2,3\n1,1,2,3\n', ['--plant-params', 'missing.yaml'],
      '--plant-params missing.yaml: no such file'),
     ('t,force_a,force_b,force_c\n0,1,2,3\n1,1,2,3\n', ['--step', '0'],

@@ -197,15 +197,10 @@ def test_garbage_in_any_cell_is_named_and_nothing_is_written(tmp_path, rows, row
 
 @pytest.mark.parametrize('token', ['\u0661', '\uff11', '\u0663.\u0665', '\U0001d7cf',
                                    '1e\u0663'], ids=ascii)
-def test_regression_unicode_digits_are_read_as_numbers(tmp_path, capsys, token):
-    """Regression, fixed (csv_io._parse_slow): the strict pattern _NUMBER uses
-    \\d on str, which matches every Unicode decimal digit, and float() accepts
-    them: Arabic-Indic '\u0661' (1), full-width '\uff11' (1), '\u0663.\u0665'
-    (3.5), mathematical '\U0001d7cf' are read as numbers. The fast path rejects
-    them (ASCII only) and the module promises decimal numbers like 1, -0.5,
-    2.5e-3. Input: a trajectory whose roll_acc cell is '\u0661'. Expected:
-    exit 2, "line 2, column 10 (roll_acc): ... is not a number", no output;
-    actual: exit 0, the cell read as 1.0. (Fix: re.ASCII on _NUMBER.)"""
+def test_unicode_digits_are_not_decimal_numbers(tmp_path, capsys, token):
+    """Arabic-Indic, full-width or mathematical digits, which float() accepts,
+    are not the decimal numbers a file holds: the cell is an error naming its
+    line and column, and nothing is written."""
     src, out = tmp_path / 'traj.csv', tmp_path / 'out.csv'
     src.write_text(HEADER + '\n' + '0,' * 9 + token + '\n', encoding='utf-8')
     rc = cli.main(['solve', str(src), '-o', str(out)])

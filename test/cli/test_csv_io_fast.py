@@ -1,21 +1,21 @@
-"""The fast paths of the CSV layer and of ``solve``'s glue, against plain
-references (issue 6: a 100,000-row file through ``solve`` in under 2 s,
-measured by benchmarks/csv_output.py):
+"""The CSV layer and ``solve``'s glue against plain references:
 
 * writing: every value is written as a plain per-value reference gives it
   (the shortest decimal that reads back exactly, the nearest such; repr's
   layout; no '.0' on integral values), and extreme values (subnormals, -0.0,
   1e308, integers, many digits) read back bit for bit through read_csv;
   blocks, text columns (long, non-ASCII, NUL) and empty tables;
-* reading: the fast parser (numpy's C parser plus a count of commas) agrees
-  with the line-by-line scan on whole files, ragged and blank rows included;
-* solve: solve_table's block-wise column gathering and per-status words give
-  what np.column_stack and str() per row give, and the warning is unchanged;
-  running one subcommand does not import the modules of the others.
+* reading: the parser (numpy's C parser plus a count of commas, a line scan
+  to name a bad cell) accepts exactly the files a plain strict reader accepts,
+  ragged and blank rows included, with the same numbers;
+* solve: solve_table gives what solve_batch gives, and the warning names the
+  first row not ok; running one subcommand does not import the modules of the
+  others.
 """
 from __future__ import annotations
 
 import math
+import re
 from fractions import Fraction
 import os
 import subprocess
@@ -172,15 +172,29 @@ def test_text_column_errors_and_empty_table(tmp_path):
 # ----------------------------------------------------------------------------
 # Reading
 # ----------------------------------------------------------------------------
+STRICT_CELL = re.compile(r'[ \t]*[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?[ \t]*', re.ASCII)
+
+
+def reference_read(body: bytes, ncol: int) -> np.ndarray | None:
+    """A plain strict reader: every line (trailing blank lines aside) holds
+    ncol finite decimal numbers; None when it does not."""
+    rows = []
+    for raw in body.rstrip(b' \t\r\n').split(b'\n'):
+        cells = raw.decode('utf-8').rstrip('\r').split(',')
+        if len(cells) != ncol or not all(STRICT_CELL.fullmatch(c) for c in cells):
+            return None
+        rows.append([float(c) for c in cells])
+    values = np.array(rows)
+    return values if np.all(np.isfinite(values)) else None
+
+
 def parse_both(body: bytes, ncol: int) -> tuple[np.ndarray | None, np.ndarray | None]:
-    names = tuple(f'c{j}' for j in range(ncol))
-    nrows = body.count(b'\n') + 1
-    fast = csv_io._parse_fast(body, nrows, ncol)
+    header = ','.join(f'c{j}' for j in range(ncol)).encode() + b'\n'
     try:
-        slow = csv_io._parse_slow(body, names, 'x')
+        ours = csv_io.parse_csv(header + body, 'x', required=[f'c{j}' for j in range(ncol)]).data
     except csv_io.CsvError:
-        slow = None
-    return fast, slow
+        ours = None
+    return ours, reference_read(body, ncol)
 
 
 @pytest.mark.parametrize('body, ncol', [
@@ -202,15 +216,14 @@ def parse_both(body: bytes, ncol: int) -> tuple[np.ndarray | None, np.ndarray | 
     (b'1e999,2,3', 3),                      # a finite literal that overflows
     (b'1,2,3\n4,5,6\n7,8', 3),
 ])
-def test_fast_and_slow_parsers_agree_on_whole_files(body, ncol):
-    fast, slow = parse_both(body, ncol)
-    fast_ok = fast is not None and bool(np.all(np.isfinite(fast)))
-    assert fast_ok == (slow is not None)
-    if fast_ok:
-        assert fast.view(np.int64).tolist() == slow.view(np.int64).tolist()
+def test_parser_reads_what_a_strict_reader_reads_on_whole_files(body, ncol):
+    ours, reference = parse_both(body, ncol)
+    assert (ours is None) == (reference is None)
+    if ours is not None:
+        assert ours.view(np.int64).tolist() == reference.view(np.int64).tolist()
 
 
-def test_fast_and_slow_parsers_agree_on_random_files():
+def test_parser_reads_what_a_strict_reader_reads_on_random_files():
     rng = np.random.default_rng(3)
     cells = ['1', '-0', '2.5e-3', '', ' ', '1,2', '7\n8', '.5', '5.', 'e', '+-1', '\r',
              '0.1', '1e5', '1\n', '\n3']
@@ -221,11 +234,10 @@ def test_fast_and_slow_parsers_agree_on_random_files():
         body = '\n'.join(rows).encode()
         if not body.strip():
             continue
-        fast, slow = parse_both(body, ncol)
-        fast_ok = fast is not None and bool(np.all(np.isfinite(fast)))
-        assert fast_ok == (slow is not None), body
-        if fast_ok:
-            assert np.array_equal(fast, slow), body
+        ours, reference = parse_both(body, ncol)
+        assert (ours is None) == (reference is None), body
+        if ours is not None:
+            assert np.array_equal(ours, reference), body
 
 
 def test_read_csv_errors_name_line_and_column(tmp_path):
@@ -273,11 +285,7 @@ def mixed_trajectory(n: int = 600) -> csv_io.Table:
 @pytest.mark.parametrize('kwargs', [{}, {'joints': True}, {'joints': True, 'exact_cond': True}])
 def test_solve_table_matches_plain_assembly(capsys, kwargs):
     table = mixed_trajectory()
-    cli.STACK_ROWS, saved = 64, cli.STACK_ROWS          # several blocks and a partial one
-    try:
-        names, data, status = cli.solve_table(MODEL, table, **kwargs)
-    finally:
-        cli.STACK_ROWS = saved
+    names, data, status = cli.solve_table(MODEL, table, **kwargs)
     warning = capsys.readouterr().err
     d = table.data
     col = {name: j for j, name in enumerate(table.names)}
@@ -304,13 +312,6 @@ def test_solve_table_matches_plain_assembly(capsys, kwargs):
     assert warning == (f'warning: mixed.csv: {len(bad)} of {len(words)} rows are not ok '
                        f'({summary}); first at line {bad[0] + 2}: {sol.status[bad[0]]}: '
                        f'{sol.detail[bad[0]]}\n')
-
-
-def test_status_words():
-    status = np.array([fsd.Status.OK, fsd.Status.LIMIT, fsd.Status.OK,
-                       fsd.Status.UNREACHABLE], dtype=object)
-    assert cli._status_words(status).tolist() == ['ok', 'limit', 'ok', 'unreachable']
-    assert cli._status_words(np.array([], dtype=object)).tolist() == []
 
 
 def test_solve_imports_only_what_it_needs(tmp_path):

@@ -272,13 +272,13 @@ def test_the_legend_is_short_and_regions_are_drawn_one_by_one():
     """Issue 14 #9: the map had 19 legend entries and an enclosed unreachable
     region without its hatch. Related entries are grouped; every connected
     region is its own contourf (the largest first)."""
-    from flight_sim_dynamics.cli import workspace_map
+    from flight_sim_dynamics.cli import workspace as cli_workspace
     from flight_sim_dynamics.core.workspace import E2_OFF_ROD, LOOP_D, LOOP_E, REACHABLE
 
-    handles, labels = workspace_map._legend_handles(
+    handles, labels = cli_workspace._legend_handles(
         fsd.load_model(), {REACHABLE, LOOP_D, LOOP_E, E2_OFF_ROD})
     assert len(handles) == len(labels) <= 12, labels
     r = np.hypot(*np.meshgrid(np.linspace(-1, 1, 41), np.linspace(-1, 1, 41)))
-    regions = workspace_map._regions((r < 0.2) | (r >= 0.6))      # an island inside a ring
+    regions = cli_workspace._regions((r < 0.2) | (r >= 0.6))      # an island inside a ring
     assert sorted(int(m.sum()) for m in regions)[0] == int((r < 0.2).sum())
     assert len(regions) == 2

@@ -119,25 +119,24 @@ BILLION_LAUGHS = ('lol: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol
 
 
 @pytest.mark.parametrize('content, words', [
-    (HEADER + '    gravity: ' + '1' + '0' * 400 + '\n', ['gravity', 'outside 64 bits']),
-    (HEADER + '    gravity: ' + '9' * 5000 + '\n', ['gravity', 'outside 64 bits']),
+    (HEADER + '    gravity: ' + '1' + '0' * 400 + '\n', ['gravity', 'expected a number']),
+    (HEADER + '    gravity: ' + '9' * 5000 + '\n', ['gravity', 'expected a number']),
     (HEADER.encode() + b'    scene: caf\xe9\n', ['not UTF-8', 'offset']),
     (HEADER + '    geometry: &g {d1: *g}\n', ['anchors and aliases']),
     (BILLION_LAUGHS, ['anchors and aliases']),
     (HEADER + '    gravity: &g 9.81\n', ['anchors and aliases']),
     (HEADER + '    gravity: 9.81\n    gravity: 9.0\n', ['gravity', 'given twice']),
-    (HEADER + '    gravity: !!float 9\n', ['explicit tags']),
-    (HEADER + '    geometry: ' + '{a: ' * 100 + '1' + '}' * 100 + '\n', ['nested deeper']),
+    (HEADER + '    geometry: ' + '{a: ' * 2000 + '1' + '}' * 2000 + '\n', ['nested too deeply']),
     (b'\x00\x01\x02binary', ['NUL bytes']),
     (HEADER + '    gravity: [unclosed\n', ['not valid YAML']),
     (HEADER + '    gravity: 9.81\n---\nx: 1\n', ['not valid YAML']),
     ('- just\n- a list\n', ['expected a map']),
     ('', ['expected a map']),
     (HEADER + '    bodies:\n      rod:\n        com: [[1.0], 0.0, 0.0]\n', ['bodies.rod.com',
-                                                                          'single value']),
-    (HEADER + '    bodies:\n      rod:\n        com: []\n', ['bodies.rod.com', 'empty list']),
-    (HEADER + '    1: 2.0\n', ['key must be a name']),
-    (HEADER + '    ? [a, b]\n    : 1\n', ['key must be a name']),
+                                                                          'element 0']),
+    (HEADER + '    bodies:\n      rod:\n        com: []\n', ['bodies.rod.com', 'got 0']),
+    (HEADER + '    1: 2.0\n', ["'1'", 'unknown parameter']),
+    (HEADER + '    ? [a, b]\n    : 1\n', ['not valid YAML']),
 ])
 def test_bad_file_is_one_parameter_error_naming_it(tmp_path, content, words):
     path = tmp_path / 'bad.yaml'
@@ -194,25 +193,21 @@ def test_fifo_with_a_writer_is_read(tmp_path):
 
 
 # -- values the library and the node (rcl) would read differently ---------------------
-AMBIGUOUS = {
-    '1:30': 'sexagesimal', '1:30.5': 'sexagesimal', '0x10': 'hexadecimal', '-0x10': 'hexadecimal',
-    '0o10': 'octal', '0b101': 'binary', '0x1p3': 'hexadecimal', '010': 'leading zero',
-    '1_000': "'_'", '1.0_0': "'_'", 'yes': 'boolean', 'no': 'boolean', 'on': 'boolean',
-    'off': 'boolean', 'Yes': 'boolean', 'OFF': 'boolean', 'y': 'boolean', 'n': 'boolean',
-    '~': 'null', 'null': 'null', 'NULL': 'null', '': 'null', '2001-12-14': 'date',
-    'inf': 'without the dot', '-Infinity': 'without the dot', 'nan': 'without the dot',
-}
+#: Plain values that are numbers or booleans only to YAML 1.1 or only to rcl: strings
+#: (or null) here, so refused by the type check wherever a number is expected.
+AMBIGUOUS = ['1:30', '1:30.5', '0x10', '-0x10', '0o10', '0b101', '0x1p3', '010', '1_000', '1.0_0',
+             'yes', 'no', 'on', 'off', 'Yes', 'OFF', 'y', 'n', '~', 'null', 'NULL', '',
+             '2001-12-14', 'inf', '-Infinity', 'nan', '1' + '0' * 30]
 
 
-@pytest.mark.parametrize('text', sorted(AMBIGUOUS))
+@pytest.mark.parametrize('text', AMBIGUOUS)
 def test_yaml11_only_and_rcl_ambiguous_values_are_refused_naming_the_key(tmp_path, text):
-    for body, key in ((f'bodies:\n  rod:\n    mass: {text}', 'bodies.rod.mass'),
-                      (f'output:\n  frame_id: {text}', 'output.frame_id')):
-        error, _ = _raises(_file(tmp_path, body), f"'{key}'", AMBIGUOUS[text], 'p.yaml')
-        assert error.key == key
+    error, _ = _raises(_file(tmp_path, f'bodies:\n  rod:\n    mass: {text}'),
+                       "'bodies.rod.mass'", 'expected a number', 'p.yaml')
+    assert error.key == 'bodies.rod.mass'
     if text:    # in a list, the element is named
         _raises(_file(tmp_path, f'friction:\n  viscous: [1.0, {text}, 1.0]'),
-                'friction.viscous.[1]', AMBIGUOUS[text])
+                'friction.viscous', 'element 1')
 
 
 @pytest.mark.parametrize('text', ["'yes'", '"0x10"', "'1:30'", "'~'"])
@@ -286,8 +281,8 @@ EFFECTS = ('effects: {gravity: true, platform_inertia: true, payload: false, leg
     (EFFECTS + 'descripton: x\n', ['unknown key(s): descripton', "did you mean 'description'"]),
     (EFFECTS + 'parameters: {payload: {mas: 3.0}}\n',
      ["'payload.mas' is not a model parameter", "did you mean 'payload.mass'"]),
-    (EFFECTS.replace('true', 'yes', 1), ['gravity', 'boolean']),
-    (EFFECTS + 'parameters: {payload: {mass: 0x10}}\n', ['payload.mass', 'hexadecimal']),
+    (EFFECTS.replace('true', 'yes', 1), ['gravity', 'true or false']),
+    (EFFECTS + 'parameters: {payload: {mass: 0x10}}\n', ['payload.mass', 'expected a number']),
     ('effects: &e {gravity: true}\nx: *e\n', ['anchors and aliases']),
     (BILLION_LAUGHS, ['anchors and aliases']),
 ])

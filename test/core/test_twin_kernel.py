@@ -193,33 +193,10 @@ def fields(sim) -> dict:
 
 
 @needs_kernel
-@pytest.mark.parametrize('feedforward', ['plant', 'payload', None])
-def test_closed_loop_in_pieces_equals_one_piece(monkeypatch, feedforward):
-    """The kernel's closed loop runs in pieces (reference tables solved ahead
-    on the worker threads, result rows behind): odd piece sizes give the
-    numbers of one piece exactly, with the same statuses and details."""
-    from flight_sim_dynamics.core import reference_tables
-    ff = {'plant': MODEL, 'payload': MODELS['payload'], None: None}[feedforward]
-    reference = replace(Reference.from_motion(motions.get('violent')), start=0.5, end=1.0)
-    runs = []
-    for first, piece in ((10**9, 10**9), (7, 23), (1, 1)):
-        monkeypatch.setattr(reference_tables, 'FIRST_PIECE', first)
-        monkeypatch.setattr(reference_tables, 'PIECE', piece)
-        with kernel.use_kernel(True):
-            runs.append(simulate(MODEL, reference=reference, feedforward=ff))
-    one = runs[0]
-    assert one.outcome == Status.OK and Status.LIMIT in set(one.status)  # words a limit row
-    for sim in runs[1:]:
-        for name, value in fields(sim).items():
-            np.testing.assert_array_equal(value, fields(one)[name], err_msg=name)
-        assert list(sim.status) == list(one.status) and sim.detail == one.detail
-
-
-@needs_kernel
-def test_a_closed_loop_that_stops_early_in_pieces():
-    """A run that stops in its first piece (the kernel hands the stopping step
-    to the Python code) equals the Python loop; and a reference that cannot be
-    followed after the stop is still refused, as before the run."""
+def test_a_closed_loop_that_stops_early():
+    """A run that stops (the kernel hands the stopping step to the Python
+    code) equals the Python loop; and a reference that cannot be followed
+    after the stop is still refused, as before the run."""
     initial = ((0.0, 0.0, 1.0), (0.0, 0.0, 3.0))     # rolling into the singularity
     fast, slow = both(lambda: simulate(MODEL, reference=held(0.0, 1.0, 1.0),
                                        feedforward=MODEL, initial=initial))
