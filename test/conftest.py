@@ -1,10 +1,102 @@
-"""Shared pytest configuration."""
+"""Shared pytest configuration: test tiers, ROS 2 isolation, Hypothesis profiles."""
 from __future__ import annotations
 
 import os
 import random
+import shutil
+import subprocess
 
 import pytest
+
+
+# ---------------------------------------------------------------------------
+# Tiers (markers registered in setup.cfg, --strict-markers):
+#   ros   the test starts a process (the node, the command line, a tool) or
+#         uses DDS (an rclpy context);
+#   slow  long property sweeps and long simulations;
+#   unit  the rest: `bash scripts/run_tests.sh -m "not ros and not slow"`.
+# A test that starts a Python or shell process, or initialises rclpy, without
+# the ros mark fails (the unit tier must stay in-process and fast). Processes
+# started by libraries (e.g. matplotlib's fc-list) are not checked.
+# ---------------------------------------------------------------------------
+_running: list[pytest.Item] = []
+
+
+def _unmarked() -> pytest.Item | None:
+    """The test being run, if it has no ros mark."""
+    if _running and _running[-1].get_closest_marker('ros') is None:
+        return _running[-1]
+    return None
+
+
+def _is_python_or_shell(args, executable) -> bool:
+    if executable is None:
+        if isinstance(args, (str, bytes, os.PathLike)):
+            first = os.fsdecode(args).split()[0] if os.fsdecode(args).split() else ''
+        else:
+            first = os.fsdecode(args[0]) if len(args) else ''
+    else:
+        first = os.fsdecode(executable)
+    name = os.path.basename(first)
+    if name.startswith('python') or name in ('bash', 'sh'):
+        return True
+    path = shutil.which(first)
+    if path is None:
+        return False
+    try:
+        with open(path, 'rb') as f:
+            line = f.readline(200)
+    except OSError:
+        return False
+    return line.startswith(b'#!') and b'python' in line   # a console script
+
+
+_popen_init = subprocess.Popen.__init__
+
+
+def _checked_popen_init(self, args, *rest, **kwargs):
+    item = _unmarked()
+    if item is not None and _is_python_or_shell(args, kwargs.get('executable')):
+        pytest.fail(f'{item.nodeid} starts a process ({args!r}) but has no '
+                    '@pytest.mark.ros: mark it (or its module: pytestmark = pytest.mark.ros)',
+                    pytrace=False)
+    _popen_init(self, args, *rest, **kwargs)
+
+
+try:
+    from rclpy.context import Context as _RclpyContext
+except ImportError:                       # rclpy missing: nothing to check
+    _RclpyContext = None
+else:
+    _context_init = _RclpyContext.init
+
+    def _checked_context_init(self, *args, **kwargs):
+        item = _unmarked()
+        if item is not None:
+            pytest.fail(f'{item.nodeid} initialises rclpy (DDS) but has no @pytest.mark.ros: '
+                        'mark it (or its module: pytestmark = pytest.mark.ros)', pytrace=False)
+        return _context_init(self, *args, **kwargs)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    subprocess.Popen.__init__ = _checked_popen_init
+    if _RclpyContext is not None:
+        _RclpyContext.init = _checked_context_init
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    subprocess.Popen.__init__ = _popen_init
+    if _RclpyContext is not None:
+        _RclpyContext.init = _context_init
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None):
+    _running.append(item)          # its fixtures' set-up and teardown included
+    try:
+        return (yield)
+    finally:
+        _running.pop()
 
 
 # ---------------------------------------------------------------------------

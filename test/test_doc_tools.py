@@ -9,8 +9,11 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from flight_sim_dynamics.cli import csv_io
+
+pytestmark = pytest.mark.ros
 
 ROOT = Path(__file__).resolve().parent.parent
 BEGIN, END = '<!-- reproduction-table:begin -->', '<!-- reproduction-table:end -->'

@@ -313,6 +313,7 @@ def test_status_words():
     assert cli._status_words(np.array([], dtype=object)).tolist() == []
 
 
+@pytest.mark.ros
 def test_solve_imports_only_what_it_needs(tmp_path):
     """`solve` configures its own subparser only: the modules behind the other
     subcommands (bench, workspace, plotting) are not imported; --help still

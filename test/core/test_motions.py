@@ -101,6 +101,7 @@ def test_node_command_and_environment():
     assert env['PYTHONUNBUFFERED'] == '1'
 
 
+@pytest.mark.ros
 def test_start_and_stop_a_process_group(tmp_path):
     """start_node runs the command in its own session and stop_node ends it."""
     log = tmp_path / 'node.log'
