@@ -29,26 +29,22 @@ def _unmarked() -> pytest.Item | None:
     return None
 
 
-def _is_python_or_shell(args, executable) -> bool:
+def _runs_python_or_a_shell(args, executable) -> bool:
+    """The command runs Python (the interpreter or a console script) or a shell."""
     if executable is None:
-        if isinstance(args, (str, bytes, os.PathLike)):
-            first = os.fsdecode(args).split()[0] if os.fsdecode(args).split() else ''
-        else:
-            first = os.fsdecode(args[0]) if len(args) else ''
-    else:
-        first = os.fsdecode(executable)
-    name = os.path.basename(first)
+        argv = (os.fsdecode(args).split() if isinstance(args, (str, bytes, os.PathLike))
+                else list(args))
+        executable = argv[0] if argv else ''
+    program = os.fsdecode(executable)
+    name = os.path.basename(program)
     if name.startswith('python') or name in ('bash', 'sh'):
         return True
-    path = shutil.which(first)
-    if path is None:
-        return False
     try:
-        with open(path, 'rb') as f:
-            line = f.readline(200)
-    except OSError:
+        with open(shutil.which(program), 'rb') as f:
+            first_line = f.readline(200)
+    except (OSError, TypeError):        # not found (which: None) or unreadable
         return False
-    return line.startswith(b'#!') and b'python' in line   # a console script
+    return first_line.startswith(b'#!') and b'python' in first_line
 
 
 _popen_init = subprocess.Popen.__init__
@@ -56,7 +52,7 @@ _popen_init = subprocess.Popen.__init__
 
 def _checked_popen_init(self, args, *rest, **kwargs):
     item = _unmarked()
-    if item is not None and _is_python_or_shell(args, kwargs.get('executable')):
+    if item is not None and _runs_python_or_a_shell(args, kwargs.get('executable')):
         pytest.fail(f'{item.nodeid} starts a process ({args!r}) but has no '
                     '@pytest.mark.ros: mark it (or its module: pytestmark = pytest.mark.ros)',
                     pytrace=False)
@@ -120,9 +116,9 @@ def ros_isolation() -> None:
 #   ci    (default) 100 examples per property test. The workspace tests draw
 #         a batch of 24..32 samples per example, so each of them checks about
 #         2,500 (pose, rate, acceleration) cases per run, and the three
-#         hard-cases files together run in ~40 s on a 2-core machine.
+#         files below together run in ~10 s on a 2-core machine.
 #   long  20x as many examples (2000 per test, ~50,000 cases per workspace
-#         property; ~8 min for the three files): a soak run before a release,
+#         property; ~1.5 min for the three files): a soak run before a release,
 #         or after touching the solver, e.g.
 #             FSD_HYPOTHESIS_PROFILE=long PYTHONPATH=. python -m pytest -q \
 #                 test/core/test_workspace_properties.py test/core/test_hard_cases.py \
