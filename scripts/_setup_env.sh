@@ -1,26 +1,15 @@
 # shellcheck shell=bash
-# Shared set-up of scripts/run_tests.sh and scripts/run_demo.sh: sourced, never
-# run on its own. Usage (from a script under scripts/):
-#
+# Shared set-up of scripts/run_tests.sh and scripts/run_demo.sh, sourced:
 #   source "$(dirname "${BASH_SOURCE[0]}")/_setup_env.sh" REQUIREMENTS_FILE
-#
-# On a fresh machine with only Python 3.11 and PyPI, it creates the virtualenv
-# .venv at the repository root (or reuses it), installs REQUIREMENTS_FILE
-# (pinned) into it, installs this package with `pip install .`, and puts the
-# venv first on PATH (so `python`, `flight-sim-dynamics` and `dynamics_node`
-# are the venv's). It leaves the caller in the repository root.
-#
-# Environment knobs:
-#   PYTHON=/path/to/python3.11  interpreter used to create .venv (default python3.11)
-#   FSD_SKIP_INSTALL=1          reuse .venv as it is (no pip at all; fast re-runs)
-#
-# Why `pip install .` and not `pip install -e .`: setuptools' editable wheels
-# drop `data_files`, so an editable install would not put package.xml, the
-# ament index marker and config/*.yaml under .venv/share/flight_sim_dynamics
-# the way colcon and a regular install do. The tests import the package from
-# the source tree anyway (`python -m pytest` puts the repository root first on
-# sys.path), and this script reinstalls on every run, so the console scripts
-# and the installed YAML never go stale.
+# Creates (or reuses) .venv at the repository root with Python 3.11, installs
+# REQUIREMENTS_FILE (pinned) and this package (`pip install .`), puts the venv
+# first on PATH and leaves the caller in the repository root.
+#   PYTHON=/path/to/python3.11  interpreter for .venv (default python3.11)
+#   FSD_SKIP_INSTALL=1          reuse .venv as it is (no pip; fast re-runs)
+# Not `pip install -e .`: editable wheels drop `data_files` (package.xml, the
+# ament index marker, config/*.yaml under .venv/share/flight_sim_dynamics).
+# The tests import the source tree (`python -m pytest` puts the root first on
+# sys.path); reinstalling on every run keeps the console scripts current.
 
 if [ "$#" -ne 1 ]; then
     echo "_setup_env.sh: usage: source _setup_env.sh REQUIREMENTS_FILE" >&2

@@ -1,23 +1,22 @@
 #!/usr/bin/env bash
-# Run the test suite on a fresh machine (only Python 3.11 + PyPI needed):
-#   bash scripts/run_tests.sh [PYTEST_ARGS...]
-# Creates/reuses .venv, installs requirements-test.txt and the package, then
-# runs `python -m pytest -q test "$@"` and exits with pytest's exit code
-# (5 = no tests collected counts as a failure).
+# Run the tests on a fresh machine (only Python 3.11 + PyPI needed): creates or
+# reuses .venv, installs requirements-test.txt and the package, runs
+# `python -m pytest -q ARGS` and exits with pytest's code (5: nothing collected).
+#   bash scripts/run_tests.sh                              everything (CI)
+#   bash scripts/run_tests.sh -m "not ros and not slow"    the unit tier
+#   bash scripts/run_tests.sh test/core                    one folder
+# (no path given: test/; tiers: setup.cfg and test/conftest.py; FSD_SKIP_INSTALL=1: no pip)
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/_setup_env.sh" requirements-test.txt
 
-# Isolate the ROS 2 graph of this run: a random domain in 1..100 (inside Fast
-# DDS's default port range) and discovery limited to this machine, so parallel
-# runs and other robots on the network do not see each other.
-ROS_DOMAIN_ID=$((RANDOM % 100 + 1))
-export ROS_DOMAIN_ID
+# This run's ROS 2 graph to itself: the caller's ROS_DOMAIN_ID, else a random one
+# in 1..100 (Fast DDS's default port range), and discovery on this machine only.
+export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$((RANDOM % 100 + 1))}"
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 echo "[tests] ROS_DOMAIN_ID=$ROS_DOMAIN_ID ROS_AUTOMATIC_DISCOVERY_RANGE=$ROS_AUTOMATIC_DISCOVERY_RANGE"
 
-# The compiled kernel must be there: a failed build fails the run instead of
-# quietly testing the Python fallback only (FSD_REQUIRE_KERNEL=0 to allow it;
-# FSD_KERNEL=0 runs the whole suite on the Python code, see test/conftest.py).
+# A failed kernel build fails the run instead of quietly testing the Python code
+# only (FSD_REQUIRE_KERNEL=0 allows it; FSD_KERNEL=0 tests the Python code).
 export FSD_REQUIRE_KERNEL="${FSD_REQUIRE_KERNEL:-1}"
 
-exec python -m pytest -q test "$@"
+exec python -m pytest -q "$@"

@@ -1,10 +1,98 @@
-"""Shared pytest configuration."""
+"""Shared pytest configuration: test tiers, ROS 2 isolation, Hypothesis profiles."""
 from __future__ import annotations
 
 import os
 import random
+import shutil
+import subprocess
 
 import pytest
+
+
+# ---------------------------------------------------------------------------
+# Tiers (markers registered in setup.cfg, --strict-markers):
+#   ros   the test starts a process (the node, the command line, a tool) or
+#         uses DDS (an rclpy context);
+#   slow  long property sweeps and long simulations;
+#   unit  the rest: `bash scripts/run_tests.sh -m "not ros and not slow"`.
+# A test that starts a Python or shell process, or initialises rclpy, without
+# the ros mark fails (the unit tier must stay in-process and fast). Processes
+# started by libraries (e.g. matplotlib's fc-list) are not checked.
+# ---------------------------------------------------------------------------
+_running: list[pytest.Item] = []
+
+
+def _unmarked() -> pytest.Item | None:
+    """The test being run, if it has no ros mark."""
+    if _running and _running[-1].get_closest_marker('ros') is None:
+        return _running[-1]
+    return None
+
+
+def _runs_python_or_a_shell(args, executable) -> bool:
+    """The command runs Python (the interpreter or a console script) or a shell."""
+    if executable is None:
+        argv = (os.fsdecode(args).split() if isinstance(args, (str, bytes, os.PathLike))
+                else list(args))
+        executable = argv[0] if argv else ''
+    program = os.fsdecode(executable)
+    name = os.path.basename(program)
+    if name.startswith('python') or name in ('bash', 'sh'):
+        return True
+    try:
+        with open(shutil.which(program), 'rb') as f:
+            first_line = f.readline(200)
+    except (OSError, TypeError):        # not found (which: None) or unreadable
+        return False
+    return first_line.startswith(b'#!') and b'python' in first_line
+
+
+_popen_init = subprocess.Popen.__init__
+
+
+def _checked_popen_init(self, args, *rest, **kwargs):
+    item = _unmarked()
+    if item is not None and _runs_python_or_a_shell(args, kwargs.get('executable')):
+        pytest.fail(f'{item.nodeid} starts a process ({args!r}) but has no '
+                    '@pytest.mark.ros: mark it (or its module: pytestmark = pytest.mark.ros)',
+                    pytrace=False)
+    _popen_init(self, args, *rest, **kwargs)
+
+
+try:
+    from rclpy.context import Context as _RclpyContext
+except ImportError:                       # rclpy missing: nothing to check
+    _RclpyContext = None
+else:
+    _context_init = _RclpyContext.init
+
+    def _checked_context_init(self, *args, **kwargs):
+        item = _unmarked()
+        if item is not None:
+            pytest.fail(f'{item.nodeid} initialises rclpy (DDS) but has no @pytest.mark.ros: '
+                        'mark it (or its module: pytestmark = pytest.mark.ros)', pytrace=False)
+        return _context_init(self, *args, **kwargs)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    subprocess.Popen.__init__ = _checked_popen_init
+    if _RclpyContext is not None:
+        _RclpyContext.init = _checked_context_init
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    subprocess.Popen.__init__ = _popen_init
+    if _RclpyContext is not None:
+        _RclpyContext.init = _context_init
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None):
+    _running.append(item)          # its fixtures' set-up and teardown included
+    try:
+        return (yield)
+    finally:
+        _running.pop()
 
 
 # ---------------------------------------------------------------------------
@@ -28,9 +116,9 @@ def ros_isolation() -> None:
 #   ci    (default) 100 examples per property test. The workspace tests draw
 #         a batch of 24..32 samples per example, so each of them checks about
 #         2,500 (pose, rate, acceleration) cases per run, and the three
-#         hard-cases files together run in ~40 s on a 2-core machine.
+#         files below together run in ~10 s on a 2-core machine.
 #   long  20x as many examples (2000 per test, ~50,000 cases per workspace
-#         property; ~8 min for the three files): a soak run before a release,
+#         property; ~1.5 min for the three files): a soak run before a release,
 #         or after touching the solver, e.g.
 #             FSD_HYPOTHESIS_PROFILE=long PYTHONPATH=. python -m pytest -q \
 #                 test/core/test_workspace_properties.py test/core/test_hard_cases.py \

@@ -15,6 +15,8 @@ from flight_sim_dynamics.cli import csv_io
 from scripts import DOCS, block, markers, replace_block
 from scripts import node_param_table
 
+pytestmark = pytest.mark.ros
+
 ROOT = Path(__file__).resolve().parent.parent
 
 

@@ -80,6 +80,7 @@ def test_errors_name_the_users_path_not_the_temporary_file(tmp_path):
     assert 'out.csv' in str(info.value) and '.tmp' not in str(info.value)
 
 
+@pytest.mark.ros
 @pytest.mark.parametrize('signum', [signal.SIGTERM, signal.SIGHUP])
 def test_a_signal_during_the_write_leaves_no_temporary_file(tmp_path, signum):
     out = tmp_path / 'out.csv'
@@ -98,6 +99,7 @@ def test_a_signal_during_the_write_leaves_no_temporary_file(tmp_path, signum):
     assert not _leftovers(tmp_path) and not out.exists()
 
 
+@pytest.mark.ros
 def test_the_cli_writes_through_dev_null(tmp_path):
     traj = tmp_path / 'traj.csv'
     assert subprocess.run([sys.executable, '-m', 'flight_sim_dynamics', 'example', 'vertical',

@@ -74,6 +74,7 @@ def write_trajectory(path: Path, name: str = 'general', rate: float = 20.0) -> n
 # ----------------------------------------------------------------------------
 # The user's round trip, in a subprocess: example -> solve -> plot
 # ----------------------------------------------------------------------------
+@pytest.mark.ros
 def test_round_trip_as_a_user(tmp_path):
     r = run_cli('example', 'vertical', '-o', 'traj.csv', cwd=tmp_path)
     assert r.returncode == 0, r.stderr
@@ -106,6 +107,7 @@ def test_round_trip_as_a_user(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ['fig.png', 'out.csv', 'traj.csv']
 
 
+@pytest.mark.ros
 def test_error_as_a_user(tmp_path):
     (tmp_path / 'traj.csv').write_text(HEADER + '\n' + '0,' * 9 + 'x\n')
     r = run_cli('solve', 'traj.csv', '-o', 'out.csv', cwd=tmp_path)

@@ -15,6 +15,8 @@ from flight_sim_dynamics.cli.simulate import ERROR_COLUMNS, OUTPUT_COLUMNS
 from flight_sim_dynamics.config.files import default_params_path
 from test_cli import one_error_line, run_cli
 
+pytestmark = pytest.mark.ros
+
 RATE = '1000'
 
 

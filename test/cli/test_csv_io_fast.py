@@ -314,6 +314,7 @@ def test_solve_table_matches_plain_assembly(capsys, kwargs):
                        f'{sol.detail[bad[0]]}\n')
 
 
+@pytest.mark.ros
 def test_solve_imports_only_what_it_needs(tmp_path):
     """`solve` configures its own subparser only: the modules behind the other
     subcommands (bench, workspace, plotting) are not imported; --help still

@@ -37,6 +37,7 @@ def run_without_matplotlib(*argv: str, cwd: Path) -> subprocess.CompletedProcess
                           capture_output=True, text=True, timeout=300)
 
 
+@pytest.mark.ros
 def test_library_node_and_solve_need_no_matplotlib(tmp_path):
     r = run_without_matplotlib('example', 'general', '--rate', '10', '-o', 'traj.csv',
                                cwd=tmp_path)
@@ -48,6 +49,7 @@ def test_library_node_and_solve_need_no_matplotlib(tmp_path):
         assert (tmp_path / output).stat().st_size > 1000
 
 
+@pytest.mark.ros
 @pytest.mark.parametrize('argv', [
     ['plot', 'out.csv', '-o', 'fig.png'],
     ['plot', 'out.npz', '-o', 'fig.svg'],

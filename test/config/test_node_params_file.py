@@ -16,6 +16,8 @@ from flight_sim_dynamics.config import yaml_io
 from flight_sim_dynamics.config.errors import ParameterError
 from node_harness import ROOT, Client, NodeProcess
 
+pytestmark = pytest.mark.ros
+
 HEADER = 'flight_sim_dynamics:\n  ros__parameters:\n'
 
 

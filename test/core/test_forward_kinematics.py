@@ -1,4 +1,5 @@
-"""Forward kinematics: round trip through the inverse geometry, bad input."""
+"""Forward kinematics: round trip through the inverse geometry, lengths outside
+the workspace (bad input: test_hard_cases.py)."""
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
@@ -15,11 +16,9 @@ poses = st.tuples(st.floats(-0.12, 0.12), st.floats(-0.15, 0.15), st.floats(-0.5
 @settings(max_examples=150, deadline=None)
 @given(poses)
 def test_round_trip_through_inverse_geometry(q):
-    try:
-        lengths = fsd.solve(MODEL, q, (0, 0, 0), (0, 0, 0)).length
-    except fsd.UnreachablePoseError:
-        return                    # not a pose of the machine: nothing to round-trip
-    result = forward_kinematics(MODEL, lengths)
+    sol = fsd.solve(MODEL, q, (0, 0, 0), (0, 0, 0))
+    assert sol.status == Status.OK, sol.detail          # the box is inside the workspace
+    result = forward_kinematics(MODEL, sol.length)
     assert result.status == Status.OK, result.detail
     np.testing.assert_allclose(result.pose, q, atol=1e-9)
     assert result.residual <= 1e-12
@@ -36,31 +35,6 @@ def test_lengths_outside_the_workspace_are_unreachable(lengths):
     result = forward_kinematics(MODEL, lengths)
     assert result.status == Status.UNREACHABLE, result
     assert 'loop' in result.detail and np.all(result.pose == 0.0)
-
-
-@pytest.mark.parametrize('lengths, words', [
-    ([float('nan'), 1.3, 1.3], 'finite'),
-    ([1.1, float('inf'), 1.3], 'finite'),
-    ([1.1, -1.3, 1.3], 'positive'),
-])
-def test_garbage_gives_invalid_input(lengths, words):
-    result = forward_kinematics(MODEL, lengths)
-    assert result.status == Status.INVALID_INPUT and words in result.detail
-    assert np.all(np.isfinite(result.pose))
-
-
-@pytest.mark.parametrize('lengths', [
-    [1.1, 1.3],                 # two lengths: solve raises for two numbers too (issue 14 #11)
-    'abc',
-    [[1.1, 1.3, 1.3]],
-    [True, 1.3, 1.3],
-    ['1.1', 1.3, 1.3],
-    [10**400, 1.3, 1.3],
-    None,
-])
-def test_not_three_numbers_raises_value_error_as_solve_does(lengths):
-    with pytest.raises(ValueError, match='lengths must be 3 numbers'):
-        forward_kinematics(MODEL, lengths)
 
 
 def test_status_string_form_is_its_name():

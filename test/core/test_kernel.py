@@ -43,8 +43,8 @@ needs_kernel = pytest.mark.skipif(
 def test_the_kernel_is_built():
     """A failed build is a failure, not a silent fall back to the slow path
     (unless the caller says FSD_REQUIRE_KERNEL=0: a machine without a C compiler)."""
-    if os.environ.get('FSD_REQUIRE_KERNEL') == '0':
-        return
+    if not kernel.available() and os.environ.get('FSD_REQUIRE_KERNEL') == '0':
+        pytest.skip(f'FSD_REQUIRE_KERNEL=0 and the kernel is not built: {kernel.IMPORT_ERROR}')
     assert kernel.available(), kernel.IMPORT_ERROR
 
 
@@ -351,19 +351,18 @@ def test_pack_model_follows_the_exported_layout():
 
 @needs_kernel
 @pytest.mark.parametrize('change, words', [
-    (lambda d: d['EFFECTS'].pop('friction'), "effects: the kernel has [] more and ['friction']"),
-    (lambda d: d['EFFECTS'].update(spring=128), "effects: the kernel has ['spring'] more"),
-    (lambda d: d.update(BODIES=d['BODIES'][:-2] + ('payload',)),
-     "bodies: the kernel has [] more and ['crank_e']"),
-    (lambda d: d.update(LOOPS=tuple(reversed(d['LOOPS']))), 'loop order'),
-    (lambda d: d.update(STATUS=d['STATUS'] + ('broken',)), "statuses: the kernel has ['broken']"),
-    (lambda d: d['OUT'].update(force=(13, 3)), 'OUT does not cover its 68 doubles'),
-    (lambda d: d.update(P_SIZE=190), 'PACKED does not cover its 190 doubles'),
+    (lambda d: d['EFFECTS'].pop('friction'), 'friction'),
+    (lambda d: d['EFFECTS'].update(spring=128), 'spring'),
+    (lambda d: d.update(BODIES=d['BODIES'][:-2] + ('payload',)), 'crank_e'),
+    (lambda d: d.update(LOOPS=tuple(reversed(d['LOOPS']))), 'loop'),
+    (lambda d: d.update(STATUS=d['STATUS'] + ('broken',)), 'broken'),
+    (lambda d: d['OUT'].update(force=(13, 3)), 'OUT'),
+    (lambda d: d.update(P_SIZE=190), 'PACKED'),
     (lambda d: d.update(RESULTS_NOT_FINITE=-2), 'RESULTS_NOT_FINITE'),
 ])
 def test_a_kernel_that_disagrees_is_refused(change, words):
     """A kernel built from another src/kernel.c (or one lacking an effect or a
-    body the Python code has) is named as such, never used silently."""
+    body the Python code has) is refused, the problem naming what differs."""
     from flight_sim_dynamics.core import _kernel
     exported = {name: (dict(value) if isinstance(value, dict) else value)
                 for name, value in vars(_kernel).items() if name.isupper()}

@@ -87,6 +87,7 @@ def test_open_loop_round_trip_of_the_paper_motions(name):
     assert set(map(str, sim.status)) == {'ok'}
 
 
+@pytest.mark.slow
 def test_closed_loop_with_full_feedforward_and_exact_plant_tracks_the_violent_motion():
     sim = simulate(FAST, reference=motions.get('violent'), feedforward=FAST)
     assert sim.outcome == Status.OK
@@ -99,6 +100,7 @@ def test_closed_loop_with_full_feedforward_and_exact_plant_tracks_the_violent_mo
     assert none['length_max'] > 100 * errors['length_max'] and none['length_max'] > 1e-3
 
 
+@pytest.mark.slow
 def test_the_speed_limit_saturates_the_actuators():
     sim = simulate(MODEL, reference=motions.get('violent'), feedforward=MODEL)
     assert MODEL.limits.max_speed == 1.0
@@ -116,6 +118,7 @@ def test_the_speed_limit_saturates_the_actuators():
     assert np.max(np.abs(weak.force)) == 40.0
 
 
+@pytest.mark.slow
 def test_a_heavier_plant_than_the_controller_thinks_is_tracked_less_well():
     controller = fsd.load_model(scene='payload')             # 140 kg cab and occupant
     plant = replace(controller, payload=replace(controller.payload, mass=180.0))
@@ -180,6 +183,7 @@ def test_reference_from_samples_is_exact_at_the_rows_and_for_quintics():
     assert (ref.start, ref.end) == (0.0, 1.0)
 
 
+@pytest.mark.slow
 def test_closed_loop_from_csv_like_samples_matches_the_exact_motion():
     motion = motions.get('violent')
     t, q, qd, qdd = motion.sampled(1000.0)

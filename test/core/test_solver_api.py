@@ -27,13 +27,6 @@ def test_single_equals_batch():
                                        rtol=1e-13, atol=1e-13)
 
 
-def test_vertical_example_b_equals_c():
-    q, qd, qdd = paper_example('vertical', np.linspace(0, 3, 31))
-    sol = fsd.solve_batch(MODEL, q, qd, qdd)
-    np.testing.assert_allclose(sol.force[:, 1], sol.force[:, 2], rtol=1e-12)
-    np.testing.assert_allclose(sol.power[:, 1], sol.power[:, 2], rtol=1e-12, atol=1e-12)
-
-
 def test_heave_up_needs_more_force_than_down():
     up = fsd.solve(MODEL, [0, 0, 0], [0, 0, 0], [0, 2.0, 0]).force
     down = fsd.solve(MODEL, [0, 0, 0], [0, 0, 0], [0, -2.0, 0]).force

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.ros
+
 LAUNCH_FILE = Path(__file__).resolve().parents[2] / 'launch' / 'flight_sim_dynamics.launch.py'
 
 

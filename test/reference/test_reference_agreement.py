@@ -170,11 +170,8 @@ def test_vertical_example_forces_and_powers_of_b_and_c_equal():
 
 
 def test_paper_example_trajectories_are_eq6():
-    paper_example = getattr(fsd.trajectories, "paper_example", None)
-    if paper_example is None:
-        pytest.skip("flight_sim_dynamics.trajectories.paper_example not provided")
     for name in rm.PAPER_EXAMPLES:
-        for got, want in zip(paper_example(name, T), rm.paper_trajectory(name, T)):
+        for got, want in zip(fsd.trajectories.paper_example(name, T), rm.paper_trajectory(name, T)):
             assert np.asarray(got).shape == want.shape
             assert np.allclose(got, want, rtol=1e-13, atol=1e-15)
 

@@ -12,10 +12,13 @@ import math
 import re
 
 import numpy as np
+import pytest
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.core.trajectories import paper_example
 from node_harness import Client, all_finite, stamp_ns
+
+pytestmark = pytest.mark.ros
 
 NAN, INF = math.nan, math.inf
 STEP = 5_000_000                                 # 5 ms between stamps

@@ -8,6 +8,8 @@ import pytest
 
 from node_harness import ROOT
 
+pytestmark = pytest.mark.ros
+
 
 @pytest.mark.parametrize('module', ['ros.node', 'ros.planner', 'cli.demo'])
 def test_help(module):

@@ -32,6 +32,8 @@ from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.core.trajectories import paper_example
 from node_harness import PARAMS_FILE, Client, NodeProcess, all_finite, stamp_ns
 
+pytestmark = pytest.mark.ros
+
 SECONDS = float(os.environ.get('FSD_FUZZ_SECONDS', '4'))
 SEED = int(os.environ.get('FSD_FUZZ_SEED', str(random.randrange(2 ** 32))))
 STEP = 5_000_000

@@ -17,6 +17,8 @@ import pytest
 
 from node_harness import PARAMS_FILE, Client, NodeProcess, PlannerProcess, stamp_ns
 
+pytestmark = pytest.mark.ros
+
 STARTS = 3
 RATE = 500
 

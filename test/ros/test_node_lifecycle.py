@@ -9,12 +9,15 @@ from __future__ import annotations
 
 import time
 
+import pytest
 from lifecycle_msgs.msg import State, Transition
 from lifecycle_msgs.srv import ChangeState, GetAvailableTransitions, GetState
 
 from flight_sim_dynamics.config.parameters import NODE_NAME
 from flight_sim_dynamics.core.trajectories import paper_example
 from node_harness import PARAMS_FILE, Client, NodeProcess, stamp_ns
+
+pytestmark = pytest.mark.ros
 
 Q, QD, QDD = (v[0] for v in paper_example('general', [1.0]))
 

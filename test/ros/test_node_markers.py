@@ -7,6 +7,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+import pytest
 from visualization_msgs.msg import MarkerArray
 
 import flight_sim_dynamics as fsd
@@ -14,6 +15,8 @@ from flight_sim_dynamics.core.trajectories import paper_example
 from flight_sim_dynamics.ros.markers import SEGMENTS
 from node_harness import QOS, stamp_ns
 from test_markers import expected_points, xyz
+
+pytestmark = pytest.mark.ros
 
 
 def test_markers_show_the_solved_pose(client, model):

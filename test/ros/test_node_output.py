@@ -15,6 +15,8 @@ from sensor_msgs.msg import JointState
 from flight_sim_dynamics.core.model import JOINT_NAMES, LEG_NAMES
 from flight_sim_dynamics.ros.wire import JointStateOutput
 
+pytestmark = pytest.mark.ros
+
 
 def expected(names, frame, sec, nanosec, arrays) -> JointState:
     msg = JointState()

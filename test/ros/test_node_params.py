@@ -30,6 +30,8 @@ from flight_sim_dynamics.ros.parameter_service import (MAX_PARAMETERS_PER_REQUES
 from flight_sim_dynamics.ros.qos import default_qos
 from node_harness import ROOT, Client, NodeProcess, stamp_ns
 
+pytestmark = pytest.mark.ros
+
 Q, QD, QDD = (v[0] for v in paper_example('general', np.array([0.8])))
 
 

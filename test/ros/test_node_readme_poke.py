@@ -12,10 +12,13 @@ import re
 import time
 from typing import Any
 
+import pytest
 import yaml
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from node_harness import ROOT, stamp_ns
+
+pytestmark = pytest.mark.ros
 
 ONE_LINER = re.compile(r'ros2 topic pub --once (/\w+) (\S+) \\\n\s*"(\{.*?\})"\n')
 

@@ -23,6 +23,8 @@ from sensor_msgs.msg import JointState
 
 from node_harness import QOS, Client, NodeProcess, PlannerProcess, stamp_ns
 
+pytestmark = pytest.mark.ros
+
 STOPS = 10
 SEED = 15
 

@@ -24,6 +24,8 @@ import flight_sim_dynamics as fsd
 from flight_sim_dynamics.core.trajectories import paper_example
 from node_harness import PARAMS_FILE, Client, NodeProcess, all_finite, stamp_ns
 
+pytestmark = pytest.mark.ros
+
 STEP = 5_000_000                       # 5 ms between stamps
 Q, QD, QDD = (v[0] for v in paper_example('general', np.array([1.0])))
 

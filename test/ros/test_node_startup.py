@@ -10,6 +10,8 @@ import pytest
 
 from node_harness import ROOT
 
+pytestmark = pytest.mark.ros
+
 CASES = {
     'negative mass': (['-p', 'bodies.platform.mass:=-1.0'], 'bodies.platform.mass'),
     'nan mass': (['-p', 'bodies.platform.mass:=.nan'], 'bodies.platform.mass'),

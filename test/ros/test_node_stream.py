@@ -20,6 +20,8 @@ from flight_sim_dynamics.core.model import JOINT_NAMES, LEG_NAMES
 from flight_sim_dynamics.core.trajectories import paper_example
 from node_harness import Client, all_finite, stamp_ns
 
+pytestmark = pytest.mark.ros
+
 RATE = 200.0
 T0_NS = 1_700_000_000 * 1_000_000_000   # stamps: a fixed epoch, 5 ms apart
 

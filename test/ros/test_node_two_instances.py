@@ -7,8 +7,12 @@ and merged into one flickering entry.
 """
 from __future__ import annotations
 
+import pytest
+
 from flight_sim_dynamics.ros.diagnostics import diagnostic_name
 from node_harness import NODE_NAME, Client, NodeProcess
+
+pytestmark = pytest.mark.ros
 
 
 def test_two_namespaced_instances_are_two_diagnostic_entries():

@@ -35,6 +35,8 @@ from flight_sim_dynamics.ros.process import SIM_MODULE, start_node, stop_node
 from flight_sim_dynamics.ros.twin_intake import SIM_TASK
 from node_harness import PARAMS_FILE, QOS, ROOT, Client, NodeProcess, diagnostic_values
 
+pytestmark = pytest.mark.ros
+
 #: Largest |simulated - commanded| pose error allowed over the general motion
 #: (surge and heave m, roll rad). At the default 5 Hz servos with the full
 #: feed-forward of the same model, the error is the twin's lag behind the

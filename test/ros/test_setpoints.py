@@ -27,6 +27,8 @@ from flight_sim_dynamics.ros.inputs import (ABSURD_ACCELERATION, ACCEL, BAD_QUAT
 from flight_sim_dynamics.ros.node_config import NodeConfig, field_name
 from flight_sim_dynamics.ros.synchroniser import StampSynchroniser
 
+pytestmark = pytest.mark.ros
+
 angles = st.floats(-math.pi + 1e-6, math.pi - 1e-6)
 
 

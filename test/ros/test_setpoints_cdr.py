@@ -15,6 +15,8 @@ from rclpy.serialization import serialize_message
 from flight_sim_dynamics.ros.wire import (CDR_LE, StampedReader, read_pose_stamped,
                                           read_twist_stamped)
 
+pytestmark = pytest.mark.ros
+
 SPECIAL = (0.0, -0.0, 1e-300, -1e300, math.inf, -math.inf, math.nan, 5e-324)
 
 

@@ -22,6 +22,8 @@ from flight_sim_dynamics.ros.inputs import (ABSURD_ACCELERATION, BAD_SETPOINT, N
                                             platform_setpoints)
 from flight_sim_dynamics.ros.wire import CDR_LE, TrajectoryReader, read_joint_trajectory
 
+pytestmark = pytest.mark.ros
+
 INT32 = st.integers(-2 ** 31, 2 ** 31 - 1)
 UINT32 = st.integers(0, 2 ** 32 - 1)
 DOUBLES = st.floats(allow_nan=True, allow_infinity=True, width=64)
