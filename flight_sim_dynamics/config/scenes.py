@@ -114,7 +114,7 @@ def load_scene(scene: str | os.PathLike[str] | None = None) -> Scene:
     try:
         check_file_values(parameters, str(path))
     except ParameterError as exc:
-        raise SceneError(name, f"key '{exc.key}': {exc.reason}") from None
+        raise SceneError(name, str(exc)) from None
     packaged = path.resolve().parent == scenes_dir().resolve()
     return Scene(name=name, description=description, effects=Effects(**effects),
                  parameters=parameters, path=None if packaged else path)

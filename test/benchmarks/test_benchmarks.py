@@ -10,6 +10,9 @@ from pathlib import Path
 
 import pytest
 
+# every benchmark runs as its own process (python -m benchmarks.NAME)
+pytestmark = pytest.mark.ros
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -66,7 +69,6 @@ def test_twin_prints_the_real_time_factors_and_writes_the_figure(tmp_path):
     assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
 
 
-@pytest.mark.ros
 def test_node_prints_the_node_next_to_the_echo():
     t = table(run('benchmarks.node', '--quick'), 'target')
     for target in ('echo', 'node'):
