@@ -107,7 +107,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(table(['path', 'timed', 'runs', 'closed-loop real-time factor',
                  'open-loop real-time factor'], speed(plant, motion, repeats, python_s)))
     if args.out is not None:
-        motions = ('vertical',) if args.quick else (*TEST_MOTIONS, 'violent')
+        motions = ('vertical',) if args.quick else TEST_MOTIONS
         print()
         print(table(['motion', 'feed-forward', 'leg length max mm', 'leg length RMS mm'],
                     tracking(plant, motions, args.out)))
