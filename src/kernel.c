@@ -6,10 +6,10 @@
  * dynamics.py (and the status rule of status.py), line by line and in the
  * same order of operations, so that the two agree to round-off; the Python
  * code is the reference (it is itself checked against an independent
- * implementation in test/reference_model.py), and the test suite checks this
+ * implementation in test/reference/reference_model.py), and the test suite checks this
  * kernel against it for every combination of effects, random reachable
  * poses, unreachable poses, singular poses and garbage input
- * (test/test_kernel.py). Function names follow the Python ones.
+ * (test/core/test_kernel.py). Function names follow the Python ones.
  *
  * The model arrives as a packed array of doubles (core/kernel.py, pack_model,
  * in the layout PACKED_MODEL below, which this module exports) and a bit set

@@ -6,7 +6,7 @@ affine in the accelerations (f = M qdd + b).
   forces drawn up to the actuators' limit): for every sample whose status is
   ok or limit, ``solve(q, qd, forward_dynamics(q, qd, f).acceleration).force``
   is f to 1e-9 relative (to max(|f|, |b|, 1 N)), and the independent
-  reference model (test/reference_model.py) agrees on those forces too;
+  reference model (test/reference/reference_model.py) agrees on those forces too;
   every status is solve's, no NaN ever, zeros where the status is void;
 * the statuses of bad input, unreachable poses and singularities;
 * a scene without inertia is a clear error naming the scene.
@@ -62,7 +62,7 @@ def test_forward_dynamics_inverts_solve_over_the_workspace(batch, seed):
         allowed = RTOL * tolerance_factor(max(sol.kinematic_condition, sol.jacobian_condition))
         assert np.abs(sol.force - force[i]).max() <= allowed * scale, (where, sol.force)
         checked.append(i)
-    if checked:     # an independent method (virtual power, test/reference_model.py)
+    if checked:     # an independent method (virtual power, test/reference/reference_model.py)
         results = [fsd.forward_dynamics(MODEL, q[i], qd[i], force[i]) for i in checked]
         acc = np.array([r.acceleration for r in results])
         with np.errstate(all='ignore'):

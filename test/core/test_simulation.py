@@ -1,7 +1,7 @@
 """The digital twin's integrator (flight_sim_dynamics.core.simulation).
 
 * energy: friction off, gravity on, the mechanism's T + V from the
-  independent reference model (test/reference_model.py):
+  independent reference model (test/reference/reference_model.py):
   - zero actuator force: conserved to 1e-6 (relative to the peak kinetic
     energy) for as long as the falling mechanism stays in the workspace
     (from rest at heave 1.0 m: 0.56 s; a free fall of 1 s is 4.9 m, more than

@@ -6,7 +6,7 @@ change of the mechanism's mechanical energy at every instant:
     sol.power[A] + sol.power[B] + sol.power[C] = dE/dt
 
 The left side comes from the production solver (``flight_sim_dynamics``);
-dE/dt comes from the independent reference (test/reference_model.py), which
+dE/dt comes from the independent reference (test/reference/reference_model.py), which
 differentiates E(q, qd) = sum 1/2 m v.v + 1/2 w.I w + m g y_com exactly with
 Taylor jets.  Tolerance: 1e-9 relative, per sample, to the scale
 max(|dE/dt|, |P_A| + |P_B| + |P_C|, 1 W) (the 1 W floor covers the instants

@@ -1,7 +1,7 @@
 """Production solver against the independent reference model.
 
 The production solver (``flight_sim_dynamics``, the paper's recursive matrix
-method) and the reference (test/reference_model.py, Taylor jets through the
+method) and the reference (test/reference/reference_model.py, Taylor jets through the
 plain position geometry + virtual power) share no code.  They must agree on
 trajectories the production code has never seen.
 

@@ -1,4 +1,4 @@
-"""Self-tests of the independent reference model (test/reference_model.py).
+"""Self-tests of the independent reference model (test/reference/reference_model.py).
 
 They validate the reference on its own, without the production solver:
 check values of mechanism.md, loop closures, jets against central finite
