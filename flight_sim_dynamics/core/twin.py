@@ -1,35 +1,13 @@
-"""A real-time stepper of the digital twin: the plant under its actuator
-servos, advanced step by step as commands arrive. Numpy only.
+"""The digital twin in real time: the plant under its actuator servos,
+advanced step by step as commands arrive (the ``platform_sim`` node).
 
-:func:`.simulation.simulate` integrates a whole reference known in advance;
-a running machine (the ``platform_sim`` node) only knows the last command of
-each actuator servo, the leg length and rate references and a feed-forward
-force (what ``dynamics_node`` publishes on ``actuator_states``). The stepper
-holds that command (zero-order hold) and advances the state (q, qd) by the
-classical RK4 of :func:`.simulation.integrate` at a fixed step, every stage
-evaluating the servo law of :mod:`.simulation`,
-
-    command = f_ff + kp (L_ref - L) + kd (Ldot_ref - Ldot),
-
-saturated by the actuator (:func:`.simulation.deliver`), and the plant's
-forward dynamics M(q) qdd = f - b(q, qd) (eq. 14, 18-23; :mod:`.forward_dynamics`,
-through the stage function of :mod:`.simulation`).
-
-The first stage of a step is evaluated at the state reached by the previous
-one, so the measured leg lengths, rates and delivered forces of the current
-state come with it: four evaluations of M and b per step (one more after a
-new command, whose force law differs).
-
-With the compiled kernel enabled, :meth:`TwinStepper.advance` hands the
-steps to the kernel's RK4 loop (:func:`.kernel.integrate_rows`, the held
-command as a constant table: the same operations) and evaluates the first
-stage once at the state reached, for the measured values; a step the kernel
-cannot finish is taken by the Python loop, as :func:`.simulation.integrate`
-does.
-
-When a stage state is unreachable, near a singularity or not finite, the
-stepper stops (:attr:`TwinStepper.outcome`, :attr:`TwinStepper.detail`) and
-holds the last state reached, at rest: it never produces NaN.
+The last command (leg length and rate references, feed-forward force) is held
+(zero-order hold) and the state advanced by the RK4 of
+:func:`.simulation.integrate`, every stage evaluating the servo law and the
+forward dynamics M(q) qdd = f - b(q, qd) (eq. 14, 18-23). With the kernel
+enabled the steps run in C. A stage state that is unreachable, near a
+singularity or not finite stops the stepper (:attr:`TwinStepper.outcome`),
+which holds the last state reached, at rest: never a NaN.
 """
 from __future__ import annotations
 
@@ -72,8 +50,7 @@ class TwinStepper:
         self._ff = np.zeros(3)
         self.outcome = Status.OK             # ok while running, else why it stopped
         self.detail = ''
-        # the first stage of the current state: (qdd, delivered force, the
-        # plant's solve there), None when it must be evaluated again
+        # (qdd, delivered force, solve) of the current state's first stage; None: to evaluate
         self._first: tuple[np.ndarray, np.ndarray, Solution] | None = None
         self._base: Solution | None = None
         self._held: Solution | None = None       # the solve of the last good state
@@ -101,9 +78,7 @@ class TwinStepper:
             self._evaluate_first()
 
     def _law(self, j: int, base: Solution) -> np.ndarray:
-        """The delivered force of the servo law at a stage (``j`` unused: the
-        command is held over the step).
-        """
+        """The delivered force of the servo law (``j`` unused: the command is held)."""
         self._base = base
         command = (self._ff + self._kp * (self._length_ref - base.length)
                    + self._kd * (self._rate_ref - base.rate))
