@@ -1,18 +1,9 @@
 """Inverse dynamics: paper Section 3, eq. (18)-(23).
 
-For every body the *required wrench* (the negative of the paper's inertia
-wrench plus weight, eq. 21) is computed about the joint centre of its frame
-(eq. 18-19); the wrenches are accumulated backwards along each open chain
-A, B, C and the cranks D, E (eq. 20, 22); and the actuator forces follow from
-the principle of virtual work with the three virtual motions of eq. (14),
-whose virtual joint velocities come from the connectivity relations (11)
-(eq. 23). Vectors are 3-tuples of components in the fixed frame
-(:mod:`.vectors`, :mod:`.kinematics`).
-
-Only the effects of the model's scene are computed (:mod:`.effects`): a body
-without inertia gets no motion computed at all, a scene without gravity no
-weights, a scene without velocity products none of the centrifugal and
-Coriolis terms.
+Each body's required wrench (eq. 18-19, 21) about its joint centre, summed
+backwards along the chains A, B, C and the cranks D, E (eq. 20, 22); the
+actuator forces by virtual work with the virtual motions of eq. (14) (eq. 23).
+Only the effects of the model's scene are computed (:mod:`.effects`).
 """
 from __future__ import annotations
 
@@ -25,9 +16,7 @@ from .model import ACTUATED_JOINTS, BODY_NAMES, Body, Model
 from .vectors import (Scalar, Vec, add, axpy, cross, dot, from_frame, mat_vec, scale, sub,
                       to_frame, zx)
 
-#: Bodies moved by each inertia effect: the cranks, the platform (with the
-#: payload, which is not one of the model's BODY_NAMES), and the rest of
-#: BODY_NAMES, the bodies of chains A, B, C (leg_inertia).
+#: Bodies moved by each inertia effect (the payload is not one of BODY_NAMES).
 CRANK_BODIES = ('crank_d', 'crank_e')
 PLATFORM_BODIES = ('platform', 'payload')
 LEG_BODIES = tuple(name for name in BODY_NAMES if name not in CRANK_BODIES + PLATFORM_BODIES)
@@ -61,11 +50,9 @@ class BodyState:
 
 def body_states(model: Model, g: Geometric, V: list | None, Gamma: list | None,
                 qd: tuple, qdd: tuple) -> dict[str, BodyState]:
-    """Frames of the bodies with mass and, for those whose inertia the scene
-    simulates, their absolute angular velocity, angular acceleration and
-    centre-of-mass acceleration, composed along each chain from the relative
-    joint rates V (eq. 13) and accelerations Gamma (eq. 15). A body that has
-    neither weight nor inertia in the scene is left out.
+    """Frames of the bodies the scene weighs or moves and, for the moving ones,
+    omega, epsilon and the centre-of-mass acceleration from V (eq. 13) and
+    Gamma (eq. 15).
     """
     effects = model.effects
     geom = model.geometry
