@@ -1,11 +1,9 @@
-"""Command line: ``flight-sim-dynamics COMMAND`` (also ``python -m
-flight_sim_dynamics``); ``--help`` lists the commands. ``node``, ``sim``,
-``demo-planner`` and ``demo`` hand the rest of the command line to their
-module (they need rclpy), the others are parsed here.
+"""Command line: ``flight-sim-dynamics COMMAND`` (``--help`` lists them).
 
-Every error ends the run with exit status 2 and one line ``error: ...`` on
-standard error (no traceback), and leaves no partial output file: outputs are
-written to a temporary file and moved into place at the very end.
+``node``, ``sim``, ``demo-planner`` and ``demo`` hand the rest of the command
+line to their module (rclpy); the others are parsed here. Every error is exit
+status 2 and one line ``error: ...`` on standard error, and leaves no
+partial output file.
 """
 from __future__ import annotations
 
@@ -64,9 +62,7 @@ class CliError(Exception):
 
 def load_model(params: str | None, scene: str | None = None, option: str = '--params',
                scene_option: str = '--scene') -> Model:
-    """The model of ``--params`` (None: packaged defaults) and ``--scene``; a
-    CliError names the option at fault (``option``, ``scene_option``).
-    """
+    """The model of ``--params`` and ``--scene``; a CliError names the option at fault."""
     if params is not None and not os.path.isfile(params):
         raise CliError(f"{option} {params}: no such file")
     try:
@@ -84,9 +80,6 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"error: {message} (see '{self.prog} --help')\n")
 
 
-# ----------------------------------------------------------------------------
-# example
-# ----------------------------------------------------------------------------
 def _configure_example(p: argparse.ArgumentParser) -> None:
     p.add_argument('name', choices=tuple(PAPER_EXAMPLES),
                    help='which of the paper\'s three motions (eq. 6): vertical (Figs. 3-4), '
@@ -112,9 +105,6 @@ def cmd_example(args: argparse.Namespace) -> int:
     return 0
 
 
-# ----------------------------------------------------------------------------
-# solve
-# ----------------------------------------------------------------------------
 def _configure_solve(p: argparse.ArgumentParser) -> None:
     p.add_argument('input', metavar='TRAJ_CSV',
                    help="trajectory CSV ('-' for standard input) with the header "
@@ -149,9 +139,7 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
 
 def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond: bool = False
                 ) -> tuple[tuple[str, ...], np.ndarray, list[str]]:
-    """Solve every row of a trajectory table; returns (column names, data,
-    status of each row).
-    """
+    """Solve every row of a trajectory table: (column names, data, statuses)."""
     col = {name: j for j, name in enumerate(table.names)}
     data = table.data
 
@@ -183,10 +171,7 @@ def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond:
 
 def report_not_ok(prefix: str, status: Sequence, detail: Sequence,
                   where: Callable[[int], str]) -> None:
-    """Nothing is dropped silently: rows whose status is not ok are written
-    (with their status) and summarised on standard error, the first one
-    placed by ``where(row)``.
-    """
+    """Summarise the rows that are not ok on standard error, the first placed by ``where``."""
     words = [str(s) for s in status]
     bad = [i for i, w in enumerate(words) if w != 'ok']
     if bad:
@@ -197,12 +182,9 @@ def report_not_ok(prefix: str, status: Sequence, detail: Sequence,
 
 def read_trajectory(path: str | os.PathLike[str], model: Model) -> csv_io.Table:
     """The trajectory table of ``path`` with every column of
-    :data:`~.csv_io.TRAJECTORY_COLUMNS`: read, or, when the file gives poses
-    only (or poses and rates), estimated as the node estimates them (causal
-    backward differences, :class:`~..ros.estimator.DerivativeEstimator`);
-    notes on standard error name what was ignored and what was estimated. A
-    group of three columns is estimated only when none of them is named (a
-    partial group is read, so that the reader reports the missing column).
+    :data:`~.csv_io.TRAJECTORY_COLUMNS`; a group of three that none of the
+    columns names (rates, accelerations) is estimated from the poses as the
+    node does, with a note on standard error.
     """
     raw = csv_io.read_bytes(path)
     header = raw.partition(b'\n')[0].decode('utf-8', 'replace').lstrip('\ufeff')
@@ -254,9 +236,6 @@ def cmd_solve(args: argparse.Namespace) -> int:
     return 0
 
 
-# ----------------------------------------------------------------------------
-# forward
-# ----------------------------------------------------------------------------
 def _configure_forward(p: argparse.ArgumentParser) -> None:
     p.add_argument('lengths', nargs='*', type=float, metavar='L',
                    help='three leg lengths L_A L_B L_C (m, joint centre to joint centre)')
@@ -299,10 +278,7 @@ def cmd_forward(args: argparse.Namespace) -> int:
     return 0
 
 
-# ----------------------------------------------------------------------------
-# Subcommands that hand the rest of the command line to another module
-# (ROS 2 parts: imported only when used, so the CLI works without rclpy).
-# ----------------------------------------------------------------------------
+#: Subcommands handed to their module, imported only when used (no rclpy needed otherwise).
 FORWARDED: dict[str, tuple[str, str]] = {
     'node': ('flight_sim_dynamics.ros.node', 'run the ROS 2 inverse-dynamics node '
              '(e.g. node --ros-args --params-file FILE)'),
@@ -355,9 +331,6 @@ def plot_extra_message(command: str) -> str:
     return f"{command} needs matplotlib: pip install 'flight_sim_dynamics[plot]'"
 
 
-# ----------------------------------------------------------------------------
-# Registry and entry point
-# ----------------------------------------------------------------------------
 def _lazy(module: str) -> tuple[Callable[[argparse.ArgumentParser], None],
                                  Callable[[argparse.Namespace], int]]:
     """configure/run of a subcommand module, imported only when it is used."""
@@ -392,9 +365,8 @@ SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
 
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
-    """The command-line parser. ``only``: configure just that subcommand (the
-    one being run; the others stay listed in --help), so that running one
-    does not import the modules of all the others.
+    """The command-line parser; ``only``: configure just that subcommand (no
+    import of the others' modules).
     """
     parser = _Parser(
         prog=PROG,

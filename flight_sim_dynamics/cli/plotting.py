@@ -1,9 +1,6 @@
 """``flight-sim-dynamics plot``: force and power plots of the three actuators
-(the paper's Figs. 3-8) from the output of ``solve``.
-
-Uses matplotlib's object-oriented API (``matplotlib.figure.Figure``, no
-pyplot, no global backend state): rendering goes through the Agg canvas, so
-no display is needed.
+(the paper's Figs. 3-8) from the output of ``solve``; matplotlib's
+object-oriented API, no pyplot, no display.
 """
 from __future__ import annotations
 
@@ -19,8 +16,7 @@ from .main import LENGTH_COLUMNS, PLOT_COLUMNS, CliError
 ACTUATORS = ('A', 'B', 'C')
 #: The colour of each actuator in every figure (plot, animate).
 LEG_COLOURS = ('tab:blue', 'tab:orange', 'tab:green')
-# B and C are equal in the vertical example: C dashed on top of a solid B
-# keeps both visible where they coincide.
+# C dashed over B: they coincide in the vertical example
 _STYLES = (dict(color=LEG_COLOURS[0], linestyle='-', linewidth=1.8),
            dict(color=LEG_COLOURS[1], linestyle='-', linewidth=3.0, alpha=0.8),
            dict(color=LEG_COLOURS[2], linestyle='--', linewidth=1.6))
@@ -51,11 +47,8 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
                        title: str, labels: Sequence[str] = ACTUATORS,
                        unsolved: np.ndarray | None = None):
-    """A two-axes figure: actuator forces (N) above, powers (W) below, vs t (s).
-
-    Rows in ``unsolved`` (no solution: unreachable or invalid input, written as
-    zeros by ``solve``) are left out of the curves and shaded, so that no
-    flat 0 N line passes for a force.
+    """A two-axes figure: actuator forces (N) above, powers (W) below, vs t (s);
+    ``unsolved`` rows are shaded, not drawn as 0 N.
     """
     from matplotlib.figure import Figure
 
@@ -93,9 +86,7 @@ def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
 def plot_forces_powers(t: np.ndarray, force: np.ndarray, power: np.ndarray,
                        output: str | os.PathLike[str], *, title: str, dpi: int = 100,
                        unsolved: np.ndarray | None = None) -> None:
-    """Write the force/power figure to ``output`` (format from the extension),
-    atomically: a failed run leaves no partial image and keeps an old one.
-    """
+    """Write the force/power figure to ``output`` atomically (format from the extension)."""
     fmt = output_format(output)
     fig = force_power_figure(t, force, power, title=title, unsolved=unsolved)
     with atomic_output(output) as f:

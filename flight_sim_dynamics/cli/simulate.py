@@ -1,24 +1,13 @@
 """``flight-sim-dynamics simulate``: the digital twin on files
 (:func:`flight_sim_dynamics.simulate`, RK4 at a fixed step).
 
-Open loop: ``--forces CSV`` with the columns ``t,force_a,force_b,force_c``
-(any order; other columns, e.g. the rest of ``solve``'s output, are not
-used), interpolated between rows by a cubic Hermite spline (O(dt^4), see
-:mod:`flight_sim_dynamics.core.simulation`).
-
-Closed loop: a reference motion, ``--reference CSV`` (the trajectory file
-``solve`` reads) or ``--motion NAME`` (the registry of
-:mod:`flight_sim_dynamics.core.motions`), tracked by PD servos on the leg
-lengths (``--bandwidth`` or ``--gains``) with the feed-forward of
-``--feedforward`` (a scene, a scene file, or none), computed with the
-controller's parameters (``--params``), driving the plant (``--plant-params``,
-``--plant-scene``).
-
-Output: the columns ``solve`` reads (t, pose, rates, accelerations), then leg
-lengths, rates and delivered forces, in closed loop the tracking errors
-(simulated minus reference), and a status per row. A run that stops (the
-motion leaves the workspace or nears a singularity) writes the rows up to
-the stop, warns on standard error and exits with status 1.
+Open loop: ``--forces CSV`` (``t,force_a,force_b,force_c``). Closed loop:
+``--reference CSV`` or ``--motion NAME`` tracked by PD servos on the leg
+lengths (``--bandwidth`` or ``--gains``) with the ``--feedforward`` scene's
+forces, driving the plant (``--plant-params``, ``--plant-scene``). Writes the
+trajectory columns, leg lengths, rates, delivered forces, the tracking errors
+(closed loop) and a status per row; a run that stops writes the rows up to
+the stop, warns and exits with status 1.
 """
 from __future__ import annotations
 
