@@ -174,6 +174,27 @@ def _stage(plant: Model, q: np.ndarray, qd: np.ndarray, law: ForceLaw, j: int
     return qdd, force, status, detail
 
 
+def rk4_step(plant: Model, q: np.ndarray, qd: np.ndarray, a1: np.ndarray, law: ForceLaw,
+             j: int, h: float) -> tuple[np.ndarray, np.ndarray, Status, str]:
+    """The rest of one RK4 step from (q, qd) whose first stage gave a1 (half-step
+    index j): the new (q, qd), ok; or the status and detail of a stage that stops.
+    """
+    q2, v2 = q + 0.5 * h * qd, qd + 0.5 * h * a1
+    a2, _, status, detail = _stage(plant, q2, v2, law, j + 1)
+    if status == Status.OK:
+        q3, v3 = q + 0.5 * h * v2, qd + 0.5 * h * a2
+        a3, _, status, detail = _stage(plant, q3, v3, law, j + 1)
+    if status == Status.OK:
+        q4, v4 = q + h * v3, qd + h * a3
+        a4, _, status, detail = _stage(plant, q4, v4, law, j + 2)
+    if status == Status.OK:
+        q = q + (h / 6.0) * (qd + 2.0 * (v2 + v3) + v4)
+        qd = qd + (h / 6.0) * (a1 + 2.0 * (a2 + a3) + a4)
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
+            status, detail = Status.INVALID_INPUT, 'state not finite: forces too large'
+    return q, qd, status, detail
+
+
 def integrate(plant: Model, t0: float, step: float, steps: int, q0: np.ndarray,
               qd0: np.ndarray, law: ForceLaw) -> tuple:
     """RK4 of (q, qd) from (q0, qd0) at t0 over ``steps`` steps, the force law
@@ -206,19 +227,7 @@ def integrate(plant: Model, t0: float, step: float, steps: int, q0: np.ndarray,
             break
         if k == steps:
             break
-        q2, v2 = q + 0.5 * h * qd, qd + 0.5 * h * a1
-        a2, _, status, detail = _stage(plant, q2, v2, law, 2 * k + 1)
-        if status == Status.OK:
-            q3, v3 = q + 0.5 * h * v2, qd + 0.5 * h * a2
-            a3, _, status, detail = _stage(plant, q3, v3, law, 2 * k + 1)
-        if status == Status.OK:
-            q4, v4 = q + h * v3, qd + h * a3
-            a4, _, status, detail = _stage(plant, q4, v4, law, 2 * k + 2)
-        if status == Status.OK:
-            q = q + (h / 6.0) * (qd + 2.0 * (v2 + v3) + v4)
-            qd = qd + (h / 6.0) * (a1 + 2.0 * (a2 + a3) + a4)
-            if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
-                status, detail = Status.INVALID_INPUT, 'state not finite: forces too large'
+        q, qd, status, detail = rk4_step(plant, q, qd, a1, law, 2 * k, h)
         if status != Status.OK:
             outcome, why, n = status, (f'step from t = {t0 + k * h:.6g} s: {detail}'), k + 1
             break

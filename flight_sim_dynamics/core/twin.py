@@ -18,7 +18,7 @@ import numpy as np
 
 from . import kernel
 from .model import Model
-from .simulation import Servo, _stage, deliver
+from .simulation import Servo, _stage, deliver, rk4_step
 from .solver import Solution
 from .status import Status
 
@@ -151,24 +151,11 @@ class TwinStepper:
 
     def _python_step(self) -> bool:
         """One RK4 step in Python; False when the stepper stopped instead."""
-        h = self.step
         if self._first is None and not self._evaluate_first():
             return False
-        a1 = self._first[0]
-        q, qd = self.q, self.qd
-        q2, v2 = q + 0.5 * h * qd, qd + 0.5 * h * a1
-        a2, _, status, detail = _stage(self.plant, q2, v2, self._law, 1)
-        if status is Status.OK:
-            q3, v3 = q + 0.5 * h * v2, qd + 0.5 * h * a2
-            a3, _, status, detail = _stage(self.plant, q3, v3, self._law, 1)
-        if status is Status.OK:
-            q4, v4 = q + h * v3, qd + h * a3
-            a4, _, status, detail = _stage(self.plant, q4, v4, self._law, 2)
-        if status is Status.OK:
-            q_new = q + (h / 6.0) * (qd + 2.0 * (v2 + v3) + v4)
-            qd_new = qd + (h / 6.0) * (a1 + 2.0 * (a2 + a3) + a4)
-            if not (np.all(np.isfinite(q_new)) and np.all(np.isfinite(qd_new))):
-                status, detail = Status.INVALID_INPUT, 'state not finite: forces too large'
+        q = self.q
+        q_new, qd_new, status, detail = rk4_step(self.plant, q, self.qd, self._first[0],
+                                                 self._law, 0, self.step)
         if status is not Status.OK:
             self._stop(status, f'step from t = {self.time:.6g} s: {detail}')
             return False
