@@ -98,15 +98,7 @@ def solve_accelerations(M: np.ndarray, b: np.ndarray, force: np.ndarray
     return qdd, Status.OK, ''
 
 
-def _force_vector(force: Sequence[float]) -> np.ndarray:
-    """Three real numbers, or ValueError naming the argument (as solve's q)."""
-    try:
-        arr = np.asarray(force, dtype=float)
-    except (TypeError, ValueError):
-        arr = None
-    if arr is None or arr.shape != (3,) or isinstance(force, (str, bytes)):
-        raise ValueError(f'force must be 3 numbers (legs A, B, C, N), got {force!r:.200}')
-    return arr
+
 
 
 def forward_dynamics(model: Model, q: Sequence[float], qd: Sequence[float],
@@ -117,7 +109,7 @@ def forward_dynamics(model: Model, q: Sequence[float], qd: Sequence[float],
     three numbers and for a scene without inertia.
     """
     require_inertia(model)
-    f = _force_vector(force)
+    f = np.array(three_numbers('force', force))
     M, b, base = affine_terms(model, q, qd)     # validates q, qd (ValueError)
     zero = np.zeros(3)
     if SEVERITY[base.status] >= 3:
