@@ -52,9 +52,6 @@ class Solved:
     status: list[str]        # one word per row ('ok' when the file has none)
     pose: np.ndarray | None  # (N, 3) surge, heave, roll if the file has them
 
-    def __len__(self) -> int:
-        return len(self.t)
-
 
 @dataclass(frozen=True)
 class Frame:
