@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import argparse
 import os
-from typing import Sequence
 
 import numpy as np
 
@@ -45,8 +44,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 
 
 def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
-                       title: str, labels: Sequence[str] = ACTUATORS,
-                       unsolved: np.ndarray | None = None):
+                       title: str, unsolved: np.ndarray | None = None):
     """A two-axes figure: actuator forces (N) above, powers (W) below, vs t (s);
     ``unsolved`` rows are shaded, not drawn as 0 N.
     """
@@ -59,10 +57,9 @@ def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
     force[unsolved], power[unsolved] = np.nan, np.nan
     fig = Figure(figsize=(8.0, 7.0), dpi=100, layout='constrained')
     ax_f, ax_p = fig.subplots(2, 1, sharex=True)
-    for i, name in enumerate(labels):
-        style = _STYLES[i % len(_STYLES)]
-        ax_f.plot(t, force[:, i], label=f'actuator {name}', **style)
-        ax_p.plot(t, power[:, i], label=f'actuator {name}', **style)
+    for name, style, f, p in zip(ACTUATORS, _STYLES, force.T, power.T):
+        ax_f.plot(t, f, label=f'actuator {name}', **style)
+        ax_p.plot(t, p, label=f'actuator {name}', **style)
     step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     for k, (first, last) in enumerate(_runs(unsolved)):
         for ax in (ax_f, ax_p):
@@ -81,16 +78,6 @@ def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
     ax_p.axhline(0.0, color='0.4', linewidth=0.8)
     fig.suptitle(title)
     return fig
-
-
-def plot_forces_powers(t: np.ndarray, force: np.ndarray, power: np.ndarray,
-                       output: str | os.PathLike[str], *, title: str, dpi: int = 100,
-                       unsolved: np.ndarray | None = None) -> None:
-    """Write the force/power figure to ``output`` atomically (format from the extension)."""
-    fmt = output_format(output)
-    fig = force_power_figure(t, force, power, title=title, unsolved=unsolved)
-    with atomic_output(output) as f:
-        fig.savefig(f, format=fmt, dpi=dpi)
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -119,8 +106,8 @@ def default_title(path: str) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    """The ``plot`` command."""
-    output_format(args.output)      # fail before reading a large file
+    """The ``plot`` command: the figure written atomically."""
+    fmt = output_format(args.output)      # fail before reading a large file
     if not 1 <= args.dpi <= 1200:
         raise CliError(f'--dpi must be between 1 and 1200, got {args.dpi}')
     table = read_table(args.input, required=PLOT_COLUMNS, optional=LENGTH_COLUMNS)
@@ -131,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
     lengths = [n for n in LENGTH_COLUMNS if n in table.names]
     unsolved = (np.all(np.column_stack([table[n] for n in lengths]) == 0.0, axis=1)
                 if lengths else None)
-    plot_forces_powers(table['t'], force, power, args.output, title=title, dpi=args.dpi,
-                       unsolved=unsolved)
+    fig = force_power_figure(table['t'], force, power, title=title, unsolved=unsolved)
+    with atomic_output(args.output) as f:
+        fig.savefig(f, format=fmt, dpi=args.dpi)
     return 0
