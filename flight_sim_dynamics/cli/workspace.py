@@ -16,7 +16,7 @@ import os
 import shlex
 import sys
 import time
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -35,13 +35,13 @@ DEFAULT_ROLLS = (0.0, 15.0, 30.0, 45.0)
 DEFAULT_RESOLUTION = 201
 
 
-def _intervals_text(line: LineRanges, which: str, digits: int = 3) -> str:
+def _intervals_text(line: LineRanges, which: str) -> str:
     ivs = line.intervals[which]
     if not ivs:
         return 'none'
     centre = line.through_centre(which)
     ordered = ([centre] if centre else []) + [iv for iv in ivs if iv is not centre]
-    parts = [iv.text(digits) for iv in ordered]
+    parts = [iv.text() for iv in ordered]
     if centre is None:
         return 'not through 0: ' + '; '.join(parts)
     return parts[0] + ('' if len(parts) == 1 else '; also ' + '; '.join(parts[1:]))
@@ -52,7 +52,6 @@ def _fmt_statuses(counts: dict[str, int]) -> str:
     if set(counts) == {'ok'}:
         return f'all {total} ok'
     return ', '.join(f'{n} {s}' for s, n in counts.items()) + f' (of {total})'
-
 
 
 def _shares_text(shares: dict[str, float]) -> str:
@@ -388,17 +387,6 @@ def _check(args: argparse.Namespace) -> None:
                              'not exist')
 
 
-def compute(model: Model, args: argparse.Namespace,
-            progress: Callable[[str], None] = lambda s: None) -> list[RollResult]:
-    """Sample every roll angle: maps, line intervals, areas."""
-    results = []
-    for roll in args.rolls:
-        progress(f'roll {roll:+g} deg')
-        results.append(sample_roll(model, roll, args.range, None if args.no_zoom else args.zoom,
-                                   args.resolution, args.color_by == 'cond'))
-    return results
-
-
 def run(args: argparse.Namespace) -> int:
     """The ``workspace`` subcommand: figure, summary on stdout, optional markdown."""
     t0 = time.perf_counter()
@@ -408,7 +396,11 @@ def run(args: argparse.Namespace) -> int:
     def progress(msg: str) -> None:
         print(f'[workspace] {msg}', file=sys.stderr, flush=True)
 
-    results = compute(model, args, progress)
+    results = []
+    for roll in args.rolls:
+        progress(f'roll {roll:+g} deg')
+        results.append(sample_roll(model, roll, args.range, None if args.no_zoom else args.zoom,
+                                   args.resolution, args.color_by == 'cond'))
     motions = paper_motions(model)
     progress(f'plotting {args.output}')
     plot(results, model, args.output, args)

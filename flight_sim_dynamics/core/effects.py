@@ -26,7 +26,6 @@ from __future__ import annotations
 from dataclasses import dataclass, fields, replace
 
 
-
 @dataclass(frozen=True)
 class Effects:
     """Which physical effects the solver computes (defaults: the paper's model);
@@ -64,5 +63,3 @@ class Effects:
 
 #: The effects, in the order of the fields of :class:`Effects` (declared there only).
 EFFECT_NAMES = tuple(f.name for f in fields(Effects))
-
-

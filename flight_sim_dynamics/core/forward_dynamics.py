@@ -98,9 +98,6 @@ def solve_accelerations(M: np.ndarray, b: np.ndarray, force: np.ndarray
     return qdd, Status.OK, ''
 
 
-
-
-
 def forward_dynamics(model: Model, q: Sequence[float], qd: Sequence[float],
                      force: Sequence[float]) -> ForwardDynamics:
     """Accelerations (surge, heave, roll) that actuator forces ``force`` (N, A,

@@ -192,5 +192,3 @@ class PlannerSequence:
                     -end_q * dds[0] / length ** 2, label)
         q, qd, qdd = motion(label, local)
         return q[0], qd[0], qdd[0], label
-
-

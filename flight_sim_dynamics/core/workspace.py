@@ -144,9 +144,8 @@ class Interval:
     def contains(self, x: float) -> bool:
         return self.lo <= x <= self.hi
 
-    def text(self, digits: int = 3) -> str:
-        return (f'[{self.lo:+.{digits}f} ({self.lo_cause}), '
-                f'{self.hi:+.{digits}f} ({self.hi_cause})]')
+    def text(self) -> str:
+        return f'[{self.lo:+.3f} ({self.lo_cause}), {self.hi:+.3f} ({self.hi_cause})]'
 
 
 def classify(model: Model, q: np.ndarray) -> tuple[np.ndarray, Callable[[int], str]]:
@@ -333,7 +332,6 @@ def general_pose_at_roll(roll_deg: float) -> tuple[float, float] | None:
     return 2.0 * x * frac, 2.0 * y * frac
 
 
-
 @dataclass
 class RollResult:
     roll_deg: float
@@ -342,7 +340,6 @@ class RollResult:
     areas: Areas
     overview: RollMap
     zoom: RollMap | None
-
 
 
 def _outside_cause(model: Model, rm: RollMap) -> np.ndarray:
@@ -393,7 +390,6 @@ def boundary_shares(model: Model, rm: RollMap, which: str) -> dict[str, float]:
         total['edge of the panel'] = float(edge)
     s = sum(total.values())
     return {k: v / s for k, v in sorted(total.items(), key=lambda kv: -kv[1])} if s else {}
-
 
 
 def sample_roll(model: Model, roll_deg: float, extent: Sequence[float],
