@@ -23,21 +23,14 @@ fi
 
 # a set-up step, with its elapsed time every 10 s (pip --quiet is silent)
 fsd_step() {
-    local what="$1"; shift
-    local start=$SECONDS
+    local what="$1" start=$SECONDS pid rc=0; shift
     echo "[setup] $what ..."
-    "$@" &
-    local pid=$!
-    while kill -0 "$pid" 2>/dev/null; do
-        sleep 1
-        if kill -0 "$pid" 2>/dev/null && [ $(((SECONDS - start) % 10)) -eq 0 ] \
-                && [ $((SECONDS - start)) -gt 0 ]; then
-            echo "[setup]   ... $what: $((SECONDS - start)) s"
-        fi
+    "$@" & pid=$!
+    while sleep 1 && kill -0 "$pid" 2>/dev/null; do
+        if [ $(((SECONDS - start) % 10)) -eq 0 ]; then echo "[setup]   ... $what: $((SECONDS - start)) s"; fi
     done
-    local rc=0
     wait "$pid" || rc=$?
-    [ "$rc" -eq 0 ] && echo "[setup]   $what: done in $((SECONDS - start)) s"
+    if [ "$rc" -eq 0 ]; then echo "[setup]   $what: done in $((SECONDS - start)) s"; fi
     return "$rc"
 }
 

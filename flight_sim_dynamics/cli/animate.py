@@ -134,14 +134,7 @@ def frames(model: fsd.Model, solved: Solved, rows: np.ndarray) -> list[Frame]:
     return out
 
 
-def check_options(fps: float, every: int | None, dpi: int) -> None:
-    """The rendering options, or a CliError naming the bad one."""
-    if not (math.isfinite(fps) and 0 < fps <= 100):
-        raise CliError(f'--fps must be a number of frames per second in (0, 100], got {fps:g}')
-    if every is not None and every < 1:
-        raise CliError(f'--every must be a positive number of rows, got {every}')
-    if not 10 <= dpi <= 600:
-        raise CliError(f'--dpi must be between 10 and 600, got {dpi}')
+
 
 
 #: Output suffix -> the matplotlib movie writer that encodes it (None: a still).
@@ -189,13 +182,7 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help='the parameter file solve used (default: the packaged parameters)')
 
 
-def output_suffix(path: str) -> str:
-    """The output's suffix (a key of :data:`ENCODERS`), or a CliError."""
-    suffix = os.path.splitext(path)[1].lower()
-    if suffix not in ENCODERS:
-        raise CliError(f"cannot tell what to write to '{path}': use .gif, .mp4 (needs ffmpeg) "
-                       'or .png (one frame)')
-    return suffix
+
 
 
 def encoder_available(name: str) -> bool:
@@ -207,12 +194,21 @@ def encoder_available(name: str) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     """Render the animation (module docstring)."""
-    suffix = output_suffix(args.output)
+    suffix = os.path.splitext(args.output)[1].lower()
+    if suffix not in ENCODERS:
+        raise CliError(f"cannot tell what to write to '{args.output}': use .gif, .mp4 (needs "
+                       'ffmpeg) or .png (one frame)')
     encoder = ENCODERS[suffix]
     if encoder is not None and not encoder_available(encoder):
         raise CliError(f"writing {suffix} needs the {encoder} encoder, which is not installed "
                        f"(no '{encoder}' found by matplotlib); install it or write a .gif")
-    check_options(args.fps, args.every, args.dpi)
+    if not (math.isfinite(args.fps) and 0 < args.fps <= 100):
+        raise CliError(f'--fps must be a number of frames per second in (0, 100], got '
+                       f'{args.fps:g}')
+    if args.every is not None and args.every < 1:
+        raise CliError(f'--every must be a positive number of rows, got {args.every}')
+    if not 10 <= args.dpi <= 600:
+        raise CliError(f'--dpi must be between 10 and 600, got {args.dpi}')
     if args.at is not None and not np.isfinite(args.at):
         raise CliError(f'--at must be a time in seconds, got {args.at:g}')
     folder = os.path.dirname(os.path.abspath(args.output))

@@ -107,31 +107,21 @@ def cmd_example(args: argparse.Namespace) -> int:
 
 def _configure_solve(p: argparse.ArgumentParser) -> None:
     p.add_argument('input', metavar='TRAJ_CSV',
-                   help="trajectory CSV ('-' for standard input) with the header "
-                        + ','.join(TRAJECTORY_COLUMNS)
-                        + ' in any order (SI units: s, m, rad and their rates); other '
-                          'columns are ignored (named in a note on standard error). Without '
-                          'the rate and/or acceleration columns they are estimated from the '
-                          'poses as the node does (causal backward differences; said on '
-                          'standard error)')
+                   help="trajectory CSV ('-' for standard input), columns "
+                        + ','.join(TRAJECTORY_COLUMNS) + ' in any order (SI units); '
+                        'missing rates or accelerations are estimated from the poses as the '
+                        'node does')
     p.add_argument('-o', '--output', required=True, metavar='CSV_OR_NPZ',
                    help="results to write ('-' for standard output): "
-                        + ','.join(OUTPUT_COLUMNS) + ',status (a word per row: ok, or the '
-                        'flight_sim_dynamics.Status that says why not). A name ending in .npz '
-                        'writes numpy\'s binary .npz instead of CSV (the fast choice for '
-                        'large batches): one float64 array per column, status as strings, '
-                        'and names, the column order; read it with numpy.load')
+                        + ','.join(OUTPUT_COLUMNS) + ',status; a name ending in .npz writes '
+                        'numpy\'s .npz (one array per column, status, names)')
     p.add_argument('--params', metavar='YAML', default=None,
-                   help='parameter file (ROS 2 format, see config/flight_sim_dynamics.yaml); '
-                        'default: the packaged parameters (the paper\'s values)')
+                   help='parameter file (ROS 2 format); default: the packaged parameters')
     p.add_argument('--scene', metavar='NAME_OR_YAML', default=None,
-                   help='effects to simulate: a scene name from config/scenes (full, '
-                        'quasi_static, platform_only, payload, ...) or a scene file; '
-                        'default: full (the paper\'s model)')
+                   help='effects to simulate: a scene of config/scenes or a scene file '
+                        '(default full, the paper\'s model)')
     p.add_argument('--cond', action='store_true',
-                   help='also write cond, the exact 2-norm condition number of Q (an SVD per '
-                        'row, about 40 us each); kinematic_condition and jacobian_condition, '
-                        'the cheap per-cycle figures, are always written')
+                   help='also write cond, the exact condition number of Q (an SVD per row)')
     p.add_argument('--joints', action='store_true',
                    help='also write the 12 joint variables of eq. (13), their rates '
                         '(<name>_rate) and accelerations (<name>_acc)')
@@ -240,9 +230,8 @@ def _configure_forward(p: argparse.ArgumentParser) -> None:
     p.add_argument('lengths', nargs='*', type=float, metavar='L',
                    help='three leg lengths L_A L_B L_C (m, joint centre to joint centre)')
     p.add_argument('--csv', metavar='CSV', default=None,
-                   help="instead: a CSV with columns length_a,length_b,length_c, e.g. the "
-                        "output of solve (a column t is copied through, others ignored); "
-                        "writes [t,]surge,heave,roll,status to -o")
+                   help="instead: a CSV with length_a,length_b,length_c (and t), e.g. solve's "
+                        "output; writes [t,]surge,heave,roll,status to -o")
     p.add_argument('-o', '--output', metavar='CSV', default=None,
                    help="output CSV for --csv ('-' for standard output)")
     p.add_argument('--params', metavar='YAML', default=None,

@@ -333,31 +333,25 @@ def plot(results: Sequence[RollResult], model: Model, path: str, args: argparse.
 
 def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument('-o', '--output', default='workspace.png', metavar='IMAGE',
-                   help='figure to write; the format follows the extension (default '
-                        'workspace.png)')
+                   help='figure to write, format by extension (default workspace.png)')
     p.add_argument('--rolls', type=float, nargs='+', default=list(DEFAULT_ROLLS),
                    metavar='DEG', help='roll angles in degrees, one panel each (default '
-                   + ' '.join(f'{r:g}' for r in DEFAULT_ROLLS)
-                   + '; -r mirrors +r with legs B and C exchanged)')
+                   + ' '.join(f'{r:g}' for r in DEFAULT_ROLLS) + ')')
     p.add_argument('--resolution', type=int, default=DEFAULT_RESOLUTION, metavar='N',
                    help=f'grid points per axis of each panel (default {DEFAULT_RESOLUTION})')
     p.add_argument('--range', type=float, nargs=4, default=list(DEFAULT_RANGE),
                    metavar=('SURGE_MIN', 'SURGE_MAX', 'HEAVE_MIN', 'HEAVE_MAX'),
-                   help='extent of the overview panels, m (default '
-                   + ' '.join(f'{v:g}' for v in DEFAULT_RANGE)
-                   + ': the whole reachable set with margin); also the extent of the '
-                     'reported intervals and areas')
+                   help='extent of the overview panels and of the intervals and areas, m '
+                   '(default ' + ' '.join(f'{v:g}' for v in DEFAULT_RANGE) + ')')
     p.add_argument('--zoom', type=float, nargs=4, default=list(DEFAULT_ZOOM),
                    metavar=('SURGE_MIN', 'SURGE_MAX', 'HEAVE_MIN', 'HEAVE_MAX'),
                    help='extent of the zoomed panels, m (default '
                    + ' '.join(f'{v:g}' for v in DEFAULT_ZOOM) + ')')
     p.add_argument('--no-zoom', action='store_true', help='leave out the zoomed row')
     p.add_argument('--color-by', choices=('cond', 'kinematic'), default='cond',
-                   help='colour: exact cond(Q) by SVD (default) or the cheap kinematic '
-                        'condition (blocks of Q)')
+                   help='colour: exact cond(Q) (default) or the kinematic condition')
     p.add_argument('--markdown', metavar='MD', default=None,
-                   help='also write the summary as a markdown page (e.g. docs/workspace.md) '
-                        'that shows the figure')
+                   help='also write the summary as a markdown page showing the figure')
     p.add_argument('--params', metavar='YAML', default=None,
                    help='parameter file (default: the packaged parameters)')
     p.add_argument('--dpi', type=int, default=100, help='resolution of raster images '
