@@ -39,8 +39,7 @@ def configure(p: argparse.ArgumentParser) -> None:
     source = p.add_mutually_exclusive_group(required=True)
     source.add_argument('--forces', metavar='CSV',
                         help='open loop: actuator forces, columns ' + ','.join(FORCE_COLUMNS)
-                             + " in any order ('-' for standard input; other columns are not "
-                               'used, so the output of solve will do)')
+                             + " ('-' for standard input; solve's output will do)")
     source.add_argument('--reference', metavar='CSV',
                         help='closed loop: a reference motion, the trajectory CSV solve reads ('
                              + ','.join(TRAJECTORY_COLUMNS) + ')')
@@ -51,22 +50,19 @@ def configure(p: argparse.ArgumentParser) -> None:
                         + ','.join(OUTPUT_COLUMNS) + ', in closed loop '
                         + ','.join(ERROR_COLUMNS) + ', then status')
     p.add_argument('--params', metavar='YAML', default=None,
-                   help="the controller's parameter file (feed-forward), and the plant's "
-                        'unless --plant-params; default: the packaged parameters')
+                   help="the controller's parameter file, and the plant's unless "
+                        '--plant-params (default: the packaged parameters)')
     p.add_argument('--plant-params', metavar='YAML', default=None,
-                   help='parameter file of the simulated machine (default: --params), e.g. '
-                        'a heavier payload than the controller assumes')
+                   help='parameter file of the simulated machine (default: --params)')
     p.add_argument('--plant-scene', metavar='NAME_OR_YAML', default='full',
                    help='effects the simulated machine has (default full; needs inertia)')
     p.add_argument('--feedforward', metavar='none|NAME_OR_YAML', default=None,
-                   help='closed loop: scene of the feed-forward (inverse dynamics of the '
-                        'reference with the controller\'s parameters), or none; default: '
-                        'the plant scene')
+                   help='closed loop: scene of the feed-forward, or none (default: the '
+                        'plant scene)')
     gains = p.add_mutually_exclusive_group()
     gains.add_argument('--bandwidth', type=float, default=None, metavar='HZ',
-                       help='closed loop: servo gains of a critically damped leg of the '
-                            "plant's leg-space mass at this bandwidth (default "
-                            f'{DEFAULT_BANDWIDTH_HZ:g} Hz)')
+                       help='closed loop: critically damped servo gains of this bandwidth '
+                            f'(default {DEFAULT_BANDWIDTH_HZ:g} Hz)')
     gains.add_argument('--gains', type=float, nargs=6, default=None,
                        metavar=('KP_A', 'KP_B', 'KP_C', 'KD_A', 'KD_B', 'KD_C'),
                        help='closed loop: PD gains per actuator, N/m and N s/m')
@@ -74,8 +70,8 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help=f'RK4 step, s (default {DEFAULT_STEP:g})')
     p.add_argument('--initial', type=float, nargs=6, default=None,
                    metavar=('SURGE', 'HEAVE', 'ROLL', 'SURGE_RATE', 'HEAVE_RATE', 'ROLL_RATE'),
-                   help='initial state (m, rad, m/s, rad/s); default: rest at the central '
-                        "configuration (open loop), the reference's start (closed loop)")
+                   help="initial state (m, rad, m/s, rad/s); default: rest, or the reference's "
+                        'start')
 
 
 def _closed_loop_only(args: argparse.Namespace) -> None:

@@ -70,9 +70,7 @@ LOOPS = tuple(LOOP_REASONS)
 _CULPRIT_KEY = {'D': 'l5', 'E': 'l6', 'E2 on rod': 'l6', 'A': 's_A', 'B': 'd5', 'C': 'd5'}
 
 
-# ----------------------------------------------------------------------------
 # Inverse geometry (eq. 5-8)
-# ----------------------------------------------------------------------------
 @dataclass
 class Geometric:
     """Positions of eq. (5)-(8) for one pose (float components) or a batch
@@ -242,9 +240,7 @@ def inverse_geometry(model: Model, q: tuple[Scalar, Scalar, Scalar],
     return g
 
 
-# ----------------------------------------------------------------------------
 # Velocities: connectivity relations Q V = P (eq. 11-13)
-# ----------------------------------------------------------------------------
 @dataclass
 class Connectivity:
     """Block factorisation of the connectivity matrix Q of eq. (11)-(12): loop D
@@ -355,9 +351,7 @@ def connectivity_matrix(model: Model, g: Geometric) -> tuple[np.ndarray, np.ndar
     return Q, Pq
 
 
-# ----------------------------------------------------------------------------
 # Accelerations: column S = P-dot - Q-dot V (eq. 15-17)
-# ----------------------------------------------------------------------------
 def acceleration_column(model: Model, g: Geometric, V: list,
                         qd: tuple[Scalar, Scalar, Scalar],
                         qdd: tuple[Scalar, Scalar, Scalar]) -> list:
