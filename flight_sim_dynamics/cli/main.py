@@ -114,7 +114,7 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
     p.add_argument('-o', '--output', required=True, metavar='CSV_OR_NPZ',
                    help="results to write ('-' for standard output): "
                         + ','.join(OUTPUT_COLUMNS) + ',status; a name ending in .npz writes '
-                        'numpy\'s .npz (one array per column, status, names)')
+                        'numpy\'s .npz (a float64 array per column, status as strings, names)')
     p.add_argument('--params', metavar='YAML', default=None,
                    help='parameter file (ROS 2 format); default: the packaged parameters')
     p.add_argument('--scene', metavar='NAME_OR_YAML', default=None,
