@@ -303,23 +303,11 @@ def read_npz(path: str | os.PathLike[str], *, required: Sequence[str],
                  else np.empty((n, 0)), lines=np.arange(2, n + 2), text=text)
 
 
-def format_value(x: float) -> str:
-    """One value as written here: ``repr`` (shortest exact), without an integral ``.0``."""
-    text = repr(float(x))
-    return text[:-2] if text.endswith('.0') else text
-
-
-def format_table(data: np.ndarray, *, chunk_values: int = 8192) -> bytes:
-    """Rows of comma-separated :func:`format_value`, in blocks of ~``chunk_values``."""
-    data = np.asarray(data, dtype=np.float64)
-    if data.ndim != 2:
-        raise ValueError(f'expected a 2-D array, got shape {data.shape}')
-    return b''.join(_format_blocks(data, None, max(1, chunk_values // max(data.shape[1], 1))))
-
-
 def _format_blocks(data: np.ndarray, words: Sequence[str] | None,
                    step: int = 1024) -> Iterator[bytes]:
-    """The rows of ``data``, ``step`` at a time, ``words`` (one per row) last."""
+    """The rows of ``data`` (``repr``, shortest exact, without an integral ``.0``),
+    ``step`` at a time, ``words`` (one per row) last.
+    """
     sep = ',' if data.shape[1] else ''
     for start in range(0, data.shape[0], step):
         rows = [','.join(map(repr, row)) for row in data[start:start + step].tolist()]
