@@ -52,14 +52,9 @@ if [ "${FSD_SKIP_INSTALL:-0}" = 1 ]; then
     echo "[setup] FSD_SKIP_INSTALL=1: using $FSD_VENV as it is"
 else
     echo "[setup] installing $1 and flight_sim_dynamics into $FSD_VENV ..."
-    if ! "$FSD_VENV/bin/python" -c 'import sys
-from importlib.metadata import version
-sys.exit(any(version(n) != v for n, v in (s.split("==") for s in sys.argv[1].split())))' \
-            "$FSD_BOOTSTRAP" 2>/dev/null; then
-        # shellcheck disable=SC2086
-        fsd_step "pinning pip and setuptools" \
-            "$FSD_VENV/bin/python" -m pip install --quiet --disable-pip-version-check $FSD_BOOTSTRAP
-    fi
+    # shellcheck disable=SC2086
+    fsd_step "pinning pip and setuptools" \
+        "$FSD_VENV/bin/python" -m pip install --quiet --disable-pip-version-check $FSD_BOOTSTRAP
     fsd_step "installing the pinned wheels of $1 (1-2 min the first time)" \
         "$FSD_VENV/bin/python" -m pip install --quiet --disable-pip-version-check -r "$1"
     # a stale build/lib would ship deleted modules

@@ -406,7 +406,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     except (CliError, CsvError, ValueError, OSError) as exc:
         # ValueError covers ParameterError, UnreachablePoseError, PlotError
-        print(f'error: {_one_line(_describe(exc))}', file=sys.stderr)
+        where = isinstance(exc, OSError) and exc.filename is not None
+        message = f"'{exc.filename}': {exc.strerror or exc}" if where else exc
+        print(f'error: {_one_line(message)}', file=sys.stderr)
         return 2
     except Exception as exc:  # noqa: BLE001 - a bug: still one line, unless debugging
         if needs_plot_extra(exc):       # plot, bench, workspace without the extra
@@ -417,12 +419,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f'error: internal error ({type(exc).__name__}: {_one_line(exc)}); '
               'set FLIGHT_SIM_DYNAMICS_DEBUG=1 for a traceback', file=sys.stderr)
         return 2
-
-
-def _describe(exc: BaseException) -> str:
-    if isinstance(exc, OSError) and exc.filename is not None:
-        return f"'{exc.filename}': {exc.strerror or exc}"
-    return str(exc)
 
 
 if __name__ == '__main__':  # pragma: no cover

@@ -268,9 +268,6 @@ def _legend_handles(model: Model, categories: set[int]) -> tuple[list, list[str]
                            path_effects=_halo()),
                     'actuator Jacobian singular: det(dL/dq) = 0'))
     entries.append((Patch(facecolor=_NEAR_COLOUR, alpha=0.8),
-                    f'near_singular: kinematic or actuator-Jacobian condition > '
-                    f'{max(lim.max_kinematic_condition, lim.max_jacobian_condition):g}'
-                    if lim.max_kinematic_condition == lim.max_jacobian_condition else
                     f'near_singular: kinematic condition > {lim.max_kinematic_condition:g} or '
                     f'Jacobian condition > {lim.max_jacobian_condition:g}'))
     entries.append(((Line2D([], [], color='k', marker='+', linestyle='', markersize=10,
