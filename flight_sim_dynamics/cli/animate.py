@@ -134,9 +134,6 @@ def frames(model: fsd.Model, solved: Solved, rows: np.ndarray) -> list[Frame]:
     return out
 
 
-
-
-
 #: Output suffix -> the matplotlib movie writer that encodes it (None: a still).
 ENCODERS = {'.gif': 'pillow', '.mp4': 'ffmpeg', '.png': None}
 DEFAULT_FPS = 25.0
@@ -180,9 +177,6 @@ def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument('--title', default=None, help='title (default: the input file name)')
     p.add_argument('--params', metavar='YAML', default=None,
                    help='the parameter file solve used (default: the packaged parameters)')
-
-
-
 
 
 def encoder_available(name: str) -> bool:

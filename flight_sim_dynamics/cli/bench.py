@@ -14,6 +14,7 @@ import math
 import os
 import platform
 import random
+import shlex
 import sys
 import time
 from dataclasses import dataclass, replace
@@ -191,11 +192,7 @@ def configure(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """The ``bench`` subcommand; returns 0."""
-    command = ' '.join(['flight-sim-dynamics bench']
-                       + (['--quick'] if args.quick else [f'--cycles {args.cycles}',
-                                                          f'--error-rate {args.error_rate:g}'])
-                       + (['--update-docs'] if args.update_docs else [])
-                       + (['--no-plot'] if args.no_plot else []))
+    command = shlex.join(['flight-sim-dynamics', 'bench', *getattr(args, 'argv', [])])
     if args.quick:
         args.cycles, args.error_rate = 500, 200.0
     if args.cycles < 1 or not (math.isfinite(args.error_rate) and args.error_rate >= 10.0):

@@ -72,9 +72,8 @@ class Servo:
 
 def deliver(command: np.ndarray, rate: np.ndarray, max_force: float,
             max_speed: float) -> np.ndarray:
-    """The force an actuator delivers for a commanded force at leg rate
-    ``rate``: within +-max_force, and in the direction of motion at most
-    max_force (1 - |rate| / max_speed) (zero at and beyond max_speed).
+    """The delivered force: within +-max_force, and in the direction of the leg's
+    motion at most max_force (1 - |rate| / max_speed).
     """
     force = np.clip(command, -max_force, max_force)
     drive = max_force * np.maximum(0.0, 1.0 - np.abs(rate) / max_speed)
@@ -237,9 +236,8 @@ def integrate(plant: Model, t0: float, step: float, steps: int, q0: np.ndarray,
 
 def reference_tables(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
                      times: np.ndarray, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Leg lengths, rates and forces of ``model`` on the reference samples
-    (the inverse dynamics, eq. 5-23); ValueError at the first sample that
-    cannot be tracked (unreachable, near a singularity).
+    """Leg lengths, rates and forces of ``model`` on the reference (eq. 5-23);
+    ValueError at the first sample that cannot be tracked.
     """
     sol = solve_batch(model, q, qd, qdd)
     bad = [i for i, s in enumerate(sol.status) if SEVERITY[s] >= SEVERITY[Status.NEAR_SINGULAR]]

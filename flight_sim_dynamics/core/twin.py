@@ -24,10 +24,8 @@ from .status import Status
 
 
 class TwinStepper:
-    """The plant ``plant`` driven by three servos of gains ``servo``,
-    integrated by RK4 at ``step`` s from rest at ``q0`` (default the central
-    configuration). Until the first :meth:`command` the servos push nothing
-    (call :meth:`command` before :meth:`advance`, or the platform falls).
+    """The plant under servos of gains ``servo``, RK4 at ``step`` s from rest at
+    ``q0``; the servos push nothing until the first :meth:`command`.
     """
 
     def __init__(self, plant: Model, servo: Servo, step: float,
@@ -61,9 +59,8 @@ class TwinStepper:
     # -- the command ------------------------------------------------------------------
     def command(self, length: Sequence[float], rate: Sequence[float],
                 force: Sequence[float]) -> None:
-        """Hold a new servo command: leg length and rate references (m, m/s) and
-        feed-forward forces (N), legs A, B, C. ValueError unless each is three
-        finite numbers.
+        """Hold a new command: leg lengths, rates (m, m/s) and feed-forward forces
+        (N), each three finite numbers (else ValueError).
         """
         values = []
         for name, v in (('length', length), ('rate', rate), ('force', force)):

@@ -160,9 +160,8 @@ def classify(model: Model, q: np.ndarray) -> tuple[np.ndarray, Callable[[int], s
 
 def bisect(model: Model, kind: np.ndarray, q_in: np.ndarray, q_out: np.ndarray,
            iterations: int) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """Bisect each segment q_in (inside) - q_out (outside) of the set ``kind``
-    (index of KINDS), one solve per step; the final ends and what each
-    outside end violates.
+    """Bisect each segment q_in (inside) - q_out of the set ``kind`` (KINDS index):
+    the final ends and what each outside end violates.
     """
     q_in, q_out = np.array(q_in, dtype=float), np.array(q_out, dtype=float)
     if len(q_in) == 0:
