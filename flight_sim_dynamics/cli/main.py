@@ -142,12 +142,10 @@ def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond:
     sol = fsd.solve_batch(model, q, qd, qdd)
     report_not_ok(f'{table.path}: ', sol.status, sol.detail,
                   lambda i: f'line {int(table.lines[i])}')
-    columns = [data[:, col['t']]]
-    for field in ('length', 'stroke', 'rate', 'force', 'power', 'acceleration'):
-        columns.append(np.asarray(getattr(sol, field), dtype=float))
-    columns.append(np.asarray(sol.beta, dtype=float).reshape(-1))
-    columns.append(np.asarray(sol.kinematic_condition, dtype=float).reshape(-1))
-    columns.append(np.asarray(sol.jacobian_condition, dtype=float).reshape(-1))
+    columns = [data[:, col['t']]] + [
+        np.asarray(getattr(sol, field), dtype=float).reshape(len(data), -1)
+        for field in ('length', 'stroke', 'rate', 'force', 'power', 'acceleration', 'beta',
+                      'kinematic_condition', 'jacobian_condition')]
     names = OUTPUT_COLUMNS
     if exact_cond:                      # an SVD per row: ~40 us each, so on request
         columns.append(np.asarray(sol.cond, dtype=float).reshape(-1))

@@ -120,11 +120,9 @@ def _crank_d_beta(geom: Geometry, G: Vec, xp: SimpleNamespace) -> tuple[Scalar, 
 
 
 def _crank_e_u(geom: Geometry, G: Vec, l: Vec, xp: SimpleNamespace) -> tuple[Scalar, Scalar]:
-    """Loop E of eq. (7): E2 = G - u l on the rod with |E2 - E1| = l6.
-
-    u^2 - 2 p u + (|w|^2 - l6^2) = 0 with w = G - E1, p = w.l; the machine's root
-    is the smaller one, written as (|w|^2 - l6^2) / (p + sqrt(p^2 - |w|^2 + l6^2))
-    to avoid cancellation. Returns u and the discriminant (negative = open).
+    """Loop E of eq. (7): E2 = G - u l with |E2 - E1| = l6, u^2 - 2 p u + (|w|^2 -
+    l6^2) = 0 (w = G - E1, p = w.l); the smaller root, without cancellation.
+    Returns u and the discriminant (negative = open).
     """
     wx, wy = G[0] - geom.d2, G[1]
     p = wx * l[0] + wy * l[1]
@@ -216,10 +214,9 @@ def central_configuration(geom: Geometry) -> CentralConfiguration:
 
 def inverse_geometry(model: Model, q: tuple[Scalar, Scalar, Scalar],
                      xp: SimpleNamespace, check: bool = True) -> Geometric:
-    """Inverse geometric problem (eq. 5-8): all 12 joint variables for the pose
-    q = (surge, heave, roll). With ``check``, raises :class:`UnreachablePoseError`
-    naming the loop of eq. (7) that cannot close (and, for a batch, the first
-    sample concerned); without, ``valid`` tells per sample (batch only).
+    """Inverse geometric problem (eq. 5-8): the 12 joint variables of the pose
+    q; with ``check``, UnreachablePoseError naming the loop of eq. (7) that
+    cannot close, else ``valid`` tells per sample.
     """
     if xp.batch:
         with np.errstate(all='ignore'):
