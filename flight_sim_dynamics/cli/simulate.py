@@ -21,7 +21,7 @@ import flight_sim_dynamics as fsd
 from ..core.model import Model
 from ..core.motions import MOTIONS
 from ..core.simulation import (DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, DEFAULT_STEP,
-                               ForceHistory, Reference, Servo, Simulation, simulate)
+                               ForceHistory, Reference, Servo, simulate)
 from .csv_io import TRAJECTORY_COLUMNS, read_csv, write_csv
 from .main import load_model, report_not_ok
 
@@ -115,23 +115,13 @@ def run(args: argparse.Namespace) -> int:
                                                                    scene_option='--feedforward')
         sim = simulate(plant, reference=reference, feedforward=feedforward,
                        servo=_servo(args, plant), initial=initial, step=args.step)
-    names, data = table_of(sim)
-    write_csv(args.output, names, data, text=('status', [str(s) for s in sim.status]))
-    return _report(sim)
-
-
-def table_of(sim: Simulation) -> tuple[tuple[str, ...], np.ndarray]:
-    """Column names and rows of a simulation (without the status column)."""
     columns = [sim.t, sim.q, sim.qd, sim.qdd, sim.length, sim.rate, sim.force]
     names = OUTPUT_COLUMNS
     if sim.pose_error is not None:
         columns += [sim.pose_error, sim.length_error]
         names += ERROR_COLUMNS
-    return names, np.column_stack(columns)
-
-
-def _report(sim: Simulation) -> int:
-    """Warnings on standard error: rows that are not ok, and a stop."""
+    write_csv(args.output, names, np.column_stack(columns),
+              text=('status', [str(s) for s in sim.status]))
     report_not_ok('', sim.status, sim.detail, lambda i: f't = {sim.t[i]:.6g} s')
     if sim.outcome != fsd.Status.OK:
         print(f'warning: simulation stopped: {sim.outcome}: {sim.outcome_detail}; '
