@@ -56,16 +56,13 @@ def contract_problems(module: ModuleType) -> list[str]:
     return problems
 
 
-def _problems_of(module: ModuleType) -> list[str]:
-    try:
-        return contract_problems(module)
-    except AttributeError as exc:       # built before the kernel exported its declarations
-        return [str(exc)]
-
-
-if _kernel is not None and _problems_of(_kernel):
+try:
+    _problems = contract_problems(_kernel) if _kernel is not None else []
+except AttributeError as exc:       # built before the kernel exported its declarations
+    _problems = [str(exc)]
+if _problems:
     IMPORT_ERROR = ('flight_sim_dynamics.core._kernel was built from another version of '
-                    'src/kernel.c (' + '; '.join(_problems_of(_kernel)) + '); rebuild it')
+                    'src/kernel.c (' + '; '.join(_problems) + '); rebuild it')
     _kernel = None
     if os.environ.get('FSD_KERNEL') != '0':
         raise ImportError(IMPORT_ERROR + ', or set FSD_KERNEL=0 to use the Python code')
