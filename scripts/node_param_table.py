@@ -16,8 +16,7 @@ from flight_sim_dynamics.core.model import BODY_NAMES
 
 from . import DOCS, replace_block
 
-TYPES = {'double': 'double', 'double_array': 'double[]', 'integer': 'int',
-         'string': 'string', 'bool': 'bool'}
+TYPES = {'double_array': 'double[]', 'integer': 'int'}     # else the kind's own name
 HEADER = ['| name | type | unit | default | range | meaning |', '|---|---|---|---|---|---|']
 
 
@@ -51,7 +50,8 @@ def table(specs: Sequence[prm.ParamSpec]) -> list[str]:
             folded.add(parts[2])
             name, value = f'bodies.<body>.{parts[2]}', 'see YAML'
             meaning = meaning.replace(parts[1], '<body>')
-        cells = [f'`{name}`', TYPES[spec.kind], spec.unit or '-', value, spec.range_text, meaning]
+        cells = [f'`{name}`', TYPES.get(spec.kind, spec.kind), spec.unit or '-', value,
+                 spec.range_text, meaning]
         lines.append('| ' + ' | '.join(c.replace('|', '\\|') for c in cells) + ' |')
     return lines
 

@@ -9,14 +9,12 @@
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/_setup_env.sh" requirements-test.txt
 
-# This run's ROS 2 graph to itself: the caller's ROS_DOMAIN_ID, else a random one
-# in 1..100 (Fast DDS's default port range), and discovery on this machine only.
+# this run's ROS 2 graph to itself (a random domain in 1..100 unless given)
 export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$((RANDOM % 100 + 1))}"
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 echo "[tests] ROS_DOMAIN_ID=$ROS_DOMAIN_ID ROS_AUTOMATIC_DISCOVERY_RANGE=$ROS_AUTOMATIC_DISCOVERY_RANGE"
 
-# A failed kernel build fails the run instead of quietly testing the Python code
-# only (FSD_REQUIRE_KERNEL=0 allows it; FSD_KERNEL=0 tests the Python code).
+# a failed kernel build fails the run (FSD_REQUIRE_KERNEL=0 allows it)
 export FSD_REQUIRE_KERNEL="${FSD_REQUIRE_KERNEL:-1}"
 
 exec python -m pytest -q "$@"

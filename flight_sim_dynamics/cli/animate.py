@@ -1,23 +1,11 @@
-"""``flight-sim-dynamics animate``: the mechanism following a solved
-trajectory (the output of ``solve``, CSV or .npz), seen from the side and
-from the front, with the three actuator forces as bars and the status of
-each frame; written as .gif (Pillow, installed with matplotlib), .mp4 (needs
-the ffmpeg encoder) or, for one frame, .png.
+"""``flight-sim-dynamics animate``: the mechanism following a solved trajectory
+(the output of ``solve``, CSV or .npz), side and front views, the actuator
+forces as bars and each frame's status; as .gif, .mp4 (ffmpeg) or a .png still.
 
-What each frame draws is computed first, as numbers (:func:`frames`): the
-input holds no pose, so the pose of each frame is recovered from its leg
-lengths by forward kinematics (:func:`~..core.forward_kinematics.poses_along`;
-a pose is the one whose lengths are these, to 1e-12 m) unless the file also
-has ``surge,heave,roll`` columns. The drawn points are then the solver's
-(:func:`~..core.mechanism.mechanism_points` of eq. 5-8, the rule of the RViz
-markers too), in the REP-103 simulator base frame. A row without a solution
-(status ``unreachable`` or ``invalid_input``, which ``solve`` writes as
-zeros; or, without a status column, all leg lengths 0) is not drawn as a
-machine with zero forces: its frame repeats the last pose drawn (at first the
-central configuration) marked unsolved and without forces, as the markers do.
-
-Drawn with matplotlib's object-oriented API (no pyplot), imported only by
-this command.
+A frame's pose comes from the file's ``surge,heave,roll`` or, without them,
+from its leg lengths by forward kinematics; its points are the solver's
+(eq. 5-8, as the RViz markers). A row without a solution repeats the last pose
+drawn, grey and without forces. matplotlib is imported by this command only.
 """
 from __future__ import annotations
 
@@ -64,15 +52,11 @@ class Solved:
     status: list[str]        # one word per row ('ok' when the file has none)
     pose: np.ndarray | None  # (N, 3) surge, heave, roll if the file has them
 
-    def __len__(self) -> int:
-        return len(self.t)
-
 
 @dataclass(frozen=True)
 class Frame:
-    """One frame: row ``row`` of the input at time ``t``. ``solved`` False:
-    the row has no solution, ``points`` are the last pose drawn (or the
-    central configuration), ``force`` None and ``note`` says why and which.
+    """One frame: row ``row`` at time ``t``; unsolved: the last pose drawn,
+    ``force`` None, ``note`` says why.
     """
 
     row: int
@@ -98,10 +82,7 @@ def read_solved(path: str) -> Solved:
 
 
 def frame_rows(t: np.ndarray, fps: float, every: int | None) -> np.ndarray:
-    """Indices of the rows drawn: every ``every``-th row, or (None) a stride
-    that plays the trajectory at about real time at ``fps`` frames per second
-    (from the median time step of ``t``).
-    """
+    """Every ``every``-th row, or (None) the stride that plays in real time at ``fps``."""
     if every is None:
         steps = np.diff(t)
         step = float(np.median(steps)) if steps.size else 0.0
@@ -153,23 +134,11 @@ def frames(model: fsd.Model, solved: Solved, rows: np.ndarray) -> list[Frame]:
     return out
 
 
-def check_options(fps: float, every: int | None, dpi: int) -> None:
-    """The rendering options, or a CliError naming the bad one."""
-    if not (math.isfinite(fps) and 0 < fps <= 100):
-        raise CliError(f'--fps must be a number of frames per second in (0, 100], got {fps:g}')
-    if every is not None and every < 1:
-        raise CliError(f'--every must be a positive number of rows, got {every}')
-    if not 10 <= dpi <= 600:
-        raise CliError(f'--dpi must be between 10 and 600, got {dpi}')
-
-
 #: Output suffix -> the matplotlib movie writer that encodes it (None: a still).
 ENCODERS = {'.gif': 'pillow', '.mp4': 'ffmpeg', '.png': None}
 DEFAULT_FPS = 25.0
 DEFAULT_DPI = 80
 FIGSIZE = (11.0, 4.6)          # inches: 880 x 368 pixels at the default dpi
-#: A progress line on standard error at each tenth of the frames, and at
-#: least every PROGRESS_SECONDS of rendering.
 PROGRESS_SECONDS = 5.0
 
 PART_COLOURS = {'rod': '#3f59cc', 'crank_d': '#1a9999', 'crank_e': '#1a9999'}
@@ -210,15 +179,6 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help='the parameter file solve used (default: the packaged parameters)')
 
 
-def output_suffix(path: str) -> str:
-    """The output's suffix (a key of :data:`ENCODERS`), or a CliError."""
-    suffix = os.path.splitext(path)[1].lower()
-    if suffix not in ENCODERS:
-        raise CliError(f"cannot tell what to write to '{path}': use .gif, .mp4 (needs ffmpeg) "
-                       'or .png (one frame)')
-    return suffix
-
-
 def encoder_available(name: str) -> bool:
     """Whether matplotlib can run the movie writer ``name`` (pillow, ffmpeg)."""
     from matplotlib import animation
@@ -228,12 +188,21 @@ def encoder_available(name: str) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     """Render the animation (module docstring)."""
-    suffix = output_suffix(args.output)
+    suffix = os.path.splitext(args.output)[1].lower()
+    if suffix not in ENCODERS:
+        raise CliError(f"cannot tell what to write to '{args.output}': use .gif, .mp4 (needs "
+                       'ffmpeg) or .png (one frame)')
     encoder = ENCODERS[suffix]
     if encoder is not None and not encoder_available(encoder):
         raise CliError(f"writing {suffix} needs the {encoder} encoder, which is not installed "
                        f"(no '{encoder}' found by matplotlib); install it or write a .gif")
-    check_options(args.fps, args.every, args.dpi)
+    if not (math.isfinite(args.fps) and 0 < args.fps <= 100):
+        raise CliError(f'--fps must be a number of frames per second in (0, 100], got '
+                       f'{args.fps:g}')
+    if args.every is not None and args.every < 1:
+        raise CliError(f'--every must be a positive number of rows, got {args.every}')
+    if not 10 <= args.dpi <= 600:
+        raise CliError(f'--dpi must be between 10 and 600, got {args.dpi}')
     if args.at is not None and not np.isfinite(args.at):
         raise CliError(f'--at must be a time in seconds, got {args.at:g}')
     folder = os.path.dirname(os.path.abspath(args.output))
@@ -264,9 +233,7 @@ def run(args: argparse.Namespace) -> int:
 
 def render(scene: Scene, frames: Sequence[Frame], output: str, encoder: str, fps: float,
            dpi: int, progress: TextIO | None = None) -> None:
-    """Encode every frame into ``output`` (atomically: a failed run leaves no
-    partial file), with progress lines on ``progress`` (standard error).
-    """
+    """Encode every frame into ``output`` atomically, progress on ``progress``."""
     from matplotlib import animation
 
     progress = sys.stderr if progress is None else progress
@@ -285,9 +252,7 @@ def render(scene: Scene, frames: Sequence[Frame], output: str, encoder: str, fps
 
 
 class Progress:
-    """Lines ``animate: k/n frames`` at each tenth of the frames and at least
-    every :data:`PROGRESS_SECONDS` (a long render tells that it is alive).
-    """
+    """``animate: k/n frames`` at each tenth and at least every PROGRESS_SECONDS."""
 
     def __init__(self, total: int, output: str, stream: TextIO) -> None:
         self.total, self.output, self.stream = total, output, stream
@@ -304,9 +269,7 @@ class Progress:
 
 
 class Scene:
-    """The figure and its artists, made once; :meth:`draw` moves them to a
-    frame. Axis ranges hold every frame, so that the views do not jump.
-    """
+    """The figure and its artists, made once; :meth:`draw` moves them to a frame."""
 
     def __init__(self, model: fsd.Model, frames: Sequence[Frame], title: str) -> None:
         from matplotlib.figure import Figure
@@ -400,9 +363,7 @@ class Scene:
                                  color='0.35', fontsize='medium', fontweight='bold')
 
     def draw(self, frame: Frame) -> None:
-        """Move every artist to ``frame`` (a row without a solution: grey, no
-        force bars).
-        """
+        """Move every artist to ``frame``."""
         p = frame.points
         for axis, _, parts in self.views:
             for leg, ns in enumerate(SEGMENTS):

@@ -1,16 +1,11 @@
 """What each effect costs and buys: ``flight-sim-dynamics bench``.
 
-For every packaged scene, ``full`` without each of its effects and ``full``
-with each effect no scene adds (friction), the median and p99 time of one
-control cycle (:func:`flight_sim_dynamics.solve`, the variants interleaved
-call by call in an order shuffled per state, so that the load of other
-processes hits them alike) against the actuator-force error relative to the
-``full`` model (eq. 6) on the test motions (the paper's three and
-``violent``); and what missing accelerations cost: the force error when the
-node's derivative estimator supplies them (from exact twists, or rates and
-accelerations from poses) at 60, 250 and 1000 Hz. Prints the tables, writes
-``scenes.md`` and ``scenes.png`` (time per cycle against force error) to
-``--out-dir`` (``out/``), or to the repository's ``docs/`` with ``--update-docs``.
+For every packaged scene and single-effect variant of ``full``: the median and
+p99 time of one cycle (variants interleaved, shuffled per state) against the
+force error relative to ``full`` on the test motions (eq. 6 and ``violent``);
+and the force error when the node's estimator supplies the accelerations, at
+60, 250 and 1000 Hz. Prints the tables and writes ``scenes.md`` and
+``scenes.png`` to ``--out-dir`` (or docs/ with ``--update-docs``).
 """
 from __future__ import annotations
 
@@ -19,6 +14,7 @@ import math
 import os
 import platform
 import random
+import shlex
 import sys
 import time
 from dataclasses import dataclass, replace
@@ -196,11 +192,7 @@ def configure(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """The ``bench`` subcommand; returns 0."""
-    command = ' '.join(['flight-sim-dynamics bench']
-                       + (['--quick'] if args.quick else [f'--cycles {args.cycles}',
-                                                          f'--error-rate {args.error_rate:g}'])
-                       + (['--update-docs'] if args.update_docs else [])
-                       + (['--no-plot'] if args.no_plot else []))
+    command = shlex.join(['flight-sim-dynamics', 'bench', *getattr(args, 'argv', [])])
     if args.quick:
         args.cycles, args.error_rate = 500, 200.0
     if args.cycles < 1 or not (math.isfinite(args.error_rate) and args.error_rate >= 10.0):
@@ -259,18 +251,3 @@ def run(args: argparse.Namespace) -> int:
     print(f'wrote {os.path.join(out_dir, "scenes.md")}'
           + ('' if args.no_plot else ' and scenes.png'), file=sys.stderr)
     return 0
-
-
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog='flight-sim-dynamics bench',
-                                description=__doc__.split('\n\n')[0])
-    configure(p)
-    return p
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    return run(build_parser().parse_args(argv))
-
-
-if __name__ == '__main__':
-    sys.exit(main())

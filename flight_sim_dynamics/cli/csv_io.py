@@ -2,17 +2,11 @@
 numpy's ``.npz``.
 
 A CSV file is a header line of column names and rows of finite decimal
-numbers (``1``, ``-0.5``, ``2.5e-3``) separated by commas; anything else
-(``nan``, ``inf``, empty cells, blank lines, rows of the wrong length) is a
-:class:`CsvError` naming the file, the line (1 = the header) and the column.
-The rows are parsed in C (numpy); a line scan runs only to name a bad cell.
-Writing is exact (:func:`format_value`) and atomic (:func:`atomic_output`):
-a failed run never leaves a partial file and never clobbers an old one.
-
-An ``.npz`` (chosen by the output's suffix, :func:`write_table`) holds the
-same columns without text formatting (the fast choice for large batches):
-one array per column, float64, ``status`` as strings, and ``names``, the
-column order; ``np.load(path)`` reads it (no pickle).
+numbers; anything else is a :class:`CsvError` naming the file, the line
+(1 = the header) and the column. Writing is exact (shortest repr) and atomic
+(:func:`atomic_output`). An ``.npz`` (by the output's suffix) holds one
+float64 array per column, ``status`` as strings and ``names``, the column
+order; ``np.load(path)`` reads it.
 """
 from __future__ import annotations
 
@@ -56,10 +50,9 @@ class CsvError(ValueError):
 
 @dataclass(frozen=True)
 class Table:
-    """A parsed table: ``data[i, j]`` is the value of column ``names[j]`` in
-    data row ``i``, read from line ``lines[i]`` of the file; ``skipped``: the
-    columns of the file not read (``skip_extra``); ``text``: the words of the
-    ``text_columns`` the file has, one per row.
+    """A parsed table: ``data[i, j]`` is column ``names[j]`` of the row read
+    from line ``lines[i]``; ``skipped``: the columns not read; ``text``: the
+    words of the ``text_columns``, one per row.
     """
 
     path: str
@@ -99,9 +92,7 @@ def read_bytes(path: str | os.PathLike[str]) -> bytes:
 
 def parse_header(raw: bytes, path: str, *, required: Sequence[str],
                  allow_extra: bool) -> tuple[str, ...]:
-    """Column names of header line ``raw``; checks empty, duplicate, missing
-    and (unless ``allow_extra``) unknown names.
-    """
+    """Column names of header line ``raw``, checked (unknown ones unless ``allow_extra``)."""
     try:
         text = raw.decode('utf-8').rstrip('\r')
     except UnicodeDecodeError:
@@ -148,10 +139,8 @@ def _did_you_mean(name: str, candidates: Sequence[str]) -> str:
 def read_csv(path: str | os.PathLike[str], *, required: Sequence[str],
              allow_extra: bool = False, text_columns: Sequence[str] = (),
              skip_extra: bool = False) -> Table:
-    """Read a numeric CSV file with a header naming at least ``required``
-    (exactly those, in any order, unless ``allow_extra`` or ``skip_extra``).
-
-    Raises :class:`CsvError` naming the line and column of the first problem.
+    """Read a numeric CSV file whose header names ``required`` (any order; more
+    with ``allow_extra`` or ``skip_extra``); CsvError at the first problem.
     """
     return parse_csv(read_bytes(path), _display(path), required=required,
                      allow_extra=allow_extra, text_columns=text_columns, skip_extra=skip_extra)
@@ -160,11 +149,9 @@ def read_csv(path: str | os.PathLike[str], *, required: Sequence[str],
 def parse_csv(data: bytes, path: str = '<input>', *, required: Sequence[str],
               allow_extra: bool = False, text_columns: Sequence[str] = (),
               skip_extra: bool = False) -> Table:
-    """:func:`read_csv` on the bytes of a file. Columns named in ``text_columns``
-    (words such as ``status``) are read as words (``Table.text``), not as
-    numbers; with ``skip_extra`` every column not in ``required`` is left out
-    (any content), and ``Table.skipped`` names them. Errors name the file's
-    own column numbers.
+    """:func:`read_csv` on the bytes of a file: ``text_columns`` are read as
+    words (``Table.text``); ``skip_extra`` leaves out the columns not in
+    ``required`` (``Table.skipped``).
     """
     data = data.removeprefix(b'\xef\xbb\xbf')
     if not data.strip():
@@ -212,10 +199,8 @@ def _parse(body: bytes, nrows: int, ncol: int) -> np.ndarray | None:
     body = body.replace(b'\r\n', b'\n')
     if body.count(b',') != nrows * (ncol - 1):
         return None
-    # numpy's C parser accepts, on these characters, exactly the cells _NUMBER
-    # accepts (test_csv_io checks it). It refuses a row whose number of cells
-    # differs from the first row's and skips blank lines: so with nrows rows
-    # read and nrows * (ncol - 1) commas in all, every row has ncol cells.
+    # on these characters numpy accepts exactly the cells _NUMBER does; with
+    # nrows rows read and nrows * (ncol - 1) commas, every row has ncol cells
     try:
         values = np.loadtxt(body.decode('ascii').split('\n'), delimiter=',', comments=None,
                             dtype=np.float64, ndmin=2)
@@ -226,9 +211,7 @@ def _parse(body: bytes, nrows: int, ncol: int) -> np.ndarray | None:
 
 def _raise_first_error(rows: list[bytes], names: Sequence[str], path: str,
                        keep: Sequence[int]) -> None:
-    """CsvError at the first malformed cell of ``rows`` (line 2 on); the
-    columns not in ``keep`` may hold anything.
-    """
+    """CsvError at the first malformed cell of ``rows`` in the columns ``keep``."""
     ncol = len(names)
     for i, raw in enumerate(rows):
         line = i + 2
@@ -262,8 +245,8 @@ def _raise_first_error(rows: list[bytes], names: Sequence[str], path: str,
 
 def read_table(path: str | os.PathLike[str], *, required: Sequence[str],
                optional: Sequence[str] = ()) -> Table:
-    """The output of ``solve`` (CSV, ``-`` for standard input, or .npz): the
-    columns ``required`` and ``optional`` and the ``status`` words it has.
+    """The output of ``solve`` (CSV, ``-``, or .npz): ``required``,
+    ``optional`` and the ``status`` words.
     """
     if is_npz(path):
         return read_npz(path, required=required, optional=optional)
@@ -277,9 +260,7 @@ def is_npz(path: str | os.PathLike[str]) -> bool:
 
 def read_npz(path: str | os.PathLike[str], *, required: Sequence[str],
              optional: Sequence[str] = ()) -> Table:
-    """:func:`read_table` of an .npz written by :func:`write_npz` (``lines``:
-    the lines the rows have in the CSV form).
-    """
+    """:func:`read_table` of an .npz written by :func:`write_npz`."""
     shown = os.fspath(path)
     try:
         with np.load(path, allow_pickle=False) as npz:
@@ -322,30 +303,10 @@ def read_npz(path: str | os.PathLike[str], *, required: Sequence[str],
                  else np.empty((n, 0)), lines=np.arange(2, n + 2), text=text)
 
 
-def format_value(x: float) -> str:
-    """The text of one value in the files written here: Python's ``repr``
-    (the shortest decimal that reads back as the same double, the sign of zero
-    included), without the ``.0`` of an integral value (``1``, ``-0``).
-    """
-    text = repr(float(x))
-    return text[:-2] if text.endswith('.0') else text
-
-
-def format_table(data: np.ndarray, *, chunk_values: int = 8192) -> bytes:
-    """Rows of comma-separated exact decimals (:func:`format_value`), each row
-    ending in a newline; formatted in blocks of about ``chunk_values`` numbers.
-    """
-    data = np.asarray(data, dtype=np.float64)
-    if data.ndim != 2:
-        raise ValueError(f'expected a 2-D array, got shape {data.shape}')
-    return b''.join(_format_blocks(data, None, max(1, chunk_values // max(data.shape[1], 1))))
-
-
 def _format_blocks(data: np.ndarray, words: Sequence[str] | None,
                    step: int = 1024) -> Iterator[bytes]:
-    """The rows of ``data`` as :func:`format_table` writes them, ``step`` rows
-    at a time (the text of a block stays small); ``words`` (one per row) end
-    each row as a last column.
+    """The rows of ``data`` (``repr``, shortest exact, without an integral ``.0``),
+    ``step`` at a time, ``words`` (one per row) last.
     """
     sep = ',' if data.shape[1] else ''
     for start in range(0, data.shape[0], step):
@@ -355,21 +316,17 @@ def _format_blocks(data: np.ndarray, words: Sequence[str] | None,
         else:
             text = ''.join([row + sep + word + '\n'
                             for row, word in zip(rows, words[start:start + step])])
-        # repr writes integral values as 'd.0'; a '.0' before a separator is
-        # only ever that (the words come last and hold no comma)
+        # a '.0' before a separator is only ever repr's integral 'd.0'
         yield text.replace('.0,', ',').encode()
 
 
 @contextlib.contextmanager
 def atomic_output(path: str | os.PathLike[str]) -> Iterator[IO[bytes]]:
     """Open ``path`` for binary writing so that it appears complete or not at
-    all: a temporary file in the same directory replaces ``path`` only when
-    the block finishes without an exception; ``-`` writes to standard output.
-    A character device, FIFO or socket (``/dev/null``, a named pipe) is
-    written through; a symbolic link's target is replaced (the link stays); a
-    replaced file keeps its mode; a read-only file is refused. A SIGTERM or
-    SIGHUP during the write removes the temporary file and ends the process
-    with status 128 + the signal.
+    all (a temporary file replaces it at the end; ``-``: standard output).
+    Devices, FIFOs and sockets are written through; a symlink's target is
+    replaced, keeping its mode; a read-only file is refused; SIGTERM/SIGHUP
+    remove the temporary file and end with 128 + the signal.
     """
     if os.fspath(path) == '-':
         yield sys.stdout.buffer
@@ -420,9 +377,7 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[IO[bytes]]:
 
 @contextlib.contextmanager
 def _errors_named(shown: str) -> Iterator[None]:
-    """An OSError while writing, as a CsvError naming the user's path (not the
-    temporary file).
-    """
+    """An OSError as a CsvError naming the user's path, not the temporary file."""
     try:
         yield
     except OSError as exc:
@@ -431,11 +386,7 @@ def _errors_named(shown: str) -> Iterator[None]:
 
 @contextlib.contextmanager
 def _signals_end_the_write() -> Iterator[None]:
-    """SIGTERM and SIGHUP end the process with status 128 + the signal, as
-    the signal would, but raised inside the block (SystemExit), so that the
-    temporary file is removed on the way out; the previous handlers are
-    restored. Only the main thread gets signals.
-    """
+    """SIGTERM/SIGHUP raise SystemExit(128 + signal) inside the block (main thread only)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -453,8 +404,8 @@ def _signals_end_the_write() -> Iterator[None]:
 
 def write_csv(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarray,
               text: tuple[str, Sequence[str]] | None = None) -> None:
-    """Write a header and the rows of ``data`` (N, len(names)), exactly, atomically;
-    ``text = (name, values)`` appends one column of plain words (no commas).
+    """Write a header and ``data`` exactly, atomically; ``text = (name, words)``
+    appends a column of words.
     """
     data, words = _checked(names, data, text)
     header = ','.join(names) + (',' + text[0] if text is not None else '')

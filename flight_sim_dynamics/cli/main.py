@@ -1,11 +1,9 @@
-"""Command line: ``flight-sim-dynamics COMMAND`` (also ``python -m
-flight_sim_dynamics``); ``--help`` lists the commands. ``node``, ``sim``,
-``demo-planner`` and ``demo`` hand the rest of the command line to their
-module (they need rclpy), the others are parsed here.
+"""Command line: ``flight-sim-dynamics COMMAND`` (``--help`` lists them).
 
-Every error ends the run with exit status 2 and one line ``error: ...`` on
-standard error (no traceback), and leaves no partial output file: outputs are
-written to a temporary file and moved into place at the very end.
+``node``, ``sim``, ``demo-planner`` and ``demo`` hand the rest of the command
+line to their module (rclpy); the others are parsed here. Every error is exit
+status 2 and one line ``error: ...`` on standard error, and leaves no
+partial output file.
 """
 from __future__ import annotations
 
@@ -64,9 +62,7 @@ class CliError(Exception):
 
 def load_model(params: str | None, scene: str | None = None, option: str = '--params',
                scene_option: str = '--scene') -> Model:
-    """The model of ``--params`` (None: packaged defaults) and ``--scene``; a
-    CliError names the option at fault (``option``, ``scene_option``).
-    """
+    """The model of ``--params`` and ``--scene``; a CliError names the option at fault."""
     if params is not None and not os.path.isfile(params):
         raise CliError(f"{option} {params}: no such file")
     try:
@@ -84,9 +80,6 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"error: {message} (see '{self.prog} --help')\n")
 
 
-# ----------------------------------------------------------------------------
-# example
-# ----------------------------------------------------------------------------
 def _configure_example(p: argparse.ArgumentParser) -> None:
     p.add_argument('name', choices=tuple(PAPER_EXAMPLES),
                    help='which of the paper\'s three motions (eq. 6): vertical (Figs. 3-4), '
@@ -112,36 +105,23 @@ def cmd_example(args: argparse.Namespace) -> int:
     return 0
 
 
-# ----------------------------------------------------------------------------
-# solve
-# ----------------------------------------------------------------------------
 def _configure_solve(p: argparse.ArgumentParser) -> None:
     p.add_argument('input', metavar='TRAJ_CSV',
-                   help="trajectory CSV ('-' for standard input) with the header "
-                        + ','.join(TRAJECTORY_COLUMNS)
-                        + ' in any order (SI units: s, m, rad and their rates); other '
-                          'columns are ignored (named in a note on standard error). Without '
-                          'the rate and/or acceleration columns they are estimated from the '
-                          'poses as the node does (causal backward differences; said on '
-                          'standard error)')
+                   help="trajectory CSV ('-' for standard input), columns "
+                        + ','.join(TRAJECTORY_COLUMNS) + ' in any order (SI units); '
+                        'missing rates or accelerations are estimated from the poses as the '
+                        'node does')
     p.add_argument('-o', '--output', required=True, metavar='CSV_OR_NPZ',
                    help="results to write ('-' for standard output): "
-                        + ','.join(OUTPUT_COLUMNS) + ',status (a word per row: ok, or the '
-                        'flight_sim_dynamics.Status that says why not). A name ending in .npz '
-                        'writes numpy\'s binary .npz instead of CSV (the fast choice for '
-                        'large batches): one float64 array per column, status as strings, '
-                        'and names, the column order; read it with numpy.load')
+                        + ','.join(OUTPUT_COLUMNS) + ',status; a name ending in .npz writes '
+                        'numpy\'s .npz (a float64 array per column, status as strings, names)')
     p.add_argument('--params', metavar='YAML', default=None,
-                   help='parameter file (ROS 2 format, see config/flight_sim_dynamics.yaml); '
-                        'default: the packaged parameters (the paper\'s values)')
+                   help='parameter file (ROS 2 format); default: the packaged parameters')
     p.add_argument('--scene', metavar='NAME_OR_YAML', default=None,
-                   help='effects to simulate: a scene name from config/scenes (full, '
-                        'quasi_static, platform_only, payload, ...) or a scene file; '
-                        'default: full (the paper\'s model)')
+                   help='effects to simulate: a scene of config/scenes or a scene file '
+                        '(default full, the paper\'s model)')
     p.add_argument('--cond', action='store_true',
-                   help='also write cond, the exact 2-norm condition number of Q (an SVD per '
-                        'row, about 40 us each); kinematic_condition and jacobian_condition, '
-                        'the cheap per-cycle figures, are always written')
+                   help='also write cond, the exact condition number of Q (an SVD per row)')
     p.add_argument('--joints', action='store_true',
                    help='also write the 12 joint variables of eq. (13), their rates '
                         '(<name>_rate) and accelerations (<name>_acc)')
@@ -149,9 +129,7 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
 
 def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond: bool = False
                 ) -> tuple[tuple[str, ...], np.ndarray, list[str]]:
-    """Solve every row of a trajectory table; returns (column names, data,
-    status of each row).
-    """
+    """Solve every row of a trajectory table: (column names, data, statuses)."""
     col = {name: j for j, name in enumerate(table.names)}
     data = table.data
 
@@ -164,12 +142,10 @@ def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond:
     sol = fsd.solve_batch(model, q, qd, qdd)
     report_not_ok(f'{table.path}: ', sol.status, sol.detail,
                   lambda i: f'line {int(table.lines[i])}')
-    columns = [data[:, col['t']]]
-    for field in ('length', 'stroke', 'rate', 'force', 'power', 'acceleration'):
-        columns.append(np.asarray(getattr(sol, field), dtype=float))
-    columns.append(np.asarray(sol.beta, dtype=float).reshape(-1))
-    columns.append(np.asarray(sol.kinematic_condition, dtype=float).reshape(-1))
-    columns.append(np.asarray(sol.jacobian_condition, dtype=float).reshape(-1))
+    columns = [data[:, col['t']]] + [
+        np.asarray(getattr(sol, field), dtype=float).reshape(len(data), -1)
+        for field in ('length', 'stroke', 'rate', 'force', 'power', 'acceleration', 'beta',
+                      'kinematic_condition', 'jacobian_condition')]
     names = OUTPUT_COLUMNS
     if exact_cond:                      # an SVD per row: ~40 us each, so on request
         columns.append(np.asarray(sol.cond, dtype=float).reshape(-1))
@@ -183,10 +159,7 @@ def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond:
 
 def report_not_ok(prefix: str, status: Sequence, detail: Sequence,
                   where: Callable[[int], str]) -> None:
-    """Nothing is dropped silently: rows whose status is not ok are written
-    (with their status) and summarised on standard error, the first one
-    placed by ``where(row)``.
-    """
+    """Summarise the rows that are not ok on standard error, the first placed by ``where``."""
     words = [str(s) for s in status]
     bad = [i for i, w in enumerate(words) if w != 'ok']
     if bad:
@@ -197,12 +170,9 @@ def report_not_ok(prefix: str, status: Sequence, detail: Sequence,
 
 def read_trajectory(path: str | os.PathLike[str], model: Model) -> csv_io.Table:
     """The trajectory table of ``path`` with every column of
-    :data:`~.csv_io.TRAJECTORY_COLUMNS`: read, or, when the file gives poses
-    only (or poses and rates), estimated as the node estimates them (causal
-    backward differences, :class:`~..ros.estimator.DerivativeEstimator`);
-    notes on standard error name what was ignored and what was estimated. A
-    group of three columns is estimated only when none of them is named (a
-    partial group is read, so that the reader reports the missing column).
+    :data:`~.csv_io.TRAJECTORY_COLUMNS`; a group of three that none of the
+    columns names (rates, accelerations) is estimated from the poses as the
+    node does, with a note on standard error.
     """
     raw = csv_io.read_bytes(path)
     header = raw.partition(b'\n')[0].decode('utf-8', 'replace').lstrip('\ufeff')
@@ -254,16 +224,12 @@ def cmd_solve(args: argparse.Namespace) -> int:
     return 0
 
 
-# ----------------------------------------------------------------------------
-# forward
-# ----------------------------------------------------------------------------
 def _configure_forward(p: argparse.ArgumentParser) -> None:
     p.add_argument('lengths', nargs='*', type=float, metavar='L',
                    help='three leg lengths L_A L_B L_C (m, joint centre to joint centre)')
     p.add_argument('--csv', metavar='CSV', default=None,
-                   help="instead: a CSV with columns length_a,length_b,length_c, e.g. the "
-                        "output of solve (a column t is copied through, others ignored); "
-                        "writes [t,]surge,heave,roll,status to -o")
+                   help="instead: a CSV with length_a,length_b,length_c (and t), e.g. solve's "
+                        "output; writes [t,]surge,heave,roll,status to -o")
     p.add_argument('-o', '--output', metavar='CSV', default=None,
                    help="output CSV for --csv ('-' for standard output)")
     p.add_argument('--params', metavar='YAML', default=None,
@@ -299,10 +265,7 @@ def cmd_forward(args: argparse.Namespace) -> int:
     return 0
 
 
-# ----------------------------------------------------------------------------
-# Subcommands that hand the rest of the command line to another module
-# (ROS 2 parts: imported only when used, so the CLI works without rclpy).
-# ----------------------------------------------------------------------------
+#: Subcommands handed to their module, imported only when used (no rclpy needed otherwise).
 FORWARDED: dict[str, tuple[str, str]] = {
     'node': ('flight_sim_dynamics.ros.node', 'run the ROS 2 inverse-dynamics node '
              '(e.g. node --ros-args --params-file FILE)'),
@@ -355,9 +318,6 @@ def plot_extra_message(command: str) -> str:
     return f"{command} needs matplotlib: pip install 'flight_sim_dynamics[plot]'"
 
 
-# ----------------------------------------------------------------------------
-# Registry and entry point
-# ----------------------------------------------------------------------------
 def _lazy(module: str) -> tuple[Callable[[argparse.ArgumentParser], None],
                                  Callable[[argparse.Namespace], int]]:
     """configure/run of a subcommand module, imported only when it is used."""
@@ -392,9 +352,8 @@ SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
 
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
-    """The command-line parser. ``only``: configure just that subcommand (the
-    one being run; the others stay listed in --help), so that running one
-    does not import the modules of all the others.
+    """The command-line parser; ``only``: configure just that subcommand (no
+    import of the others' modules).
     """
     parser = _Parser(
         prog=PROG,
@@ -445,7 +404,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     except (CliError, CsvError, ValueError, OSError) as exc:
         # ValueError covers ParameterError, UnreachablePoseError, PlotError
-        print(f'error: {_one_line(_describe(exc))}', file=sys.stderr)
+        where = isinstance(exc, OSError) and exc.filename is not None
+        message = f"'{exc.filename}': {exc.strerror or exc}" if where else exc
+        print(f'error: {_one_line(message)}', file=sys.stderr)
         return 2
     except Exception as exc:  # noqa: BLE001 - a bug: still one line, unless debugging
         if needs_plot_extra(exc):       # plot, bench, workspace without the extra
@@ -456,12 +417,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f'error: internal error ({type(exc).__name__}: {_one_line(exc)}); '
               'set FLIGHT_SIM_DYNAMICS_DEBUG=1 for a traceback', file=sys.stderr)
         return 2
-
-
-def _describe(exc: BaseException) -> str:
-    if isinstance(exc, OSError) and exc.filename is not None:
-        return f"'{exc.filename}': {exc.strerror or exc}"
-    return str(exc)
 
 
 if __name__ == '__main__':  # pragma: no cover

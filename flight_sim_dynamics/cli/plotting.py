@@ -1,15 +1,11 @@
 """``flight-sim-dynamics plot``: force and power plots of the three actuators
-(the paper's Figs. 3-8) from the output of ``solve``.
-
-Uses matplotlib's object-oriented API (``matplotlib.figure.Figure``, no
-pyplot, no global backend state): rendering goes through the Agg canvas, so
-no display is needed.
+(the paper's Figs. 3-8) from the output of ``solve``; matplotlib's
+object-oriented API, no pyplot, no display.
 """
 from __future__ import annotations
 
 import argparse
 import os
-from typing import Sequence
 
 import numpy as np
 
@@ -19,8 +15,7 @@ from .main import LENGTH_COLUMNS, PLOT_COLUMNS, CliError
 ACTUATORS = ('A', 'B', 'C')
 #: The colour of each actuator in every figure (plot, animate).
 LEG_COLOURS = ('tab:blue', 'tab:orange', 'tab:green')
-# B and C are equal in the vertical example: C dashed on top of a solid B
-# keeps both visible where they coincide.
+# C dashed over B: they coincide in the vertical example
 _STYLES = (dict(color=LEG_COLOURS[0], linestyle='-', linewidth=1.8),
            dict(color=LEG_COLOURS[1], linestyle='-', linewidth=3.0, alpha=0.8),
            dict(color=LEG_COLOURS[2], linestyle='--', linewidth=1.6))
@@ -49,13 +44,9 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 
 
 def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
-                       title: str, labels: Sequence[str] = ACTUATORS,
-                       unsolved: np.ndarray | None = None):
-    """A two-axes figure: actuator forces (N) above, powers (W) below, vs t (s).
-
-    Rows in ``unsolved`` (no solution: unreachable or invalid input, written as
-    zeros by ``solve``) are left out of the curves and shaded, so that no
-    flat 0 N line passes for a force.
+                       title: str, unsolved: np.ndarray | None = None):
+    """A two-axes figure: actuator forces (N) above, powers (W) below, vs t (s);
+    ``unsolved`` rows are shaded, not drawn as 0 N.
     """
     from matplotlib.figure import Figure
 
@@ -66,10 +57,9 @@ def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
     force[unsolved], power[unsolved] = np.nan, np.nan
     fig = Figure(figsize=(8.0, 7.0), dpi=100, layout='constrained')
     ax_f, ax_p = fig.subplots(2, 1, sharex=True)
-    for i, name in enumerate(labels):
-        style = _STYLES[i % len(_STYLES)]
-        ax_f.plot(t, force[:, i], label=f'actuator {name}', **style)
-        ax_p.plot(t, power[:, i], label=f'actuator {name}', **style)
+    for name, style, f, p in zip(ACTUATORS, _STYLES, force.T, power.T):
+        ax_f.plot(t, f, label=f'actuator {name}', **style)
+        ax_p.plot(t, p, label=f'actuator {name}', **style)
     step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     for k, (first, last) in enumerate(_runs(unsolved)):
         for ax in (ax_f, ax_p):
@@ -88,18 +78,6 @@ def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
     ax_p.axhline(0.0, color='0.4', linewidth=0.8)
     fig.suptitle(title)
     return fig
-
-
-def plot_forces_powers(t: np.ndarray, force: np.ndarray, power: np.ndarray,
-                       output: str | os.PathLike[str], *, title: str, dpi: int = 100,
-                       unsolved: np.ndarray | None = None) -> None:
-    """Write the force/power figure to ``output`` (format from the extension),
-    atomically: a failed run leaves no partial image and keeps an old one.
-    """
-    fmt = output_format(output)
-    fig = force_power_figure(t, force, power, title=title, unsolved=unsolved)
-    with atomic_output(output) as f:
-        fig.savefig(f, format=fmt, dpi=dpi)
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -128,8 +106,8 @@ def default_title(path: str) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    """The ``plot`` command."""
-    output_format(args.output)      # fail before reading a large file
+    """The ``plot`` command: the figure written atomically."""
+    fmt = output_format(args.output)      # fail before reading a large file
     if not 1 <= args.dpi <= 1200:
         raise CliError(f'--dpi must be between 1 and 1200, got {args.dpi}')
     table = read_table(args.input, required=PLOT_COLUMNS, optional=LENGTH_COLUMNS)
@@ -140,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
     lengths = [n for n in LENGTH_COLUMNS if n in table.names]
     unsolved = (np.all(np.column_stack([table[n] for n in lengths]) == 0.0, axis=1)
                 if lengths else None)
-    plot_forces_powers(table['t'], force, power, args.output, title=title, dpi=args.dpi,
-                       unsolved=unsolved)
+    fig = force_power_figure(table['t'], force, power, title=title, unsolved=unsolved)
+    with atomic_output(args.output) as f:
+        fig.savefig(f, format=fmt, dpi=args.dpi)
     return 0

@@ -1,24 +1,13 @@
 """``flight-sim-dynamics simulate``: the digital twin on files
 (:func:`flight_sim_dynamics.simulate`, RK4 at a fixed step).
 
-Open loop: ``--forces CSV`` with the columns ``t,force_a,force_b,force_c``
-(any order; other columns, e.g. the rest of ``solve``'s output, are not
-used), interpolated between rows by a cubic Hermite spline (O(dt^4), see
-:mod:`flight_sim_dynamics.core.simulation`).
-
-Closed loop: a reference motion, ``--reference CSV`` (the trajectory file
-``solve`` reads) or ``--motion NAME`` (the registry of
-:mod:`flight_sim_dynamics.core.motions`), tracked by PD servos on the leg
-lengths (``--bandwidth`` or ``--gains``) with the feed-forward of
-``--feedforward`` (a scene, a scene file, or none), computed with the
-controller's parameters (``--params``), driving the plant (``--plant-params``,
-``--plant-scene``).
-
-Output: the columns ``solve`` reads (t, pose, rates, accelerations), then leg
-lengths, rates and delivered forces, in closed loop the tracking errors
-(simulated minus reference), and a status per row. A run that stops (the
-motion leaves the workspace or nears a singularity) writes the rows up to
-the stop, warns on standard error and exits with status 1.
+Open loop: ``--forces CSV`` (``t,force_a,force_b,force_c``). Closed loop:
+``--reference CSV`` or ``--motion NAME`` tracked by PD servos on the leg
+lengths (``--bandwidth`` or ``--gains``) with the ``--feedforward`` scene's
+forces, driving the plant (``--plant-params``, ``--plant-scene``). Writes the
+trajectory columns, leg lengths, rates, delivered forces, the tracking errors
+(closed loop) and a status per row; a run that stops writes the rows up to
+the stop, warns and exits with status 1.
 """
 from __future__ import annotations
 
@@ -32,7 +21,7 @@ import flight_sim_dynamics as fsd
 from ..core.model import Model
 from ..core.motions import MOTIONS
 from ..core.simulation import (DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, DEFAULT_STEP,
-                               ForceHistory, Reference, Servo, Simulation, simulate)
+                               ForceHistory, Reference, Servo, simulate)
 from .csv_io import TRAJECTORY_COLUMNS, read_csv, write_csv
 from .main import load_model, report_not_ok
 
@@ -50,8 +39,7 @@ def configure(p: argparse.ArgumentParser) -> None:
     source = p.add_mutually_exclusive_group(required=True)
     source.add_argument('--forces', metavar='CSV',
                         help='open loop: actuator forces, columns ' + ','.join(FORCE_COLUMNS)
-                             + " in any order ('-' for standard input; other columns are not "
-                               'used, so the output of solve will do)')
+                             + " ('-' for standard input; solve's output will do)")
     source.add_argument('--reference', metavar='CSV',
                         help='closed loop: a reference motion, the trajectory CSV solve reads ('
                              + ','.join(TRAJECTORY_COLUMNS) + ')')
@@ -62,22 +50,19 @@ def configure(p: argparse.ArgumentParser) -> None:
                         + ','.join(OUTPUT_COLUMNS) + ', in closed loop '
                         + ','.join(ERROR_COLUMNS) + ', then status')
     p.add_argument('--params', metavar='YAML', default=None,
-                   help="the controller's parameter file (feed-forward), and the plant's "
-                        'unless --plant-params; default: the packaged parameters')
+                   help="the controller's parameter file, and the plant's unless "
+                        '--plant-params (default: the packaged parameters)')
     p.add_argument('--plant-params', metavar='YAML', default=None,
-                   help='parameter file of the simulated machine (default: --params), e.g. '
-                        'a heavier payload than the controller assumes')
+                   help='parameter file of the simulated machine (default: --params)')
     p.add_argument('--plant-scene', metavar='NAME_OR_YAML', default='full',
                    help='effects the simulated machine has (default full; needs inertia)')
     p.add_argument('--feedforward', metavar='none|NAME_OR_YAML', default=None,
-                   help='closed loop: scene of the feed-forward (inverse dynamics of the '
-                        'reference with the controller\'s parameters), or none; default: '
-                        'the plant scene')
+                   help='closed loop: scene of the feed-forward, or none (default: the '
+                        'plant scene)')
     gains = p.add_mutually_exclusive_group()
     gains.add_argument('--bandwidth', type=float, default=None, metavar='HZ',
-                       help='closed loop: servo gains of a critically damped leg of the '
-                            "plant's leg-space mass at this bandwidth (default "
-                            f'{DEFAULT_BANDWIDTH_HZ:g} Hz)')
+                       help='closed loop: critically damped servo gains of this bandwidth '
+                            f'(default {DEFAULT_BANDWIDTH_HZ:g} Hz)')
     gains.add_argument('--gains', type=float, nargs=6, default=None,
                        metavar=('KP_A', 'KP_B', 'KP_C', 'KD_A', 'KD_B', 'KD_C'),
                        help='closed loop: PD gains per actuator, N/m and N s/m')
@@ -85,8 +70,8 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help=f'RK4 step, s (default {DEFAULT_STEP:g})')
     p.add_argument('--initial', type=float, nargs=6, default=None,
                    metavar=('SURGE', 'HEAVE', 'ROLL', 'SURGE_RATE', 'HEAVE_RATE', 'ROLL_RATE'),
-                   help='initial state (m, rad, m/s, rad/s); default: rest at the central '
-                        "configuration (open loop), the reference's start (closed loop)")
+                   help="initial state (m, rad, m/s, rad/s); default: rest, or the reference's "
+                        'start')
 
 
 def _closed_loop_only(args: argparse.Namespace) -> None:
@@ -130,23 +115,13 @@ def run(args: argparse.Namespace) -> int:
                                                                    scene_option='--feedforward')
         sim = simulate(plant, reference=reference, feedforward=feedforward,
                        servo=_servo(args, plant), initial=initial, step=args.step)
-    names, data = table_of(sim)
-    write_csv(args.output, names, data, text=('status', [str(s) for s in sim.status]))
-    return _report(sim)
-
-
-def table_of(sim: Simulation) -> tuple[tuple[str, ...], np.ndarray]:
-    """Column names and rows of a simulation (without the status column)."""
     columns = [sim.t, sim.q, sim.qd, sim.qdd, sim.length, sim.rate, sim.force]
     names = OUTPUT_COLUMNS
     if sim.pose_error is not None:
         columns += [sim.pose_error, sim.length_error]
         names += ERROR_COLUMNS
-    return names, np.column_stack(columns)
-
-
-def _report(sim: Simulation) -> int:
-    """Warnings on standard error: rows that are not ok, and a stop."""
+    write_csv(args.output, names, np.column_stack(columns),
+              text=('status', [str(s) for s in sim.status]))
     report_not_ok('', sim.status, sim.detail, lambda i: f't = {sim.t[i]:.6g} s')
     if sim.outcome != fsd.Status.OK:
         print(f'warning: simulation stopped: {sim.outcome}: {sim.outcome_detail}; '

@@ -1,45 +1,12 @@
 """The workspace map: ``flight-sim-dynamics workspace [-o map.png]``.
 
-For a few roll angles this samples the (surge, heave) plane on a grid with
-:func:`flight_sim_dynamics.solve_batch` (at rest: the map is about geometry,
-not motion) and draws, one panel per roll angle,
-
-* the reachable region, coloured by the exact condition number cond(Q) of the
-  connectivity matrix (``sol.cond``, SVD; log scale), or by the cheap
-  ``kinematic_condition`` with ``--color-by kinematic``;
-* the unreachable regions, hatched and coloured by their cause: crank D
-  cannot reach the rod (loop D), crank E cannot reach the rod line (loop E),
-  and the slider E2 would leave the rod between A3 and G ('E2 on rod': a pose
-  that needs E2 off the rod is ``unreachable``, like one where a loop cannot
-  close), plus degenerate legs if any;
-* the boundary of the reachable set, thick where loop D or E stops closing
-  (a crank tangent to its circle: Q is singular there) and thin where E2
-  reaches A3 or G (not a singularity);
-* the stroke-limit contours of the three legs (stroke ==
-  ``limits.stroke_min`` / ``limits.stroke_max``), with the reachable part
-  outside the stroke limits dimmed;
-* the singular curves: the contour of the kinematic condition (blocks of Q)
-  at ``limits.max_kinematic_condition`` (it hugs the loop D / E boundary),
-  the curve det(dL/dq) = 0 where the actuator Jacobian is singular (its
-  condition blows up there; a contour of the condition at a threshold would
-  fall apart into specks on a grid, the sign change of the determinant does
-  not), and the cells whose status is ``near_singular``;
-* the central configuration and the paper's three motions (eq. 6).
-
-A second row zooms onto the region around the central configuration where
-the actuators can actually go (``--zoom``; ``--no-zoom`` leaves it out).
-
-It prints a summary: per roll angle, the reachable surge range at heave 0 and
-heave range at surge 0 (all intervals, the one through the central
-configuration first) and the same within the stroke limits, each end with the
-constraint that ends it (located by bisection to ~1e-12 m); the areas of the
-reachable region and of its part within the stroke limits (row by row with
-each crossing located by bisection); and how the paper's motions fare.
-``--markdown FILE`` writes the same as a markdown page next to the figure.
-
-Roll enters legs B and C only, so the reachable set (loops D and E, slider
-E2) is the same for every roll angle, and roll -r gives the same map as +r
-with legs B and C exchanged. matplotlib is imported by :func:`plot` only.
+Per roll angle, a panel of the (surge, heave) plane at rest
+(:mod:`..core.workspace`): the reachable region coloured by cond(Q) (or the
+kinematic condition), the unreachable regions hatched by cause (loop D, loop
+E, slider E2 off the rod), the stroke-limit contours, the singular curves and
+the paper's motions (eq. 6); a second row zooms on the central configuration.
+The summary (intervals along the axes, areas, the paper's motions) goes to
+stdout, and with ``--markdown`` to a page. matplotlib is imported by :func:`plot` only.
 """
 from __future__ import annotations
 
@@ -49,7 +16,7 @@ import os
 import shlex
 import sys
 import time
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -68,13 +35,13 @@ DEFAULT_ROLLS = (0.0, 15.0, 30.0, 45.0)
 DEFAULT_RESOLUTION = 201
 
 
-def _intervals_text(line: LineRanges, which: str, digits: int = 3) -> str:
+def _intervals_text(line: LineRanges, which: str) -> str:
     ivs = line.intervals[which]
     if not ivs:
         return 'none'
     centre = line.through_centre(which)
     ordered = ([centre] if centre else []) + [iv for iv in ivs if iv is not centre]
-    parts = [iv.text(digits) for iv in ordered]
+    parts = [iv.text() for iv in ordered]
     if centre is None:
         return 'not through 0: ' + '; '.join(parts)
     return parts[0] + ('' if len(parts) == 1 else '; also ' + '; '.join(parts[1:]))
@@ -87,17 +54,14 @@ def _fmt_statuses(counts: dict[str, int]) -> str:
     return ', '.join(f'{n} {s}' for s, n in counts.items()) + f' (of {total})'
 
 
-
 def _shares_text(shares: dict[str, float]) -> str:
     return ', '.join(f'{name} {100 * share:.0f} %' for name, share in shares.items()
                      if share >= 0.005) or 'none'
 
 
 def bounds(results: Sequence[RollResult], model: Model) -> list[tuple[str, str, str, str]]:
-    """Per roll angle: what makes the boundary of the reachable set (overview
-    panel) and of the region within the stroke limits (zoomed panel if any),
-    as shares of the boundary's length (grid estimate), and the share of the
-    cells within the stroke limits whose status is near_singular.
+    """Per roll angle: the boundary shares of the reachable set (overview) and
+    of the within-stroke region (zoom if any), and the near_singular share.
     """
     rows = []
     for r in results:
@@ -165,18 +129,11 @@ def markdown(results: Sequence[RollResult], motions: Sequence[MotionReport], mod
         out.append(f'![reachable (surge, heave) region per roll angle, coloured by the '
                    f'condition number]({rel})\n')
     colour = 'cond(Q) (SVD)' if args.color_by == 'cond' else 'the kinematic condition'
-    out.append(f'Each panel is one roll angle, the platform at rest; the top row shows the whole '
-               'reachable set, the bottom row (if any) zooms onto the central configuration '
-               f'(+). Colour: {colour}, log scale; dimmed: reachable but outside the stroke '
-               'limits; hatched: unreachable, by cause (loop D or E cannot close, or the slider '
-               'E2 would leave the rod between A3 and G: the solver reports `unreachable`). '
-               'The boundary is thick where loop D or E stops closing (Q singular) and thin '
-               'where E2 reaches A3 or G; the stroke limits of legs A, B, C '
-               f'({lim.stroke_min:g} m dashed, {lim.stroke_max:g} m solid), the kinematic '
-               f'condition at {lim.max_kinematic_condition:g} (dotted) and det(dL/dq) = 0 '
-               '(dash-dotted) are drawn; red cells are `near_singular`. Roll enters legs B and '
-               'C only: the reachable set is the same at every roll angle, and roll -r mirrors '
-               '+r with legs B and C exchanged.\n')
+    out.append(f'One panel per roll angle, at rest; the bottom row (if any) zooms onto the '
+               f'central configuration (+). Colour: {colour}, log scale; dimmed: outside the '
+               f'stroke limits ({lim.stroke_min:g} m dashed, {lim.stroke_max:g} m solid); '
+               'hatched: unreachable, by cause. Roll enters legs B and C only: the reachable '
+               'set is the same at every roll angle.\n')
     out.append('## What bounds the workspace\n\nShare of the length of each boundary made by '
                'each constraint (grid estimate), and the share of the cells within the stroke '
                'limits whose status is `near_singular`.\n\n' + _md_table(
@@ -189,9 +146,6 @@ def markdown(results: Sequence[RollResult], motions: Sequence[MotionReport], mod
     return '\n'.join(out)
 
 
-# ----------------------------------------------------------------------------
-# The figure
-# ----------------------------------------------------------------------------
 _CAUSE_STYLE = {LOOP_D: dict(color='0.86', hatch='//', label='unreachable: loop D cannot close'),
                 LOOP_E: dict(color='0.62', hatch='\\\\', label='unreachable: loop E cannot close'),
                 E2_OFF_ROD: dict(color='#f4c58f', hatch='xx',
@@ -207,16 +161,14 @@ _STAR = dict(marker='*', markersize=13, color='#ffff00', markeredgecolor='k', li
 
 
 def _halo(width: float = 2.8) -> list:
-    """A dark outline that keeps a line visible on any colour."""
+    """A dark outline: the line stays visible on any colour."""
     import matplotlib.patheffects as pe
 
     return [pe.withStroke(linewidth=width, foreground='k')]
 
 
 def _regions(mask: np.ndarray) -> list[np.ndarray]:
-    """The 4-connected regions of a boolean grid, one mask each (a flood fill:
-    a few ms on a 201 x 201 map).
-    """
+    """The 4-connected regions of a boolean grid, one mask each (flood fill)."""
     label = np.zeros(mask.shape, dtype=np.int32)
     regions = []
     for start in zip(*np.nonzero(mask)):
@@ -240,8 +192,7 @@ def _draw_panel(ax, rm: RollMap, model: Model, norm, cmap, extent, show_paths: b
     lim = model.limits
     S, H = np.meshgrid(rm.surge, rm.heave)
     reach = rm.category == REACHABLE
-    # one contourf per connected region, the largest first: a region drawn
-    # around the hole where a smaller one sits loses that one's hatch
+    # one contourf per region, the largest first: else an enclosed region loses its hatch
     regions = [(region, _CAUSE_STYLE[code]) for code in _CAUSE_STYLE
                for region in _regions(rm.category == code)]
     for region, style in sorted(regions, key=lambda r: -int(r[0].sum())):
@@ -255,8 +206,7 @@ def _draw_panel(ax, rm: RollMap, model: Model, norm, cmap, extent, show_paths: b
     near = np.ma.masked_where(~rm.near_singular, np.ones(S.shape))
     ax.pcolormesh(S, H, near, cmap='Reds', vmin=0.0, vmax=1.0, alpha=0.8, shading='nearest',
                   rasterized=True)
-    # Boundary of the reachable set: where loop D or E stops closing (a crank
-    # tangent to its circle: Q singular) drawn apart from where E2 reaches A3 or G.
+    # the boundary: thick where loop D or E stops closing (Q singular), thin at E2's ends
     singular_side = np.isin(rm.category, (LOOP_D, LOOP_E))
     for other, width in ((singular_side, 2.2), (rm.category == E2_OFF_ROD, 1.0)):
         f = np.where(reach, 0.0, np.where(other, 1.0, np.nan))
@@ -292,10 +242,7 @@ def _draw_panel(ax, rm: RollMap, model: Model, norm, cmap, extent, show_paths: b
 
 
 def _legend_handles(model: Model, categories: set[int]) -> tuple[list, list[str]]:
-    """The legend's (handles, labels): one entry per kind of thing drawn, the
-    related ones grouped (both strokes of a leg, both kinds of boundary, the
-    markers of the paper's motions), so that it stays short.
-    """
+    """The legend's (handles, labels), related entries grouped so that it stays short."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
@@ -321,9 +268,6 @@ def _legend_handles(model: Model, categories: set[int]) -> tuple[list, list[str]
                            path_effects=_halo()),
                     'actuator Jacobian singular: det(dL/dq) = 0'))
     entries.append((Patch(facecolor=_NEAR_COLOUR, alpha=0.8),
-                    f'near_singular: kinematic or actuator-Jacobian condition > '
-                    f'{max(lim.max_kinematic_condition, lim.max_jacobian_condition):g}'
-                    if lim.max_kinematic_condition == lim.max_jacobian_condition else
                     f'near_singular: kinematic condition > {lim.max_kinematic_condition:g} or '
                     f'Jacobian condition > {lim.max_jacobian_condition:g}'))
     entries.append(((Line2D([], [], color='k', marker='+', linestyle='', markersize=10,
@@ -384,36 +328,27 @@ def plot(results: Sequence[RollResult], model: Model, path: str, args: argparse.
         fig.savefig(f, format=fmt, dpi=args.dpi)
 
 
-# ----------------------------------------------------------------------------
-# Command line
-# ----------------------------------------------------------------------------
 def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument('-o', '--output', default='workspace.png', metavar='IMAGE',
-                   help='figure to write; the format follows the extension (default '
-                        'workspace.png)')
+                   help='figure to write, format by extension (default workspace.png)')
     p.add_argument('--rolls', type=float, nargs='+', default=list(DEFAULT_ROLLS),
                    metavar='DEG', help='roll angles in degrees, one panel each (default '
-                   + ' '.join(f'{r:g}' for r in DEFAULT_ROLLS)
-                   + '; -r mirrors +r with legs B and C exchanged)')
+                   + ' '.join(f'{r:g}' for r in DEFAULT_ROLLS) + ')')
     p.add_argument('--resolution', type=int, default=DEFAULT_RESOLUTION, metavar='N',
                    help=f'grid points per axis of each panel (default {DEFAULT_RESOLUTION})')
     p.add_argument('--range', type=float, nargs=4, default=list(DEFAULT_RANGE),
                    metavar=('SURGE_MIN', 'SURGE_MAX', 'HEAVE_MIN', 'HEAVE_MAX'),
-                   help='extent of the overview panels, m (default '
-                   + ' '.join(f'{v:g}' for v in DEFAULT_RANGE)
-                   + ': the whole reachable set with margin); also the extent of the '
-                     'reported intervals and areas')
+                   help='extent of the overview panels and of the intervals and areas, m '
+                   '(default ' + ' '.join(f'{v:g}' for v in DEFAULT_RANGE) + ')')
     p.add_argument('--zoom', type=float, nargs=4, default=list(DEFAULT_ZOOM),
                    metavar=('SURGE_MIN', 'SURGE_MAX', 'HEAVE_MIN', 'HEAVE_MAX'),
                    help='extent of the zoomed panels, m (default '
                    + ' '.join(f'{v:g}' for v in DEFAULT_ZOOM) + ')')
     p.add_argument('--no-zoom', action='store_true', help='leave out the zoomed row')
     p.add_argument('--color-by', choices=('cond', 'kinematic'), default='cond',
-                   help='colour: exact cond(Q) by SVD (default) or the cheap kinematic '
-                        'condition (blocks of Q)')
+                   help='colour: exact cond(Q) (default) or the kinematic condition')
     p.add_argument('--markdown', metavar='MD', default=None,
-                   help='also write the summary as a markdown page (e.g. docs/workspace.md) '
-                        'that shows the figure')
+                   help='also write the summary as a markdown page showing the figure')
     p.add_argument('--params', metavar='YAML', default=None,
                    help='parameter file (default: the packaged parameters)')
     p.add_argument('--dpi', type=int, default=100, help='resolution of raster images '
@@ -443,17 +378,6 @@ def _check(args: argparse.Namespace) -> None:
                              'not exist')
 
 
-def compute(model: Model, args: argparse.Namespace,
-            progress: Callable[[str], None] = lambda s: None) -> list[RollResult]:
-    """Sample every roll angle: maps, line intervals, areas."""
-    results = []
-    for roll in args.rolls:
-        progress(f'roll {roll:+g} deg')
-        results.append(sample_roll(model, roll, args.range, None if args.no_zoom else args.zoom,
-                                   args.resolution, args.color_by == 'cond'))
-    return results
-
-
 def run(args: argparse.Namespace) -> int:
     """The ``workspace`` subcommand: figure, summary on stdout, optional markdown."""
     t0 = time.perf_counter()
@@ -463,7 +387,11 @@ def run(args: argparse.Namespace) -> int:
     def progress(msg: str) -> None:
         print(f'[workspace] {msg}', file=sys.stderr, flush=True)
 
-    results = compute(model, args, progress)
+    results = []
+    for roll in args.rolls:
+        progress(f'roll {roll:+g} deg')
+        results.append(sample_roll(model, roll, args.range, None if args.no_zoom else args.zoom,
+                                   args.resolution, args.color_by == 'cond'))
     motions = paper_motions(model)
     progress(f'plotting {args.output}')
     plot(results, model, args.output, args)

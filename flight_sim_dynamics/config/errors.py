@@ -1,7 +1,4 @@
-"""The error of a bad parameter, file or scene (:class:`ParameterError`, a
-ValueError naming the key and the value), and the "did you mean" of a
-misspelt name: shared by the schema, the file reader and the scenes.
-"""
+"""The error of a bad parameter, file or scene, and "did you mean"."""
 from __future__ import annotations
 
 import difflib
@@ -19,9 +16,7 @@ class ParameterError(ValueError):
 
 
 def _short(value: Any, limit: int = 200) -> str:
-    """Repr of a value, cut to ``limit`` characters (a 1 MB string stays out of
-    error messages and logs).
-    """
+    """Repr of a value, cut to ``limit`` characters."""
     text = repr(value)
     return text if len(text) <= limit else text[:limit] + f'... ({len(text)} characters)'
 

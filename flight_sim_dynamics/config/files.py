@@ -1,8 +1,6 @@
-"""Parameter files: where the packaged one is, which ``--params-file`` a ROS
-command line gives, and how a ROS 2 parameter YAML file is read into flat
-dotted names (as ROS 2 flattens them), by the rules of :mod:`.yaml_io`, each
-value of a known name type- and range-checked against the schema with the
-file named (:func:`check_file_values`).
+"""Parameter files: the packaged one, the ``--params-file`` of a ROS command
+line, and a ROS 2 parameter YAML file read into flat dotted names, each value
+of a known name checked against the schema.
 """
 from __future__ import annotations
 
@@ -23,10 +21,8 @@ DEFAULT_PARAMS_FILE = 'flight_sim_dynamics.yaml'
 
 
 def default_params_path() -> Path:
-    """The packaged parameter file. Code imported from a source checkout reads
-    the checkout's own config/ (code and defaults always match); an installed
-    package reads its share directory: the ament index on a ROS install, else
-    <prefix>/share/flight_sim_dynamics/config of a pip install.
+    """The packaged parameter file: a source checkout's config/, else the
+    ament share directory, else <prefix>/share/flight_sim_dynamics/config.
     """
     candidates = []
     source = Path(__file__).resolve().parents[2]
@@ -62,10 +58,7 @@ def flatten(tree: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
 
 
 def check_file_values(flat: Mapping[str, Any], source: str) -> None:
-    """Check every value of a parameter of the schema in ``flat`` (read from the
-    file ``source``) against its spec: ParameterError naming the key and the
-    file. Unknown names are left to :func:`.validation.check_names`.
-    """
+    """Check each value of a known parameter in ``flat`` (read from ``source``)."""
     for key, value in flat.items():
         if key in SPECS:
             try:
@@ -75,10 +68,9 @@ def check_file_values(flat: Mapping[str, Any], source: str) -> None:
 
 
 def section_applies(section: str, node: str) -> bool:
-    """Whether a params-file section applies to the node of fully qualified
-    name ``node`` (``/ns/flight_sim_dynamics``), as rcl decides: the node's
-    name alone, its fully qualified name, or a pattern where ``/**`` stands for
-    any namespaces and ``*`` for one name token.
+    """Whether a params-file section applies to the node ``node`` (fully
+    qualified), as rcl decides: its name, its full name, or a pattern
+    (``/**`` any namespaces, ``*`` one token).
     """
     if section == node.rsplit('/', 1)[-1]:
         return True
@@ -89,12 +81,9 @@ def section_applies(section: str, node: str) -> bool:
 
 def read_params_file(path: str | os.PathLike[str],
                      node: str = '/' + NODE_NAME) -> dict[str, Any]:
-    """Read a ROS 2 parameter YAML file and return the parameters of the node
-    ``node`` (fully qualified name) as a flat dict of dotted names. Sections
-    that apply (:func:`section_applies`: ``/**``, ``flight_sim_dynamics``,
-    ``/flight_sim_dynamics`` ...) are merged in file order; other nodes'
-    sections are ignored, as ROS does. The names are not checked here (see
-    :func:`.parameters.read_params`).
+    """The parameters of the node ``node`` in a ROS 2 parameter YAML file, as
+    flat dotted names: the sections that apply, merged in file order (names
+    are checked by :func:`.parameters.read_params`).
     """
     source = str(Path(path))
     doc = read_yaml(path, 'params_file')
@@ -123,9 +112,7 @@ def read_params_file(path: str | os.PathLike[str],
 
 
 def params_files_in(args: Sequence[str]) -> list[str]:
-    """The files of ``--params-file FILE`` in the ROS arguments of a command
-    line (between ``--ros-args`` and ``--`` or the end), in order.
-    """
+    """The files of ``--params-file FILE`` in the ROS arguments of ``args``."""
     files: list[str] = []
     in_ros = False
     for i, arg in enumerate(args):

@@ -1,7 +1,5 @@
-"""Scenes: a named set of effects plus optional parameter overrides, read from
-YAML (``config/scenes/*.yaml`` or any path) by the rules of :mod:`.yaml_io`.
-See :mod:`..core.effects`. A misspelt key, effect or parameter gets "did you
-mean".
+"""Scenes: a named set of effects (:mod:`..core.effects`) and parameter
+overrides, read from ``config/scenes/*.yaml`` or any path.
 """
 from __future__ import annotations
 
@@ -22,10 +20,7 @@ _MODEL_NAMES = frozenset(spec.name for spec in MODEL_PARAMETERS)
 
 
 class SceneError(ParameterError):
-    """A scene file is missing, malformed or names an unknown effect. A
-    ParameterError of the parameter ``scene``, so that whoever handles bad
-    parameters (the node's parameter service, the command line) handles it.
-    """
+    """A scene file is missing or malformed: a ParameterError of ``scene``."""
 
     def __init__(self, scene: str, reason: str) -> None:
         super().__init__('scene', scene, reason)

@@ -1,21 +1,12 @@
-"""Reading a YAML file the one safe way, for parameter and scene files.
+"""Reading a YAML parameter or scene file the one safe way: every problem is
+one :class:`ParameterError` naming the file (and the key, if any).
 
-Every problem is one :class:`ParameterError` naming the file (and the key,
-when there is one), in well under a second, whatever the file holds:
-
-* at most :data:`MAX_FILE_BYTES` (256 KiB) are read (``/dev/zero``, a FIFO or a
-  huge file never read unbounded); a directory, NUL bytes (a binary file) or
-  text that is not UTF-8 is refused;
-* aliases and anchors are refused outright (a 1.4 KB "billion laughs" file
-  expands to gigabytes); a key given twice is refused (not the last one
-  silently winning);
-* a plain value is a number only when written as a decimal (``7``, ``-0.5``,
-  ``1e3``, ``.inf``; an integer of at most 19 digits), a boolean only as
-  ``true``/``false``, null as ``~``, ``null`` or nothing; anything else
-  (``yes``, ``0x10``, ``010``, ``1:30``, a date) is a string, which the schema's
-  type check then refuses, naming the key, wherever a number or a boolean is
-  expected. So the library never reads a number that ROS 2's parser (rcl,
-  which reads ``--params-file`` for the node) reads differently.
+At most :data:`MAX_FILE_BYTES` are read; directories, NUL bytes and non-UTF-8
+text are refused; so are anchors and aliases ("billion laughs") and keys
+given twice. A plain value is a number only as a decimal (an integer of at
+most 19 digits), a boolean only as true/false, null as ``~``, ``null`` or
+nothing; anything else (``yes``, ``0x10``, ``010``, a date) is a string, so
+that no number reads differently here and in rcl's ``--params-file`` parser.
 """
 from __future__ import annotations
 
@@ -43,9 +34,7 @@ except ImportError:  # PyYAML built without libyaml
 
 
 class _Resolver(BaseResolver):
-    """Plain scalars: YAML 1.2's null, true/false, decimal integers and floats;
-    the rest strings.
-    """
+    """Plain scalars: YAML 1.2's null, booleans, decimal numbers; the rest strings."""
 
 
 for _tag, _pattern, _first in (
@@ -60,9 +49,7 @@ for _tag, _pattern, _first in (
 
 
 class _StrictLoader(Composer, _Parser, SafeConstructor, _Resolver):  # type: ignore[misc,valid-type]
-    """PyYAML's safe loader (libyaml's parser when available) that refuses
-    aliases and anchors while composing.
-    """
+    """PyYAML's safe loader (libyaml's parser if any), refusing anchors and aliases."""
 
     def __init__(self, text: str) -> None:
         _Parser.__init__(self, text)
@@ -97,9 +84,8 @@ def _no_duplicate_keys(node: Node, path: list[str], source: str) -> None:
 
 
 def read_bytes(path: str | os.PathLike[str], key: str) -> bytes:
-    """At most MAX_FILE_BYTES + 1 bytes of a file (never blocks on a FIFO
-    without a writer); ParameterError(``key``) for a directory, an unreadable
-    or an oversized file.
+    """At most MAX_FILE_BYTES + 1 bytes of a file (a FIFO without a writer does
+    not block); ParameterError(``key``) otherwise.
     """
     name = os.fspath(path)
     try:
@@ -125,9 +111,8 @@ def read_bytes(path: str | os.PathLike[str], key: str) -> bytes:
 
 
 def read_yaml(path: str | os.PathLike[str], key: str = 'params_file') -> Any:
-    """The YAML document of a file, read by the rules of the module docstring.
-    Every problem raises ParameterError: ``key`` names the file's parameter
-    (``params_file``, ``scene``), or the offending key inside the file.
+    """The YAML document of a file (module docstring); ParameterError naming
+    ``key`` (the file's parameter) or the offending key inside the file.
     """
     source = str(Path(path))
     data = read_bytes(path, key)

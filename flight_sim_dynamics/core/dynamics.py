@@ -1,18 +1,9 @@
 """Inverse dynamics: paper Section 3, eq. (18)-(23).
 
-For every body the *required wrench* (the negative of the paper's inertia
-wrench plus weight, eq. 21) is computed about the joint centre of its frame
-(eq. 18-19); the wrenches are accumulated backwards along each open chain
-A, B, C and the cranks D, E (eq. 20, 22); and the actuator forces follow from
-the principle of virtual work with the three virtual motions of eq. (14),
-whose virtual joint velocities come from the connectivity relations (11)
-(eq. 23). Vectors are 3-tuples of components in the fixed frame
-(:mod:`.vectors`, :mod:`.kinematics`).
-
-Only the effects of the model's scene are computed (:mod:`.effects`): a body
-without inertia gets no motion computed at all, a scene without gravity no
-weights, a scene without velocity products none of the centrifugal and
-Coriolis terms.
+Each body's required wrench (eq. 18-19, 21) about its joint centre, summed
+backwards along the chains A, B, C and the cranks D, E (eq. 20, 22); the
+actuator forces by virtual work with the virtual motions of eq. (14) (eq. 23).
+Only the effects of the model's scene are computed (:mod:`.effects`).
 """
 from __future__ import annotations
 
@@ -25,9 +16,7 @@ from .model import ACTUATED_JOINTS, BODY_NAMES, Body, Model
 from .vectors import (Scalar, Vec, add, axpy, cross, dot, from_frame, mat_vec, scale, sub,
                       to_frame, zx)
 
-#: Bodies moved by each inertia effect: the cranks, the platform (with the
-#: payload, which is not one of the model's BODY_NAMES), and the rest of
-#: BODY_NAMES, the bodies of chains A, B, C (leg_inertia).
+#: Bodies moved by each inertia effect (the payload is not one of BODY_NAMES).
 CRANK_BODIES = ('crank_d', 'crank_e')
 PLATFORM_BODIES = ('platform', 'payload')
 LEG_BODIES = tuple(name for name in BODY_NAMES if name not in CRANK_BODIES + PLATFORM_BODIES)
@@ -61,11 +50,9 @@ class BodyState:
 
 def body_states(model: Model, g: Geometric, V: list | None, Gamma: list | None,
                 qd: tuple, qdd: tuple) -> dict[str, BodyState]:
-    """Frames of the bodies with mass and, for those whose inertia the scene
-    simulates, their absolute angular velocity, angular acceleration and
-    centre-of-mass acceleration, composed along each chain from the relative
-    joint rates V (eq. 13) and accelerations Gamma (eq. 15). A body that has
-    neither weight nor inertia in the scene is left out.
+    """Frames of the bodies the scene weighs or moves and, for the moving ones,
+    omega, epsilon and the centre-of-mass acceleration from V (eq. 13) and
+    Gamma (eq. 15).
     """
     effects = model.effects
     geom = model.geometry
@@ -165,13 +152,10 @@ def body_states(model: Model, g: Geometric, V: list | None, Gamma: list | None,
 
 def required_wrench(state: BodyState, gravity: float, about: Vec,
                     velocity_products: bool) -> tuple[Vec, Vec]:
-    """F_k0, M_k0 of eq. (21) = -(inertia wrench, eq. 18) - (weight wrench, eq. 19),
-    the moment taken about the point ``about`` (the joint centre A_k).
-
-    F = m (a_C - g), M = J_C eps + omega x J_C omega + (C - A_k) x F, with
-    g = -gravity y0 (the paper's eq. 19 writes the weight along u3: the
-    vertical of this machine is y0, see mechanism.md). J_C is applied in the
-    body frame (J_C = R J R^T). Terms the scene leaves out are not computed.
+    """F_k0, M_k0 of eq. (21) = -(inertia wrench, eq. 18) - (weight, eq. 19) about
+    ``about`` (the joint centre A_k): F = m (a_C - g), M = J_C eps + omega x
+    J_C omega + (C - A_k) x F, g = -gravity y0 (this machine's vertical), J_C
+    applied in the body frame.
     """
     m = state.body.mass
     if state.acc is None:
@@ -190,13 +174,10 @@ def required_wrench(state: BodyState, gravity: float, about: Vec,
 
 def joint_forces(model: Model, g: Geometric,
                  states: dict[str, BodyState]) -> tuple[list, Scalar]:
-    """Backward recursion of eq. (20)-(22) along chains A, B, C and cranks D, E.
-
-    Returns tau (12 components), the projection of the accumulated wrench on
-    each joint axis (u3^T F_k for a prismatic joint, u3^T M_k for a revolute
-    one) in the order of eq. (13), and tau_43, that of the platform roll joint
-    A4. The massless slider E2 carries no term (tau[11] = 0). Bodies left out
-    of the scene contribute nothing.
+    """Backward recursion of eq. (20)-(22) along chains A, B, C and cranks D, E:
+    tau (12, eq. 13), the accumulated wrench on each joint axis (u3^T F_k
+    prismatic, u3^T M_k revolute; tau[11] = 0, the massless slider E2), and
+    tau_43 of the platform roll joint A4.
     """
     geom = model.geometry
     grav = model.gravity if model.effects.gravity else 0.0
@@ -262,10 +243,8 @@ def _inverse3(m: list) -> list:
 
 
 def virtual_velocities(K: tuple[list, list, list], J: list) -> tuple[list, list, list]:
-    """The three virtual motions of eq. (14): motion a has unit rate of actuator a
-    and zero rate of the others, i.e. pose rates J^-1 e_a. Returns the virtual
-    joint velocities Vv[j][a] (12 x 3, eq. 11), the virtual roll rates
-    (omega_43a, 3) and J^-1.
+    """The virtual motions of eq. (14), pose rates J^-1 e_a: the virtual joint
+    velocities Vv[j][a] (eq. 11), the virtual roll rates omega_43a and J^-1.
     """
     Jinv = _inverse3(J)
     Vv = [[K[0][j] * Jinv[0][a] + K[1][j] * Jinv[1][a] + K[2][j] * Jinv[2][a]
@@ -274,18 +253,14 @@ def virtual_velocities(K: tuple[list, list, list], J: list) -> tuple[list, list,
 
 
 def actuator_forces(tau: list, tau_43: Scalar, Vv: list, roll_v: list) -> list:
-    """Eq. (23): f_a = sum over joints of (virtual velocity in motion a) x (joint
-    projection of the accumulated wrench). Returns [f_A, f_B, f_C], positive when
-    the actuator pushes its two ends apart.
-    """
+    """Eq. (23): f_a = sum_j Vv[j][a] tau_j + omega_43a tau_43 (+ pushes the ends apart)."""
     return [sum(Vv[j][a] * tau[j] for j in range(11))   # tau[11] = 0: slider E2 is massless
             + roll_v[a] * tau_43 for a in range(3)]
 
 
 def friction_forces(model: Model, rate: tuple, xp: SimpleNamespace) -> list:
-    """Actuator friction (effect 'friction'; not in the paper, added to the
-    force of eq. 23): viscous x rate + Coulomb x tanh(rate / smoothing
-    velocity), per actuator; it adds to the force the actuator must give.
+    """Actuator friction (not in the paper; added to eq. 23): viscous x rate +
+    Coulomb x tanh(rate / smoothing velocity).
     """
     fr = model.friction
     return [fr.viscous[i] * rate[i] + fr.coulomb[i] * xp.tanh(rate[i] / fr.smoothing_velocity)

@@ -1,8 +1,7 @@
 """Effects and scenes: simulate only what a scene calls for.
 
-An :class:`Effects` set switches each physical effect on or off. A disabled
-effect is *skipped* by the solver (its terms are never computed), not
-computed and multiplied by zero:
+An :class:`Effects` set switches each physical effect on or off; a disabled
+effect's terms are never computed:
 
 ================== ==========================================================
 gravity            weight of every simulated body (eq. 19)
@@ -19,31 +18,18 @@ friction           actuator friction: viscous plus Coulomb (smoothed by
                    tanh(rate / friction.smoothing_velocity)), per actuator
 ================== ==========================================================
 
-A *scene* is a named set of effects plus optional parameter overrides, kept
-as a YAML file in ``config/scenes/`` (or anywhere, given by path)::
-
-    description: full model plus a cab and one occupant
-    effects: {gravity: true, platform_inertia: true, payload: true,
-              leg_inertia: true, crank_inertia: true,
-              velocity_products: true, friction: false}
-    parameters:          # optional: overrides of model parameters
-      payload: {mass: 140.0}
-
-Every effect must be listed: a scene says what it simulates, nothing is
-inherited silently.
+A *scene* (``config/scenes/*.yaml``, :mod:`..config.scenes`) names every
+effect true or false, with optional parameter overrides.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
 
 
-
 @dataclass(frozen=True)
 class Effects:
-    """Which physical effects the solver computes. Defaults: the paper's model.
-    Its fields are the list of effects (:data:`EFFECT_NAMES`): adding an effect
-    is adding a field here and its terms in :mod:`.dynamics` (and in
-    src/kernel.c, whose exported list is checked against this one).
+    """Which physical effects the solver computes (defaults: the paper's model);
+    the fields are :data:`EFFECT_NAMES`.
     """
 
     gravity: bool = True
@@ -77,5 +63,3 @@ class Effects:
 
 #: The effects, in the order of the fields of :class:`Effects` (declared there only).
 EFFECT_NAMES = tuple(f.name for f in fields(Effects))
-
-

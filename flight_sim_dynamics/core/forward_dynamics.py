@@ -1,28 +1,11 @@
 """Forward dynamics: the accelerations that given actuator forces produce.
 
-The inverse dynamics of the paper (eq. 14-23) is affine in the accelerations:
-the recursion eq. (18)-(22) propagates the body accelerations, which are
-linear in qdd (eq. 15-17: Gamma = Q^-1 S, S affine in qdd), to the joint
-forces, and eq. (14) and (23) map those to the actuator forces linearly. So
-for a pose q and rates qd
-
-    f = M(q, qd) qdd + b(q, qd)
-
-with b the forces of the same motion without acceleration,
-``solve(q, qd, 0).force``, and column j of M the extra force of a unit
-acceleration of coordinate j, ``solve(q, qd, e_j).force - b``. (M depends on
-q only; b holds gravity, the velocity products and friction, each when the
-scene simulates it.) Forward dynamics solves M qdd = f - b (an LU solve,
-never an inverse). A scene without inertia (``quasi_static``) has M = 0 and
-cannot be simulated: :class:`ValueError` naming the scene.
-
-Statuses follow :func:`.solver.solve` (:mod:`.status`): invalid input
-(non-finite q, qd or force) gives ``invalid_input``, a pose that cannot be
-assembled ``unreachable``, a pose past the model's near-singularity
-thresholds or an M too ill-conditioned to solve (:data:`MAX_MASS_CONDITION`)
-``near_singular``; all with zero accelerations. Otherwise the status and
-detail are those of ``solve(q, qd, acceleration)`` (``limit`` when a stroke,
-speed or force limit is exceeded). No NaN or infinity ever.
+The inverse dynamics (eq. 14-23) is affine in qdd (eq. 15-17: Gamma = Q^-1 S,
+S affine in qdd), so f = M(q) qdd + b(q, qd), b = ``solve(q, qd, 0).force``
+and M e_j = ``solve(q, qd, e_j).force - b``; forward dynamics solves
+M qdd = f - b (LU). A scene without inertia (M = 0) is a ValueError. Statuses
+follow :func:`.solver.solve`, with zero accelerations when not ok or limit
+(an M too ill-conditioned, :data:`MAX_MASS_CONDITION`: near_singular).
 
 >>> import flight_sim_dynamics as fsd
 >>> model = fsd.load_model()
@@ -44,11 +27,7 @@ from .model import Model
 from .solver import Solution, kernel_solution, solve, three_numbers
 from .status import SEVERITY, Status
 
-#: Largest 2-norm condition number of M (N per m/s^2 and N per rad/s^2) that
-#: forward dynamics solves: rounding errors of the solve grow like
-#: eps x condition, so beyond 1e8 the accelerations would not reproduce the
-#: forces to 1e-8. Within the packaged limits (Jacobian condition <= 100) M's
-#: condition stays below about 1e4.
+#: Largest condition number of M solved: beyond it, qdd would not reproduce f to 1e-8.
 MAX_MASS_CONDITION = 1e8
 
 _REST = (0.0, 0.0, 0.0)
@@ -80,20 +59,10 @@ def require_inertia(model: Model) -> None:
 
 def affine_terms(model: Model, q: Sequence[float], qd: Sequence[float]
                  ) -> tuple[np.ndarray, np.ndarray, Solution]:
-    """M (3, 3) and b (3,) of f = M qdd + b at (q, qd) (eq. 14, 18-23), and the
-    solve at zero acceleration (lengths, rates, status of the state); when
-    that solve's status is unreachable or invalid_input, M and b are zeros
-    (check the status first).
-
-    With the compiled kernel (:mod:`.kernel`), one call: the pose's geometry
-    and Jacobians once, b = the force of the solve at qdd = 0, and M from the
-    bodies' accelerations for the unit accelerations e_j alone (no gravity,
-    velocity products, friction: the terms of b; friction reads the leg
-    rates, not qdd, so f stays affine in qdd with it), which are their
-    velocities per unit qd_j: M = J^-T sum m a_i . a_j + w_i . I w_j by virtual
-    power (eq. 23). Otherwise, the reference: four solves, b = solve(q, qd,
-    0).force and M e_j = solve(q, qd, e_j).force - b. The two agree to
-    rounding (test_twin_kernel.py).
+    """M (3, 3) and b (3,) of f = M qdd + b at (q, qd) (eq. 14, 18-23) and the
+    solve at zero acceleration (M, b zeros when it is void). The kernel forms
+    M by virtual power, M = J^-T sum m a_i . a_j + w_i . I w_j (eq. 23); the
+    reference takes four solves.
     """
     if kernel._enabled:
         q3, qd3 = three_numbers('q', q), three_numbers('qd', qd)
@@ -112,10 +81,8 @@ def affine_terms(model: Model, q: Sequence[float], qd: Sequence[float]
 
 def solve_accelerations(M: np.ndarray, b: np.ndarray, force: np.ndarray
                         ) -> tuple[np.ndarray, Status, str]:
-    """Qdd with M qdd = force - b (LU, never an inverse), with status ok; or
-    zeros with near_singular when M is too ill-conditioned to solve
-    (:data:`MAX_MASS_CONDITION`), invalid_input when the result is not finite
-    (forces too large).
+    """Qdd with M qdd = force - b (LU) and ok; or zeros, near_singular (M too
+    ill-conditioned) or invalid_input (not finite).
     """
     if not np.all(np.isfinite(M)):
         return np.zeros(3), Status.NEAR_SINGULAR, 'exact singularity: M is not finite'
@@ -131,31 +98,15 @@ def solve_accelerations(M: np.ndarray, b: np.ndarray, force: np.ndarray
     return qdd, Status.OK, ''
 
 
-def _force_vector(force: Sequence[float]) -> np.ndarray:
-    """Three real numbers, or ValueError naming the argument (as solve's q)."""
-    try:
-        arr = np.asarray(force, dtype=float)
-    except (TypeError, ValueError):
-        arr = None
-    if arr is None or arr.shape != (3,) or isinstance(force, (str, bytes)):
-        raise ValueError(f'force must be 3 numbers (legs A, B, C, N), got {force!r:.200}')
-    return arr
-
-
 def forward_dynamics(model: Model, q: Sequence[float], qd: Sequence[float],
                      force: Sequence[float]) -> ForwardDynamics:
-    """Accelerations (surge, heave, roll) produced by actuator forces ``force``
-    (legs A, B, C, N; + extends) at pose ``q`` and rates ``qd``, within the
-    model's scene: qdd solving M qdd = force - b, M and b from the recursive
-    solver (eq. 14, 18-23; see the module's docstring).
-
-    ``solve(model, q, qd, result.acceleration).force == force`` (to rounding).
-    Never raises for a bad pose or bad numbers (``status`` and ``detail`` say
-    what happened); raises ValueError for arguments that are not three numbers
-    and for a scene without inertia.
+    """Accelerations (surge, heave, roll) that actuator forces ``force`` (N, A,
+    B, C) produce at ``q``, ``qd`` (eq. 14, 18-23): ``solve(model, q, qd,
+    acceleration).force == force``. ValueError only for arguments that are not
+    three numbers and for a scene without inertia.
     """
     require_inertia(model)
-    f = _force_vector(force)
+    f = np.array(three_numbers('force', force))
     M, b, base = affine_terms(model, q, qd)     # validates q, qd (ValueError)
     zero = np.zeros(3)
     if SEVERITY[base.status] >= 3:

@@ -1,21 +1,11 @@
 """Forward kinematics: the pose (surge, heave, roll) from three leg lengths.
 
-The inverse geometry (eq. 5-8) gives the leg lengths L(q) of a pose and the
-connectivity relations (eq. 11-12) their Jacobian J = dL/dq exactly; the
-forward problem L(q) = L* is solved by a safeguarded Newton iteration:
-
-* the Newton step solves J dq = -(L(q) - L*) (Levenberg-Marquardt damping
-  when J is close to singular);
-* a backtracking line search accepts a step only if the pose it leads to is
-  reachable (every loop of eq. 7 closes) and it reduces |L(q) - L*|;
-* the iteration stops when |L(q) - L*| <= tolerance (ok), when the residual
-  cannot be reduced any more although J^T r vanishes (the lengths belong to
-  no reachable pose: unreachable) or after ``max_iterations``
-  (not_converged).
-
-A parallel mechanism has several assembly modes for the same leg lengths;
-the iteration finds the one connected to its starting pose (by default the
-central configuration), which is the one the machine uses.
+L(q) = L* is solved by a safeguarded Newton iteration on the exact Jacobian
+J = dL/dq (eq. 5-8, 11-12): Levenberg-Marquardt damping near a singular J, a
+backtracking line search that keeps every pose reachable (eq. 7) and reduces
+|L(q) - L*|. It stops at the tolerance (ok), at a residual that cannot be
+reduced with J^T r ~ 0 (unreachable) or after ``max_iterations``
+(not_converged), on the assembly mode connected to its start.
 """
 from __future__ import annotations
 
@@ -57,20 +47,12 @@ def _lengths_and_jacobian(model: Model, q: tuple[float, float, float]
 def forward_kinematics(model: Model, lengths: Sequence[float],
                        initial: Sequence[float] = (0.0, 0.0, 0.0), *,
                        tolerance: float = 1e-12, max_iterations: int = 50) -> ForwardSolution:
-    """Pose (surge, heave, roll) whose leg lengths (joint centre to joint centre,
-    m, legs A, B, C) are ``lengths``, by Newton's method from ``initial``.
-
-    When the direct iteration fails (its path leaves the workspace), a
-    continuation in the lengths is tried: the target moves from the lengths of
-    ``initial`` to ``lengths`` in 20, then 200 steps, each solved from the
-    previous pose, which keeps the iteration on the assembly mode of
-    ``initial``. If the straight line in lengths leaves the workspace too, the
-    iteration restarts from seed poses spread over the workspace and accepts
-    only a solution of the working mode (det dL/dq of the central
-    configuration's sign). Never raises for bad numbers: the status says what happened
-    (``residual`` is 0 for invalid input). An argument that is not three real
-    numbers raises ValueError, as in :func:`.solver.solve`
-    (:func:`.solver.three_numbers`).
+    """Pose (surge, heave, roll) whose leg lengths (m, A, B, C) are ``lengths``,
+    by Newton's method from ``initial``; if that fails, by continuation in the
+    lengths (20, then 200 steps: the assembly mode of ``initial``), then from
+    seed poses, keeping the working mode (the sign of det dL/dq at the centre).
+    Never raises for bad numbers (the status says); ValueError for an argument
+    that is not three numbers (:func:`.solver.three_numbers`).
     """
     arrays = []
     for name, value in (('lengths', lengths), ('initial', initial)):
@@ -100,9 +82,7 @@ def forward_kinematics(model: Model, lengths: Sequence[float],
             q = step.pose
         else:
             return ForwardSolution(q, Status.OK, step.residual, iterations)
-    # last resort: Newton from seed poses spread over the workspace, keeping only
-    # solutions of the machine's working mode (det J of the same sign as at the
-    # central configuration), the one nearest to ``initial`` first
+    # last resort: seed poses, working mode only, the one nearest to ``initial`` first
     mode = np.sign(np.linalg.det(_lengths_and_jacobian(model, (0.0, 0.0, 0.0))[1]))
     for seed in sorted(_SEEDS, key=lambda p: float(np.sum((np.array(p) - start) ** 2))):
         try:
@@ -162,8 +142,7 @@ def _newton(model: Model, target: np.ndarray, start: np.ndarray, tolerance: floa
                 break
             alpha *= 0.5
         else:
-            # no step reduces the residual: either the way on leaves the workspace
-            # (a loop of eq. 7 would open) or a local minimum of |L(q) - L*|
+            # no step reduces the residual: the way leaves the workspace, or a local minimum
             if blocked is not None:
                 return ForwardSolution(np.zeros(3), Status.UNREACHABLE, norm, iteration,
                                        f'these leg lengths lie outside the workspace: '
@@ -182,10 +161,8 @@ def _newton(model: Model, target: np.ndarray, start: np.ndarray, tolerance: floa
 
 
 def poses_along(model: Model, lengths: np.ndarray) -> list[ForwardSolution]:
-    """Forward kinematics of every row of ``lengths`` (N, 3: L_A, L_B, L_C),
-    each started from the pose of the row before (a trajectory moves
-    continuously: the same assembly mode, few iterations); a row that fails
-    so, and the row after one without a pose, start from the centre.
+    """Forward kinematics of every row of ``lengths`` (N, 3), each from the pose
+    of the row before (else from the centre).
     """
     results = []
     initial = (0.0, 0.0, 0.0)

@@ -14,9 +14,7 @@ Trajectory = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
 class MotionLike(Protocol):
-    """What :class:`.motions.Motion` offers (not imported here: ``import
-    flight_sim_dynamics`` stays free of the motion registry).
-    """
+    """What :class:`.motions.Motion` offers (not imported: the registry stays apart)."""
 
     duration: float
 
@@ -55,10 +53,8 @@ def sample_times(t: object) -> np.ndarray:
 
 
 def node_slopes(t: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """dy/dt at every node: the derivative of the interpolating polynomial
-    through the five nearest nodes (window kept inside the data; all nodes
-    when fewer than five), i.e. sum_j L_j'(t_i) y_j with the Lagrange basis
-    L_j. Exact for polynomials of degree <= 4 (and <= n - 1).
+    """dy/dt at every node: sum_j L_j'(t_i) y_j over the five nearest nodes
+    (Lagrange basis L_j), exact for polynomials of degree <= 4.
     """
     n = t.size
     width = min(5, n)
@@ -83,10 +79,7 @@ def node_slopes(t: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 class ForceHistory:
-    """Actuator forces (legs A, B, C, N) at times ``t`` (s, strictly
-    increasing), interpolated by the cubic Hermite spline of the module's
-    docstring (O(dt^4); linear for two rows).
-    """
+    """Actuator forces (N) at increasing times ``t`` (s), by the cubic Hermite spline."""
 
     def __init__(self, t: Sequence[float], force: object) -> None:
         self.t = sample_times(t)
@@ -135,9 +128,7 @@ class Reference:
 
     @classmethod
     def from_motion(cls, motion: MotionLike) -> 'Reference':
-        """A motion of the registry (:class:`.motions.Motion`, or anything with
-        its ``trajectory(t)`` and ``duration``), from 0 to its duration: exact.
-        """
+        """A motion of the registry (:class:`.motions.Motion`), exact."""
         try:
             return cls(motion.trajectory, 0.0, float(motion.duration))
         except AttributeError:
@@ -147,10 +138,7 @@ class Reference:
     @classmethod
     def from_samples(cls, t: Sequence[float], q: object, qd: object, qdd: object
                      ) -> 'Reference':
-        """Samples (e.g. the rows of a trajectory CSV), interpolated by quintic
-        Hermite polynomials matching q, qd and qdd at both ends of every
-        interval (exact at the rows, C2 in between).
-        """
+        """Samples (rows of a trajectory CSV) by quintic Hermite polynomials (C2)."""
         times = sample_times(t)
         n = times.size
         values = np.stack([finite_rows(name, value, n)

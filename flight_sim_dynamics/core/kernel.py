@@ -1,23 +1,13 @@
 """The compiled kernel: the solver's scalar path (eq. 5-23) as straight-line C.
 
-``src/kernel.c`` is a line-by-line transcription of :mod:`.kinematics`,
-:mod:`.dynamics` and the status rule of :mod:`.status`, built as the
-extension module ``flight_sim_dynamics.core._kernel`` when the package is
-installed (``pip install .``, ``colcon build``; ``python setup.py build_ext
---inplace`` for the source tree). :func:`.solver.solve` and
-:func:`.solver.solve_batch` use it when it is there and fall back to the
-Python code (the reference: same equations, same results to round-off,
-slower; see docs/kernel.md) when it is not; ``use_kernel(False)`` forces the
-Python code, and so does FSD_KERNEL=0 in the environment.
-
-Every contract between the two sides is declared once, in the C source, and
-exported by the extension: the packed model (:data:`PACKED`: attribute path
-of :class:`.model.Model` -> (offset, size); one body: :data:`BODY_ROW`), the
-result row (:data:`OUT`), the effect bits (:data:`EFFECTS`), the bodies,
-loops and statuses in the kernel's order. This module reads them and checks
-the names against the package's own lists (:data:`.model.BODY_NAMES`,
-:data:`.effects.EFFECT_NAMES`, :data:`.kinematics.LOOPS`, :class:`.status.Status`);
-the Python code needs none of them.
+``src/kernel.c`` transcribes :mod:`.kinematics`, :mod:`.dynamics` and the
+status rule of :mod:`.status`; it is built as ``flight_sim_dynamics.core._kernel``
+on install (``python setup.py build_ext --inplace`` for the source tree).
+The solver uses it when it is built, else the Python code (the reference;
+docs/kernel.md); ``use_kernel(False)`` or FSD_KERNEL=0 forces the Python code.
+The layouts (packed model, result row, effect bits, bodies, loops, statuses)
+are declared once, in the C source; this module checks them against the
+package's own lists.
 """
 from __future__ import annotations
 
@@ -44,10 +34,7 @@ else:
 
 
 def contract_problems(module: ModuleType) -> list[str]:
-    """How the declarations a built kernel exports disagree with this package
-    (empty when they agree): a kernel built from another src/kernel.c, or one
-    that lacks a body or an effect the Python code has.
-    """
+    """How a built kernel's declarations disagree with this package ([] if not)."""
     problems = []
     for what, theirs, ours in (('effects', set(module.EFFECTS), set(EFFECT_NAMES)),
                                ('bodies', set(module.BODIES), set(BODY_NAMES) | {'payload'}),
@@ -69,16 +56,13 @@ def contract_problems(module: ModuleType) -> list[str]:
     return problems
 
 
-def _problems_of(module: ModuleType) -> list[str]:
-    try:
-        return contract_problems(module)
-    except AttributeError as exc:       # built before the kernel exported its declarations
-        return [str(exc)]
-
-
-if _kernel is not None and _problems_of(_kernel):
+try:
+    _problems = contract_problems(_kernel) if _kernel is not None else []
+except AttributeError as exc:       # built before the kernel exported its declarations
+    _problems = [str(exc)]
+if _problems:
     IMPORT_ERROR = ('flight_sim_dynamics.core._kernel was built from another version of '
-                    'src/kernel.c (' + '; '.join(_problems_of(_kernel)) + '); rebuild it')
+                    'src/kernel.c (' + '; '.join(_problems) + '); rebuild it')
     _kernel = None
     if os.environ.get('FSD_KERNEL') != '0':
         raise ImportError(IMPORT_ERROR + ', or set FSD_KERNEL=0 to use the Python code')
@@ -104,8 +88,7 @@ if _kernel is not None:
 else:   # the Python code runs without any of them
     OUT = {}
 
-#: FSD_KERNEL=0 in the environment: solve with the Python code even when the
-#: kernel is built (inherited by subprocesses: the node, the command line).
+#: FSD_KERNEL=0: the Python code even when the kernel is built (subprocesses inherit it).
 _choice = os.environ.get('FSD_KERNEL', '1')
 if _choice not in ('0', '1'):
     raise ImportError(f'FSD_KERNEL={_choice!r}: expected 0 (the Python code) or 1 (the kernel)')
@@ -146,10 +129,8 @@ def _body_row(body: Body | None) -> np.ndarray:
 
 
 def pack_model(model: Model) -> np.ndarray:
-    """The model as the kernel reads it: every attribute path of
-    :data:`PACKED` (geometry, leg lengths at zero stroke, central joint values,
-    gravity, friction, limits) at its offset, and the bodies in the kernel's
-    order (:data:`BODIES`; the payload, when the model has none, as zeros).
+    """The model as the kernel reads it: each attribute path of :data:`PACKED`
+    at its offset, the bodies in the order :data:`BODIES` (no payload: zeros).
     """
     packed = np.zeros(P_SIZE)
     for path, (offset, size) in PACKED.items():
@@ -191,9 +172,8 @@ def solve_row(model: Model, q: tuple, qd: tuple, qdd: tuple) -> tuple[np.ndarray
 
 def affine_row(model: Model, q: tuple, qd: tuple
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple]:
-    """The affine terms of f = M qdd + b at (q, qd) in one kernel call
-    (:func:`.forward_dynamics.affine_terms`): the result row of solve(q, qd, 0),
-    M (3, 3), b (3,) and the row's scalars (as :func:`solve_row`).
+    """The terms of f = M qdd + b at (q, qd) in one call: the row of solve(q, qd, 0), M, b
+    and the row's scalars (as :func:`solve_row`).
     """
     params, bits = prepared(model)
     out, M, b = np.empty(OUT_SIZE), np.empty((3, 3)), np.empty(3)
@@ -203,12 +183,9 @@ def affine_row(model: Model, q: tuple, qd: tuple
 def integrate_rows(model: Model, law: tuple, step: float, k0: int, steps: int,
                    rows: tuple) -> int:
     """RK4 of :func:`.simulation.integrate` in the kernel, rows k0 to steps:
-    ``law`` = (ff, length_ref, rate_ref, kp, kd, max_force, max_speed, servo)
-    (:class:`.simulation.TabulatedLaw`), ``rows`` = (q, qd, qdd, force), each
-    a writable C-contiguous (steps + 1, 3) float64 array, the state of row k0
-    in q, qd. Returns the first row whose step the kernel did not complete (a
-    stage that stops or that it leaves to the Python code), steps + 1 when
-    all did.
+    ``law`` the fields of :class:`.simulation.TabulatedLaw`, ``rows`` = (q,
+    qd, qdd, force), (steps + 1, 3) C-contiguous float64, row k0 set. Returns
+    the first row whose step it did not complete (steps + 1: all).
     """
     params, bits = prepared(model)
     return _kernel.integrate(params, bits, *law, step, k0, steps, *rows)

@@ -1,19 +1,10 @@
 """Kinematics of the flight simulator: paper Section 2, eq. (1)-(17).
 
-All vectors are expressed in the fixed frame Ox0y0z0 of the paper (x0 forward,
-y0 up, z0 lateral to the right/B side). The paper writes the same relations
-with the local transformation matrices a_k0, b_k0, ... (eq. 1-2); projecting on
-the fixed frame gives identical scalars, since every joint axis u3 of the paper
-is, in the fixed frame, one of the unit vectors used here (z0 for the planar
-joints of chain A and the cranks, z0 and e2 for the U-joints of legs B, C, the
-leg axis for the prismatic joints and the rod axis l for the slider E2 and
-the platform roll).
-
-Vectors are 3-tuples of components (:mod:`.vectors`): floats for one control
-cycle, numpy arrays for a batch of samples; the code is the same.
-
-Joint variables (eq. 13), each measured from the central configuration
-(this fixes the paper's unstated alpha_i of eq. 1-2):
+Vectors (:mod:`.vectors`) are in the paper's fixed frame Ox0y0z0 (x0 forward,
+y0 up, z0 to the B side): the projections of the paper's local relations
+(eq. 1-2), every joint axis u3 being one of the unit vectors used here.
+Joint variables (eq. 13), measured from the central configuration (this fixes
+the paper's unstated alpha_i of eq. 1-2):
 
 =========== ===============================================================
 phi_10_A    rotation of leg A about z0 at A1 (rad)
@@ -74,16 +65,12 @@ LOOP_REASONS = {
     'B': 'leg B is degenerate (zero length, or along the U-joint axis z0)',
     'C': 'leg C is degenerate (zero length, or along the U-joint axis z0)',
 }
-#: The loops in the order they are checked: a pose is reported unreachable
-#: by the first of them that cannot close (the solver's status rule and the
-#: kernel, which exports its own order and is checked against this one).
+#: The loops in the order checked: a pose is unreachable by the first that cannot close.
 LOOPS = tuple(LOOP_REASONS)
 _CULPRIT_KEY = {'D': 'l5', 'E': 'l6', 'E2 on rod': 'l6', 'A': 's_A', 'B': 'd5', 'C': 'd5'}
 
 
-# ----------------------------------------------------------------------------
 # Inverse geometry (eq. 5-8)
-# ----------------------------------------------------------------------------
 @dataclass
 class Geometric:
     """Positions of eq. (5)-(8) for one pose (float components) or a batch
@@ -118,12 +105,10 @@ class Geometric:
 
 
 def _crank_d_beta(geom: Geometry, G: Vec, xp: SimpleNamespace) -> tuple[Scalar, Scalar]:
-    """Loop D of eq. (7): |G - (h - d1) l(beta) - D1| = l5, root near zero.
-
-    With w = G - D1 and c = h - d1 the condition is w.l = k,
-    k = (|w|^2 + c^2 - l5^2) / (2c); so beta = angle(w) - atan2(sqrt(|w|^2 - k^2), k).
-    The square root is taken of (|w| - k)(|w| + k), which keeps its digits
-    near the closure limit. Returns beta and the discriminant (negative = open).
+    """Loop D of eq. (7): |G - (h - d1) l(beta) - D1| = l5, root near zero:
+    beta = angle(w) - atan2(sqrt(|w|^2 - k^2), k), w = G - D1, c = h - d1,
+    k = (|w|^2 + c^2 - l5^2) / (2c), the root of (|w| - k)(|w| + k) for its
+    digits. Returns beta and the discriminant (negative = open).
     """
     c = geom.h - geom.d1
     wx, wy = G[0] - (geom.d2 + geom.d3), G[1]
@@ -135,11 +120,9 @@ def _crank_d_beta(geom: Geometry, G: Vec, xp: SimpleNamespace) -> tuple[Scalar, 
 
 
 def _crank_e_u(geom: Geometry, G: Vec, l: Vec, xp: SimpleNamespace) -> tuple[Scalar, Scalar]:
-    """Loop E of eq. (7): E2 = G - u l on the rod with |E2 - E1| = l6.
-
-    u^2 - 2 p u + (|w|^2 - l6^2) = 0 with w = G - E1, p = w.l; the machine's root
-    is the smaller one, written as (|w|^2 - l6^2) / (p + sqrt(p^2 - |w|^2 + l6^2))
-    to avoid cancellation. Returns u and the discriminant (negative = open).
+    """Loop E of eq. (7): E2 = G - u l with |E2 - E1| = l6, u^2 - 2 p u + (|w|^2 -
+    l6^2) = 0 (w = G - E1, p = w.l); the smaller root, without cancellation.
+    Returns u and the discriminant (negative = open).
     """
     wx, wy = G[0] - geom.d2, G[1]
     p = wx * l[0] + wy * l[1]
@@ -231,10 +214,9 @@ def central_configuration(geom: Geometry) -> CentralConfiguration:
 
 def inverse_geometry(model: Model, q: tuple[Scalar, Scalar, Scalar],
                      xp: SimpleNamespace, check: bool = True) -> Geometric:
-    """Inverse geometric problem (eq. 5-8): all 12 joint variables for the pose
-    q = (surge, heave, roll). With ``check``, raises :class:`UnreachablePoseError`
-    naming the loop of eq. (7) that cannot close (and, for a batch, the first
-    sample concerned); without, ``valid`` tells per sample (batch only).
+    """Inverse geometric problem (eq. 5-8): the 12 joint variables of the pose
+    q; with ``check``, UnreachablePoseError naming the loop of eq. (7) that
+    cannot close, else ``valid`` tells per sample.
     """
     if xp.batch:
         with np.errstate(all='ignore'):
@@ -255,20 +237,12 @@ def inverse_geometry(model: Model, q: tuple[Scalar, Scalar, Scalar],
     return g
 
 
-# ----------------------------------------------------------------------------
 # Velocities: connectivity relations Q V = P (eq. 11-13)
-# ----------------------------------------------------------------------------
 @dataclass
 class Connectivity:
-    """Block factorisation of the connectivity matrix Q of eq. (11)-(12).
-
-    Q is block triangular: loop D alone fixes beta-dot (= omega_10^A +
-    omega_32^A) and omega_10^D; with beta-dot known, loops A, E, B and C are
-    independent 2x2 / 3x3 systems. In loops A, B and C the columns are
-    mutually orthogonal (the leg axis, the lever arm about z0, and for B and C
-    the lever arm about e2), so those blocks are solved by projections; loops
-    D and E by Cramer's rule. Q is never inverted, nor even formed
-    (:func:`connectivity_matrix` builds it for diagnostics and tests).
+    """Block factorisation of the connectivity matrix Q of eq. (11)-(12): loop D
+    fixes beta-dot and omega_10^D; then loops A, B, C (orthogonal columns:
+    projections) and E (Cramer) are independent. Q is never formed.
     """
 
     aD: Vec      # Q columns of loop D: beta-dot (z0 x (G - D2)), omega_10^D (z0 x (D2 - D1))
@@ -285,10 +259,7 @@ class Connectivity:
 
 
 def factorize(model: Model, g: Geometric) -> Connectivity:
-    """The per-pose factors of the connectivity matrix Q of eq. (11)-(12) used by
-    :func:`solve_connectivity` (the pivot columns of its blocks, the
-    determinants of loops D and E).
-    """
+    """The per-pose factors of Q (eq. 11-12) that :func:`solve_connectivity` uses."""
     geom = model.geometry
     D1 = (geom.d2 + geom.d3, 0.0, 0.0)
     E1 = (geom.d2, 0.0, 0.0)
@@ -342,9 +313,7 @@ def pose_rate_columns(g: Geometric) -> tuple[list, list, list]:
 
 
 def connectivity_matrix(model: Model, g: Geometric) -> tuple[np.ndarray, np.ndarray]:
-    """Q (N, 12, 12) and P_q (N, 12, 3) as dense numpy arrays (eq. 11-12), for
-    diagnostics (cond(Q)) and tests. N = 1 for a single pose.
-    """
+    """Q (N, 12, 12) and P_q (N, 12, 3) as dense arrays (eq. 11-12), for cond(Q)."""
     f = factorize(model, g)
     geom = model.geometry
     cols = {}   # (row block, column) -> vector
@@ -379,17 +348,12 @@ def connectivity_matrix(model: Model, g: Geometric) -> tuple[np.ndarray, np.ndar
     return Q, Pq
 
 
-# ----------------------------------------------------------------------------
 # Accelerations: column S = P-dot - Q-dot V (eq. 15-17)
-# ----------------------------------------------------------------------------
 def acceleration_column(model: Model, g: Geometric, V: list,
                         qd: tuple[Scalar, Scalar, Scalar],
                         qdd: tuple[Scalar, Scalar, Scalar]) -> list:
-    """S of eq. (16)-(17) (12 components): Q Gamma = S.
-
-    Each block is the acceleration of the platform side of a loop minus the
-    velocity-product (centripetal, Coriolis) terms of the chain side: the
-    vector form of the paper's s_i^A, s_j^B, s_j^C, s_i^D, s_i^E.
+    """S of eq. (16)-(17) (12 components), Q Gamma = S: per loop the platform
+    side's acceleration minus the chain's velocity products (s_i^A ... s_i^E).
     """
     geom = model.geometry
     Gdd = (qdd[0], qdd[1], 0.0)

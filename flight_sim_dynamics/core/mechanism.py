@@ -1,17 +1,7 @@
-"""The mechanism as points to draw: the joint centres and the plate of one
-pose, by name, for any viewer (the RViz markers of ``ros/markers.py``, the
-``animate`` command of the command line). Drawing rules are written here
-once, so every view shows the same machine: the solver's own positions.
-
-Positions are those of the inverse geometric problem (paper eq. 5-8, the
-points of docs/design/mechanism.md, "Points"): a :class:`~.kinematics.Geometric`
-(``sol.geometric`` of a solve, or :func:`~.kinematics.inverse_geometry` of a
-pose), the very positions the solver's joint variables (eq. 13) and leg
-lengths come from; the constant points are the model's (eq. 8,
-:class:`~.model.Geometry`). They are given in the paper's axes with the
-origin at A1; :func:`mechanism_points` returns them in the REP-103 simulator
-base frame (mechanism.md, "Frames"; origin at G's central position
-``(d2 + d3 + d4, h_G, 0)``): ``X = x0 - x0G``, ``Y = -z0``, ``Z = y0 - h_G``.
+"""The mechanism as points to draw (RViz markers, ``animate``): the joint
+centres and the plate of one pose, by name, from the solver's own positions
+(eq. 5-8, docs/design/mechanism.md "Points"), in the REP-103 simulator base
+frame: ``X = x0 - x0G``, ``Y = -z0``, ``Z = y0 - h_G``.
 """
 from __future__ import annotations
 
@@ -45,9 +35,8 @@ def base_origin(geom: Geometry) -> Point3:
 
 
 def mechanism_points(model: Model, g: Geometric) -> dict[str, Point3]:
-    """Every point drawn, by name (:data:`JOINTS`, ``G``, and the plate's
-    corners ``A3_right``, ``A3_left``), in the REP-103 simulator base frame
-    (module docstring) from the positions ``g`` of eq. (5)-(8) of one pose.
+    """Every point drawn (:data:`JOINTS`, ``G``, ``A3_right``, ``A3_left``) of the
+    positions ``g`` of eq. (5)-(8), in the base frame.
     """
     geom = model.geometry
     x0, y0, _ = base_origin(geom)

@@ -1,14 +1,9 @@
 """The model: constant description of the mechanism (Pinocchio's *model*).
 
-A :class:`Model` holds what never changes from one control cycle to the next:
-the geometry of the paper's Section 2 (eq. 7-8 constants), the mass
-properties of every body (eq. 18-19) and gravity, plus a few constants
-derived once at the central configuration (the parasitic angle ``beta0``,
-the unstated slider offset ``s`` = D2E2, and the zeros of every joint angle,
-which play the role of the paper's unstated ``alpha_i`` of eq. 1-2).
-
-Everything that changes per cycle lives in the per-solve data
-(:mod:`flight_sim_dynamics.kinematics`, :mod:`flight_sim_dynamics.dynamics`).
+The geometry (eq. 7-8 constants), the mass properties (eq. 18-19), gravity,
+and constants derived once at the central configuration (``beta0``, the
+slider offset ``s`` = D2E2, the joint zeros: the paper's ``alpha_i`` of
+eq. 1-2). Per-cycle quantities live in the solve.
 """
 from __future__ import annotations
 

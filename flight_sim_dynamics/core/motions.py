@@ -1,18 +1,11 @@
 """The reference motions, one registry: name -> q, qd, qdd at times t, and duration.
 
-* the paper's three examples (eq. 6, :mod:`.trajectories`): ``vertical``,
-  ``rectilinear``, ``general``;
-* ``cueing``: a motion-cueing-style sequence of short surge and heave onset
-  pulses and a sustained roll tilt, each washed back to the neutral (central)
-  configuration, as a washout filter would do;
-* ``violent``: the same kind of cues compressed into short, overlapping
-  onsets (about 1.2 g and 21 rad/s^2), a harsh test of the model's effects,
-  not a motion to run on the machine.
-
-Every step of ``cueing`` and ``violent`` is a quintic smooth step, so
-position, rate and acceleration are continuous and exact (no finite
-differences). :class:`PlannerSequence` plays motions one after the other, as
-the demo planner streams them. Numpy only.
+The paper's three examples (eq. 6): ``vertical``, ``rectilinear``,
+``general``; ``cueing``: surge and heave pulses and a roll tilt, each washed
+back to neutral; ``violent``: the same cues compressed (about 1.2 g and
+21 rad/s^2), a harsh test, not a motion for the machine. Their steps are
+quintic, so q, qd, qdd are continuous and exact. :class:`PlannerSequence`
+plays motions one after the other, as the demo planner streams them.
 """
 from __future__ import annotations
 
@@ -45,9 +38,7 @@ CUEING_STEPS: tuple[Step, ...] = (
 )
 CUEING_DURATION = 6.5  # s; neutral and at rest from 6.0 s on
 
-#: The steps of ``violent``: the cueing sequence compressed into short,
-#: overlapping onset cues (peak quintic acceleration = 5.77 change /
-#: duration^2) and their washouts; from rest to rest in the central configuration.
+#: The steps of ``violent`` (peak acceleration 5.77 change / duration^2), rest to rest.
 VIOLENT_STEPS: tuple[Step, ...] = (
     (0, 0.00, 0.20, +0.08),   # surge onset, 11.5 m/s^2
     (2, 0.10, 0.26, +0.25),   # roll onset, 21 rad/s^2
@@ -68,9 +59,7 @@ VIOLENT_DURATION = 3.0  # s; at rest in the central configuration from 2.8 s on
 
 
 def smooth_step(u: np.ndarray) -> Trajectory:
-    """Quintic 0 -> 1 step s(u) = 10u^3 - 15u^4 + 6u^5 on [0, 1] (clamped
-    outside) and its first two derivatives with respect to u.
-    """
+    """Quintic step s(u) = 10u^3 - 15u^4 + 6u^5 (clamped to [0, 1]), s' and s''."""
     u = np.clip(u, 0.0, 1.0)
     s = u ** 3 * (10.0 - 15.0 * u + 6.0 * u * u)
     ds = 30.0 * u * u * (1.0 - u) ** 2
@@ -79,9 +68,7 @@ def smooth_step(u: np.ndarray) -> Trajectory:
 
 
 def step_sequence(steps: Sequence[Step], t: np.ndarray | float) -> Trajectory:
-    """q, qd, qdd (each (N, 3)) at times ``t`` (s) of a sum of smooth steps
-    ``(coordinate, start s, duration s, change)``, with exact derivatives.
-    """
+    """q, qd, qdd (each (N, 3)) at times ``t`` of a sum of smooth steps."""
     t = np.atleast_1d(np.asarray(t, dtype=float))
     q = np.zeros((t.size, 3))
     qd = np.zeros_like(q)
@@ -95,25 +82,18 @@ def step_sequence(steps: Sequence[Step], t: np.ndarray | float) -> Trajectory:
 
 
 def motion_cueing(t: np.ndarray | float) -> Trajectory:
-    """q, qd, qdd (each (N, 3): surge m, heave m, roll rad) of ``cueing`` at
-    times ``t`` (s, 0 .. CUEING_DURATION).
-    """
+    """q, qd, qdd (each (N, 3)) of ``cueing`` at times ``t`` (s)."""
     return step_sequence(CUEING_STEPS, t)
 
 
 def violent_motion(t: np.ndarray | float) -> Trajectory:
-    """q, qd, qdd (each (N, 3)) of ``violent`` at times ``t`` (s): exact
-    derivatives of the sum of the smooth steps :data:`VIOLENT_STEPS`.
-    """
+    """q, qd, qdd (each (N, 3)) of ``violent`` at times ``t`` (s)."""
     return step_sequence(VIOLENT_STEPS, t)
 
 
 @dataclass(frozen=True)
 class Motion:
-    """One registered motion: ``trajectory(t)`` gives q, qd, qdd (each (N, 3):
-    surge m, heave m, roll rad, and their time derivatives) at times ``t``
-    (s, 0 .. ``duration``).
-    """
+    """One registered motion: ``trajectory(t)`` gives q, qd, qdd (each (N, 3))."""
 
     name: str
     duration: float
@@ -161,21 +141,14 @@ def duration(name: str) -> float:
     return get(name).duration
 
 
-# ----------------------------------------------------------------------------
-# Planner sequences: motions one after the other, each washed back to neutral
-# ----------------------------------------------------------------------------
 RETURN_TIME = 1.0  # s, smooth return to neutral after a motion that ends away from it
 NEUTRAL_TOLERANCE = 1e-9  # m or rad: a motion ending closer than this to neutral needs no return
 
 
 class PlannerSequence:
-    """Motions played one after the other, as a planner would stream them.
-
-    A motion that ends away from neutral (a paper example: at twice its
-    amplitude) is brought back to the central configuration by a quintic
-    smooth step of ``return_time`` seconds before the next motion (or the
-    next loop), so the stream is continuous in position, rate and
-    acceleration. ``segments`` lists (label, start s, end s).
+    """Motions played one after the other, as a planner would stream them: one
+    that ends away from neutral returns to it by a smooth step of
+    ``return_time`` s. ``segments`` lists (label, start s, end s).
     """
 
     def __init__(self, names: Sequence[str], *, loop: bool = False,
@@ -219,10 +192,3 @@ class PlannerSequence:
                     -end_q * dds[0] / length ** 2, label)
         q, qd, qdd = motion(label, local)
         return q[0], qd[0], qdd[0], label
-
-    def states(self, rate_hz: float) -> Trajectory:
-        """One period at ``rate_hz``: q, qd, qdd (each (N, 3)) at k / rate,
-        k = 0 .. round(period * rate) - 1 (the stream a looping planner sends).
-        """
-        rows = [self.sample(k / rate_hz)[:3] for k in range(int(round(self.period * rate_hz)))]
-        return tuple(np.array([r[i] for r in rows]) for i in range(3))  # type: ignore[return-value]

@@ -1,42 +1,17 @@
-"""Simulation: the platform driven by its actuators, integrated in time (a
-digital twin of the machine). Numpy only.
+"""Simulation, the digital twin: the plant under its actuator forces,
+integrated by RK4 at a fixed step, each stage solving the forward dynamics
+f = M qdd + b (eq. 14, 18-23; :mod:`.forward_dynamics`). With the compiled
+kernel the loop runs in C (:func:`integrate`); the Python loop is the reference.
 
-The state (q, qd) is integrated by the classical fourth-order Runge-Kutta
-method at a fixed step h; each stage evaluates the forward dynamics
-(:mod:`.forward_dynamics`: qdd from f = M qdd + b, eq. 14, 18-23) of the
-*plant* model. With the compiled kernel the whole loop runs in C
-(:func:`integrate`, :class:`TabulatedLaw`; same operations, same rows to
-rounding); the Python loop is the reference and the fallback.
-
-Open loop (``forces=``): a :class:`ForceHistory` (:mod:`.interpolation`) of
-actuator forces at given times, interpolated between its rows by a cubic
-Hermite spline whose node
-slopes are the derivatives of the polynomial through the five nearest rows
-(fewer when there are fewer rows): the spline reproduces cubics exactly, so
-its error is O(dt^4) for smooth forces (a Catmull-Rom spline, whose
-three-point slopes are exact for quadratics only, is O(dt^3)). The platform
-under prescribed forces is unstable (no feedback holds it on a path), so open
-loop is for short horizons and checks.
-
-Closed loop (``reference=``): each actuator is a servo on its leg length and
-rate, as the machine runs:
-
-    command = f_ff + kp (L_ref - L) + kd (Ldot_ref - Ldot)
-
-with gains per actuator (:class:`Servo`), L_ref and Ldot_ref from the
-plant's inverse kinematics of the reference motion (the geometry is taken as
-calibrated), and f_ff the inverse dynamics of the reference motion computed
-with the ``feedforward`` model (any scene or parameter file; None: no
-feed-forward). The delivered force is the command saturated by the plant's
-actuator (:func:`deliver`): at most ``limits.max_force``, and in the
-direction of the leg's motion at most max_force (1 - |Ldot| / max_speed), the
-force-speed line of a drive whose no-load speed is ``limits.max_speed`` (it
-cannot drive a leg faster; it can always brake with the full force).
-
-A simulation stops, with the status and the time in ``outcome`` and
-``outcome_detail``, when a stage state is unreachable, near a singularity
-(the solver's thresholds, or M too ill-conditioned) or not finite; its rows
-end at the last state reached. Never a NaN.
+Open loop (``forces=``): a :class:`ForceHistory` interpolated by a cubic
+Hermite spline with five-point node slopes (exact for cubics, O(dt^4)); the
+platform under prescribed forces is unstable, so open loop is for short runs.
+Closed loop (``reference=``): per actuator a servo on leg length and rate,
+``command = f_ff + kp (L_ref - L) + kd (Ldot_ref - Ldot)`` (:class:`Servo`),
+f_ff the inverse dynamics of the reference with the ``feedforward`` model,
+saturated by the actuator's force-speed line (:func:`deliver`).
+A run stops (``outcome``, ``outcome_detail``) at a stage state that is
+unreachable, near a singularity or not finite. Never a NaN.
 """
 from __future__ import annotations
 
@@ -49,14 +24,13 @@ import numpy as np
 from . import kernel
 from .forward_dynamics import affine_terms, require_inertia, solve_accelerations
 from .interpolation import ForceHistory, MotionLike, Reference, finite_rows
-from .interpolation import node_slopes as node_slopes   # re-exported: part of this API
+
 from .model import Model
 from .solver import Solution, solve_batch
 from .status import SEVERITY, Status
 
 DEFAULT_STEP = 1e-3              # s: RK4 at 1 kHz
-#: Servo bandwidth of the default gains (Hz) and their damping ratio: a
-#: critically damped leg of the platform's leg-space mass at the centre.
+#: Bandwidth (Hz) and damping ratio of the default servo gains.
 DEFAULT_BANDWIDTH_HZ = 5.0
 DEFAULT_DAMPING = 1.0
 MAX_STEPS = 10_000_000
@@ -83,10 +57,8 @@ class Servo:
     @classmethod
     def for_bandwidth(cls, model: Model, hz: float = DEFAULT_BANDWIDTH_HZ,
                       damping: float = DEFAULT_DAMPING) -> 'Servo':
-        """Gains of a leg of mass m_i with natural frequency 2 pi hz and damping
-        ratio ``damping``: kp = m_i w^2, kd = 2 damping m_i w, with m_i the
-        diagonal of the model's leg-space mass matrix M J^-1 at rest at the
-        central configuration (J = dL/dq).
+        """Gains kp = m_i w^2, kd = 2 damping m_i w (w = 2 pi hz), m_i the diagonal of
+        the leg-space mass matrix M J^-1 at the central configuration (J = dL/dq).
         """
         if not (math.isfinite(hz) and hz > 0 and math.isfinite(damping) and damping >= 0):
             raise ValueError(f'servo bandwidth must be > 0 Hz and damping >= 0, '
@@ -100,9 +72,8 @@ class Servo:
 
 def deliver(command: np.ndarray, rate: np.ndarray, max_force: float,
             max_speed: float) -> np.ndarray:
-    """The force an actuator delivers for a commanded force at leg rate
-    ``rate``: within +-max_force, and in the direction of motion at most
-    max_force (1 - |rate| / max_speed) (zero at and beyond max_speed).
+    """The delivered force: within +-max_force, and in the direction of the leg's
+    motion at most max_force (1 - |rate| / max_speed).
     """
     force = np.clip(command, -max_force, max_force)
     drive = max_force * np.maximum(0.0, 1.0 - np.abs(rate) / max_speed)
@@ -155,10 +126,9 @@ ForceLaw = Callable[[int, Solution], np.ndarray]
 @dataclass(frozen=True)
 class TabulatedLaw:
     """The force laws of :func:`simulate` as tables over the half-step index j:
-    open loop (``servo`` False) the forces ``ff[j]``; closed loop
-    ``deliver(ff[j] + kp (length_ref[j] - L) + kd (rate_ref[j] - Ldot))``, L
-    and Ldot the legs of the stage state. Data, not code: the compiled kernel
-    can integrate it by itself (:func:`integrate`).
+    open loop ``ff[j]``; closed loop (``servo``) ``deliver(ff[j] + kp
+    (length_ref[j] - L) + kd (rate_ref[j] - Ldot))``. Data, so that the kernel
+    can integrate it.
     """
 
     ff: np.ndarray              # (2 steps + 1, 3) feed-forward (open loop: applied) forces, N
@@ -203,17 +173,33 @@ def _stage(plant: Model, q: np.ndarray, qd: np.ndarray, law: ForceLaw, j: int
     return qdd, force, status, detail
 
 
+def rk4_step(plant: Model, q: np.ndarray, qd: np.ndarray, a1: np.ndarray, law: ForceLaw,
+             j: int, h: float) -> tuple[np.ndarray, np.ndarray, Status, str]:
+    """The rest of one RK4 step from (q, qd) whose first stage gave a1 (half-step
+    index j): the new (q, qd), ok; or the status and detail of a stage that stops.
+    """
+    q2, v2 = q + 0.5 * h * qd, qd + 0.5 * h * a1
+    a2, _, status, detail = _stage(plant, q2, v2, law, j + 1)
+    if status == Status.OK:
+        q3, v3 = q + 0.5 * h * v2, qd + 0.5 * h * a2
+        a3, _, status, detail = _stage(plant, q3, v3, law, j + 1)
+    if status == Status.OK:
+        q4, v4 = q + h * v3, qd + h * a3
+        a4, _, status, detail = _stage(plant, q4, v4, law, j + 2)
+    if status == Status.OK:
+        q = q + (h / 6.0) * (qd + 2.0 * (v2 + v3) + v4)
+        qd = qd + (h / 6.0) * (a1 + 2.0 * (a2 + a3) + a4)
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
+            status, detail = Status.INVALID_INPUT, 'state not finite: forces too large'
+    return q, qd, status, detail
+
+
 def integrate(plant: Model, t0: float, step: float, steps: int, q0: np.ndarray,
               qd0: np.ndarray, law: ForceLaw) -> tuple:
-    """RK4 of (q, qd) from (q0, qd0) at t0 over ``steps`` steps; the force law
-    is evaluated at half-step index j (time t0 + j step / 2). Returns t, q, qd,
-    qdd, force (arrays of the rows reached), outcome, outcome detail.
-
-    A :class:`TabulatedLaw` is integrated by the compiled kernel when it is
-    enabled (:func:`.kernel.integrate_rows`: the same operations, no Python
-    per stage); the kernel hands every step it cannot finish (a stage that
-    stops, M it cannot surely solve) to the loop below, which takes it and
-    gives the kernel the rest.
+    """RK4 of (q, qd) from (q0, qd0) at t0 over ``steps`` steps, the force law
+    evaluated at half-step index j. Returns t, q, qd, qdd, force (the rows
+    reached), outcome, outcome detail. A :class:`TabulatedLaw` runs in the
+    kernel when enabled; a step the kernel cannot finish is taken here.
     """
     h = step
     rows = tuple(np.zeros((steps + 1, 3)) for _ in range(4))
@@ -240,19 +226,7 @@ def integrate(plant: Model, t0: float, step: float, steps: int, q0: np.ndarray,
             break
         if k == steps:
             break
-        q2, v2 = q + 0.5 * h * qd, qd + 0.5 * h * a1
-        a2, _, status, detail = _stage(plant, q2, v2, law, 2 * k + 1)
-        if status == Status.OK:
-            q3, v3 = q + 0.5 * h * v2, qd + 0.5 * h * a2
-            a3, _, status, detail = _stage(plant, q3, v3, law, 2 * k + 1)
-        if status == Status.OK:
-            q4, v4 = q + h * v3, qd + h * a3
-            a4, _, status, detail = _stage(plant, q4, v4, law, 2 * k + 2)
-        if status == Status.OK:
-            q = q + (h / 6.0) * (qd + 2.0 * (v2 + v3) + v4)
-            qd = qd + (h / 6.0) * (a1 + 2.0 * (a2 + a3) + a4)
-            if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
-                status, detail = Status.INVALID_INPUT, 'state not finite: forces too large'
+        q, qd, status, detail = rk4_step(plant, q, qd, a1, law, 2 * k, h)
         if status != Status.OK:
             outcome, why, n = status, (f'step from t = {t0 + k * h:.6g} s: {detail}'), k + 1
             break
@@ -262,9 +236,8 @@ def integrate(plant: Model, t0: float, step: float, steps: int, q0: np.ndarray,
 
 def reference_tables(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
                      times: np.ndarray, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Leg lengths, rates and forces of ``model`` on the reference samples
-    (the inverse dynamics, eq. 5-23); ValueError at the first sample that
-    cannot be tracked (unreachable, near a singularity).
+    """Leg lengths, rates and forces of ``model`` on the reference (eq. 5-23);
+    ValueError at the first sample that cannot be tracked.
     """
     sol = solve_batch(model, q, qd, qdd)
     bad = [i for i, s in enumerate(sol.status) if SEVERITY[s] >= SEVERITY[Status.NEAR_SINGULAR]]
@@ -304,18 +277,15 @@ def simulate(plant: Model, *, forces: ForceHistory | tuple | None = None,
              feedforward: Model | None = None,
              servo: Servo | None = None, initial: tuple | None = None,
              step: float = DEFAULT_STEP) -> Simulation:
-    """Simulate the plant model with RK4 at a fixed ``step`` (s).
+    """Simulate the plant with RK4 at a fixed ``step`` (s).
 
-    Open loop: ``forces`` (a :class:`ForceHistory`, or its arguments (t,
-    force)), from its first time to its last; ``initial`` = (q, qd), default
-    rest at the central configuration. Closed loop: ``reference`` (a
-    :class:`Reference`, or a motion of the registry :mod:`.motions`) tracked
-    by the servos (``servo``, default :meth:`Servo.for_bandwidth` of the
-    plant) with the feed-forward of the ``feedforward`` model (None: none);
-    ``initial`` defaults to the reference's state at its start. ValueError
-    for bad arguments (a scene without inertia, a reference the plant cannot
-    follow: unreachable or near a singularity).
-    See the module's docstring for the models.
+    Open loop: ``forces`` (a :class:`ForceHistory` or its (t, force));
+    ``initial`` = (q, qd), default rest at the central configuration. Closed
+    loop: ``reference`` (a :class:`Reference` or a motion name of
+    :mod:`.motions`) tracked by ``servo`` (default :meth:`Servo.for_bandwidth`)
+    with the feed-forward of ``feedforward`` (None: none); ``initial`` defaults
+    to the reference's start. ValueError for bad arguments (a scene without
+    inertia, a reference the plant cannot follow).
     """
     require_inertia(plant)
     if (forces is None) == (reference is None):

@@ -1,13 +1,10 @@
 """The recursive matrix solver: one call = inverse geometry, velocities,
 accelerations and inverse dynamics (paper eq. 5-23) for one pose or a batch.
 
-:func:`solve` solves one control cycle, :func:`solve_batch` N samples; both
-return a :class:`Solution`. Both run the compiled kernel (:mod:`.kernel`,
-``src/kernel.c``: this module's :func:`_solve` transcribed to C) when it is
-built, else the Python code below, which is the reference: it runs on plain
-floats for one cycle and on numpy columns for a batch (:mod:`.vectors`). The
-status of every sample comes from one rule, :func:`.status.sample_status`,
-in all three paths (the kernel transcribes it).
+:func:`solve` (one cycle) and :func:`solve_batch` (N samples) run the compiled
+kernel (:mod:`.kernel`) when built, else the Python code below, the reference
+(plain floats for one cycle, numpy columns for a batch). Every status comes
+from one rule, :func:`.status.sample_status`.
 
 >>> import flight_sim_dynamics as fsd
 >>> model = fsd.load_model()
@@ -71,9 +68,8 @@ class Solution:
 
     @cached_property
     def geometric(self) -> Geometric | None:
-        """Positions of every joint (:class:`.kinematics.Geometric`), recomputed
-        from ``pose`` on first access (the kernel keeps none); None when the
-        pose is unreachable or the input invalid (single solve only).
+        """Joint positions (eq. 5-8), recomputed from ``pose`` on first access;
+        None for an unreachable pose or invalid input (single solve).
         """
         if not self._batch:
             if SEVERITY[self.status] >= 3:
@@ -86,9 +82,8 @@ class Solution:
 
     @cached_property
     def Q(self) -> np.ndarray:
-        """The connectivity matrix of eq. (11)-(12), (12, 12) or (N, 12, 12); the
-        solver itself never forms it (see kinematics.Connectivity). Zero where
-        the pose is unreachable or the input invalid.
+        """The connectivity matrix of eq. (11)-(12), (12, 12) or (N, 12, 12), for
+        diagnostics (the solver never forms it); zero where void.
         """
         if self.geometric is None:
             return np.zeros((12, 12))
@@ -101,10 +96,7 @@ class Solution:
 
     @cached_property
     def cond(self) -> np.ndarray | float:
-        """Exact 2-norm condition number of Q (SVD), computed on first access only:
-        it is a diagnostic and costs more than the whole solve (the per-cycle
-        figure is ``kinematic_condition``). 0 where Q is meaningless.
-        """
+        """Exact condition number of Q by SVD, on first access only; 0 where void."""
         if self.geometric is None or (not self._batch and SEVERITY[self.status] >= 3):
             return 0.0
         value = np.linalg.cond(self.Q)
@@ -116,10 +108,8 @@ class Solution:
 
 
 class _RowView:
-    """Field of a kernel solution: a view of its result row(s) (the layout the
-    kernel exports, :data:`.kernel.OUT`), made on first access and then kept in
-    the instance (a non-data descriptor, like functools.cached_property without
-    its lock).
+    """Field of a kernel solution: a view of its result row(s), made on first
+    access and kept (cached_property without its lock).
     """
 
     def __init__(self, name: str) -> None:
@@ -138,9 +128,7 @@ class _RowView:
 
 
 class _KernelSolution(Solution):
-    """A :class:`Solution` whose array fields are views of the kernel's output
-    buffer (one allocation per solve), made when first read.
-    """
+    """A :class:`Solution` whose array fields are views of the kernel's output."""
 
 
 for _name in kernel.OUT:
@@ -150,11 +138,9 @@ _KernelSolution.__qualname__ = _KernelSolution.__name__ = 'Solution'
 
 
 def kinematic_condition(g: Geometric, f: Connectivity, xp: SimpleNamespace) -> Scalar:
-    """Condition of Q (eq. 11-12) from its block factorisation: the largest exact
-    2-norm condition number of the pivot blocks (loops A, B, C: orthogonal
-    columns of norms L, 1 and L h, L, 1; loops D, E: 2x2). Q is singular exactly
-    when one of them is, so this tracks the approach of a kinematic singularity
-    at a fraction of the cost of an SVD (sol.cond gives the exact cond(Q)).
+    """Condition of Q (eq. 11-12) from its block factorisation: the largest
+    condition of the pivot blocks (loops A, B, C: orthogonal columns of norms
+    L, 1 and L h, L, 1; loops D, E: 2x2), singular exactly when Q is.
     """
     LA, LB, LC = g.length
     one = 1.0
@@ -178,10 +164,7 @@ def jacobian_condition(model: Model, J: list, Jinv: list, xp: SimpleNamespace) -
 
 
 def _solve(model: Model, g: Geometric, qd: tuple, qdd: tuple, xp: SimpleNamespace) -> dict:
-    """The paper's method (eq. 11-23) for the positions g of eq. (5)-(8) and the
-    components of qd, qdd (floats or arrays). Returns the raw results (lists of
-    components).
-    """
+    """The paper's method (eq. 11-23) for the positions g of eq. (5)-(8): raw results."""
     f = factorize(model, g)                                              # Q, eq. (12)
     K = tuple(solve_connectivity(g, f, P) for P in pose_rate_columns(g))  # Q^-1 P per unit rate
     V = [K[0][j] * qd[0] + K[1][j] * qd[1] + K[2][j] * qd[2] for j in range(12)]  # eq. (11)
@@ -226,9 +209,8 @@ def _status(model: Model, r: dict, xp: SimpleNamespace, bad_input: Scalar = -1,
 
 
 def _clean(fields: dict, code: np.ndarray | int) -> dict:
-    """No NaN or infinity with any status (the rule's last step, as in
-    src/kernel.c): every number of a void sample (unreachable, invalid input)
-    is 0, any other non-finite number 0, a non-finite condition SINGULAR.
+    """No NaN or infinity (the rule's last step): a void sample's numbers and
+    any non-finite number 0, a non-finite condition SINGULAR.
     """
     void = np.asarray(code) >= SEVERITY[Status.UNREACHABLE]
     out = {}
@@ -241,9 +223,8 @@ def _clean(fields: dict, code: np.ndarray | int) -> dict:
 
 
 def _new_solution(**values: object) -> Solution:
-    """A Solution without the frozen dataclass's per-field __init__ (about
-    2 us of a 10 us cycle); the fields are the same and stay read-only. With
-    ``_rows`` (kernel output), the array fields are views of it.
+    """A Solution without the frozen dataclass's __init__ (2 us of a 10 us
+    cycle); with ``_rows`` the array fields are views of it.
     """
     sol = object.__new__(_KernelSolution if '_rows' in values else Solution)
     sol.__dict__.update(values)
@@ -251,9 +232,7 @@ def _new_solution(**values: object) -> Solution:
 
 
 def _void_solution(model: Model, code: int, info: int, inputs: tuple) -> Solution:
-    """A single solve stopped by the rule before any result (invalid input,
-    unreachable pose): every number 0.
-    """
+    """A single solve stopped before any result: every number 0."""
     z3, z12 = np.zeros(3), np.zeros(12)
     status = BY_SEVERITY[code]
     return _new_solution(
@@ -270,14 +249,10 @@ def _pack_batch(values: Sequence[np.ndarray | float]) -> np.ndarray:
 
 def solve(model: Model, q: Sequence[float], qd: Sequence[float],
           qdd: Sequence[float]) -> Solution:
-    """Solve one control cycle (eq. 5-23): q, qd, qdd are 3 floats each (surge m,
-    heave m, roll rad, and their derivatives). Leg fields are arrays of 3
-    (A, B, C), joint fields arrays of 12; ``beta``, ``cond`` and the conditions
-    are floats.
-
-    Never raises for a bad pose or bad numbers: ``sol.status`` says what
-    happened (:mod:`.status`), ``sol.detail`` why. Only input that is not three
-    numbers per argument (a programming error) raises ValueError.
+    """Solve one control cycle (eq. 5-23): q, qd, qdd are 3 numbers each (surge
+    m, heave m, roll rad and their derivatives). Never raises for a bad pose or
+    bad numbers (``sol.status``, ``sol.detail``); ValueError only for input
+    that is not three numbers per argument.
     """
     q3, qd3, qdd3 = three_numbers('q', q), three_numbers('qd', qd), three_numbers('qdd', qdd)
     if kernel._enabled:
@@ -287,9 +262,7 @@ def solve(model: Model, q: Sequence[float], qd: Sequence[float],
 
 
 def kernel_solution(model: Model, out: np.ndarray, scalars: tuple, inputs: tuple) -> Solution:
-    """The Solution of one kernel result row ``out`` and its scalars (status
-    code, detail code, beta, conditions) for the inputs (q, qd, qdd).
-    """
+    """The Solution of one kernel result row and its scalars."""
     code, info, beta, kin, jac = scalars
     status = kernel.STATUS_BY_CODE[code]
     return _new_solution(   # the array fields are views of `out` (_RowView)
@@ -309,11 +282,8 @@ def _kernel_detail(model: Model, status: Status, info: float, row: np.ndarray,
 
 
 def _solve_floats(model: Model, q: tuple, qd: tuple, qdd: tuple) -> Solution:
-    """One cycle with the Python code on plain floats (no numpy call per
-    operation). Float arithmetic raises where IEEE arithmetic carries on (a
-    division by zero at an exact singularity, a domain error for absurd
-    input): such a sample goes to the array code, so that every path gives
-    the verdict of the same rule on the same numbers.
+    """One cycle on plain floats; a sample where float arithmetic raises (IEEE
+    carries on) goes to the array code, so that every path gives one verdict.
     """
     inputs = (q, qd, qdd)
     bad = first_bad_input(q + qd + qdd, _SCALAR)
@@ -348,13 +318,9 @@ def _solve_floats(model: Model, q: tuple, qd: tuple, qdd: tuple) -> Solution:
 
 
 def solve_batch(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> Solution:
-    """Inverse kinematics and dynamics (eq. 5-23) for N samples at once, vectorised.
-
-    q, qd, qdd: (N, 3) arrays of (surge m, heave m, roll rad) and their first and
-    second time derivatives. Fields of the result have a leading N axis;
-    ``status`` is an array of :class:`Status`, ``detail`` a tuple of strings.
-    A bad sample gets its own status and never affects the others. Only input
-    that is not an (N, 3) array of numbers raises ValueError.
+    """Inverse kinematics and dynamics (eq. 5-23) of N samples: q, qd, qdd are
+    (N, 3); every field gets a leading N axis. A bad sample gets its own
+    status; ValueError only for input that is not (N, 3) numbers.
     """
     arrays = _as_batch('q', q, None), None, None
     n = arrays[0].shape[0]
@@ -381,10 +347,7 @@ def batch_from_rows(model: Model, rows: np.ndarray, arrays: tuple) -> Solution:
 
 
 def _solve_arrays(model: Model, *arrays: np.ndarray) -> Solution:
-    """N samples ((N, 3) arrays q, qd, qdd) with the Python code on numpy
-    columns: every sample is computed (IEEE arithmetic, no exceptions) and the
-    status rule picks, per sample, what its numbers are worth.
-    """
+    """N samples on numpy columns (IEEE, no exceptions); the rule judges each."""
     n = arrays[0].shape[0]
     columns = [tuple(a.T) for a in arrays]
     bad = np.broadcast_to(first_bad_input(sum(columns, ()), _ARRAY), (n,))
@@ -412,14 +375,9 @@ def _solve_arrays(model: Model, *arrays: np.ndarray) -> Solution:
 
 
 def three_numbers(name: str, value: Sequence[float]) -> tuple[float, float, float]:
-    """Three real numbers as floats, or ValueError naming the argument.
-
-    The one input rule of :func:`solve` and :func:`.forward_kinematics.forward_kinematics`:
-    an argument that is not three real numbers a float can hold is a
-    programming error (strings, bytes, bools, None, sets, generators, nested
-    or wrongly sized sequences, an integer beyond float range such as
-    ``10**400``); NaN and infinite floats are numbers, and give the status
-    ``invalid_input``.
+    """Three real numbers as floats, or ValueError naming the argument (not
+    bools, strings, nested or wrongly sized sequences, ints beyond float
+    range); NaN and infinities are numbers (status ``invalid_input``).
     """
     kind = type(value)
     if (kind is tuple or kind is list) and len(value) == 3:     # the usual case, fast
@@ -442,10 +400,7 @@ def three_numbers(name: str, value: Sequence[float]) -> tuple[float, float, floa
 
 
 def _as_batch(name: str, value: object, n: int | None) -> np.ndarray:
-    """An (N, 3) array of real numbers, or ValueError naming the argument (the
-    rule of :func:`three_numbers`, row by row; masked entries are refused, not
-    solved with the values they hide).
-    """
+    """An (N, 3) float array by the rule of :func:`three_numbers`, masked entries refused."""
     if np.ma.isMaskedArray(value) and np.ma.getmaskarray(value).any():
         raise ValueError(f'{name} has masked entries: fill or drop them first')
     if not isinstance(value, np.ndarray) and any(

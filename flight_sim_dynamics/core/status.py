@@ -1,32 +1,22 @@
 """Status of a solve: how much its numbers can be trusted.
 
-Every solve returns a status; the string form of each member is its name, as
-written in the CSV ``status`` column and the node's diagnostics. From best to
-worst (a solve reports the worst that applies):
+A member's string form is its name (CSV ``status`` column, diagnostics).
+From best to worst; a solve reports the worst that applies:
 
 ================ ===========================================================
 ok               every number valid
-limit            valid, but a stroke, speed or force limit (``limits.*``) is
-                 exceeded; ``detail`` says which
-near_singular    the mechanism is close to a singularity: the kinematic
-                 condition (of the connectivity matrix Q) or the condition
-                 of the actuator Jacobian exceeds its threshold; the numbers
-                 are what the equations give, so forces may be huge; at an
-                 exact singularity the forces and powers are set to 0
-unreachable      no such pose (a loop of eq. 7 cannot close, or E2 would
-                 leave the rod): every number is 0
-invalid_input    a non-finite input, or one so large that the results are
-                 not finite: every number is 0; ``detail`` names the field
+limit            valid, but a stroke, speed or force limit is exceeded
+near_singular    the kinematic condition (of Q) or the actuator Jacobian's
+                 exceeds its threshold; at an exact singularity the
+                 non-finite numbers are 0
+unreachable      a loop of eq. 7 cannot close (or E2 would leave the rod):
+                 every number is 0
+invalid_input    a non-finite input, or results that overflow: every number 0
 not_converged    forward kinematics only: the iteration did not converge
 ================ ===========================================================
 
-No status ever comes with a NaN or an infinity in the numbers.
-
-The rule that picks a sample's status is written once, here
-(:func:`sample_status`, with :func:`first_bad_input`, :func:`first_open_loop`
-and :func:`all_finite`), for floats (one solve) and numpy arrays (a batch)
-alike; ``src/kernel.c`` (``sample_status``) transcribes it, and
-:func:`describe` words the verdict of either.
+Never a NaN or an infinity. The rule (:func:`sample_status`) is written once
+here, for floats and arrays alike; ``src/kernel.c`` transcribes it.
 """
 from __future__ import annotations
 
@@ -63,26 +53,21 @@ BY_SEVERITY = sorted(SEVERITY, key=SEVERITY.get)
 
 
 def condition_2x2(a: tuple, b: tuple, xp) -> object:
-    """Exact 2-norm condition number sigma_max / sigma_min of the 2x2 matrix with
-    columns a and b (first two components; floats or arrays): sigma_max^2/|det|.
-    """
+    """Exact 2-norm condition number of the 2x2 matrix [a b]: sigma_max^2 / |det|."""
     f2 = a[0] * a[0] + a[1] * a[1] + b[0] * b[0] + b[1] * b[1]
     det = xp.abs(a[0] * b[1] - a[1] * b[0])
     sigma_max2 = 0.5 * (f2 + xp.sqrt(xp.clip0((f2 - 2.0 * det) * (f2 + 2.0 * det))))
     return sigma_max2 / det
 
 
-#: ``info`` of a sample that is invalid because its results overflow (the
-#: other codes: see :func:`sample_status`).
+#: ``info`` of a sample whose results overflow.
 RESULTS_NOT_FINITE = -1
 _INPUTS = ('q', 'qd', 'qdd')
 _COORDINATES = ('surge', 'heave', 'roll')
 
 
 def first_bad_input(values: Sequence[Scalar], xp) -> Scalar:
-    """Index (0-8) of the first non-finite number of q, qd, qdd (given as the
-    9 components in that order), or -1 when all are finite.
-    """
+    """Index (0-8) of the first non-finite of the 9 components of q, qd, qdd, or -1."""
     index = -1
     for i in range(len(values) - 1, -1, -1):
         index = xp.where(xp.isfinite(values[i]), index, i)
@@ -91,8 +76,7 @@ def first_bad_input(values: Sequence[Scalar], xp) -> Scalar:
 
 def first_open_loop(valid: dict, xp) -> Scalar:
     """Index in :data:`.kinematics.LOOPS` of the first loop of eq. (7) that
-    cannot close (``valid``: loop -> closes, from :func:`.kinematics.closure`),
-    or -1 when all close.
+    cannot close, or -1.
     """
     index = -1
     for i in range(len(LOOPS) - 1, -1, -1):
@@ -112,26 +96,14 @@ def sample_status(limits: Limits, xp, bad_input: Scalar = -1, open_loop: Scalar 
                   finite: Scalar = True, kin: Scalar = 0.0, jac: Scalar = 0.0,
                   stroke: Sequence[Scalar] = (0.0,) * 3, rate: Sequence[Scalar] = (0.0,) * 3,
                   force: Sequence[Scalar] = (0.0,) * 3) -> tuple[Scalar, Scalar]:
-    """Return the status rule's (code, info) of each sample.
+    """Return the status rule's (code, info): the severity of the first that applies.
 
-    The code is the severity of its :class:`Status`, the worst that applies,
-    in this order:
-
-    1. invalid_input, info = index of the first non-finite input
-       (:func:`first_bad_input`): nothing is computed;
-    2. unreachable, info = index of the first loop that cannot close
-       (:func:`first_open_loop`): nothing else is computed;
-    3. near_singular when the kinematic or the Jacobian condition exceeds its
-       limit (or is NaN); info = 1, or 0 when some result is not finite (an
-       exact singularity: those numbers are set to 0);
-    4. invalid_input, info = :data:`RESULTS_NOT_FINITE`, when a result is not
-       finite without a near singularity (input too large);
-    5. limit when a stroke, speed or force limit is exceeded (info 0);
-    6. ok (info 0).
-
-    A solve that stops at 1 or 2 leaves the other arguments at their defaults.
-    Components are floats (one sample) or arrays (N samples); ``finite`` is
-    :func:`all_finite` of every result and condition.
+    1. invalid_input, info = the first non-finite input (nothing computed);
+    2. unreachable, info = the first loop that cannot close;
+    3. near_singular (a condition over its limit or NaN), info = 1, or 0 at an
+       exact singularity (some result not finite: set to 0);
+    4. invalid_input, info = :data:`RESULTS_NOT_FINITE` (results overflow);
+    5. limit (a stroke, speed or force limit exceeded); 6. ok.
     """
     near = xp.logical_not((kin <= limits.max_kinematic_condition)
                           & (jac <= limits.max_jacobian_condition))
@@ -156,10 +128,7 @@ def sample_status(limits: Limits, xp, bad_input: Scalar = -1, open_loop: Scalar 
 def describe(status: Status, info: int, limits: Limits, inputs: Sequence[Sequence[float]],
              stroke: Sequence[float], rate: Sequence[float], force: Sequence[float],
              kin: float, jac: float) -> str:
-    """Why one sample has its status ('' for ok), from (status, info) of
-    :func:`sample_status` (or the kernel's), the sample's inputs (q, qd, qdd)
-    and its results.
-    """
+    """Why one sample has its status ('' for ok), from :func:`sample_status`'s info."""
     info = int(info)
     if status is Status.INVALID_INPUT:
         if info == RESULTS_NOT_FINITE:

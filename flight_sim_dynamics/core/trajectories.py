@@ -21,11 +21,7 @@ PAPER_EXAMPLES: dict[str, tuple[float, float, float]] = {
 
 
 def paper_example(name: str, t: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Pose, rates and accelerations of example ``name`` at times ``t`` (eq. 6).
-
-    Returns three arrays of shape (N, 3): columns surge (m), heave (m), roll (rad)
-    and their first and second time derivatives.
-    """
+    """q, qd, qdd (each (N, 3): surge m, heave m, roll rad) of example ``name`` (eq. 6)."""
     try:
         amplitude = np.array(PAPER_EXAMPLES[name])
     except KeyError:

@@ -1,35 +1,13 @@
-"""A real-time stepper of the digital twin: the plant under its actuator
-servos, advanced step by step as commands arrive. Numpy only.
+"""The digital twin in real time: the plant under its actuator servos,
+advanced step by step as commands arrive (the ``platform_sim`` node).
 
-:func:`.simulation.simulate` integrates a whole reference known in advance;
-a running machine (the ``platform_sim`` node) only knows the last command of
-each actuator servo, the leg length and rate references and a feed-forward
-force (what ``dynamics_node`` publishes on ``actuator_states``). The stepper
-holds that command (zero-order hold) and advances the state (q, qd) by the
-classical RK4 of :func:`.simulation.integrate` at a fixed step, every stage
-evaluating the servo law of :mod:`.simulation`,
-
-    command = f_ff + kp (L_ref - L) + kd (Ldot_ref - Ldot),
-
-saturated by the actuator (:func:`.simulation.deliver`), and the plant's
-forward dynamics M(q) qdd = f - b(q, qd) (eq. 14, 18-23; :mod:`.forward_dynamics`,
-through the stage function of :mod:`.simulation`).
-
-The first stage of a step is evaluated at the state reached by the previous
-one, so the measured leg lengths, rates and delivered forces of the current
-state come with it: four evaluations of M and b per step (one more after a
-new command, whose force law differs).
-
-With the compiled kernel enabled, :meth:`TwinStepper.advance` hands the
-steps to the kernel's RK4 loop (:func:`.kernel.integrate_rows`, the held
-command as a constant table: the same operations) and evaluates the first
-stage once at the state reached, for the measured values; a step the kernel
-cannot finish is taken by the Python loop, as :func:`.simulation.integrate`
-does.
-
-When a stage state is unreachable, near a singularity or not finite, the
-stepper stops (:attr:`TwinStepper.outcome`, :attr:`TwinStepper.detail`) and
-holds the last state reached, at rest: it never produces NaN.
+The last command (leg length and rate references, feed-forward force) is held
+(zero-order hold) and the state advanced by the RK4 of
+:func:`.simulation.integrate`, every stage evaluating the servo law and the
+forward dynamics M(q) qdd = f - b(q, qd) (eq. 14, 18-23). With the kernel
+enabled the steps run in C. A stage state that is unreachable, near a
+singularity or not finite stops the stepper (:attr:`TwinStepper.outcome`),
+which holds the last state reached, at rest: never a NaN.
 """
 from __future__ import annotations
 
@@ -40,16 +18,14 @@ import numpy as np
 
 from . import kernel
 from .model import Model
-from .simulation import Servo, _stage, deliver
+from .simulation import Servo, _stage, deliver, rk4_step
 from .solver import Solution
 from .status import Status
 
 
 class TwinStepper:
-    """The plant ``plant`` driven by three servos of gains ``servo``,
-    integrated by RK4 at ``step`` s from rest at ``q0`` (default the central
-    configuration). Until the first :meth:`command` the servos push nothing
-    (call :meth:`command` before :meth:`advance`, or the platform falls).
+    """The plant under servos of gains ``servo``, RK4 at ``step`` s from rest at
+    ``q0``; the servos push nothing until the first :meth:`command`.
     """
 
     def __init__(self, plant: Model, servo: Servo, step: float,
@@ -72,8 +48,7 @@ class TwinStepper:
         self._ff = np.zeros(3)
         self.outcome = Status.OK             # ok while running, else why it stopped
         self.detail = ''
-        # the first stage of the current state: (qdd, delivered force, the
-        # plant's solve there), None when it must be evaluated again
+        # (qdd, delivered force, solve) of the current state's first stage; None: to evaluate
         self._first: tuple[np.ndarray, np.ndarray, Solution] | None = None
         self._base: Solution | None = None
         self._held: Solution | None = None       # the solve of the last good state
@@ -84,9 +59,8 @@ class TwinStepper:
     # -- the command ------------------------------------------------------------------
     def command(self, length: Sequence[float], rate: Sequence[float],
                 force: Sequence[float]) -> None:
-        """Hold a new servo command: leg length and rate references (m, m/s) and
-        feed-forward forces (N), legs A, B, C. ValueError unless each is three
-        finite numbers.
+        """Hold a new command: leg lengths, rates (m, m/s) and feed-forward forces
+        (N), each three finite numbers (else ValueError).
         """
         values = []
         for name, v in (('length', length), ('rate', rate), ('force', force)):
@@ -101,9 +75,7 @@ class TwinStepper:
             self._evaluate_first()
 
     def _law(self, j: int, base: Solution) -> np.ndarray:
-        """The delivered force of the servo law at a stage (``j`` unused: the
-        command is held over the step).
-        """
+        """The delivered force of the servo law (``j`` unused: the command is held)."""
         self._base = base
         command = (self._ff + self._kp * (self._length_ref - base.length)
                    + self._kd * (self._rate_ref - base.rate))
@@ -176,24 +148,11 @@ class TwinStepper:
 
     def _python_step(self) -> bool:
         """One RK4 step in Python; False when the stepper stopped instead."""
-        h = self.step
         if self._first is None and not self._evaluate_first():
             return False
-        a1 = self._first[0]
-        q, qd = self.q, self.qd
-        q2, v2 = q + 0.5 * h * qd, qd + 0.5 * h * a1
-        a2, _, status, detail = _stage(self.plant, q2, v2, self._law, 1)
-        if status is Status.OK:
-            q3, v3 = q + 0.5 * h * v2, qd + 0.5 * h * a2
-            a3, _, status, detail = _stage(self.plant, q3, v3, self._law, 1)
-        if status is Status.OK:
-            q4, v4 = q + h * v3, qd + h * a3
-            a4, _, status, detail = _stage(self.plant, q4, v4, self._law, 2)
-        if status is Status.OK:
-            q_new = q + (h / 6.0) * (qd + 2.0 * (v2 + v3) + v4)
-            qd_new = qd + (h / 6.0) * (a1 + 2.0 * (a2 + a3) + a4)
-            if not (np.all(np.isfinite(q_new)) and np.all(np.isfinite(qd_new))):
-                status, detail = Status.INVALID_INPUT, 'state not finite: forces too large'
+        q = self.q
+        q_new, qd_new, status, detail = rk4_step(self.plant, q, self.qd, self._first[0],
+                                                 self._law, 0, self.step)
         if status is not Status.OK:
             self._stop(status, f'step from t = {self.time:.6g} s: {detail}')
             return False

@@ -1,12 +1,6 @@
-"""Plain-vector arithmetic on 3-tuples of components.
-
-A vector is a tuple ``(x, y, z)`` whose components are either Python floats
-(one control cycle: no numpy call overhead at all) or 1-D numpy arrays of N
-samples (a whole trajectory, vectorised). The same solver code serves both;
-:func:`backend` picks the matching elementary functions.
-
-``zx(v)`` is the paper's skew-symmetric ``u3~`` applied to v (eq. 10), i.e.
-``z0 x v``.
+"""Plain-vector arithmetic on 3-tuples of components: Python floats (one
+cycle, no numpy overhead) or 1-D arrays (a batch), the same solver code for
+both (:func:`backend`). ``zx(v)`` = z0 x v, the paper's ``u3~`` (eq. 10).
 """
 from __future__ import annotations
 
@@ -73,9 +67,7 @@ def mat_vec(m: np.ndarray, c: Vec) -> Vec:
 
 
 def _nan_max(*values: float) -> float:
-    """max() that returns NaN if any value is NaN, like numpy.maximum and the
-    kernel's nmax (Python's max keeps or drops a NaN depending on its place).
-    """
+    """max() that returns NaN if any value is NaN, like numpy.maximum and the kernel."""
     return math.nan if any(v != v for v in values) else max(values)
 
 

@@ -1,21 +1,9 @@
-"""Workspace sampling: which poses are reachable, and within the stroke
-limits, at rest (geometry, not motion); the numerics of
-``flight-sim-dynamics workspace``.
-
-* :func:`sample_map`: one roll angle on a grid of (surge, heave) cell centres,
-  each cell categorised by what ends reachability there (loop D, loop E, the
-  slider E2 off the rod between A3 and G, a degenerate leg), with strokes,
-  condition figures and det(dL/dq);
-* :func:`line_ranges`: the reachable and within-stroke intervals along the
-  surge and heave axes through the central configuration, each end located by
-  bisection (~1e-12 m) and named by the constraint just beyond it;
-* :func:`areas`: the areas of both sets, row by row with the crossings
-  located by bisection; :func:`boundary_shares`: what makes their boundary;
-* :func:`paper_motions`: how the paper's three motions (eq. 6) fare.
-
-Roll enters legs B and C only, so the reachable set (loops D and E, slider
-E2) is the same for every roll angle, and roll -r gives the same map as +r
-with legs B and C exchanged (mechanism.md). Numpy only.
+"""Workspace sampling at rest (geometry, not motion), the numerics of
+``flight-sim-dynamics workspace``: grid maps per roll angle by what ends
+reachability (:func:`sample_map`), the intervals along the axes through the
+central configuration and the areas, each crossing located by bisection
+(:func:`line_ranges`, :func:`areas`), what makes the boundary
+(:func:`boundary_shares`) and how the paper's motions fare (eq. 6).
 """
 from __future__ import annotations
 
@@ -48,9 +36,6 @@ LEGS = 'ABC'
 EDGE = 'edge of --range'
 
 
-# ----------------------------------------------------------------------------
-# Sampling
-# ----------------------------------------------------------------------------
 def at_rest(model: Model, q: np.ndarray) -> Solution:
     """solve_batch of the poses q (N, 3) at rest."""
     return solve_batch(model, q, np.zeros_like(q), np.zeros_like(q))
@@ -91,9 +76,7 @@ def failure_cause(model: Model, sol: Solution, cat: np.ndarray, i: int) -> str:
 
 @dataclass
 class RollMap:
-    """One roll angle sampled on a grid of cell centres (ny rows of heave, nx
-    columns of surge).
-    """
+    """One roll angle on a grid of cell centres (ny rows of heave, nx of surge)."""
 
     roll_deg: float
     surge: np.ndarray            # (nx,) m
@@ -114,9 +97,7 @@ def cell_centres(lo: float, hi: float, n: int) -> np.ndarray:
 
 def sample_map(model: Model, roll_deg: float, extent: Sequence[float], resolution: int,
                exact_cond: bool = True) -> RollMap:
-    """Solve the grid of ``resolution`` x ``resolution`` cell centres of
-    ``extent`` (surge min, max, heave min, max) at roll ``roll_deg``.
-    """
+    """Solve the ``resolution``-square grid of cell centres of ``extent``."""
     surge = cell_centres(extent[0], extent[1], resolution)
     heave = cell_centres(extent[2], extent[3], resolution)
     S, H = np.meshgrid(surge, heave)
@@ -145,9 +126,6 @@ def sample_map(model: Model, roll_deg: float, extent: Sequence[float], resolutio
                    jacobian_det=np.where(ok, np.linalg.det(sol.jacobian), nan).reshape(shape))
 
 
-# ----------------------------------------------------------------------------
-# Intervals along lines and areas, with the crossings located by bisection
-# ----------------------------------------------------------------------------
 #: The two sets measured: index 0 = reachable, 1 = reachable and within the stroke limits.
 KINDS = ('reachable', 'within stroke limits')
 
@@ -166,14 +144,13 @@ class Interval:
     def contains(self, x: float) -> bool:
         return self.lo <= x <= self.hi
 
-    def text(self, digits: int = 3) -> str:
-        return (f'[{self.lo:+.{digits}f} ({self.lo_cause}), '
-                f'{self.hi:+.{digits}f} ({self.hi_cause})]')
+    def text(self) -> str:
+        return f'[{self.lo:+.3f} ({self.lo_cause}), {self.hi:+.3f} ({self.hi_cause})]'
 
 
 def classify(model: Model, q: np.ndarray) -> tuple[np.ndarray, Callable[[int], str]]:
-    """One solve of the poses q (N, 3): (N, 2) booleans (reachable, within the
-    stroke limits) and a function naming what sample i violates.
+    """(N, 2) booleans (reachable, within strokes) of the poses q and a
+    function naming what sample i violates.
     """
     sol = at_rest(model, q)
     cat = categorise(sol)
@@ -183,10 +160,8 @@ def classify(model: Model, q: np.ndarray) -> tuple[np.ndarray, Callable[[int], s
 
 def bisect(model: Model, kind: np.ndarray, q_in: np.ndarray, q_out: np.ndarray,
            iterations: int) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """Halve each segment q_in (inside) - q_out (outside) of the set ``kind``
-    (0 or 1, see KINDS) ``iterations`` times, all segments in one solve per
-    step; returns the final inside and outside ends and what the pose at each
-    outside end violates.
+    """Bisect each segment q_in (inside) - q_out of the set ``kind`` (KINDS index):
+    the final ends and what each outside end violates.
     """
     q_in, q_out = np.array(q_in, dtype=float), np.array(q_out, dtype=float)
     if len(q_in) == 0:
@@ -203,10 +178,8 @@ def bisect(model: Model, kind: np.ndarray, q_in: np.ndarray, q_out: np.ndarray,
 
 @dataclass
 class RowJob:
-    """Samples of one set (``kind``) along rows: ``inside`` (rows, n) at the
-    coordinates ``xs`` (n,) of axis ``axis`` of the pose; ``base`` (rows, 3)
-    holds the other coordinates of each row. Runs reaching the first or last
-    sample end at ``lo_edge`` / ``hi_edge``.
+    """Samples ``inside`` (rows, n) of the set ``kind`` at ``xs`` along pose
+    axis ``axis``, the other coordinates in ``base`` (rows, 3).
     """
 
     kind: int
@@ -220,10 +193,7 @@ class RowJob:
 
 def row_intervals(model: Model, jobs: Sequence[RowJob], iterations: int
                   ) -> list[list[list[Interval]]]:
-    """The inside intervals of every row of every job (job -> row -> intervals).
-    Each crossing between two neighbouring samples is located by bisection,
-    all crossings of all jobs together.
-    """
+    """The inside intervals (job -> row -> intervals), all crossings bisected together."""
     segs = []       # (job index, row of each crossing, enters?, q_in, q_out)
     for j, job in enumerate(jobs):
         inside, xs = job.inside, job.xs
@@ -277,9 +247,8 @@ class LineRanges:
 
 def line_ranges(model: Model, roll_deg: float, extent: Sequence[float], samples: int = 4001,
                 iterations: int = 50) -> tuple[LineRanges, LineRanges]:
-    """Reachable and within-stroke intervals of surge at heave 0 and of heave at
-    surge 0, within ``extent`` (surge min, max, heave min, max), at roll
-    ``roll_deg``; ends located to ~1e-12 m.
+    """Intervals of surge at heave 0 and of heave at surge 0 within ``extent``
+    (ends to ~1e-12 m).
     """
     roll = math.radians(roll_deg)
     jobs = []
@@ -305,9 +274,8 @@ class Areas:
 
 
 def areas(model: Model, rm: RollMap, extent: Sequence[float], iterations: int = 24) -> Areas:
-    """Areas (m^2) of the reachable set and of its part within the stroke
-    limits: midpoint rule over the heave rows of the map, each row's length
-    exact to ~1e-9 m (crossings by bisection).
+    """Areas (m^2) of both sets: midpoint rule over the heave rows, each row's
+    length by bisection.
     """
     dh = (extent[3] - extent[2]) / len(rm.heave)
     base = np.column_stack([np.zeros(len(rm.heave)), rm.heave,
@@ -322,9 +290,6 @@ def areas(model: Model, rm: RollMap, extent: Sequence[float], iterations: int = 
                  clipped=clipped)
 
 
-# ----------------------------------------------------------------------------
-# The paper's motions
-# ----------------------------------------------------------------------------
 @dataclass
 class MotionReport:
     name: str
@@ -355,9 +320,8 @@ def paper_motions(model: Model, rate_hz: float = 100.0) -> list[MotionReport]:
 
 
 def general_pose_at_roll(roll_deg: float) -> tuple[float, float] | None:
-    """Where the paper's general motion is when its roll passes ``roll_deg``
-    (surge, heave; None if it never does): all three coordinates follow the
-    same (1 - cos) profile, so the fraction of the way is roll / roll_end.
+    """(surge, heave) of the general motion when its roll is ``roll_deg`` (None:
+    never); its coordinates share one profile (eq. 6).
     """
     x, y, phi = PAPER_EXAMPLES['general']
     end = 2.0 * math.degrees(phi)
@@ -365,7 +329,6 @@ def general_pose_at_roll(roll_deg: float) -> tuple[float, float] | None:
     if not 0.0 <= frac <= 1.0 + 1e-12:
         return None
     return 2.0 * x * frac, 2.0 * y * frac
-
 
 
 @dataclass
@@ -378,11 +341,8 @@ class RollResult:
     zoom: RollMap | None
 
 
-
 def _outside_cause(model: Model, rm: RollMap) -> np.ndarray:
-    """Per grid cell, what keeps it out of the within-stroke region: a category
-    name, the most violated stroke limit ('stroke A min', ...), or '' if inside.
-    """
+    """Per cell, what keeps it out of the within-stroke region ('' inside)."""
     lim = model.limits
     names = np.array([''] + [SHORT_CAUSE[c] for c in range(1, INVALID + 1)], dtype=object)
     out = names[rm.category]
@@ -398,9 +358,7 @@ def _outside_cause(model: Model, rm: RollMap) -> np.ndarray:
 
 
 def _limits_label(tied: np.ndarray) -> str:
-    """'stroke A min', or 'stroke B, C max' when several legs tie (6 flags:
-    A, B, C below the minimum, then above the maximum).
-    """
+    """'stroke A min', or 'stroke B, C max' for tied legs (flags A, B, C min, then max)."""
     parts = []
     for offset, bound in ((0, 'min'), (3, 'max')):
         legs = [leg for j, leg in enumerate(LEGS) if tied[offset + j]]
@@ -410,10 +368,8 @@ def _limits_label(tied: np.ndarray) -> str:
 
 
 def boundary_shares(model: Model, rm: RollMap, which: str) -> dict[str, float]:
-    """Share of the boundary of the reachable set (which = KINDS[0]) or of the
-    within-stroke region (KINDS[1]) that each constraint makes (grid estimate:
-    lengths of the cell edges between an inside and an outside cell, named by
-    the outside cell's cause).
+    """Share of the boundary of the set ``which`` made by each constraint (grid
+    estimate: cell edges between inside and outside, by the outside's cause).
     """
     inside = rm.category == REACHABLE if which == KINDS[0] else rm.within
     cause = _outside_cause(model, rm)
@@ -435,13 +391,10 @@ def boundary_shares(model: Model, rm: RollMap, which: str) -> dict[str, float]:
     return {k: v / s for k, v in sorted(total.items(), key=lambda kv: -kv[1])} if s else {}
 
 
-
 def sample_roll(model: Model, roll_deg: float, extent: Sequence[float],
                 zoom: Sequence[float] | None, resolution: int, exact_cond: bool = True
                 ) -> RollResult:
-    """One roll angle: the map of ``extent`` (and of ``zoom`` unless None), the
-    intervals along the axes and the areas within ``extent``.
-    """
+    """One roll angle: the maps of ``extent`` and ``zoom``, intervals and areas."""
     overview = sample_map(model, roll_deg, extent, resolution, exact_cond)
     zoomed = None if zoom is None else sample_map(model, roll_deg, zoom, resolution, exact_cond)
     surge_line, heave_line = line_ranges(model, roll_deg, extent)
@@ -450,8 +403,6 @@ def sample_roll(model: Model, roll_deg: float, extent: Sequence[float],
 
 
 def near_singular_share(rm: RollMap) -> float:
-    """Share of the cells within the stroke limits whose status is near_singular
-    (nan when no cell is within them).
-    """
+    """Share of the within-stroke cells that are near_singular (nan: none within)."""
     n = int(rm.within.sum())
     return float((rm.within & rm.near_singular).sum()) / n if n else math.nan

@@ -120,7 +120,7 @@ def test_pose_columns_are_used_when_present(tmp_path):
 def test_rows_without_a_solution_are_drawn_as_such(tmp_path, capsys):
     out, _ = solve(tmp_path, unreachable=slice(30, 40))
     solved = animate.read_solved(str(out))
-    frames = animate.frames(MODEL, solved, np.arange(len(solved)))
+    frames = animate.frames(MODEL, solved, np.arange(len(solved.t)))
     for frame in frames:
         void = 30 <= frame.row < 40
         assert frame.solved is not void

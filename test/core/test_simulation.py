@@ -26,8 +26,9 @@ import flight_sim_dynamics as fsd
 import reference_model as rm
 from flight_sim_dynamics import Status
 from flight_sim_dynamics.core import motions
+from flight_sim_dynamics.core.interpolation import node_slopes
 from flight_sim_dynamics.core.simulation import (ForceHistory, Reference, Servo, deliver,
-                                                 node_slopes, simulate)
+                                                 simulate)
 
 MODEL = fsd.load_model()
 PARAMS = rm.load_reference_params()
