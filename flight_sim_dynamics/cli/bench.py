@@ -14,7 +14,7 @@ measures
   motion-cueing-like motion (:func:`violent_motion`);
 
 and the accuracy cost of not receiving accelerations (estimated by the node's
-:class:`~flight_sim_dynamics.ros.estimator.DerivativeEstimator` from exact twists,
+:class:`~flight_sim_dynamics.core.estimator.DerivativeEstimator` from exact twists,
 or rates and accelerations both from poses, sampled at 60, 250 and 1000 Hz),
 plus the other speed/accuracy trades the solver offers (the ``cond(Q)``
 diagnostic, ``solve_batch`` on one sample). It prints the tables and writes
@@ -48,7 +48,7 @@ import flight_sim_dynamics as fsd
 
 from ..core.motions import TEST_MOTIONS as MOTIONS
 from ..core.motions import duration, motion, sample_times
-from ..ros.estimator import ESTIMATORS
+from ..core.estimator import ESTIMATORS
 from .bench_cases import (Case, EstimatorCall, Results, batch_throughput, estimator_cases,
                           motion_set, solve_cond, time_cases, variant_errors, variants)
 from .bench_report import (additions_table, estimator_table, extras_table, load_average,

@@ -6,7 +6,7 @@ the estimator study and interleaved timing (no report, no plot).
 * force errors against ``full`` on the test motions (the paper's three, eq. 6,
   and ``violent``: :data:`flight_sim_dynamics.core.motions.TEST_MOTIONS`);
 * the cost of missing accelerations (and twists): the node's
-  :class:`~flight_sim_dynamics.ros.estimator.DerivativeEstimator` fed the
+  :class:`~flight_sim_dynamics.core.estimator.DerivativeEstimator` fed the
   exact samples (:func:`estimator_cases`; ``python -m benchmarks.estimation``
   runs the same study on other motions and rates);
 * timing: cases interleaved call by call in an order shuffled anew for each
@@ -32,7 +32,7 @@ from ..core.effects import EFFECT_NAMES
 from ..core.model import Model
 from ..core.motions import TEST_MOTIONS as MOTIONS
 from ..core.motions import duration, motion, sample_times
-from ..ros.estimator import ESTIMATORS, DerivativeEstimator
+from ..core.estimator import ESTIMATORS, DerivativeEstimator
 
 # ----------------------------------------------------------------------------
 # Variants

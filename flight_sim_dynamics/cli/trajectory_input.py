@@ -1,7 +1,7 @@
 """The input of ``flight-sim-dynamics solve``: a trajectory CSV, with its rate
 and acceleration columns given or, like the node does for a planner that
 sends poses only, estimated from the poses (causal backward differences of
-:class:`~..ros.estimator.DerivativeEstimator`, said on standard error).
+:class:`~..core.estimator.DerivativeEstimator`, said on standard error).
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import numpy as np
 from . import csv_io
 from .csv_io import TRAJECTORY_COLUMNS
 from ..core.model import Model
-from ..ros.estimator import DerivativeEstimator
+from ..core.estimator import DerivativeEstimator
 
 POSE_INPUT = ('t', 'surge', 'heave', 'roll')
 RATE_COLUMNS = ('surge_rate', 'heave_rate', 'roll_rate')
@@ -36,7 +36,7 @@ def _given_groups(data: bytes) -> tuple[bool, bool]:
 def estimate_rates(model: Model, table: csv_io.Table, rates: bool, accelerations: bool
                    ) -> csv_io.Table:
     """The table with its missing rate and/or acceleration columns estimated
-    the way the node estimates them (:class:`~..ros.estimator.DerivativeEstimator`
+    the way the node estimates them (:class:`~..core.estimator.DerivativeEstimator`
     with the packaged ``estimator.method`` and ``estimator.max_gap``: causal
     backward differences, a gap restarts from rest).
     """

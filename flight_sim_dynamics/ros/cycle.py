@@ -22,7 +22,7 @@ from ..core.model import Model
 from ..core.status import Status
 from .descriptors import MODEL_NAMES, NODE_NAMES
 from .diagnostics import ERROR, WARN, CycleStats, check_limits
-from .estimator import DerivativeEstimator
+from ..core.estimator import DerivativeEstimator
 from .inputs import (NON_FINITE_OUTPUT, SOLVER_ERROR, UNREACHABLE, WARMING_UP,
                      SetpointError, Vec3, check_acceleration, unfollowable)
 from .node_config import NodeConfig

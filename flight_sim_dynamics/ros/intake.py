@@ -22,7 +22,7 @@ from typing import Any, Callable, Sequence
 
 from .cycle import Runtime, assess, outputs_of, rates_of, solve_setpoint
 from .diagnostics import ERROR, OK, WARN, CycleStats, LogThrottle
-from .estimator import DerivativeEstimator
+from ..core.estimator import DerivativeEstimator
 from .inputs import (ACCEL, PLATFORM, QUIET_REASONS, SOLVER_ERROR, TWIST, UNREACHABLE,
                      WARMING_UP, PoseInput, RateInput, SetpointError, Trajectory,
                      check_acceleration, check_not_future, platform_setpoints, pose_input,
