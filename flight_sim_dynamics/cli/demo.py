@@ -35,9 +35,8 @@ from ..core.motions import PLANNER_MOTIONS as MOTIONS
 from ..core.motions import PlannerSequence
 from ..config.parameters import default_params_path
 from ..ros.planner import PlannerNode, setpoint_qos, spin_until
-from ..ros.diagnostics import DIAGNOSTIC_TASK, LEVEL_NAMES
-from ..ros.inputs import quaternion_to_rpy
-from ..ros.qos import default_qos
+from ..ros.dynamics_node import default_qos
+from ..ros.setpoints import DIAGNOSTIC_TASK, LEVEL_NAMES, quaternion_to_rpy
 from ..ros.process import start_node, stop_node
 from .demo_twin import plot_tracking, start_twin, tracking
 from .demo_twin import summary as twin_summary

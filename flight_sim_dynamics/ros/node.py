@@ -206,6 +206,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     with running('dynamics_node', argv) as nodes:
         node = create(DynamicsNode)
         nodes.append(node)
+        # the one rule for parameter files (config.parameters.read_params): an
+        # unknown name or bad value in a --params-file ends the start (exit 2)
+        create(lambda: prm.check_params_files(argv, node.get_fully_qualified_name()))
         duplicate = None
         if not node.get_parameter('allow_duplicate_name').value:
             duplicate = DuplicateGuard(node).found

@@ -27,7 +27,7 @@ from rclpy.time import Time
 
 from ..core.motions import PLANNER_MOTIONS as MOTIONS
 from ..core.motions import PlannerSequence
-from .inputs import rpy_to_quaternion
+from .setpoints import rpy_to_quaternion
 from .node import own_options, running
 from .process import stop_requested
 

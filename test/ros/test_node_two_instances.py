@@ -7,7 +7,7 @@ and merged into one flickering entry.
 """
 from __future__ import annotations
 
-from flight_sim_dynamics.ros.diagnostics import diagnostic_name
+from flight_sim_dynamics.ros.setpoints import diagnostic_name
 from node_harness import NODE_NAME, Client, NodeProcess
 
 

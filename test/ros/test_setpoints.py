@@ -1,4 +1,4 @@
-"""Unit tests of the rclpy-free setpoint helpers (flight_sim_dynamics.ros.*)
+"""Unit tests of the rclpy-free setpoint rules (flight_sim_dynamics.ros.setpoints)
 and of the planner motions (flight_sim_dynamics.core.motions)."""
 from __future__ import annotations
 
@@ -15,16 +15,19 @@ from flight_sim_dynamics.core.model import Limits
 from flight_sim_dynamics.core.motions import PLANNER_MOTIONS as MOTIONS
 from flight_sim_dynamics.core.motions import (CUEING_DURATION, PlannerSequence, motion,
                                               motion_cueing)
-from flight_sim_dynamics.ros.diagnostics import (ERROR, OK, WARN, CycleStats, LogThrottle,
-                                                 check_limits)
-from flight_sim_dynamics.ros.inputs import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION, DUPLICATE,
+from flight_sim_dynamics.config.parameters import NodeConfig
+from flight_sim_dynamics.ros.setpoints import (ERROR, OK, WARN, CycleStats, LogThrottle,
+                                               StampSynchroniser, check_limits)
+from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION, DUPLICATE,
                                             JOINING, LATE, NON_FINITE, NO_POSE, OVERFLOW, PITCH,
                                             POSE, STAMP_BACKWARDS, STAMP_REPEATED, SWAY, TWIST, YAW,
                                             SetpointError, check_acceleration, pose_input,
                                             quaternion_to_rpy, rate_input, rpy_to_quaternion,
                                             unfollowable, wrap_angle)
-from flight_sim_dynamics.ros.node_config import NodeConfig, field_name
-from flight_sim_dynamics.ros.synchroniser import StampSynchroniser
+
+
+def field_name(parameter: str) -> str:
+    return parameter.replace('.', '_')
 
 angles = st.floats(-math.pi + 1e-6, math.pi - 1e-6)
 
@@ -501,8 +504,7 @@ def test_setpoint_helpers_do_not_import_rclpy():
     import subprocess
     import sys
     from pathlib import Path
-    modules = ['inputs', 'synchroniser', 'diagnostics', 'node_config',
-               'descriptors', 'cycle']
+    modules = ['setpoints', 'markers']
     code = ('import sys\n' + ''.join(f'import flight_sim_dynamics.ros.{m}\n' for m in modules)
             + "print(sorted(m for m in sys.modules if m.split('.')[0] == 'rclpy'))")
     root = Path(__file__).resolve().parents[2]
