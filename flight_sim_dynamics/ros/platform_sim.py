@@ -40,7 +40,7 @@ from ..config.schema import SIM_NODE_NAME, SIM_PARAMETERS
 from ..core.model import LEG_NAMES, Model
 from ..core.simulation import Servo
 from ..core.twin import TwinStepper
-from .dynamics_node import ROS_PARAMETERS, _declared, default_qos, descriptor_for
+from .dynamics_node import ROS_PARAMETERS, _declared, default_qos, descriptor_for, plain
 from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, STAMP_BACKWARDS, STAMP_REPEATED,
                         WARN, LogThrottle, SetpointError, Vec3, diagnostic_name, number,
                         rpy_to_quaternion)
