@@ -40,6 +40,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, QoSPolicyKind, QoSProfile,
                        ReliabilityPolicy)
 from rclpy.qos_overriding_options import InvalidQosOverridesError, QoSOverridingOptions
+from rclpy.serialization import deserialize_message
 from rclpy.task import Future
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
@@ -48,13 +49,19 @@ from visualization_msgs.msg import MarkerArray
 from ..config import parameters as prm
 from ..core.model import JOINT_NAMES, LEG_NAMES
 from .markers import MarkerBuilder
-from .setpoints import (ACCEL, ERROR, INACTIVE, LEVEL_NAMES, PLATFORM, POSE, TWIST, WARN,
-                        Outcome, Runtime, SetpointIntake, diagnostic_name)
+from .setpoints import (ACCEL, BAD_SETPOINT, ERROR, INACTIVE, LEVEL_NAMES, PLATFORM, POSE,
+                        TWIST, WARN, Outcome, Runtime, SetpointError, SetpointIntake,
+                        diagnostic_name)
 
 SUCCESS, FAILURE = TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE
 #: Seconds one reading of the clock serves the future-stamp check (a bound of
 #: input.max_future, ~1 s, is 200 times coarser; a reading costs ~2 us).
 LATEST_STAMP_REUSE = 0.005
+#: Bytes a valid trajectory point takes at most (3 positions, velocities and
+#: accelerations, time_from_start, padding), and a platform_setpoint's bytes
+#: besides its points: a larger message is refused before it is decoded.
+MAX_POINT_BYTES = 128
+MAX_MESSAGE_OVERHEAD = 65536
 #: Parameters in one set request; more is refused whole (the node has 75).
 MAX_PARAMETERS_PER_REQUEST = 256
 #: Model validations one SetParameters request may cost to find which of its
@@ -196,22 +203,23 @@ class DynamicsNode(LifecycleNode):
         self._diag_name = diagnostic_name(self.get_fully_qualified_name())
         # timers on the steady clock: they keep ticking with use_sim_time and no /clock
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self._declare_parameters()
+        self._given, self._refused = self._declare_parameters()
         self._guard_services()
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._on_parameters_set)
 
     # -- parameters ----------------------------------------------------------------
-    def _declare_parameters(self) -> None:
+    def _declare_parameters(self) -> tuple[set[str], dict[str, str]]:
         """Declare the schema's parameters with their descriptors, at the given
         value (command line, params file) or the packaged default. A given value
         the schema refuses (``-p bodies.platform.mass:=-1.0``) does not end a
         managed node: the parameter keeps its default, and every configure
-        fails with the reason until the parameter is set.
+        fails with the reason until the parameter is set. Returns the names
+        given and the refused ones with their reasons.
         """
-        self._given = set(self.list_parameters([], 0).names) - ROS_PARAMETERS
-        given = {name: self.get_parameter(name) for name in self._given}
-        for name in self._given:
+        names = set(self.list_parameters([], 0).names) - ROS_PARAMETERS
+        given = {name: self.get_parameter(name) for name in names}
+        for name in names:
             # re-declared below (ours), by the endpoints (qos_overrides.*) or not at all
             self.undeclare_parameter(name)
         try:
@@ -219,7 +227,7 @@ class DynamicsNode(LifecycleNode):
                                     require_all=False)
         except (prm.ParameterError, FileNotFoundError):
             defaults = prm.defaults()
-        self._refused: dict[str, str] = {}       # start-up value refused: name -> reason
+        refused: dict[str, str] = {}
         declarations = []
         for spec in prm.ALL_PARAMETERS:
             value = defaults[spec.name]
@@ -229,9 +237,10 @@ class DynamicsNode(LifecycleNode):
                 if reason is None:
                     value = param.value
                 else:
-                    self._refused[spec.name] = reason
+                    refused[spec.name] = reason
             declarations.append((spec.name, _declared(spec, value).value, descriptor_for(spec)))
         self.declare_parameters('', declarations, ignore_override=True)
+        return names, refused
 
     @staticmethod
     def _check(param: Parameter, spec: prm.ParamSpec) -> str | None:
@@ -550,11 +559,15 @@ class DynamicsNode(LifecycleNode):
                 JointState, 'joint_states', default_qos(), qos_overriding_options=options)
             self._endpoints = [self._actuator_pub, self._joint_pub]
             for msg_type, kind in ((PoseStamped, POSE), (TwistStamped, TWIST),
-                                   (AccelStamped, ACCEL), (JointTrajectory, PLATFORM)):
-                topic = PLATFORM if kind == PLATFORM else f'{kind}_setpoint'
+                                   (AccelStamped, ACCEL)):
                 self._endpoints.append(self.create_subscription(
-                    msg_type, topic, lambda msg, kind=kind: self._on_setpoint(kind, msg),
-                    default_qos(), qos_overriding_options=options))
+                    msg_type, f'{kind}_setpoint', lambda msg, kind=kind: self._on_setpoint(
+                        kind, msg), default_qos(), qos_overriding_options=options))
+            # serialized: its size is checked before rclpy decodes it (a million
+            # points would take seconds of the node's only thread)
+            self._endpoints.append(self.create_subscription(
+                JointTrajectory, PLATFORM, self._on_platform, default_qos(), raw=True,
+                qos_overriding_options=options))
         except (InvalidQosOverridesError, RuntimeError, AssertionError, TypeError,
                 ValueError) as exc:
             # rclpy: an unknown policy name (RuntimeError), a wrong type (assert)
@@ -594,6 +607,25 @@ class DynamicsNode(LifecycleNode):
         try:
             self._publish(self._intake.receive(kind, msg, time.monotonic(),
                                                self._latest_stamp(), self._active))
+        except Exception as exc:  # noqa: BLE001
+            self._internal_error(exc)
+
+    def _on_platform(self, data: bytes) -> None:
+        """A serialized platform_setpoint: refused undecoded beyond the size of
+        ``input.max_points`` points, else decoded by rclpy.
+        """
+        try:
+            max_points = self._runtime.config.input_max_points
+            if len(data) > MAX_MESSAGE_OVERHEAD + max_points * MAX_POINT_BYTES:
+                msg = SetpointError(BAD_SETPOINT, f'{len(data)} bytes: more than a message of '
+                                    f'input.max_points = {max_points} points can take (not '
+                                    'decoded)')
+            else:
+                try:
+                    msg = deserialize_message(data, JointTrajectory)
+                except Exception as exc:  # noqa: BLE001 - truncated or inconsistent bytes
+                    msg = SetpointError(BAD_SETPOINT, f'malformed serialized message: {exc}')
+            self._on_setpoint(PLATFORM, msg)
         except Exception as exc:  # noqa: BLE001
             self._internal_error(exc)
 

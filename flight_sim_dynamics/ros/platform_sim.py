@@ -1,26 +1,15 @@
 """The twin node ``platform_sim``: the machine without the machine.
 
-Subscribes ``actuator_commands`` (sensor_msgs/JointState in the layout
-``dynamics_node`` publishes on ``actuator_states``: position = leg length
-reference, velocity = rate reference, effort = feed-forward force), so one
-remap (``-r actuator_commands:=actuator_states``) connects the two nodes.
-Runs the actuator servos and the plant in real time
-(:class:`..core.twin.TwinStepper`: RK4 at ``rate``, the last command held)
-and publishes the simulated state in the setpoints' frame: ``platform_pose``
-(PoseStamped), ``platform_twist`` (TwistStamped), ``measured_actuator_states``
-(JointState: measured lengths, rates, delivered forces) and /diagnostics.
-
-The loop is a timer at ``tick_rate`` on the steady clock: each tick makes the
-steps due since the first command (sub-stepping at ``rate``) and publishes.
-A command first brings the plant up to its arrival time, then replaces the
-held one, so the zero-order hold is exact to a step whatever the tick rate.
-Before the first command the platform is held at rest at ``initial``.
-
-Nothing a publisher sends can take the node down: a bad command is rejected,
-counted by reason and logged (throttled) (:func:`check_command`); when the
-plant leaves the workspace or nears a singularity the twin stops, holds its
-last state at rest and says so in /diagnostics (ERROR); nothing non-finite
-is published. Parameters are read-only (set at start-up). docs/twin_node.md.
+Subscribes ``actuator_commands`` (JointState in the layout of the dynamics
+node's ``actuator_states``: leg length and rate references, feed-forward
+forces; ``-r actuator_commands:=actuator_states`` connects the two), runs
+servos and plant in real time (:class:`..core.twin.TwinStepper`: RK4 at
+``rate``, the last command held; a timer at ``tick_rate`` makes the steps due,
+a command first brings the plant up to its arrival) and publishes
+``platform_pose``, ``platform_twist``, ``measured_actuator_states`` and
+/diagnostics. A bad command is rejected, counted and logged (throttled); a
+plant that leaves the workspace stops at rest with an ERROR status; nothing
+non-finite is published. Parameters are read-only. docs/twin_node.md.
 """
 from __future__ import annotations
 

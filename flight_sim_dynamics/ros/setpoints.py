@@ -172,9 +172,6 @@ class Motion(NamedTuple):
     yaw: float
 
 
-PoseInput = RateInput = Motion
-
-
 def pose_input(px: float, py: float, pz: float, qx: float, qy: float, qz: float, qw: float,
                quaternion_tolerance: float = 1e-3) -> Motion:
     """A geometry_msgs/Pose in the REP-103 simulator base: surge = position.x,
@@ -552,19 +549,11 @@ class StampSynchroniser:
     def add_complete(self, stamp_ns: int, pose: Any, twist: Any, accel: Any, now: float,
                      header: Any = None, kind: str = PLATFORM
                      ) -> tuple[list[Setpoint], list[Rejected]]:
-        """Add a whole setpoint that came in one message (``kind``, for the
-        messages): pose, twist and acceleration (None: to be estimated).
-
-        It obeys the stamp rules of :meth:`add`: a stamp equal to the last
-        released one is ``stamp_repeated``, an older one ``stamp_backwards``.
-        A stamp that is pending (some of its three messages are here) or was
-        rejected (:meth:`discard`) is a second setpoint for that stamp:
-        ``duplicate``, and this one is dropped (the pending one stays). Else
-        the pending setpoints with older stamps are released first, in stamp
-        order and with what they have (those without a pose are rejected as
-        ``no_pose``), exactly as when a newer three-message setpoint
-        completes; then this one. The stream state (active, newest stamps) of
-        the twist and accel topics is not touched.
+        """Add a whole setpoint that came in one message (``kind``), its twist
+        and accel None when to be estimated. The stamp rules of :meth:`add`
+        hold; a stamp pending or rejected is a ``duplicate`` (this one is
+        dropped); older pending setpoints are released first, as when a newer
+        three-message setpoint completes. The twist/accel streams are not touched.
         """
         released: list[Setpoint] = []
         rejected: list[Rejected] = []
@@ -741,44 +730,25 @@ class LimitReport(NamedTuple):
     usage: float
 
 
-_LIMIT_NAMES = tuple((f'stroke {leg}', f'speed {leg}', f'force {leg}') for leg in 'ABC')
-
-
 def check_limits(stroke: Sequence[float], rate: Sequence[float], force: Sequence[float],
                  limits: Limits, warn_fraction: float) -> LimitReport:
-    """Compare one solution with the actuator limits (``limits.*``, the model's:
-    the solver's status says ``limit`` beyond them). Beyond a limit is ERROR,
-    within ``warn_fraction`` of it WARN. The solution is still published: the
-    numbers are what the commanded motion requires; the status says it is unsafe.
-
-    Usage of a limit: |force| / max_force, |rate| / max_speed and, for the
-    stroke, its distance from the middle of [stroke_min, stroke_max] over the
-    half-range (1.0 at either end).
+    """Compare one solution with the actuator limits (``limits.*``): beyond one
+    is ERROR, within ``warn_fraction`` of one WARN (published anyway: the
+    numbers are what the motion requires). Usage: |force| / max_force, |rate| /
+    max_speed, the stroke's distance from the middle of its range over the
+    half-range.
     """
     mid = 0.5 * (limits.stroke_max + limits.stroke_min)
     half = 0.5 * (limits.stroke_max - limits.stroke_min)
-    max_speed, max_force = limits.max_speed, limits.max_force
-    s0, s1, s2 = stroke
-    r0, r1, r2 = rate
-    f0, f1, f2 = force
-    # the usual case first: plain arithmetic, no per-leg containers
-    usage = max(abs(s0 - mid) / half, abs(s1 - mid) / half, abs(s2 - mid) / half,
-                abs(r0) / max_speed, abs(r1) / max_speed, abs(r2) / max_speed,
-                abs(f0) / max_force, abs(f1) / max_force, abs(f2) / max_force)
-    if usage < warn_fraction:       # the usual case: no strings
-        return LimitReport(OK, _NOTHING, _NOTHING, usage)
-    usages = [(abs(stroke[i] - mid) / half, abs(rate[i]) / max_speed,
-               abs(force[i]) / max_force) for i in range(3)]
-    exceeded: list[str] = []
-    near: list[str] = []
-    for names, values in zip(_LIMIT_NAMES, usages):
-        for name, u in zip(names, values):
-            if u > 1.0:
-                exceeded.append(name)
-            elif u >= warn_fraction:
-                near.append(name)
+    usages = {}
+    for i, leg in enumerate('ABC'):
+        usages[f'stroke {leg}'] = abs(stroke[i] - mid) / half
+        usages[f'speed {leg}'] = abs(rate[i]) / limits.max_speed
+        usages[f'force {leg}'] = abs(force[i]) / limits.max_force
+    exceeded = tuple(name for name, u in usages.items() if u > 1.0)
+    near = tuple(name for name, u in usages.items() if warn_fraction <= u <= 1.0)
     level = ERROR if exceeded else WARN if near else OK
-    return LimitReport(level, tuple(exceeded), tuple(near), usage)
+    return LimitReport(level, exceeded, near, max(usages.values()))
 
 
 class CycleStats:
@@ -1056,8 +1026,13 @@ class SetpointIntake:
         self._dispatch(*self.sync.add(kind, stamp_ns, item, now, (sec, nanosec)))
 
     def _platform(self, msg: Any, now: float, latest_ns: int | None) -> None:
-        """Whole setpoints, one per point, ordered with the three-topic ones."""
+        """Whole setpoints, one per point, ordered with the three-topic ones
+        (``msg``: a JointTrajectory, or the SetpointError that refused it).
+        """
         config = self.runtime.config
+        if isinstance(msg, SetpointError):
+            self.reject(msg.reason, f'{PLATFORM} rejected: {msg}')
+            return
         if len(msg.points) > config.input_max_points:
             self.reject(BAD_SETPOINT, f'{PLATFORM} rejected: {len(msg.points)} points, more '
                                       f'than input.max_points = {config.input_max_points}')
