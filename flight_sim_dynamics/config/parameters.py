@@ -139,8 +139,8 @@ def check_params_files(args: Sequence[str], node: str = '/' + NODE_NAME) -> None
     """Apply the one rule to the ``--params-file`` files of a node's command
     line ``args`` (``node``: its fully qualified name): names checked, and the
     values, over the packaged ones, validated against the schema as
-    load_model validates them (ROS has read the values already; this reports a
-    bad file as one ParameterError before they are declared).
+    load_model validates them (the node's executable: a bad file is one
+    ParameterError, exit 2).
     """
     values = packaged_values()
     for path in params_files_in(args):

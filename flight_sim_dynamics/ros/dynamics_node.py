@@ -247,15 +247,12 @@ class DynamicsNode(LifecycleNode):
         """What is wrong with one value of a schema parameter on its own (type,
         range: microseconds), naming the declared type; None if nothing.
         """
+        declared = _KIND_TYPES[spec.kind]
         try:
             prm.check_value(spec, plain(param.value))
+            detail = None
         except prm.ParameterError as exc:
             detail = str(exc)
-        else:
-            if param.type_ == _KIND_TYPES[spec.kind]:
-                return None
-            detail = None
-        declared = _KIND_TYPES[spec.kind]
         if param.type_ == declared:
             return detail
         reason = (f"parameter '{param.name}' is a {_type_name(declared)}, got a "

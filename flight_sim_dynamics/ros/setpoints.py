@@ -343,10 +343,9 @@ def platform_setpoints(msg: Any, max_linear: float, max_angular: float,
 # ----------------------------------------------------------------------------
 @dataclass(slots=True)
 class Setpoint:
-    """One setpoint: the pose, twist and acceleration carrying ``stamp_ns``.
-    ``twist``/``accel`` are None when their stream did not deliver them in
-    time (they are then estimated). ``header`` is whatever the caller passed
-    with the pose (the node keeps the ROS stamp message there).
+    """One setpoint: the pose, twist and acceleration carrying ``stamp_ns``
+    (``twist``/``accel`` None: not delivered in time, then estimated) and the
+    stamp as (sec, nanosec) for the outputs.
     """
 
     stamp_ns: int
@@ -371,11 +370,10 @@ class StampSynchroniser:
     """Join pose, twist and acceleration messages with the same header stamp
     (exact match, bounded wait) and order every setpoint.
 
-    * A setpoint is released as soon as its pose and the message of every
-      *expected* stream (twist, accel) are there, whatever their order. A
-      stream is expected for a stamp while it is active and has not yet
-      delivered a newer stamp; it is inactive once a setpoint waited ``wait``
-      s for it in vain, active again with its next message.
+    * A setpoint is released once its pose and the message of every expected
+      stream are there. A twist/accel stream is expected for a stamp while it
+      is active and has not delivered a newer stamp; inactive once a setpoint
+      waited ``wait`` s for it in vain, active again with its next message.
     * Setpoints are released in stamp order (older incomplete ones first, with
       what they have; without a pose: ``no_pose``). A pose not after the last
       released stamp is ``stamp_repeated`` / ``stamp_backwards``; a twist or
@@ -449,11 +447,9 @@ class StampSynchroniser:
         self._first_pose = None
 
     def withdraw(self, setpoint: Setpoint, answered: int | None) -> None:
-        """The caller could not answer the released ``setpoint``: it leaves no
-        trace. Its stamp is discarded (its other messages, still to come, are
-        dropped silently) and, if it was the last released, the stamp order
-        goes back to ``answered`` (the last stamp the caller answered, None
-        for none), so later setpoints are not refused because of it.
+        """The caller could not answer the released ``setpoint``: its stamp is
+        discarded and the stamp order goes back to ``answered`` (the last
+        stamp the caller answered), so it leaves no trace.
         """
         self.discard(setpoint.stamp_ns, POSE, setpoint)
         last = self._last_released
@@ -462,9 +458,8 @@ class StampSynchroniser:
 
     def discard(self, stamp_ns: int, kind: str, entry: Setpoint | None = None) -> None:
         """The caller rejected the ``kind`` message with this stamp: drop the
-        pending setpoint and ignore the other kinds' messages with the stamp
-        (a second message of a kind already seen is reported as a duplicate).
-        ``entry``: the setpoint, if it was already released.
+        pending setpoint and ignore the other messages with the stamp (a
+        second one of a kind seen is a duplicate); ``entry``: if released.
         """
         pending = self._pending.pop(stamp_ns, None)
         entry = pending if pending is not None else entry
@@ -610,9 +605,8 @@ class StampSynchroniser:
         return now < until
 
     def _restarted(self, stamp_ns: int, last: int) -> bool:
-        """A setpoint (pose or whole) stamped ``stamp_ns`` <= ``last``: True
-        when it confirms a planner restart (the state is then reset and it is
-        accepted), False when it is to be refused.
+        """True when this setpoint, stamped <= ``last``, confirms a planner
+        restart (the history is then reset and it is accepted).
         """
         behind = self._behind
         if not self._restart_jump_ns or last - stamp_ns <= self._restart_jump_ns:
@@ -628,9 +622,7 @@ class StampSynchroniser:
         return True
 
     def _streams_seen(self, entry: Setpoint) -> None:
-        """The twist/accel of a setpoint that has its pose count for their
-        streams: active, and their newest stamp.
-        """
+        """The twist/accel of a setpoint with its pose count for their streams."""
         stamp = entry.stamp_ns
         for kind in (TWIST, ACCEL):
             if getattr(entry, kind) is not None:
@@ -702,10 +694,7 @@ def _joined(kind: str, stamp_ns: int, why: str) -> Rejected:
 
 
 def _not_after_last(kind: str, stamp_ns: int, last: int) -> Rejected:
-    """The rejection of a setpoint (its pose, or a whole one) whose stamp is
-    not later than the last answered ``last``: ``stamp_repeated`` or
-    ``stamp_backwards``.
-    """
+    """``stamp_repeated`` / ``stamp_backwards`` of a setpoint not after ``last``."""
     repeated = stamp_ns == last
     return Rejected(STAMP_REPEATED if repeated else STAMP_BACKWARDS, kind, stamp_ns,
                     f'{kind} stamp {fmt_stamp(stamp_ns)} '
@@ -718,11 +707,7 @@ def _not_after_last(kind: str, stamp_ns: int, last: int) -> Rejected:
 # Actuator limits, counters and statistics of /diagnostics, log throttle
 # ----------------------------------------------------------------------------
 class LimitReport(NamedTuple):
-    """Outcome of :func:`check_limits`: the level and what caused it.
-
-    ``usage`` is the largest ratio value/limit over stroke, speed and force
-    (1.0 = at a limit).
-    """
+    """Outcome of :func:`check_limits`; ``usage``: the largest value/limit."""
 
     level: int
     exceeded: tuple[str, ...]
@@ -752,13 +737,8 @@ def check_limits(stroke: Sequence[float], rate: Sequence[float], force: Sequence
 
 
 class CycleStats:
-    """Counters and per-period statistics for the diagnostics message.
-
-    Totals (received, answered, rejections by reason, ignored components,
-    limit events) accumulate from start-up; solve times, condition extremes
-    and the worst level are per reporting period and reset by :meth:`report`.
-    Per cycle only the solver's cheap condition figures are recorded; the exact
-    cond(Q) of the last solution (an SVD) is computed once per report.
+    """Counters (from start-up) and per-period statistics (solve times,
+    condition extremes, worst level; reset by :meth:`report`) of /diagnostics.
     """
 
     def __init__(self) -> None:
