@@ -329,13 +329,13 @@ class DynamicsNode(LifecycleNode):
 
     # -- the guard around rclpy's services -------------------------------------------
     def _guard_services(self) -> None:
-        """rclpy 7.1.6's parameter services die on a value of unknown type
-        (ValueError out of the executor) and apply a SetParameters request one
-        parameter at a time (a 100k-parameter request stalls the node); its
-        ChangeState raises RCLError for a transition the current state does not
-        have. Each service keeps rclpy's handler, behind a guard: a request
-        that fails is answered (success false, empty lists), never fatal; the
-        set services get :meth:`_set_request`.
+        """Put rclpy's parameter and lifecycle services behind a guard: a
+        request that fails is answered (success false, empty lists), never
+        fatal. In rclpy 7.1.6 the parameter services die on a value of unknown
+        type (ValueError out of the executor) and apply a SetParameters request
+        one parameter at a time (a big request stalls the node): the set
+        services get :meth:`_set_request`. ChangeState raises RCLError for a
+        transition the current state does not have.
         """
         own = {SetParameters: lambda req, resp: self._set_request(req, resp, False),
                SetParametersAtomically: lambda req, resp: self._set_request(req, resp, True)}

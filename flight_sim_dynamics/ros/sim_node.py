@@ -1,4 +1,4 @@
-"""The executable of the twin node (``platform_sim``):
+"""The executable of the twin node (``platform_sim``).
 
     platform_sim --ros-args -r actuator_commands:=actuator_states
 

@@ -11,20 +11,19 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flight_sim_dynamics.config import parameters as prm
+from flight_sim_dynamics.config.parameters import NodeConfig
 from flight_sim_dynamics.core.model import Limits
 from flight_sim_dynamics.core.motions import PLANNER_MOTIONS as MOTIONS
-from flight_sim_dynamics.core.motions import (CUEING_DURATION, PlannerSequence, motion,
-                                              motion_cueing)
-from flight_sim_dynamics.config.parameters import NodeConfig
-from flight_sim_dynamics.ros.setpoints import (ERROR, OK, WARN, CycleStats, LogThrottle,
-                                               StampSynchroniser, check_limits)
-from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION, DUPLICATE,
-                                            JOINING, LATE, NON_FINITE, NO_POSE, OVERFLOW, PITCH,
-                                            POSE, STAMP_BACKWARDS, STAMP_REPEATED, SWAY, TWIST, YAW,
-                                            SetpointError, check_acceleration, pose_input,
-                                            quaternion_to_rpy, rate_input, rpy_to_quaternion,
-                                            unfollowable, wrap_angle)
-
+from flight_sim_dynamics.core.motions import CUEING_DURATION, PlannerSequence, motion_cueing
+from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION,
+                                               DUPLICATE, ERROR, JOINING, LATE, NO_POSE,
+                                               NON_FINITE, OK, OVERFLOW, PITCH, POSE,
+                                               STAMP_BACKWARDS, STAMP_REPEATED, SWAY, TWIST,
+                                               WARN, YAW, CycleStats, LogThrottle,
+                                               SetpointError, StampSynchroniser,
+                                               check_acceleration, check_limits, pose_input,
+                                               quaternion_to_rpy, rate_input,
+                                               rpy_to_quaternion, unfollowable, wrap_angle)
 
 def field_name(parameter: str) -> str:
     return parameter.replace('.', '_')
