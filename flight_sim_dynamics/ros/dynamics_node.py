@@ -69,8 +69,6 @@ MAX_PARAMETERS_PER_REQUEST = 256
 MAX_VALIDATIONS_PER_REQUEST = 12
 #: Characters of one string value in a set request.
 MAX_STRING_LENGTH = 4096
-#: Parameters read once, at start-up: read-only.
-START_UP_PARAMETERS = frozenset({'autostart', 'allow_duplicate_name'})
 #: Parameters ROS itself declares on every node; not ours to check.
 ROS_PARAMETERS = frozenset({'use_sim_time', 'start_type_description_service'})
 #: The policies a start-up ``qos_overrides.*`` parameter may set.
@@ -240,8 +238,7 @@ class DynamicsNode(LifecycleNode):
                     value = param.value
                 else:
                     refused[spec.name] = reason
-            declarations.append((spec.name, _declared(spec, value).value,
-                                 descriptor_for(spec, spec.name in START_UP_PARAMETERS)))
+            declarations.append((spec.name, _declared(spec, value).value, descriptor_for(spec)))
         self.declare_parameters('', declarations, ignore_override=True)
         return names, refused
 

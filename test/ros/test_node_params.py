@@ -26,8 +26,7 @@ from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.core.model import JOINT_NAMES, LEG_NAMES
 from flight_sim_dynamics.core.trajectories import paper_example
 from flight_sim_dynamics.ros.dynamics_node import (MAX_PARAMETERS_PER_REQUEST,
-                                                   MAX_VALIDATIONS_PER_REQUEST,
-                                                   START_UP_PARAMETERS, default_qos)
+                                                   MAX_VALIDATIONS_PER_REQUEST, default_qos)
 from node_harness import ROOT, Client, NodeProcess, stamp_ns
 
 Q, QD, QDD = (v[0] for v in paper_example('general', np.array([0.8])))
@@ -88,7 +87,7 @@ def test_list_and_describe_every_parameter(client):
     for spec, d in zip(prm.SPECS.values(), response.descriptors):
         assert d.name == spec.name
         assert d.description, spec.name
-        assert d.read_only == (spec.name in START_UP_PARAMETERS), spec.name    # read once
+        assert not d.read_only
         if spec.unit:
             assert f'[{spec.unit}]' in d.description, spec.name
         if spec.kind == 'double' and spec.minimum is not None:
@@ -137,7 +136,6 @@ def test_accepted_set_takes_effect_at_next_cycle(client):
     ('bodies.rod.com', [0.1, 0.2], 'expected 3 numbers'),
     ('gravity', math.nan, ''),
     ('limits.stroke_min', 0.7, 'must be < limits.stroke_max'),
-    ('autostart', False, 'read-only'),          # read once, at start-up
     # QoS: rclpy's read-only start-up overrides (bad values at start-up:
     # test_invalid_qos_override_refuses_to_start)
     (f'qos_overrides.{NAMESPACE}/actuator_states.publisher.reliability', 'best_effort',
