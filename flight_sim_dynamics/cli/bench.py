@@ -29,7 +29,7 @@ from ..core import kernel
 from ..core.effects import EFFECT_NAMES
 from ..core.model import Model
 from ..core.motions import TEST_MOTIONS, duration, motion, sample_times
-from ..ros.estimator import ESTIMATORS, DerivativeEstimator
+from ..core.estimator import ESTIMATORS, DerivativeEstimator
 
 DOCS_DIR = 'docs'
 DEFAULT_OUT_DIR = 'out'

@@ -37,9 +37,8 @@ from ..core.motions import PLANNER_MOTIONS as MOTIONS
 from ..core.motions import PlannerSequence
 from ..config.parameters import default_params_path
 from ..ros.planner import PlannerNode, setpoint_qos, spin_until
-from ..ros.diagnostics import DIAGNOSTIC_TASK, LEVEL_NAMES
-from ..ros.inputs import quaternion_to_rpy
-from ..ros.qos import default_qos
+from ..ros.dynamics_node import default_qos
+from ..ros.setpoints import DIAGNOSTIC_TASK, LEVEL_NAMES, quaternion_to_rpy
 from ..ros.process import SIM_MODULE, start_node, stop_node
 
 #: How the twin reads the dynamics node's answers: one remap.

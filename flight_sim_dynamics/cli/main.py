@@ -27,7 +27,7 @@ from ..config.scenes import SceneError
 from ..core.forward_kinematics import poses_along
 from ..core.model import JOINT_NAMES, Model
 from ..core.trajectories import DURATION, PAPER_EXAMPLES, paper_example, sample_times
-from ..ros.estimator import DerivativeEstimator
+from ..core.estimator import DerivativeEstimator
 
 PROG = 'flight-sim-dynamics'
 DEFAULT_RATE_HZ = 100.0

@@ -23,6 +23,7 @@ re-exported here.
 from __future__ import annotations
 
 import os
+from dataclasses import make_dataclass
 from typing import Any, Mapping, Sequence
 
 import numpy as np
@@ -39,7 +40,7 @@ from .validation import check_inertia, check_names, check_value, validate
 
 __all__ = ['ALL_PARAMETERS', 'DEFAULT_PARAMS_FILE', 'MODEL_PARAMETERS', 'NODE_NAME',
            'NODE_PARAMETERS', 'PACKAGE_NAME', 'QOS_OVERRIDES', 'SPECS', 'ParamSpec',
-           'ParameterError', 'Scene', 'SceneError', 'check_inertia', 'check_value',
+           'NodeConfig', 'ParameterError', 'Scene', 'SceneError', 'check_inertia', 'check_value',
            'default_params_path', 'defaults', 'flatten', 'load_model', 'model_from_values',
            'read_params', 'read_params_file', 'validate']
 
@@ -138,10 +139,34 @@ def check_params_files(args: Sequence[str], node: str = '/' + NODE_NAME) -> None
     """Apply the one rule to the ``--params-file`` files of a node's command
     line ``args`` (``node``: its fully qualified name): names checked, and the
     values, over the packaged ones, validated against the schema as
-    load_model validates them (ROS has read the values already; this reports a
-    bad file as one ParameterError before they are declared).
+    load_model validates them (the node's executable: a bad file is one
+    ParameterError, exit 2).
     """
     values = packaged_values()
     for path in params_files_in(args):
         values.update(read_params(path, node)[0])
     validate(values)
+
+
+def _node_config(cls: type, values: Mapping[str, Any]) -> Any:
+    """Check every node parameter in ``values`` (dotted names; defaults for the
+    absent ones); raises ParameterError, also for a name that is no node parameter.
+    """
+    names = {spec.name for spec in NODE_PARAMETERS}
+    for name in values:
+        if name not in names:
+            raise ParameterError(name, values[name], 'not a node parameter')
+    return cls(**{spec.name.replace('.', '_'): check_value(spec, values.get(spec.name,
+                                                                            spec.default))
+                  for spec in NODE_PARAMETERS})
+
+
+#: The validated node parameters, one field per parameter of NODE_PARAMETERS
+#: (``limits.warn_fraction`` -> ``limits_warn_fraction``), typed by its kind;
+#: build it with ``NodeConfig.from_values``.
+NodeConfig = make_dataclass(
+    'NodeConfig', [(spec.name.replace('.', '_'),
+                    {'double': float, 'integer': int, 'string': str, 'bool': bool,
+                     'double_array': list}[spec.kind]) for spec in NODE_PARAMETERS],
+    frozen=True, slots=True, namespace={'from_values': classmethod(_node_config)})
+NodeConfig.__module__ = __name__

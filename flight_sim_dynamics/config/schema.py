@@ -246,7 +246,7 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               's', minimum=0.0, maximum=86400.0),
     ParamSpec('input.max_points', 'integer', 1000,
               'most points in one platform_setpoint message; a longer message is rejected '
-              'whole before its points are decoded', '1', minimum=1, maximum=100000),
+              'whole (undecoded when its size alone shows it)', '1', minimum=1, maximum=100000),
     # Exact-stamp synchroniser.
     ParamSpec('sync.wait', 'double', 0.05,
               'longest wait for the twist and acceleration carrying a pose\'s stamp before '

@@ -1,51 +1,18 @@
-"""The mechanism as a ``visualization_msgs/MarkerArray`` (issue 15, "See the
-mechanism"), for RViz or Foxglove: one solution of :func:`fsd.solve
-<flight_sim_dynamics.core.solver.solve>` drawn in the node's output frame.
+"""The mechanism as a ``visualization_msgs/MarkerArray`` for RViz or Foxglove:
+one solution of :func:`fsd.solve <flight_sim_dynamics.core.solver.solve>`
+drawn in the node's ``output.frame_id``, at the positions of the inverse
+geometric problem (eqs. 5-8; ``sol.geometric`` placed by
+:func:`~flight_sim_dynamics.core.mechanism.mechanism_points`, as ``animate``
+draws them).
 
-Positions are those of the inverse geometric problem (paper eq. 5-8, the
-points of docs/design/mechanism.md, "Points"): ``sol.geometric``, the very
-positions the solver's joint variables (``sol.joints``, eq. 13) and leg
-lengths come from, named and placed in the REP-103 simulator base frame of
-``output.frame_id`` by :func:`~flight_sim_dynamics.core.mechanism.mechanism_points`
-(the rule the ``animate`` command draws with too).
-
-One marker per part, each with its own namespace and id 0, so that a viewer
-updates them in place (no DELETEALL per update; :meth:`MarkerBuilder.clear`
-gives one for when the markers are switched off):
-
-============ ================ ===============================================
-namespace    type             drawn
-============ ================ ===============================================
-``leg_a``    LINE_LIST        leg A, joint A1 to joint A3 (length ``L_A``)
-``leg_b``    LINE_LIST        leg B, B1 to B4
-``leg_c``    LINE_LIST        leg C, C1 to C4
-``rod``      LINE_LIST        the rod A3G (length ``h``, axis ``l``)
-``platform`` TRIANGLE_LIST    the plate, ``h`` along ``l`` by ``b`` along
-                              ``t``, from A3 to G (corners A3 -/+ (b/2) t,
-                              C4, B4), both faces
-``crank_d``  LINE_LIST        crank D, D1 to D2 (length ``l5``)
-``crank_e``  LINE_LIST        crank E, E1 to the slider E2 on the rod (``l6``)
-``joints``   SPHERE_LIST      the joint centres A1, A3, B1, B4, C1, C4, D1,
-                              D2, E1, E2 (:data:`JOINTS`)
-``status``   TEXT_VIEW_FACING the status of the solve, above the platform
-============ ================ ===============================================
-
-Colours by status (:class:`~flight_sim_dynamics.core.status.Status`):
-
-* ``ok``, ``limit``: each leg by its actuator force (eq. 23) relative to
-  ``limits.max_force``, green (0) through yellow (half) to red (the limit);
-  a leg beyond any of its limits (stroke, speed, force) is red.
-* ``near_singular``: the legs magenta (their forces are not to be trusted).
-* ``unreachable``, ``invalid_input``: the solver gives no positions (every
-  number is 0). The last pose drawn (at first the central configuration,
-  q = 0) is drawn again, every part grey and half transparent, so that the
-  markers never hold a NaN and the viewer shows that the machine did not go
-  there; the ``status`` text names the status.
-
-The markers share one ``std_msgs/Header`` and the message objects are made
-once and reused: :meth:`MarkerBuilder.update` only writes numbers into them
-(it runs at ``output.markers_rate``, 30 Hz by default). No rclpy here: the
-node publishes the array.
+One marker per part (:data:`NAMESPACES`, id 0 each, updated in place): the
+legs, rod and cranks as lines, the plate as triangles, the joints as spheres,
+the solve's status as text above G. Colours: ``ok`` / ``limit``: each leg by
+its force relative to ``limits.max_force`` (green, yellow, red; red beyond
+any of its limits); ``near_singular``: legs magenta; ``unreachable`` /
+``invalid_input`` (no positions): the last pose drawn again, grey and half
+transparent (never a NaN). The messages are made once and reused; no rclpy
+here: the node publishes the array.
 """
 from __future__ import annotations
 
@@ -117,16 +84,7 @@ def _over_limits(sol: Solution, leg: int) -> bool:
 
 class MarkerBuilder:
     """Builds the :class:`MarkerArray` of the mechanism for one solution at a
-    time, reusing its messages (module docstring: parts, namespaces,
-    colours). ``frame_id`` is the node's ``output.frame_id`` (REP-103
-    simulator base).
-
-    >>> import flight_sim_dynamics as fsd
-    >>> model = fsd.load_model()
-    >>> builder = MarkerBuilder(model, 'simulator_base')
-    >>> array = builder.update(fsd.solve(model, [0, 0.05, 0], [0] * 3, [0] * 3), 12, 5)
-    >>> [m.ns for m in array.markers][:4], array.markers[0].header.stamp.sec
-    (['leg_a', 'leg_b', 'leg_c', 'rod'], 12)
+    time, reusing its messages; ``frame_id``: the node's ``output.frame_id``.
     """
 
     def __init__(self, model: Model, frame_id: str) -> None:

@@ -2,19 +2,14 @@
 :class:`~.dynamics_node.DynamicsNode` until Ctrl-C / SIGTERM.
 
     dynamics_node --ros-args --params-file config/flight_sim_dynamics.yaml
-    python -m flight_sim_dynamics.ros.node        # packaged defaults
     flight-sim-dynamics node --ros-args -r __ns:=/sim
 
-The node is a managed (lifecycle) node. With ``autostart`` (the default) it
-is configured and activated at once, and a start-up it cannot make (a bad
-parameter, params file, scene, QoS override or ROS argument) ends it with one
-``error:`` line on stderr and exit status 2. With ``autostart:=false`` it
-waits unconfigured for a lifecycle manager (or ``ros2 lifecycle set``); a
-failing configure is logged and leaves it unconfigured, the process up. An
-unusable params file or ROS argument, or an older node of the same name and
-namespace (:class:`DuplicateGuard`; both would answer every setpoint, unless
-``allow_duplicate_name`` is true), ends it with exit 2 either way. The
-``shutdown`` transition ends the process (exit 0).
+With ``autostart`` (the default) the node is configured and activated at
+once, and a start-up it cannot make (a bad parameter, params file, scene, QoS
+override or ROS argument) ends it with one ``error:`` line and exit status 2;
+with ``autostart:=false`` it waits unconfigured for a lifecycle manager. An
+older node of the same name (:class:`DuplicateGuard`) ends it with exit 2
+unless ``allow_duplicate_name``; the ``shutdown`` transition with exit 0.
 """
 from __future__ import annotations
 
@@ -206,6 +201,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     with running('dynamics_node', argv) as nodes:
         node = create(DynamicsNode)
         nodes.append(node)
+        # the one rule for parameter files (config.parameters.read_params): an
+        # unknown name or bad value in a --params-file ends the start (exit 2)
+        create(lambda: prm.check_params_files(argv, node.get_fully_qualified_name()))
         duplicate = None
         if not node.get_parameter('allow_duplicate_name').value:
             duplicate = DuplicateGuard(node).found

@@ -1,15 +1,10 @@
 """Demo planner: streams pose, twist and acceleration setpoints of the paper's
-motions (and a motion-cueing-style sequence) to the dynamics node.
+motions (and a motion-cueing sequence) to the dynamics node, one header stamp
+per sample on its three messages, ``start + k / rate`` in the node clock's
+time base.
 
     flight-sim-dynamics demo-planner --example general --rate 200 --loop
-    flight-sim-dynamics demo-planner --example cueing --no-accel      # node estimates qdd
-    flight-sim-dynamics demo-planner --example all --ros-args -r __ns:=/sim
-
-Every sample carries one header stamp on its three messages (the node's
-exact-stamp synchroniser joins them). Stamps are ``start + k / rate`` in the
-node clock's time base (uniform, whatever the timer jitter). Frame: REP-103
-simulator base, origin at G's central position (surge = x, heave = z, roll
-about x); see docs/node.md.
+    flight-sim-dynamics demo-planner --example cueing --no-accel
 """
 from __future__ import annotations
 
@@ -27,7 +22,7 @@ from rclpy.time import Time
 
 from ..core.motions import PLANNER_MOTIONS as MOTIONS
 from ..core.motions import PlannerSequence
-from .inputs import rpy_to_quaternion
+from .setpoints import rpy_to_quaternion
 from .node import own_options, running
 from .process import stop_requested
 

@@ -1,52 +1,236 @@
 """The twin node ``platform_sim``: the machine without the machine.
 
-Subscribes ``actuator_commands`` (sensor_msgs/JointState in the layout
-``dynamics_node`` publishes on ``actuator_states``: position = leg length
-reference, velocity = rate reference, effort = feed-forward force), so one
-remap (``-r actuator_commands:=actuator_states``) connects the two nodes.
-Runs the actuator servos and the plant in real time
-(:class:`..core.twin.TwinStepper`: RK4 at ``rate``, the last command held)
-and publishes the simulated state in the setpoints' frame: ``platform_pose``
-(PoseStamped), ``platform_twist`` (TwistStamped), ``measured_actuator_states``
-(JointState: measured lengths, rates, delivered forces) and /diagnostics.
-
-The loop is a timer at ``tick_rate`` on the steady clock: each tick makes the
-steps due since the first command (sub-stepping at ``rate``) and publishes.
-A command first brings the plant up to its arrival time, then replaces the
-held one, so the zero-order hold is exact to a step whatever the tick rate.
-Before the first command the platform is held at rest at ``initial``.
-
-Nothing a publisher sends can take the node down: a bad command is rejected,
-counted by reason and logged (throttled) (:mod:`.twin_intake`); when the
-plant leaves the workspace or nears a singularity the twin stops, holds its
-last state at rest and says so in /diagnostics (ERROR); nothing non-finite
-is published. Parameters are read-only (set at start-up). docs/twin_node.md.
+Subscribes ``actuator_commands`` (JointState in the layout of the dynamics
+node's ``actuator_states``: leg length and rate references, feed-forward
+forces; ``-r actuator_commands:=actuator_states`` connects the two), runs
+servos and plant in real time (:class:`..core.twin.TwinStepper`: RK4 at
+``rate``, the last command held; a timer at ``tick_rate`` makes the steps due,
+a command first brings the plant up to its arrival) and publishes
+``platform_pose``, ``platform_twist``, ``measured_actuator_states`` and
+/diagnostics. A bad command is rejected, counted and logged (throttled); a
+plant that leaves the workspace stops at rest with an ERROR status; nothing
+non-finite is published. Parameters are read-only. docs/twin_node.md.
 """
 from __future__ import annotations
 
 import math
 import time
-from typing import Any
+from dataclasses import dataclass
+from typing import Any, Mapping, Sequence
 
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
+from ..config import parameters as prm
 from ..config.schema import SIM_NODE_NAME, SIM_PARAMETERS
-from ..core.model import LEG_NAMES
-from . import wire
-from .descriptors import descriptor_for, plain, ros_value
-from .diagnostics import ERROR, DiagnosticsOutput, LogThrottle, diagnostic_name
-from .inputs import SetpointError, rpy_to_quaternion
-from .node_parameters import ROS_PARAMETERS
-from .qos import default_qos
-from .twin_intake import SIM_TASK, CommandStats, check_command, sim_config
+from ..core.model import LEG_NAMES, Model
+from ..core.simulation import Servo
+from ..core.twin import TwinStepper
+from .dynamics_node import ROS_PARAMETERS, _declared, default_qos, descriptor_for, plain
+from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, STAMP_BACKWARDS, STAMP_REPEATED,
+                        WARN, LogThrottle, SetpointError, Vec3, diagnostic_name, number,
+                        rpy_to_quaternion)
 
-#: Parameters ROS itself declares on every node; not ours to check.
 #: Seconds between two log lines of one rejection reason.
 LOG_THROTTLE = 2.0
+BAD_NAMES = 'bad_names'          # names that are not the three legs, once each
+BAD_SIZE = 'bad_size'            # an array of another size than 3 (or 0: velocity, effort)
+#: Why a command is rejected, in the order /diagnostics lists them.
+COMMAND_REASONS = (BAD_NAMES, BAD_SIZE, NON_FINITE, STAMP_REPEATED, STAMP_BACKWARDS)
+#: Commands in a row stamped before the last accepted one that are a restart
+#: of the stream (a planner restarted with its clock): accepted from then on.
+RESTART_AFTER = 3
+#: The status name of the twin in /diagnostics (``<node>: <task>``).
+SIM_TASK = 'platform simulation'
+SIM_SPECS: Mapping[str, prm.ParamSpec] = {spec.name: spec for spec in SIM_PARAMETERS}
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """The twin's validated parameters, the plant and its servos."""
+
+    values: Mapping[str, Any]
+    plant: Model
+    servo: Servo
+
+    @property
+    def step(self) -> float:
+        return 1.0 / self.values['rate']
+
+    def stepper(self) -> TwinStepper:
+        return TwinStepper(self.plant, self.servo, self.step, self.values['initial'])
+
+
+def sim_config(values: Mapping[str, Any]) -> SimConfig:
+    """Check every twin parameter (dotted names, defaults for the absent ones)
+    and build the plant (:func:`..config.parameters.load_model`) and its
+    servos; raises ParameterError (also for a plant scene without inertia or
+    a start pose the plant cannot take).
+    """
+    checked = {name: prm.check_value(spec, values.get(name, spec.default))
+               for name, spec in SIM_SPECS.items()}
+    try:
+        plant = prm.load_model(checked['plant.params_file'] or None,
+                               checked['plant.scene'] or None)
+    except prm.SceneError as exc:
+        raise prm.ParameterError('plant.scene', checked['plant.scene'], str(exc)) from None
+    except (OSError, ValueError) as exc:
+        raise prm.ParameterError('plant.params_file', checked['plant.params_file'],
+                                 str(exc)) from None
+    if checked['tick_rate'] > checked['rate']:
+        raise prm.ParameterError('tick_rate', checked['tick_rate'],
+                                 f"must not exceed rate ({checked['rate']:g} Hz): a tick "
+                                 'makes whole steps')
+    try:
+        servo = Servo.for_bandwidth(plant, checked['servo.bandwidth'], checked['servo.damping'])
+        config = SimConfig(checked, plant, servo)
+        twin = config.stepper()
+    except ValueError as exc:           # a scene without inertia
+        raise prm.ParameterError('plant.scene', checked['plant.scene'], str(exc)) from None
+    if not twin.running:
+        raise prm.ParameterError('initial', checked['initial'],
+                                 f'the plant cannot start there: {twin.outcome}: {twin.detail}')
+    return config
+
+
+def check_command(names: Sequence[str], position: Sequence[float],
+                  velocity: Sequence[float], effort: Sequence[float]
+                  ) -> tuple[Vec3, Vec3, Vec3]:
+    """(length, rate, force) of a command, legs A, B, C; raises
+    :class:`SetpointError` with the reason (:data:`COMMAND_REASONS`; the
+    stamp is checked by :meth:`CommandStats.stamp`).
+    """
+    if len(names) != 3 or sorted(names) != sorted(LEG_NAMES):
+        raise SetpointError(BAD_NAMES, f'names must be {", ".join(LEG_NAMES)} once each, '
+                                       f'got {list(names)!r:.200}')
+    if len(position) != 3:
+        raise SetpointError(BAD_SIZE, f'position must have 3 values, got {len(position)}')
+    for what, values in (('velocity', velocity), ('effort', effort)):
+        if len(values) not in (0, 3):
+            raise SetpointError(BAD_SIZE, f'{what} must have 3 values or none, '
+                                          f'got {len(values)}')
+    order = [names.index(leg) for leg in LEG_NAMES]
+    out = []
+    for what, values in (('position', position), ('velocity', velocity), ('effort', effort)):
+        if not values:
+            out.append((0.0, 0.0, 0.0))
+            continue
+        picked = (float(values[order[0]]), float(values[order[1]]), float(values[order[2]]))
+        if not all(math.isfinite(v) for v in picked):
+            raise SetpointError(NON_FINITE, f'{what} has a non-finite value {picked!r}')
+        out.append(picked)
+    return out[0], out[1], out[2]
+
+
+class CommandStats:
+    """Counters of the commands, stamp order, and the real-time figures of
+    the loop (per diagnostics period: ticks, their work time, simulated time).
+    """
+
+    def __init__(self) -> None:
+        self.received = 0
+        self.accepted = 0
+        self.rejected = {reason: 0 for reason in COMMAND_REASONS}
+        self.restarts = 0
+        self.last_rejection = ''
+        self.last_stamp: int | None = None
+        self._behind = 0
+        self.overruns = 0                    # ticks late or with dropped steps, total
+        self.dropped_steps = 0
+        self.non_finite_outputs = 0          # states not published (never seen: a guard)
+        self._period_reset(None, 0.0)
+
+    def _period_reset(self, now: float | None, sim_time: float) -> None:
+        self._start, self._sim_start = now, sim_time
+        self._work: list[float] = []
+        self._rejected_at_start = sum(self.rejected.values())
+        self._overruns_at_start = self.overruns
+
+    def stamp(self, stamp_ns: int) -> None:
+        """Accept a command's stamp, or raise SetpointError (repeated, or
+        before the last accepted one; :data:`RESTART_AFTER` in a row are a
+        restart, accepted).
+        """
+        last = self.last_stamp
+        if last is not None and stamp_ns <= last:
+            self._behind += 1
+            if self._behind < RESTART_AFTER:
+                if stamp_ns == last:
+                    raise SetpointError(STAMP_REPEATED, f'stamp {stamp_ns} ns repeated')
+                raise SetpointError(STAMP_BACKWARDS, f'stamp {stamp_ns} ns before the last '
+                                                     f'accepted one ({last} ns)')
+            self.restarts += 1
+        self._behind = 0
+        self.last_stamp = stamp_ns
+
+    def reject(self, reason: str, message: str) -> None:
+        self.rejected[reason] += 1
+        self.last_rejection = f'{reason}: {message}'
+
+    def tick(self, work: float, period: float, dropped: int) -> None:
+        """One tick of the loop: its work time (s) against its period; steps
+        it had to drop.
+        """
+        self._work.append(work)
+        if dropped or work > period:
+            self.overruns += 1
+            self.dropped_steps += dropped
+
+    def report(self, now: float, twin: TwinStepper, started: bool, rate: float
+               ) -> tuple[int, str, list[tuple[str, str]]]:
+        """(level, message, [(key, value), ...]) for this period; starts a new
+        one. ERROR once the plant stopped; WARN for rejections, overruns or a
+        plant beyond an actuator limit this period.
+        """
+        wall = now - self._start if self._start is not None else math.nan
+        simulated = twin.time - self._sim_start
+        factor = simulated / wall if started and wall > 0 else math.nan
+        work = sorted(self._work)
+        n = len(work)
+        rejected = sum(self.rejected.values()) - self._rejected_at_start
+        overruns = self.overruns - self._overruns_at_start
+        problems = []
+        level = OK
+        if not twin.running:
+            level, problems = ERROR, [f'stopped: {twin.outcome}: {twin.detail}']
+        else:
+            if rejected:
+                problems.append(f'{rejected} commands rejected')
+            if overruns:
+                problems.append(f'{overruns} overruns')
+            if str(twin.status) != 'ok':
+                problems.append(f'plant {twin.status}: {twin.status_detail}')
+            level = WARN if problems else OK
+        message = ('; '.join(problems) if problems
+                   else 'waiting for commands' if not started else 'OK')
+        values = [
+            ('status', LEVEL_NAMES[level]),
+            ('plant', twin.plant.scene),
+            ('outcome', str(twin.outcome) if twin.running else f'{twin.outcome}: {twin.detail}'),
+            ('plant status', str(twin.status)),
+            ('rate (Hz)', f'{rate:g}'),
+            ('real-time factor', number(factor, '.4f')),
+            ('simulated time (s)', f'{twin.time:.3f}'),
+            ('steps', str(twin.steps)),
+            ('tick work mean (us)', number(1e6 * sum(work) / n if n else math.nan, '.1f')),
+            ('tick work max (us)', number(1e6 * work[-1] if n else math.nan, '.1f')),
+            ('ticks this period', str(n)),
+            ('overruns', str(self.overruns)),
+            ('overruns this period', str(overruns)),
+            ('steps dropped', str(self.dropped_steps)),
+            ('commands received', str(self.received)),
+            ('commands accepted', str(self.accepted)),
+            ('rejected total', str(sum(self.rejected.values()))),
+        ]
+        values += [(f'rejected {reason}', str(count)) for reason, count in self.rejected.items()]
+        values += [('stream restarts', str(self.restarts)),
+                   ('non-finite states not published', str(self.non_finite_outputs)),
+                   ('last rejection', self.last_rejection)]
+        self._period_reset(now, twin.time)
+        return level, message, values
 
 
 class PlatformSim(Node):
@@ -60,12 +244,9 @@ class PlatformSim(Node):
         given = set(self.list_parameters([], 0).names) - ROS_PARAMETERS
         for name in given:
             self.undeclare_parameter(name)      # re-declared below with our descriptors
-        descriptors = []
-        for spec in SIM_PARAMETERS:
-            descriptor = descriptor_for(spec)
-            descriptor.read_only = True
-            descriptors.append((spec.name, ros_value(spec, spec.default), descriptor))
-        self.declare_parameters('', descriptors)
+        self.declare_parameters('', [(spec.name, _declared(spec, spec.default).value,
+                                      descriptor_for(spec, read_only=True))
+                                     for spec in SIM_PARAMETERS])
         unknown = sorted(name for name in given if not self.has_parameter(name))
         if unknown:
             self.get_logger().warn('ignoring unknown parameters (typo?): ' + ', '.join(unknown))
@@ -87,7 +268,8 @@ class PlatformSim(Node):
         self._pose.header.frame_id = frame_id
         self._twist = TwistStamped()
         self._twist.header.frame_id = frame_id
-        self._measured = wire.JointStateOutput(LEG_NAMES, frame_id, 3)
+        self._measured = JointState(name=list(LEG_NAMES))
+        self._measured.header.frame_id = frame_id
         self._pose_pub = self.create_publisher(PoseStamped, 'platform_pose', default_qos())
         self._twist_pub = self.create_publisher(TwistStamped, 'platform_twist', default_qos())
         self._measured_pub = self.create_publisher(JointState, 'measured_actuator_states',
@@ -95,8 +277,7 @@ class PlatformSim(Node):
         self._command_sub = self.create_subscription(JointState, 'actuator_commands',
                                                      self._on_command, default_qos())
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
-        self._diag = DiagnosticsOutput(diagnostic_name(self.get_fully_qualified_name(), SIM_TASK),
-                                       SIM_NODE_NAME)
+        self._diag_name = diagnostic_name(self.get_fully_qualified_name(), SIM_TASK)
         # Timers on the steady clock: they keep ticking with use_sim_time and no /clock.
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._tick_timer = self.create_timer(self._tick_period, self._on_tick, clock=steady)
@@ -202,7 +383,10 @@ class PlatformSim(Node):
         twist.header.stamp.sec, twist.header.stamp.nanosec = sec, nanosec
         twist.twist.linear.x, twist.twist.linear.z, twist.twist.angular.x = qd
         self._twist_pub.publish(twist)
-        self._measured_pub.publish(self._measured.fill(sec, nanosec, length, rate, force))
+        measured = self._measured
+        measured.header.stamp = pose.header.stamp
+        measured.position, measured.velocity, measured.effort = length, rate, force
+        self._measured_pub.publish(measured)
 
     def _on_diagnostics(self) -> None:
         try:
@@ -210,7 +394,10 @@ class PlatformSim(Node):
                 time.monotonic(), self.twin, self._started_at is not None, self._rate)
             if level == ERROR and self._throttle('stopped', time.monotonic()) is not None:
                 self.get_logger().error(message)
-            self._diag_pub.publish(self._diag.fill(level, message, values,
-                                                   self.get_clock().now().to_msg()))
+            msg = DiagnosticArray(status=[DiagnosticStatus(
+                level=bytes([level]), name=self._diag_name, message=message,
+                hardware_id=SIM_NODE_NAME, values=[KeyValue(key=k, value=v) for k, v in values])])
+            msg.header.stamp = self.get_clock().now().to_msg()
+            self._diag_pub.publish(msg)
         except Exception as exc:  # noqa: BLE001
             self._internal_error(exc)

@@ -1,21 +1,12 @@
-"""Start and stop the node as a separate process, as a user starts it.
+"""Start and stop the node (or, with ``module=SIM_MODULE``, the twin) as a
+separate process, as a user starts it: for the demo, the benchmarks and the
+node tests. No rclpy here.
 
-One place (for the dynamics node and, with ``module=SIM_MODULE``, the twin
-node ``platform_sim``) for the demo (:mod:`flight_sim_dynamics.cli.demo`), the node
-benchmarks (``benchmarks/``) and the node tests (``test/node_harness.py``).
-No rclpy here: the parent only needs ``subprocess``.
-
-The other side, in the executables (node, demo planner): Ctrl-C and SIGTERM
-only *request* a stop (:func:`stop_on_signals`, :func:`stop_requested`),
-which their spin loop sees between callbacks (issue 15 #3). rclpy's own
-handlers act at any moment: the Python one raises KeyboardInterrupt at
-whatever bytecode runs, at 500 Hz usually inside a subscription or timer
-callback (rclpy's executor then logs ``[FATAL] Exception in '...' callback``
-with a traceback), and the C++ one shuts the context down from another
-thread, so that a callback's publish fails ("publisher's context is
-invalid"). The executables therefore call ``rclpy.init`` with
-``signal_handler_options=SignalHandlerOptions.NO`` and shut the context
-down themselves once the executor has stopped.
+In the executables, Ctrl-C and SIGTERM only *request* a stop
+(:func:`stop_on_signals`), which their spin loop sees between callbacks:
+rclpy's own handlers raise KeyboardInterrupt inside whatever callback runs,
+or shut the context down under a publish. So they call ``rclpy.init`` with
+``SignalHandlerOptions.NO`` and shut down themselves once the executor stopped.
 """
 from __future__ import annotations
 

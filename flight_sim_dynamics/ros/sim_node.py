@@ -1,12 +1,8 @@
-"""The executable of the twin node (``platform_sim``): runs a
-:class:`~.platform_sim.PlatformSim` until Ctrl-C / SIGTERM.
+"""The executable of the twin node (``platform_sim``).
 
     platform_sim --ros-args -r actuator_commands:=actuator_states
-    python -m flight_sim_dynamics.ros.sim_node --ros-args -p rate:=2000.0
-    flight-sim-dynamics sim --ros-args -p plant.params_file:=heavy.yaml
 
-A start-up it cannot make (a bad parameter, plant file or scene, or ROS
-argument) ends it with one ``error:`` line on stderr and exit status 2.
+A start-up it cannot make ends it with one ``error:`` line and exit status 2.
 """
 from __future__ import annotations
 

@@ -33,8 +33,8 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from flight_sim_dynamics.ros.diagnostics import diagnostic_name
-from flight_sim_dynamics.ros.inputs import PLATFORM_DOF_NAMES, rpy_to_quaternion
+from flight_sim_dynamics.ros.setpoints import diagnostic_name
+from flight_sim_dynamics.ros.setpoints import PLATFORM_DOF_NAMES, rpy_to_quaternion
 from flight_sim_dynamics.ros.process import node_command, node_env, start_node, stop_node
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -19,7 +19,6 @@ from flight_sim_dynamics.core import kernel
 from flight_sim_dynamics.ros.markers import (JOINTS, NAMESPACES, PLATE, SEGMENTS,
                                              MarkerBuilder, force_colour)
 
-pytestmark = pytest.mark.ros
 
 MODEL = fsd.load_model()
 ZERO = [0.0, 0.0, 0.0]

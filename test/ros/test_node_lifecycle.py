@@ -146,3 +146,30 @@ def test_autostart_answers_at_once_and_reports_active(client):
     future = srv.call_async(GetState.Request())
     assert client.spin_until(future.done, 5.0)
     assert future.result().current_state.id == State.PRIMARY_STATE_ACTIVE
+
+
+def test_invalid_transitions_are_refused_and_the_node_keeps_running():
+    """A transition the current state does not have (rclpy raises RCLError
+    for it), an unknown id or label: success false, the state unchanged, the
+    process up; the valid transitions still work."""
+    proc, client = managed('/lcinv')
+    try:
+        for transition in (Transition(id=Transition.TRANSITION_ACTIVATE),
+                           Transition(id=Transition.TRANSITION_DEACTIVATE),
+                           Transition(id=200), Transition(label='no_such_transition')):
+            response = client.call('change_state', ChangeState.Request(transition=transition),
+                                   timeout=10.0)
+            assert not response.success, transition
+            assert client.state() == 'unconfigured'
+            assert proc.alive(), proc.output()[-3000:]
+        assert client.change(Transition.TRANSITION_CONFIGURE)
+        assert not client.change(Transition.TRANSITION_CONFIGURE)    # inactive: not valid
+        assert client.state() == 'inactive' and proc.alive()
+        assert client.change(Transition.TRANSITION_ACTIVATE)
+        client.wait_matched()
+        assert client.answered(time.time_ns() - 10 ** 9, 5.0)
+    finally:
+        client.close()
+        code = proc.stop()
+    assert code == 0
+    assert 'Traceback' not in proc.output()

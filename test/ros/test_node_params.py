@@ -25,9 +25,8 @@ import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.core.model import JOINT_NAMES, LEG_NAMES
 from flight_sim_dynamics.core.trajectories import paper_example
-from flight_sim_dynamics.ros.parameter_service import (MAX_PARAMETERS_PER_REQUEST,
-                                                       MAX_VALIDATIONS_PER_REQUEST)
-from flight_sim_dynamics.ros.qos import default_qos
+from flight_sim_dynamics.ros.dynamics_node import (MAX_PARAMETERS_PER_REQUEST,
+                                                   MAX_VALIDATIONS_PER_REQUEST, default_qos)
 from node_harness import ROOT, Client, NodeProcess, stamp_ns
 
 pytestmark = pytest.mark.ros

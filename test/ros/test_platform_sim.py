@@ -30,9 +30,9 @@ import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config.schema import SIM_PARAMETERS
 from flight_sim_dynamics.core.model import LEG_NAMES
 from flight_sim_dynamics.core.motions import PlannerSequence
-from flight_sim_dynamics.ros.inputs import quaternion_to_rpy
+from flight_sim_dynamics.ros.setpoints import quaternion_to_rpy
 from flight_sim_dynamics.ros.process import SIM_MODULE, start_node, stop_node
-from flight_sim_dynamics.ros.twin_intake import SIM_TASK
+from flight_sim_dynamics.ros.platform_sim import SIM_TASK
 from node_harness import PARAMS_FILE, QOS, ROOT, Client, NodeProcess, diagnostic_values
 
 pytestmark = pytest.mark.ros

@@ -1,4 +1,4 @@
-"""Unit tests of the rclpy-free setpoint helpers (flight_sim_dynamics.ros.*)
+"""Unit tests of the rclpy-free setpoint rules (flight_sim_dynamics.ros.setpoints)
 and of the planner motions (flight_sim_dynamics.core.motions)."""
 from __future__ import annotations
 
@@ -11,23 +11,23 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from flight_sim_dynamics.config import parameters as prm
+from flight_sim_dynamics.config.parameters import NodeConfig
 from flight_sim_dynamics.core.model import Limits
 from flight_sim_dynamics.core.motions import PLANNER_MOTIONS as MOTIONS
-from flight_sim_dynamics.core.motions import (CUEING_DURATION, PlannerSequence, motion,
-                                              motion_cueing)
-from flight_sim_dynamics.ros.diagnostics import (ERROR, OK, WARN, CycleStats, LogThrottle,
-                                                 check_limits)
-from flight_sim_dynamics.ros.estimator import DerivativeEstimator, backward_derivative
-from flight_sim_dynamics.ros.inputs import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION, DUPLICATE,
-                                            JOINING, LATE, NON_FINITE, NO_POSE, OVERFLOW, PITCH,
-                                            POSE, STAMP_BACKWARDS, STAMP_REPEATED, SWAY, TWIST, YAW,
-                                            SetpointError, check_acceleration, pose_input,
-                                            quaternion_to_rpy, rate_input, rpy_to_quaternion,
-                                            unfollowable, wrap_angle)
-from flight_sim_dynamics.ros.node_config import NodeConfig, field_name
-from flight_sim_dynamics.ros.synchroniser import StampSynchroniser
+from flight_sim_dynamics.core.motions import CUEING_DURATION, PlannerSequence, motion_cueing
+from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION,
+                                               DUPLICATE, ERROR, JOINING, LATE, NO_POSE,
+                                               NON_FINITE, OK, OVERFLOW, PITCH, POSE,
+                                               STAMP_BACKWARDS, STAMP_REPEATED, SWAY, TWIST,
+                                               WARN, YAW, CycleStats, LogThrottle,
+                                               SetpointError, StampSynchroniser,
+                                               check_acceleration, check_limits, pose_input,
+                                               quaternion_to_rpy, rate_input,
+                                               rpy_to_quaternion, unfollowable, wrap_angle)
 
-pytestmark = pytest.mark.ros
+def field_name(parameter: str) -> str:
+    return parameter.replace('.', '_')
+
 
 angles = st.floats(-math.pi + 1e-6, math.pi - 1e-6)
 
@@ -386,57 +386,6 @@ def test_sync_add_complete_releases_like_three_messages(pending, stamp):
 
 
 # ----------------------------------------------------------------------------
-# Estimation
-# ----------------------------------------------------------------------------
-def test_backward_derivatives_exact_on_polynomials():
-    t = [0.0, 0.1, 0.25]                                       # unequal steps
-    lin = [(2 * x, 0.0, 0.0) for x in t]
-    quad = [(x * x, 0.0, 0.0) for x in t]
-    assert backward_derivative(t, lin, 1)[0] == pytest.approx(2.0)
-    assert backward_derivative(t, quad, 2)[0] == pytest.approx(0.5)    # BDF2 exact on x^2
-    assert backward_derivative(t[:1], quad, 2) == (0.0, 0.0, 0.0)
-
-
-@pytest.mark.parametrize('method, order', [('backward', 1), ('backward2', 2)])
-def test_estimator_convergence_order(method, order):
-    """Error of the estimated acceleration of the paper's general motion:
-    first / second order in the step."""
-    errors = []
-    for rate in (100.0, 200.0, 400.0):
-        t = np.arange(0.0, 3.0, 1.0 / rate)
-        q, qd, qdd = motion('general', t)
-        est = DerivativeEstimator(method)
-        worst = 0.0
-        for k in range(len(t)):
-            qd_e, qdd_e = est.update(t[k], tuple(q[k]), None, None)
-            if k >= 4:
-                worst = max(worst, np.abs(np.array(qdd_e) - qdd[k]).max())
-        errors.append(worst)
-    ratios = [errors[i] / errors[i + 1] for i in range(2)]
-    assert all(r > 2 ** order * 0.8 for r in ratios), (errors, ratios)
-
-
-def test_estimator_uses_given_values_and_resets():
-    est = DerivativeEstimator('backward2', max_gap=0.5)
-    assert est.update(0.0, (0.0, 0.0, 0.0), None, None) == ((0.0,) * 3, (0.0,) * 3)
-    est.reset()
-    est.update(0.0, (0.0, 0.0, 0.0), (1.0, 2.0, 3.0), None)
-    qd, qdd = est.update(0.01, (0.01, 0.0, 0.0), (1.0, 2.0, 3.0), (4.0, 5.0, 6.0))
-    assert qd == (1.0, 2.0, 3.0) and qdd == (4.0, 5.0, 6.0)
-    qd, qdd = est.update(0.02, (0.02, 0.0, 0.0), (1.0, 2.0, 3.0), None)
-    assert qd == (1.0, 2.0, 3.0) and qdd[0] == pytest.approx(0.0, abs=1e-9)
-    qd, qdd = est.update(5.0, (0.5, 0.0, 0.0), None, None)    # gap: restart from rest
-    assert qd == (0.0,) * 3 and qdd == (0.0,) * 3
-
-
-def test_estimator_unwraps_roll():
-    est = DerivativeEstimator('backward')
-    est.update(0.0, (0.0, 0.0, math.pi - 0.01), None, None)
-    qd, _ = est.update(0.01, (0.0, 0.0, -math.pi + 0.01), None, None)
-    assert qd[2] == pytest.approx(2.0)
-
-
-# ----------------------------------------------------------------------------
 # Configuration, limits, diagnostics bookkeeping
 # ----------------------------------------------------------------------------
 def test_node_config_matches_schema_and_checks_relations():
@@ -555,8 +504,7 @@ def test_setpoint_helpers_do_not_import_rclpy():
     import subprocess
     import sys
     from pathlib import Path
-    modules = ['inputs', 'synchroniser', 'estimator', 'diagnostics', 'node_config',
-               'descriptors', 'cycle']
+    modules = ['setpoints', 'markers']
     code = ('import sys\n' + ''.join(f'import flight_sim_dynamics.ros.{m}\n' for m in modules)
             + "print(sorted(m for m in sys.modules if m.split('.')[0] == 'rclpy'))")
     root = Path(__file__).resolve().parents[2]

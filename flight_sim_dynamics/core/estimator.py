@@ -1,11 +1,17 @@
-"""Estimation of the rates and accelerations a planner does not send, without
-ROS: causal (backward) finite differences of the setpoint stream.
+"""Estimation of the rates and accelerations a planner does not send: causal
+(backward) finite differences of the setpoint stream (q, qd, qdd of eq. 6).
 """
 from __future__ import annotations
 
-from .inputs import Vec3, wrap_angle
+import math
 
 ESTIMATORS = ('backward', 'backward2')
+Vec3 = tuple[float, float, float]
+
+
+def wrap_angle(angle: float) -> float:
+    """``angle`` wrapped to [-pi, pi)."""
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def backward_derivative(times: list[float], values: list[Vec3], order: int) -> Vec3:

@@ -1,0 +1,1209 @@
+"""The node's setpoint rules, without rclpy: from setpoint messages to the
+numbers to publish, the log lines due and the /diagnostics counters.
+
+:class:`SetpointIntake` takes each message (``pose_setpoint``,
+``twist_setpoint``, ``accel_setpoint``: geometry_msgs stamped messages;
+``platform_setpoint``: a trajectory_msgs/JointTrajectory over surge, heave,
+roll), checks it, joins the three topics by exact stamp and orders every
+setpoint (:class:`StampSynchroniser`), estimates what the planner did not
+send (:mod:`..core.estimator`), solves (:func:`flight_sim_dynamics.solve`,
+eqs. 5-23) and returns the :class:`Answer` s to publish and the log lines
+due. The node (:mod:`.dynamics_node`) publishes and logs; nothing here calls
+back into it.
+
+Stamp policy (docs/node.md, "Stamps"): a stamp more than ``input.max_future``
+ahead of the node's clock is ``future_stamp`` and leaves no state behind;
+setpoints far behind the last answered one, sustained, are a planner restart;
+a setpoint the node rejects leaves no trace in the stamp order or the
+estimator's history. Units: SI (m, rad, s); stamps are integer nanoseconds.
+"""
+from __future__ import annotations
+
+import math
+import reprlib
+import time
+from dataclasses import dataclass
+from typing import Any, Callable, Iterable, NamedTuple, Sequence
+
+import flight_sim_dynamics as fsd
+
+from ..config.parameters import NodeConfig
+from ..core.estimator import DerivativeEstimator, Vec3, wrap_angle
+from ..core.model import Limits, Model
+from ..core.status import Status
+
+__all__ = ['wrap_angle']
+
+# ----------------------------------------------------------------------------
+# Rejection reasons (diagnostics counters): a rejected setpoint is not solved
+# and nothing is published for it.
+# ----------------------------------------------------------------------------
+NON_FINITE = 'non_finite'                  # NaN or infinity in a field
+BAD_QUATERNION = 'bad_quaternion'          # zero-length or non-unit quaternion
+STAMP_REPEATED = 'stamp_repeated'          # stamp equal to the last answered one
+STAMP_BACKWARDS = 'stamp_backwards'        # stamp older than the last answered one
+FUTURE_STAMP = 'future_stamp'              # beyond input.max_future ahead of the clock
+DUPLICATE = 'duplicate'                    # second message of one kind for a stamp
+NO_POSE = 'no_pose'                        # twist/accel whose pose never arrived
+LATE = 'late'                              # twist/accel after its setpoint was answered
+OVERFLOW = 'overflow'                      # too many incomplete stamps pending
+ABSURD_ACCELERATION = 'absurd_acceleration'  # beyond input.max_*_acceleration
+UNREACHABLE = 'unreachable'                # the loops cannot close at this pose
+SOLVER_ERROR = 'solver_error'              # any other solver failure, internal errors
+NON_FINITE_OUTPUT = 'non_finite_output'    # the solver returned NaN/inf (never published)
+BAD_SETPOINT = 'bad_setpoint'              # a malformed platform_setpoint message or point
+WARMING_UP = 'warming_up'                  # its estimate needs history the node lacks
+INACTIVE = 'inactive'                      # received while the node is not active
+JOINING = 'joining'                        # a stream joined mid-way (its other messages
+#                                            were published before the node listened)
+REJECTION_REASONS = (NON_FINITE, BAD_QUATERNION, STAMP_REPEATED, STAMP_BACKWARDS,
+                     FUTURE_STAMP, DUPLICATE, NO_POSE, LATE, OVERFLOW, ABSURD_ACCELERATION,
+                     UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT, BAD_SETPOINT, WARMING_UP,
+                     INACTIVE, JOINING)
+#: Reasons that make the diagnostics level ERROR (the other faults: WARN).
+ERROR_REASONS = frozenset({NON_FINITE, BAD_QUATERNION, ABSURD_ACCELERATION,
+                           UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT, BAD_SETPOINT})
+#: Not answered by design: counted, logged at INFO, the level stays OK.
+QUIET_REASONS = frozenset({WARMING_UP, INACTIVE, JOINING})
+
+# Motion the mechanism cannot follow: reported, ignored, the setpoint is solved.
+SWAY, YAW, PITCH = 'sway', 'yaw', 'pitch'
+UNFOLLOWABLE_COMPONENTS = (SWAY, YAW, PITCH)
+
+# Message kinds (diagnostics counters "received <kind>").
+POSE, TWIST, ACCEL = 'pose', 'twist', 'accel'
+KINDS = (POSE, TWIST, ACCEL)
+PLATFORM = 'platform_setpoint'
+#: ``joint_names`` of a ``platform_setpoint`` (any order; units m, m, rad).
+PLATFORM_DOF_NAMES = ('surge', 'heave', 'roll')
+
+# Diagnostic levels (those of diagnostic_msgs/DiagnosticStatus); INFO: logs only.
+OK, WARN, ERROR = 0, 1, 2
+INFO = OK
+LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR'}
+#: The node's status name in /diagnostics: ``<fully qualified name>: <task>``.
+DIAGNOSTIC_TASK = 'inverse dynamics'
+#: Setpoints in a row far behind the last answered one that make a planner restart.
+RESTART_CONFIRMATIONS = 3
+#: Seconds after the first message during which the partial setpoints of a
+#: stream joined mid-way are ``joining`` (quiet), not late/overflow/no_pose.
+JOIN_WINDOW = 1.0
+
+_NOTHING: tuple[str, ...] = ()
+_SHOWN = reprlib.Repr()
+_SHOWN.maxlist = _SHOWN.maxtuple = 6
+_SHOWN.maxstring = 40
+_INT32_MIN, _INT32_LIMIT = -2 ** 31, 2 ** 31
+
+
+class SetpointError(ValueError):
+    """A setpoint message is rejected; ``reason`` is one of REJECTION_REASONS."""
+
+    def __init__(self, reason: str, message: str) -> None:
+        self.reason = reason
+        super().__init__(message)
+
+
+def diagnostic_name(node_fqn: str, task: str = DIAGNOSTIC_TASK) -> str:
+    """The status name of the node ``node_fqn`` (doing ``task``) in /diagnostics."""
+    return f'{node_fqn}: {task}'
+
+
+def fmt_stamp(stamp_ns: int) -> str:
+    """A stamp in nanoseconds as ``sec.nanosec``."""
+    return f'{stamp_ns // 1_000_000_000}.{stamp_ns % 1_000_000_000:09d}'
+
+
+def check_not_future(stamp_ns: int, latest_ns: int | None) -> None:
+    """``future_stamp`` for a stamp after ``latest_ns`` (None: no check)."""
+    if latest_ns is not None and stamp_ns > latest_ns:
+        raise SetpointError(FUTURE_STAMP, f'stamp {fmt_stamp(stamp_ns)} is more than '
+                                          'input.max_future ahead of the node\'s clock (latest '
+                                          f'accepted {fmt_stamp(latest_ns)})')
+
+
+# ----------------------------------------------------------------------------
+# Message checks: the mechanism's coordinates q = (surge, heave, roll)
+# ----------------------------------------------------------------------------
+def quaternion_to_rpy(x: float, y: float, z: float, w: float,
+                      tolerance: float = 1e-3) -> Vec3:
+    """Roll, pitch, yaw (rad) of ``R = Rz(yaw) Ry(pitch) Rx(roll)`` (REP-103).
+
+    The quaternion must be finite and of unit length within ``tolerance``; it
+    is normalised before use (else :class:`SetpointError`). A quaternion
+    carrying a pitch (the platform's parasitic pitch) gives the same roll.
+    """
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z) and math.isfinite(w)):
+        raise SetpointError(NON_FINITE, f'orientation has a non-finite component '
+                                        f'({x!r}, {y!r}, {z!r}, {w!r})')
+    norm = math.sqrt(x * x + y * y + z * z + w * w)
+    if norm == 0.0:
+        raise SetpointError(BAD_QUATERNION, 'orientation quaternion is zero')
+    if abs(norm - 1.0) > tolerance:
+        raise SetpointError(BAD_QUATERNION, f'orientation quaternion is not a unit '
+                                             f'quaternion (|q| = {norm:.6g})')
+    if norm != 1.0:
+        x, y, z, w = x / norm, y / norm, z / norm, w / norm
+    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
+    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return roll, pitch, yaw
+
+
+def rpy_to_quaternion(roll: float, pitch: float = 0.0, yaw: float = 0.0
+                      ) -> tuple[float, float, float, float]:
+    """Quaternion (x, y, z, w) of ``Rz(yaw) Ry(pitch) Rx(roll)``."""
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)
+
+
+class Motion(NamedTuple):
+    """A pose, twist or acceleration setpoint: ``q`` = (surge, heave, roll) or
+    its derivative; ``sway``, ``pitch``, ``yaw``: what the message asked for
+    beyond them (position.y / linear.y, pitch / angular.y, yaw / angular.z).
+    """
+
+    q: Vec3
+    sway: float
+    pitch: float
+    yaw: float
+
+
+def pose_input(px: float, py: float, pz: float, qx: float, qy: float, qz: float, qw: float,
+               quaternion_tolerance: float = 1e-3) -> Motion:
+    """A geometry_msgs/Pose in the REP-103 simulator base: surge = position.x,
+    heave = position.z, roll = the ZYX roll of the orientation.
+    """
+    if not math.isfinite(px + py + pz) and not all(map(math.isfinite, (px, py, pz))):
+        raise SetpointError(NON_FINITE, f'position has a non-finite component '
+                                        f'({px!r}, {py!r}, {pz!r})')
+    roll, pitch, yaw = quaternion_to_rpy(qx, qy, qz, qw, quaternion_tolerance)
+    return Motion((px, pz, roll), py, pitch, yaw)
+
+
+def rate_input(lx: float, ly: float, lz: float, ax: float, ay: float, az: float,
+               what: str = 'twist') -> Motion:
+    """A Twist or Accel: d/dt of (surge, heave, roll) = (linear.x, linear.z, angular.x)."""
+    # a sum is finite iff every term is, unless it overflows (then one by one)
+    if not math.isfinite(lx + ly + lz + ax + ay + az) and not all(
+            map(math.isfinite, (lx, ly, lz, ax, ay, az))):
+        raise SetpointError(NON_FINITE, f'{what} has a non-finite component')
+    return Motion((lx, lz, ax), ly, ay, az)
+
+
+def check_acceleration(qdd: Iterable[float], max_linear: float, max_angular: float,
+                       source: str = 'acceleration') -> None:
+    """``absurd_acceleration``: |d2 surge|, |d2 heave| > ``max_linear`` or
+    |d2 roll| > ``max_angular``.
+    """
+    a_surge, a_heave, a_roll = qdd
+    if abs(a_surge) > max_linear or abs(a_heave) > max_linear:
+        raise SetpointError(ABSURD_ACCELERATION,
+                            f'{source} ({a_surge:.4g}, {a_heave:.4g}) m/s^2 exceeds '
+                            f'input.max_linear_acceleration = {max_linear:g} m/s^2')
+    if abs(a_roll) > max_angular:
+        raise SetpointError(ABSURD_ACCELERATION,
+                            f'{source} roll {a_roll:.4g} rad/s^2 exceeds '
+                            f'input.max_angular_acceleration = {max_angular:g} rad/s^2')
+
+
+def unfollowable(pose: Motion, twist: Motion | None, accel: Motion | None,
+                 parasitic_pitch: float, position_tolerance: float,
+                 angle_tolerance: float) -> tuple[str, ...]:
+    """Components the mechanism cannot follow: sway and yaw beyond the
+    tolerances (rates per s, per s^2), a pitch that is neither zero nor the
+    parasitic pitch (REP-103, = -beta). The pitch rates are the parasitic
+    pitch's own derivatives, which a planner cannot choose: not checked.
+    """
+    sway = abs(pose.sway) > position_tolerance
+    yaw = abs(pose.yaw) > angle_tolerance
+    for rates in (twist, accel):
+        if rates is not None:
+            sway = sway or abs(rates.sway) > position_tolerance
+            yaw = yaw or abs(rates.yaw) > angle_tolerance
+    pitch = abs(pose.pitch) > angle_tolerance and \
+        abs(pose.pitch - parasitic_pitch) > angle_tolerance
+    if not (sway or yaw or pitch):
+        return _NOTHING
+    return tuple(name for name, bad in ((SWAY, sway), (YAW, yaw), (PITCH, pitch)) if bad)
+
+
+class PlatformPoint(NamedTuple):
+    """One checked point of a ``platform_setpoint``: ``stamp_ns`` = header.stamp
+    + time_from_start, ``header`` = that stamp as (sec, nanosec); ``twist`` /
+    ``accel`` None when the point has none (then estimated).
+    """
+
+    stamp_ns: int
+    header: tuple[int, int]
+    pose: Motion
+    twist: Motion | None
+    accel: Motion | None
+
+
+def platform_dof_order(joint_names: Sequence[str]) -> tuple[int, int, int]:
+    """Index of surge, heave and roll in ``joint_names``, which must be exactly
+    :data:`PLATFORM_DOF_NAMES` in any order (else ``bad_setpoint``).
+    """
+    key = list(joint_names)
+    if len(key) != 3 or set(key) != set(PLATFORM_DOF_NAMES):
+        raise SetpointError(BAD_SETPOINT, f'joint_names must be {", ".join(PLATFORM_DOF_NAMES)} '
+                                          f'(each once, in any order), got {_SHOWN.repr(key)}')
+    surge, heave, roll = (key.index(name) for name in PLATFORM_DOF_NAMES)
+    return surge, heave, roll
+
+
+def _point_problem(p: Sequence[float], v: Sequence[float], a: Sequence[float],
+                   e: Sequence[float]) -> SetpointError | None:
+    """What is wrong with the numbers of one point, if anything."""
+    if len(p) != 3:
+        return SetpointError(BAD_SETPOINT, f'positions must be 3 numbers (in the order of '
+                                           f'joint_names), got {len(p)}: {_SHOWN.repr(list(p))}')
+    for name, values in (('velocities', v), ('accelerations', a)):
+        if len(values) not in (0, 3):
+            return SetpointError(BAD_SETPOINT, f'{name} must be 3 numbers or empty (then '
+                                               f'estimated), got {len(values)}: '
+                                               f'{_SHOWN.repr(list(values))}')
+    if len(e):
+        return SetpointError(BAD_SETPOINT, "effort must be empty (the forces are this node's "
+                                           f'output), got {len(e)}: {_SHOWN.repr(list(e))}')
+    for name, values in (('positions', p), ('velocities', v), ('accelerations', a)):
+        if not all(map(math.isfinite, values)):
+            return SetpointError(NON_FINITE, f'{name} has a non-finite number: '
+                                             f'{_SHOWN.repr(list(values))}')
+    return None
+
+
+def platform_setpoints(msg: Any, max_linear: float, max_angular: float,
+                       latest_ns: int | None = None) -> list[PlatformPoint | SetpointError]:
+    """The setpoints of one ``platform_setpoint`` message (a JointTrajectory),
+    point by point.
+
+    The message as a whole is ``bad_setpoint`` (raised) for ``joint_names``
+    other than :data:`PLATFORM_DOF_NAMES` or no points. Else one item per
+    point: a :class:`PlatformPoint` or the :class:`SetpointError` of that
+    point alone: ``bad_setpoint`` (time_from_start < 0, a stamp beyond int32
+    seconds, positions not 3 numbers, velocities / accelerations neither 3
+    nor empty, effort not empty), ``non_finite``, ``absurd_acceleration``,
+    ``future_stamp``, ``stamp_repeated`` / ``stamp_backwards`` (points must
+    be in increasing stamp order). A point with time_from_start 0 keeps the
+    header stamp as received.
+    """
+    surge, heave, roll = platform_dof_order(msg.joint_names)
+    if not msg.points:
+        raise SetpointError(BAD_SETPOINT, 'points is empty (each point is one setpoint)')
+    sec, nanosec = msg.header.stamp.sec, msg.header.stamp.nanosec
+    base_ns = sec * 1_000_000_000 + nanosec
+    out: list[PlatformPoint | SetpointError] = []
+    previous: int | None = None
+    for index, point in enumerate(msg.points):
+        t = point.time_from_start
+        offset_ns = t.sec * 1_000_000_000 + t.nanosec
+        if offset_ns < 0:
+            out.append(SetpointError(BAD_SETPOINT, f'point {index}: time_from_start must be '
+                                                   f'>= 0, got {offset_ns * 1e-9:.9g} s (sec '
+                                                   f'{t.sec}, nanosec {t.nanosec})'))
+            continue
+        stamp_ns = base_ns + offset_ns
+        before, previous = previous, stamp_ns
+        try:
+            check_not_future(stamp_ns, latest_ns)
+            header = (sec, nanosec) if offset_ns == 0 else divmod(stamp_ns, 1_000_000_000)
+            if not _INT32_MIN <= header[0] < _INT32_LIMIT:
+                raise SetpointError(BAD_SETPOINT, f'header.stamp + time_from_start = '
+                                                  f'{header[0]} s is beyond '
+                                                  'builtin_interfaces/Time (int32 seconds)')
+            p, v, a = point.positions, point.velocities, point.accelerations
+            problem = _point_problem(p, v, a, point.effort)
+            if problem is not None:
+                raise problem
+            pose = Motion((p[surge], p[heave], p[roll]), 0.0, 0.0, 0.0)
+            twist = Motion((v[surge], v[heave], v[roll]), 0.0, 0.0, 0.0) if len(v) else None
+            accel = Motion((a[surge], a[heave], a[roll]), 0.0, 0.0, 0.0) if len(a) else None
+            if accel is not None:
+                check_acceleration(accel.q, max_linear, max_angular)
+            if before is not None and stamp_ns <= before:
+                raise SetpointError(
+                    STAMP_REPEATED if stamp_ns == before else STAMP_BACKWARDS,
+                    f'{"repeats" if stamp_ns == before else "precedes"} the previous point\'s '
+                    f'stamp {fmt_stamp(before)} (points must be in increasing stamp order)')
+        except SetpointError as exc:
+            out.append(SetpointError(exc.reason, f'point {index} (stamp {fmt_stamp(stamp_ns)})'
+                                                 f': {exc}'))
+            continue
+        out.append(PlatformPoint(stamp_ns, tuple(header), pose, twist, accel))
+    return out
+
+
+# ----------------------------------------------------------------------------
+# Joining and ordering the setpoints
+# ----------------------------------------------------------------------------
+@dataclass(slots=True)
+class Setpoint:
+    """One setpoint: the pose, twist and acceleration carrying ``stamp_ns``
+    (``twist``/``accel`` None: not delivered in time, then estimated) and the
+    stamp as (sec, nanosec) for the outputs.
+    """
+
+    stamp_ns: int
+    pose: Motion | None = None
+    twist: Motion | None = None
+    accel: Motion | None = None
+    header: Any = None
+    first_arrival: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class Rejected:
+    """A message the synchroniser dropped: ``reason`` in REJECTION_REASONS."""
+
+    reason: str
+    kind: str
+    stamp_ns: int
+    message: str
+
+
+class StampSynchroniser:
+    """Join pose, twist and acceleration messages with the same header stamp
+    (exact match, bounded wait) and order every setpoint.
+
+    * A setpoint is released once its pose and the message of every expected
+      stream are there. A twist/accel stream is expected for a stamp while it
+      is active and has not delivered a newer stamp; inactive once a setpoint
+      waited ``wait`` s for it in vain, active again with its next message.
+    * Setpoints are released in stamp order (older incomplete ones first, with
+      what they have; without a pose: ``no_pose``). A pose not after the last
+      released stamp is ``stamp_repeated`` / ``stamp_backwards``; a twist or
+      accel for a released stamp ``late``; a stamp the caller rejected
+      (:meth:`discard`) drops its other messages.
+    * A planner restart is told from a stray old message by persistence:
+      :data:`RESTART_CONFIRMATIONS` setpoints in a row, increasing, all more
+      than ``restart_jump`` s behind the last released stamp reset the history
+      (:attr:`restarts` counts it; ``restart_jump`` 0: never).
+    * A rejected message leaves no trace: a twist or accel counts for its
+      stream only once its pose is there; :meth:`withdraw` undoes a released
+      setpoint the caller could not answer. At most ``max_pending`` stamps
+      wait (the oldest is released, or ``overflow``).
+    * Joining a running stream: for ``join_window`` s after the first message
+      the partial setpoints of topics that matched at different moments are
+      ``joining`` (quiet), not late / no_pose / overflow.
+    * :meth:`add_complete` (a whole setpoint in one message) follows the same
+      stamp rules and releases older pending setpoints first.
+
+    :meth:`add`, :meth:`add_complete` and :meth:`poll` return ``(released,
+    rejected)``; the caller passes the time (monotonic s) and polls faster
+    than ``wait``.
+    """
+
+    def __init__(self, wait: float = 0.05, max_pending: int = 64,
+                 restart_jump: float = 0.0, join_window: float = 0.0) -> None:
+        self.wait = float(wait)
+        self.join_window = float(join_window)
+        self.max_pending = int(max_pending)
+        self.restart_jump = restart_jump
+        self.restarts = 0                  # planner restarts detected
+        self._behind: list[int] = []       # stamps of the setpoints in a row far behind
+        self._pending: dict[int, Setpoint] = {}
+        self._last_released: int | None = None
+        self.active = {TWIST: True, ACCEL: True}
+        self._newest: dict[str, int | None] = {TWIST: None, ACCEL: None}
+        # stamps the caller rejected -> kinds already seen (insertion-ordered, bounded)
+        self._discarded: dict[int, set[str]] = {}
+        self._join_until: float | None = None   # end of the joining window (monotonic s)
+        self._first_pose: int | None = None     # stamp of the first pose since start / reset
+        self._in_join = False                   # the last call was in the joining window
+        # end of each twist/accel topic's own joining window (its first message opens it)
+        self._stream_join_until: dict[str, float] = {}
+
+    # -- public --------------------------------------------------------------
+    @property
+    def last_released(self) -> int | None:
+        """Stamp (ns) of the last released setpoint, None before the first."""
+        return self._last_released
+
+    @property
+    def restart_jump(self) -> float:
+        """Backward jump (s) beyond which persistent setpoints are a restart."""
+        return self._restart_jump_ns * 1e-9
+
+    @restart_jump.setter
+    def restart_jump(self, seconds: float) -> None:
+        self._restart_jump_ns = int(round(float(seconds) * 1e9))
+
+    @property
+    def pending(self) -> int:
+        return len(self._pending)
+
+    def reset(self) -> None:
+        """Forget pending setpoints and stamp history (streams stay as they are)."""
+        self._pending.clear()
+        self._last_released = None
+        self._discarded.clear()
+        self._behind.clear()
+        self._newest = {TWIST: None, ACCEL: None}
+        self._first_pose = None
+
+    def withdraw(self, setpoint: Setpoint, answered: int | None) -> None:
+        """The caller could not answer the released ``setpoint``: its stamp is
+        discarded and the stamp order goes back to ``answered`` (the last
+        stamp the caller answered), so it leaves no trace.
+        """
+        self.discard(setpoint.stamp_ns, POSE, setpoint)
+        last = self._last_released
+        if last is not None and last == setpoint.stamp_ns:
+            self._last_released = answered
+
+    def discard(self, stamp_ns: int, kind: str, entry: Setpoint | None = None) -> None:
+        """The caller rejected the ``kind`` message with this stamp: drop the
+        pending setpoint and ignore the other messages with the stamp (a
+        second one of a kind seen is a duplicate); ``entry``: if released.
+        """
+        pending = self._pending.pop(stamp_ns, None)
+        entry = pending if pending is not None else entry
+        seen = self._discarded.setdefault(stamp_ns, set())
+        seen.add(kind)
+        if entry is not None:
+            seen.update(k for k in KINDS if getattr(entry, k) is not None)
+        while len(self._discarded) > 4 * max(self.max_pending, 1):
+            del self._discarded[next(iter(self._discarded))]
+
+    def add(self, kind: str, stamp_ns: int, data: Any, now: float, header: Any = None
+            ) -> tuple[list[Setpoint], list[Rejected]]:
+        """Add one message of ``kind`` (``pose``, ``twist`` or ``accel``)."""
+        released: list[Setpoint] = []
+        rejected: list[Rejected] = []
+        joining = self._joining(now)
+        stream_joining = kind != POSE and self._stream_joining(kind, now)
+        seen = self._discarded.get(stamp_ns)
+        if seen is not None:
+            if kind in seen:
+                rejected.append(Rejected(DUPLICATE, kind, stamp_ns,
+                                         f'second {kind} for the rejected stamp '
+                                         f'{fmt_stamp(stamp_ns)} (ignored)'))
+            seen.add(kind)
+            return released, rejected
+        last = self._last_released
+        if last is not None and stamp_ns <= last:
+            if kind != POSE:
+                # an old message proves its stream alive; it is not its newest stamp
+                if stream_joining and self._newest[kind] is None:
+                    rejected.append(_joined(kind, stamp_ns, 'its topic matched after the pose '
+                                                            'topic; its setpoint was answered'))
+                else:
+                    rejected.append(Rejected(LATE, kind, stamp_ns,
+                                             f'{kind} stamped {fmt_stamp(stamp_ns)} arrived '
+                                             'after its setpoint was answered (or after a '
+                                             'newer one)'))
+                self.active[kind] = True
+                return released, rejected
+            if not self._restarted(stamp_ns, last):
+                rejected.append(_not_after_last(kind, stamp_ns, last))
+                return released, rejected
+        pending = self._pending
+        first = self._first_pose
+        if kind == POSE and first is None:
+            self._first_pose = stamp_ns
+            if joining:
+                self._drop_before_first_pose(stamp_ns, rejected)
+        elif joining and first is not None and stamp_ns < first and kind != POSE:
+            rejected.append(_joined(kind, stamp_ns, 'stamped before the first pose'))
+            return released, rejected
+        entry = pending.get(stamp_ns)
+        if entry is None:
+            if len(pending) >= self.max_pending:
+                self._evict_oldest(released, rejected, joining and first is None)
+            entry = Setpoint(stamp_ns, first_arrival=now)
+            pending[stamp_ns] = entry
+        if getattr(entry, kind) is not None:
+            rejected.append(Rejected(DUPLICATE, kind, stamp_ns,
+                                     f'second {kind} for stamp {fmt_stamp(stamp_ns)} (ignored)'))
+            return released, rejected
+        setattr(entry, kind, data)
+        if kind == POSE:
+            entry.header = header
+            self._streams_seen(entry)
+        elif entry.pose is not None:
+            self._streams_seen(entry)
+        if len(pending) == 1:          # the usual case: only this stamp is pending
+            if self._complete(entry):
+                del pending[stamp_ns]
+                self._release(entry, released, rejected)
+            return released, rejected
+        newest_complete = None
+        complete = self._complete
+        for stamp, other in pending.items():
+            if (newest_complete is None or stamp > newest_complete) and complete(other):
+                newest_complete = stamp
+        if newest_complete is not None:
+            self._release_through(newest_complete, released, rejected)
+        return released, rejected
+
+    def add_complete(self, stamp_ns: int, pose: Any, twist: Any, accel: Any, now: float,
+                     header: Any = None, kind: str = PLATFORM
+                     ) -> tuple[list[Setpoint], list[Rejected]]:
+        """Add a whole setpoint that came in one message (``kind``), its twist
+        and accel None when to be estimated. The stamp rules of :meth:`add`
+        hold; a stamp pending or rejected is a ``duplicate`` (this one is
+        dropped); older pending setpoints are released first, as when a newer
+        three-message setpoint completes. The twist/accel streams are not touched.
+        """
+        released: list[Setpoint] = []
+        rejected: list[Rejected] = []
+        last = self._last_released
+        if last is not None and stamp_ns <= last and not self._restarted(stamp_ns, last):
+            rejected.append(_not_after_last(kind, stamp_ns, last))
+            return released, rejected
+        pending = self._pending
+        if stamp_ns in pending or stamp_ns in self._discarded:
+            rejected.append(Rejected(DUPLICATE, kind, stamp_ns,
+                                     f'{kind} for stamp {fmt_stamp(stamp_ns)}, for which '
+                                     'pose/twist/accel messages came too (ignored)'))
+            return released, rejected
+        self._joining(now)
+        if pending:
+            self._release_through(stamp_ns, released, rejected)
+        self._release(Setpoint(stamp_ns, pose, twist, accel, header, now), released, rejected)
+        return released, rejected
+
+    def poll(self, now: float) -> tuple[list[Setpoint], list[Rejected]]:
+        """Release or reject the setpoints that waited ``wait`` seconds."""
+        released: list[Setpoint] = []
+        rejected: list[Rejected] = []
+        if not self._pending:
+            return released, rejected
+        expired = [s for s, e in self._pending.items() if now - e.first_arrival >= self.wait]
+        if expired:
+            self._joining(now)
+            newest = max(expired)
+            for stamp in sorted(s for s in self._pending if s <= newest):
+                entry = self._pending[stamp]
+                if entry.pose is not None:
+                    for kind in (TWIST, ACCEL):
+                        if getattr(entry, kind) is None:
+                            self.active[kind] = False
+            # newer setpoints that waited for the streams just found silent
+            for stamp in self._pending:
+                if stamp > newest and self._complete(self._pending[stamp]):
+                    newest = stamp
+            self._release_through(newest, released, rejected)
+        return released, rejected
+
+    # -- internals -----------------------------------------------------------
+    def _joining(self, now: float) -> bool:
+        """Whether ``now`` is in the joining window (which the first message opens)."""
+        if self._join_until is None:
+            self._join_until = now + self.join_window
+        self._in_join = now < self._join_until
+        return self._in_join
+
+    def _stream_joining(self, kind: str, now: float) -> bool:
+        """Whether ``now`` is in the joining window of the ``kind`` topic."""
+        until = self._stream_join_until.setdefault(kind, now + self.join_window)
+        return now < until
+
+    def _restarted(self, stamp_ns: int, last: int) -> bool:
+        """True when this setpoint, stamped <= ``last``, confirms a planner
+        restart (the history is then reset and it is accepted).
+        """
+        behind = self._behind
+        if not self._restart_jump_ns or last - stamp_ns <= self._restart_jump_ns:
+            behind.clear()
+            return False
+        if behind and stamp_ns <= behind[-1]:
+            behind.clear()
+        behind.append(stamp_ns)
+        if len(behind) < RESTART_CONFIRMATIONS:
+            return False
+        self.reset()
+        self.restarts += 1
+        return True
+
+    def _streams_seen(self, entry: Setpoint) -> None:
+        """The twist/accel of a setpoint with its pose count for their streams."""
+        stamp = entry.stamp_ns
+        for kind in (TWIST, ACCEL):
+            if getattr(entry, kind) is not None:
+                self.active[kind] = True
+                newest = self._newest[kind]
+                if newest is None or stamp > newest:
+                    self._newest[kind] = stamp
+
+    def _expected(self, kind: str, stamp_ns: int) -> bool:
+        newest = self._newest[kind]
+        return self.active[kind] and (newest is None or newest < stamp_ns)
+
+    def _complete(self, entry: Setpoint) -> bool:
+        if entry.pose is None:
+            return False
+        if entry.twist is None and self._expected(TWIST, entry.stamp_ns):
+            return False
+        return entry.accel is not None or not self._expected(ACCEL, entry.stamp_ns)
+
+    def _release_through(self, stamp_ns: int, released: list, rejected: list) -> None:
+        for stamp in sorted(s for s in self._pending if s <= stamp_ns):
+            entry = self._pending.pop(stamp)
+            self._release(entry, released, rejected)
+
+    def _release(self, entry: Setpoint, released: list, rejected: list) -> None:
+        if entry.pose is None:
+            kinds = '+'.join(k for k in (TWIST, ACCEL) if getattr(entry, k) is not None)
+            if self._in_join and self._first_pose is None:
+                rejected.append(_joined(kinds, entry.stamp_ns, 'no pose yet (its topic has '
+                                                               'not matched)'))
+                return
+            rejected.append(Rejected(NO_POSE, kinds, entry.stamp_ns,
+                                     f'{kinds} stamped {fmt_stamp(entry.stamp_ns)} '
+                                     'has no pose with the same stamp'))
+            return
+        self._last_released = entry.stamp_ns
+        if self._behind:
+            self._behind.clear()
+        released.append(entry)
+
+    def _drop_before_first_pose(self, first: int, rejected: list) -> None:
+        """The pose-less stamps before the ``first`` pose: never completed."""
+        for stamp in sorted(s for s in self._pending if s < first):
+            entry = self._pending.pop(stamp)
+            rejected.append(_joined('+'.join(k for k in (TWIST, ACCEL)
+                                             if getattr(entry, k) is not None),
+                                    stamp, 'stamped before the first pose'))
+
+    def _evict_oldest(self, released: list, rejected: list, joining: bool = False) -> None:
+        oldest = min(self._pending)
+        entry = self._pending.pop(oldest)
+        if entry.pose is None and joining:
+            rejected.append(_joined('twist/accel', oldest, 'no pose yet (its topic has not '
+                                                           'matched)'))
+        elif entry.pose is None:
+            rejected.append(Rejected(OVERFLOW, 'twist/accel', oldest,
+                                     f'more than {self.max_pending} incomplete stamps pending; '
+                                     f'dropped stamp {fmt_stamp(oldest)}'))
+        else:
+            self._release_through(oldest, released, rejected)
+            self._release(entry, released, rejected)
+
+
+def _joined(kind: str, stamp_ns: int, why: str) -> Rejected:
+    """A message of a stream joined mid-way that completes no setpoint."""
+    return Rejected(JOINING, kind, stamp_ns,
+                    f'{kind} stamped {fmt_stamp(stamp_ns)} dropped while joining the running '
+                    f'stream ({why})')
+
+
+def _not_after_last(kind: str, stamp_ns: int, last: int) -> Rejected:
+    """``stamp_repeated`` / ``stamp_backwards`` of a setpoint not after ``last``."""
+    repeated = stamp_ns == last
+    return Rejected(STAMP_REPEATED if repeated else STAMP_BACKWARDS, kind, stamp_ns,
+                    f'{kind} stamp {fmt_stamp(stamp_ns)} '
+                    f'{"repeats" if repeated else "precedes"} the last answered stamp '
+                    f'{fmt_stamp(last)}')
+
+
+
+# ----------------------------------------------------------------------------
+# Actuator limits, counters and statistics of /diagnostics, log throttle
+# ----------------------------------------------------------------------------
+class LimitReport(NamedTuple):
+    """Outcome of :func:`check_limits`; ``usage``: the largest value/limit."""
+
+    level: int
+    exceeded: tuple[str, ...]
+    near: tuple[str, ...]
+    usage: float
+
+
+def check_limits(stroke: Sequence[float], rate: Sequence[float], force: Sequence[float],
+                 limits: Limits, warn_fraction: float) -> LimitReport:
+    """Compare one solution with the actuator limits (``limits.*``): beyond one
+    is ERROR, within ``warn_fraction`` of one WARN (published anyway: the
+    numbers are what the motion requires). Usage: |force| / max_force, |rate| /
+    max_speed, the stroke's distance from the middle of its range over the
+    half-range.
+    """
+    mid = 0.5 * (limits.stroke_max + limits.stroke_min)
+    half = 0.5 * (limits.stroke_max - limits.stroke_min)
+    usages = {}
+    for i, leg in enumerate('ABC'):
+        usages[f'stroke {leg}'] = abs(stroke[i] - mid) / half
+        usages[f'speed {leg}'] = abs(rate[i]) / limits.max_speed
+        usages[f'force {leg}'] = abs(force[i]) / limits.max_force
+    exceeded = tuple(name for name, u in usages.items() if u > 1.0)
+    near = tuple(name for name, u in usages.items() if warn_fraction <= u <= 1.0)
+    level = ERROR if exceeded else WARN if near else OK
+    return LimitReport(level, exceeded, near, max(usages.values()))
+
+
+class CycleStats:
+    """Counters (from start-up) and per-period statistics (solve times,
+    condition extremes, worst level; reset by :meth:`report`) of /diagnostics.
+    """
+
+    def __init__(self) -> None:
+        self.received = {POSE: 0, TWIST: 0, ACCEL: 0, PLATFORM: 0}   # messages
+        self.answered = 0
+        self.estimated_twist = 0
+        self.estimated_accel = 0
+        self.rejected = {reason: 0 for reason in REJECTION_REASONS}
+        self.ignored = {c: 0 for c in UNFOLLOWABLE_COMPONENTS}
+        self.limit_exceeded = 0
+        self.near_limit = 0
+        self.near_singular = 0
+        self.parameter_changes = 0
+        self.parameter_rejections = 0
+        self.planner_restarts = 0        # stamp history reset (StampSynchroniser.restarts)
+        self.stamp_check = ''            # how stamps are checked against the clock
+        self.last_message = ''
+        self.last_cond = math.nan
+        self.last_jacobian_cond = math.nan
+        self.last_force: tuple[float, float, float] | None = None
+        self._period_reset(None)
+
+    def _period_reset(self, now: float | None) -> None:
+        self._times: list[float] = []
+        self._cond_max = 0.0
+        self._jacobian_cond_max = 0.0
+        self._level = OK
+        self._messages: list[str] = []
+        self._answered_at_start = self.answered
+        self._period_start = now
+
+    def note(self, level: int, message: str) -> None:
+        """Raise this period's level to ``level`` and remember why."""
+        if level > self._level:
+            self._level = level
+        if level > OK and message not in self._messages and len(self._messages) < 5:
+            self._messages.append(message)
+
+    def reject(self, reason: str, message: str) -> None:
+        self.rejected[reason] += 1
+        self.last_message = message
+        if reason in QUIET_REASONS:         # expected: counted and shown, the level stays
+            return
+        self.note(ERROR if reason in ERROR_REASONS else WARN, f'rejected ({reason})')
+
+    def solved(self, seconds: float, cond: float, jacobian_cond: float,
+               force: tuple[float, float, float]) -> None:
+        """One answered setpoint: solve time, the solver's kinematic condition
+        (of Q) and actuator-Jacobian condition, the forces.
+        """
+        self.answered += 1
+        self._times.append(seconds)
+        self.last_cond = cond
+        self.last_jacobian_cond = jacobian_cond
+        self.last_force = force
+        if cond > self._cond_max:
+            self._cond_max = cond
+        if jacobian_cond > self._jacobian_cond_max:
+            self._jacobian_cond_max = jacobian_cond
+
+    def report(self, now: float, exact_cond: float = math.nan
+               ) -> tuple[int, str, list[tuple[str, str]]]:
+        """(level, message, [(key, value), ...]) for this period; starts a new one.
+        ``exact_cond``: cond(Q) of the last solution (SVD), if known.
+        """
+        times = sorted(self._times)
+        n = len(times)
+        period = (now - self._period_start) if self._period_start is not None else math.nan
+        rate = (self.answered - self._answered_at_start) / period if period and period > 0 else 0.0
+        total_rejected = sum(self.rejected.values())
+        if n:
+            mean_us = 1e6 * sum(times) / n
+            median_us = 1e6 * (times[(n - 1) // 2] + times[n // 2]) / 2.0
+            p99_us = 1e6 * times[min(n - 1, int(math.ceil(0.99 * n)) - 1)]
+            max_us = 1e6 * times[-1]
+        else:
+            mean_us = median_us = p99_us = max_us = math.nan
+        cond_max = self._cond_max if n else math.nan
+        jacobian_cond_max = self._jacobian_cond_max if n else math.nan
+        level = self._level
+        if self._messages:
+            message = '; '.join(self._messages)
+        elif self.answered == 0:
+            message = 'waiting for setpoints'
+        elif n == 0:
+            message = 'idle (no setpoint this period)'
+        else:
+            message = 'OK'
+        values = [
+            ('status', LEVEL_NAMES[level]),
+            ('rate (Hz)', f'{rate:.1f}'),
+            ('setpoints answered', str(self.answered)),
+            ('solve time mean (us)', number(mean_us, '.1f')),
+            ('solve time median (us)', number(median_us, '.1f')),
+            ('solve time p99 (us)', number(p99_us, '.1f')),
+            ('solve time max (us)', number(max_us, '.1f')),
+            ('solves this period', str(n)),
+            ('cond(Q) last', number(exact_cond, '.4g')),
+            ('kinematic condition last', number(self.last_cond, '.4g')),
+            ('kinematic condition max this period', number(cond_max, '.4g')),
+            ('Jacobian condition last', number(self.last_jacobian_cond, '.4g')),
+            ('Jacobian condition max this period', number(jacobian_cond_max, '.4g')),
+            ('rejected total', str(total_rejected)),
+        ]
+        values += [(f'rejected {reason}', str(count)) for reason, count in self.rejected.items()]
+        values += [(f'ignored {c}', str(count)) for c, count in self.ignored.items()]
+        values += [
+            ('limit exceeded', str(self.limit_exceeded)),
+            ('near limit', str(self.near_limit)),
+            ('near singular', str(self.near_singular)),
+            ('received pose', str(self.received[POSE])),
+            ('received twist', str(self.received[TWIST])),
+            ('received accel', str(self.received[ACCEL])),
+            ('received platform_setpoint', str(self.received[PLATFORM])),
+            ('estimated twist', str(self.estimated_twist)),
+            ('estimated accel', str(self.estimated_accel)),
+            ('parameter changes accepted', str(self.parameter_changes)),
+            ('parameter changes rejected', str(self.parameter_rejections)),
+            ('planner restarts', str(self.planner_restarts)),
+            ('stamp check', self.stamp_check),
+            ('last rejection', self.last_message),
+        ]
+        self._period_reset(now)
+        return level, message, values
+
+
+#: What a statistic without samples reads in /diagnostics (never 'nan': a
+#: monitor parsing numbers would get NaN).
+NO_SAMPLES = 'no samples'
+
+
+def number(value: float, fmt: str) -> str:
+    """``value`` formatted with ``fmt``, or :data:`NO_SAMPLES` when it is not
+    finite (a statistic of an empty period).
+    """
+    return format(value, fmt) if math.isfinite(value) else NO_SAMPLES
+
+
+class LogThrottle:
+    """At most one log line per ``key`` per ``period`` seconds; counts the
+    suppressed ones so the next line can say how many were skipped.
+    """
+
+    def __init__(self, period: float = 1.0) -> None:
+        self.period = float(period)
+        self._last: dict[str, float] = {}
+        self._suppressed: dict[str, int] = {}
+
+    def __call__(self, key: str, now: float) -> int | None:
+        """None: do not log now. Else the number suppressed since the last line."""
+        last = self._last.get(key)
+        if last is not None and now - last < self.period:
+            self._suppressed[key] = self._suppressed.get(key, 0) + 1
+            return None
+        self._last[key] = now
+        return self._suppressed.pop(key, 0)
+
+
+# ----------------------------------------------------------------------------
+# From messages to answers
+# ----------------------------------------------------------------------------
+class Runtime(NamedTuple):
+    """What a cycle reads from the parameters, swapped as one reference."""
+
+    model: Model
+    config: NodeConfig
+
+
+class Answer(NamedTuple):
+    """The outputs of one answered setpoint: its stamp (sec, nanosec), the leg
+    lengths, rates and forces (eq. 23) and the 12 joint variables and rates.
+    """
+
+    header: tuple[int, int]
+    length: list[float]
+    rate: list[float]
+    force: list[float]
+    joints: list[float]
+    joint_rates: list[float]
+
+
+#: What a call returns: the answers to publish, in stamp order, and the log
+#: lines due (level, message), already throttled.
+Outcome = tuple[list[Answer], list[tuple[int, str]]]
+
+
+class SetpointIntake:
+    """Setpoint messages in, :data:`Outcome` s out (module docstring). Nothing
+    raises out of the public methods: an internal error is a ``solver_error``.
+    """
+
+    def __init__(self, runtime: Runtime) -> None:
+        config = runtime.config
+        self.runtime = runtime
+        self.stats = CycleStats()
+        self.throttle = LogThrottle(config.diagnostics_log_throttle)
+        self.sync = StampSynchroniser(config.sync_wait, config.sync_max_pending,
+                                      config.input_restart_jump, join_window=JOIN_WINDOW)
+        self.estimator = self._new_estimator(config)
+        self.last_solution: Any = None              # of the last answered setpoint
+        self.last_header: tuple[int, int] = (0, 0)  # its stamp
+        self._answered: int | None = None           # stamp of the last answered setpoint
+        self._answers: list[Answer] = []
+        self._lines: list[tuple[int, str]] = []
+
+    @staticmethod
+    def _new_estimator(config: NodeConfig) -> DerivativeEstimator:
+        # warming up: never estimates an acceleration from a rest it assumed
+        return DerivativeEstimator(config.estimator_method, config.estimator_max_gap,
+                                   warm_up=True)
+
+    def _flush(self) -> Outcome:
+        out = (self._answers, self._lines)
+        self._answers, self._lines = [], []
+        return out
+
+    # -- messages ----------------------------------------------------------------
+    def receive(self, kind: str, msg: Any, now: float, latest_ns: int | None,
+                active: bool = True) -> Outcome:
+        """One message of ``kind`` (:data:`KINDS` or :data:`PLATFORM`) received at
+        ``now`` (monotonic s); ``latest_ns``: the latest stamp accepted now
+        (None: no check); inactive: counted as ``inactive``, never answered.
+        """
+        try:
+            self.stats.received[kind] += 1
+            if not active:
+                self.reject(INACTIVE, f'{kind} received while inactive: not answered')
+            elif kind == PLATFORM:
+                self._platform(msg, now, latest_ns)
+            else:
+                self._stamped(kind, msg, now, latest_ns)
+        except Exception as exc:  # noqa: BLE001 - nothing escapes
+            self.internal_error(exc)
+        return self._flush()
+
+    def _motion(self, kind: str, msg: Any) -> Motion:
+        config = self.runtime.config
+        if kind == POSE:
+            p, o = msg.pose.position, msg.pose.orientation
+            return pose_input(p.x, p.y, p.z, o.x, o.y, o.z, o.w,
+                              config.input_quaternion_tolerance)
+        v = msg.twist if kind == TWIST else msg.accel
+        rates = rate_input(v.linear.x, v.linear.y, v.linear.z,
+                           v.angular.x, v.angular.y, v.angular.z, kind)
+        if kind == ACCEL:
+            check_acceleration(rates.q, config.input_max_linear_acceleration,
+                               config.input_max_angular_acceleration)
+        return rates
+
+    def _stamped(self, kind: str, msg: Any, now: float, latest_ns: int | None) -> None:
+        stamp = msg.header.stamp
+        sec, nanosec = stamp.sec, stamp.nanosec
+        stamp_ns = sec * 1_000_000_000 + nanosec
+        try:
+            check_not_future(stamp_ns, latest_ns)
+        except SetpointError as exc:     # no state: not even discarded
+            self.reject(exc.reason, f'{kind} rejected: {exc}')
+            return
+        try:
+            item = self._motion(kind, msg)
+        except SetpointError as exc:
+            self.sync.discard(stamp_ns, kind)
+            self.reject(exc.reason, f'{kind} rejected: {exc}')
+            return
+        self._dispatch(*self.sync.add(kind, stamp_ns, item, now, (sec, nanosec)))
+
+    def _platform(self, msg: Any, now: float, latest_ns: int | None) -> None:
+        """Whole setpoints, one per point, ordered with the three-topic ones
+        (``msg``: a JointTrajectory, or the SetpointError that refused it).
+        """
+        config = self.runtime.config
+        if isinstance(msg, SetpointError):
+            self.reject(msg.reason, f'{PLATFORM} rejected: {msg}')
+            return
+        if len(msg.points) > config.input_max_points:
+            self.reject(BAD_SETPOINT, f'{PLATFORM} rejected: {len(msg.points)} points, more '
+                                      f'than input.max_points = {config.input_max_points}')
+            return
+        try:
+            points = platform_setpoints(msg, config.input_max_linear_acceleration,
+                                        config.input_max_angular_acceleration, latest_ns)
+        except SetpointError as exc:
+            self.reject(exc.reason, f'{PLATFORM} rejected: {exc}')
+            return
+        for point in points:
+            if isinstance(point, SetpointError):
+                self.reject(point.reason, f'{PLATFORM} rejected: {point}')
+            else:
+                self._dispatch(*self.sync.add_complete(point.stamp_ns, point.pose, point.twist,
+                                                       point.accel, now, point.header))
+
+    def poll(self, now: float) -> Outcome:
+        """Release the setpoints whose bounded wait expired (call periodically)."""
+        try:
+            if self.sync.pending:
+                self._dispatch(*self.sync.poll(now))
+        except Exception as exc:  # noqa: BLE001
+            self.internal_error(exc)
+        return self._flush()
+
+    def _dispatch(self, released: list[Setpoint], rejected: list[Rejected]) -> None:
+        if self.sync.restarts != self.stats.planner_restarts:
+            # stamps far back, sustained: the estimator's history goes too
+            self.stats.planner_restarts = self.sync.restarts
+            self.estimator.reset()
+            self._answered = None
+            self._lines.append((WARN, f'planner restart: {RESTART_CONFIRMATIONS} setpoints in '
+                                'a row stamped more than input.restart_jump = '
+                                f'{self.runtime.config.input_restart_jump:g} s before the last '
+                                'answered one; stamp and estimator history reset'))
+        for item in rejected:
+            self.reject(item.reason, item.message)
+        for setpoint in released:
+            try:
+                self._process(setpoint)
+            except Exception as exc:  # noqa: BLE001 - one failure must not skip the others
+                self.internal_error(exc)
+
+    # -- one cycle -----------------------------------------------------------------
+    def _process(self, sp: Setpoint) -> None:
+        """Estimate what is missing, solve, check: one setpoint. A setpoint not
+        answered leaves no trace (warming up: its pose is history the next
+        estimates need).
+        """
+        runtime = self.runtime            # read once: a parameter change applies next cycle
+        try:
+            qd, qdd = self._rates(sp, runtime.config)
+            t0 = time.perf_counter()
+            sol = _solve(runtime.model, sp.pose.q, qd, qdd)
+            elapsed = time.perf_counter() - t0
+            answer = Answer(sp.header, sol.length.tolist(), sol.rate.tolist(),
+                            sol.force.tolist(), sol.joints.tolist(), sol.joint_rates.tolist())
+            # a sum is finite iff every term is (inf - inf is nan): nothing
+            # non-finite is published
+            if not math.isfinite(sum(map(sum, answer[1:]))):
+                raise SetpointError(NON_FINITE_OUTPUT, 'solver returned a non-finite value '
+                                                       '(not published)')
+        except SetpointError as exc:
+            if exc.reason == WARMING_UP:
+                self.estimator.commit()
+            else:
+                self.sync.withdraw(sp, self._answered)
+            self.reject(exc.reason, f'setpoint rejected: {exc}')
+            return
+        self._answered = sp.stamp_ns
+        self.estimator.commit()
+        self._answers.append(answer)
+        self._assess(sol, sp, runtime, elapsed, answer)
+        self.last_solution, self.last_header = sol, sp.header
+
+    def _rates(self, sp: Setpoint, config: NodeConfig) -> tuple[Vec3, Vec3]:
+        """The given rates and accelerations, else estimated (counted); the
+        setpoint enters the estimator's history once answered (commit).
+        """
+        twist, accel = sp.twist, sp.accel
+        qd, qdd = self.estimator.estimate(sp.stamp_ns * 1e-9, sp.pose.q,
+                                          None if twist is None else twist.q,
+                                          None if accel is None else accel.q)
+        if twist is None:
+            self.stats.estimated_twist += 1
+        if qdd is None:
+            raise SetpointError(WARMING_UP, 'not answered: its acceleration would be estimated '
+                                            'from a rate the node assumed (the first setpoint '
+                                            'of a stream is taken at rest); the next ones are')
+        if accel is None:
+            self.stats.estimated_accel += 1
+            check_acceleration(qdd, config.input_max_linear_acceleration,
+                               config.input_max_angular_acceleration, 'estimated acceleration')
+        return qd, qdd
+
+    def _assess(self, sol: Any, sp: Setpoint, runtime: Runtime, seconds: float,
+                answer: Answer) -> None:
+        """Count a published solution (ignored components, near singularity,
+        actuator limits, solve time) and log what is due.
+        """
+        config, stats = runtime.config, self.stats
+        ignored = unfollowable(sp.pose, sp.twist, sp.accel, -sol.beta,
+                               config.input_position_tolerance, config.input_angle_tolerance)
+        if ignored:
+            for component in ignored:
+                stats.ignored[component] += 1
+            stats.note(WARN, 'ignored ' + '/'.join(ignored))
+            self.log(WARN, 'ignored', lambda: 'motion the mechanism cannot follow, ignored: '
+                     + ', '.join(ignored))
+        if sol.status is Status.NEAR_SINGULAR:
+            stats.near_singular += 1
+            stats.note(WARN, 'near singular')
+            self.log(WARN, 'near_singular', lambda: f'near singular: {sol.detail}')
+        limits = check_limits(sol.stroke.tolist(), answer.rate, answer.force,
+                              runtime.model.limits, config.limits_warn_fraction)
+        if limits.exceeded:
+            stats.limit_exceeded += 1
+            stats.note(ERROR, 'limit exceeded')
+            self.log(ERROR, 'limit', lambda: 'actuator limit exceeded (published anyway): '
+                     + ', '.join(limits.exceeded))
+        elif limits.near:
+            stats.near_limit += 1
+            stats.note(WARN, 'near an actuator limit')
+        stats.solved(seconds, sol.kinematic_condition, sol.jacobian_condition,
+                     tuple(answer.force))
+
+    # -- parameters and lifecycle ------------------------------------------------------
+    def reconfigure(self, runtime: Runtime) -> None:
+        """Swap in new (validated) parameters: from the next cycle."""
+        old, new = self.runtime.config, runtime.config
+        self.runtime = runtime
+        if (new.estimator_method, new.estimator_max_gap) != (old.estimator_method,
+                                                             old.estimator_max_gap):
+            self.estimator = self._new_estimator(new)
+        self.sync.wait = new.sync_wait
+        self.sync.max_pending = new.sync_max_pending
+        self.sync.restart_jump = new.input_restart_jump
+        self.throttle.period = new.diagnostics_log_throttle
+
+    def reset(self, reason: str | None = None) -> Outcome:
+        """Forget the pending setpoints, the stamp order and the estimator's
+        history (activate, deactivate, cleanup); with ``reason``, each dropped
+        pending setpoint is counted under it.
+        """
+        for _ in range(self.sync.pending if reason else 0):
+            self.reject(reason, 'pending setpoint dropped: the node was deactivated')
+        self.sync.reset()
+        self.estimator.reset()
+        self._answered = None
+        return self._flush()
+
+    # -- rejections and log lines --------------------------------------------------
+    def reject(self, reason: str, message: str) -> None:
+        """Count a rejection under ``reason`` and log it (throttled)."""
+        self.stats.reject(reason, message)
+        level = (ERROR if reason in (UNREACHABLE, SOLVER_ERROR)
+                 else INFO if reason in QUIET_REASONS else WARN)
+        self.log(level, reason, message)
+
+    def internal_error(self, exc: BaseException) -> Outcome:
+        """An error of the node's own (a bug, a failed publish): counted, logged."""
+        try:
+            self.reject(SOLVER_ERROR, f'internal error: {type(exc).__name__}: {exc}')
+        except Exception:  # noqa: BLE001 - even reporting failed: stay up
+            pass
+        return self._flush()
+
+    def log(self, level: int, key: str, message: str | Callable[[], str]) -> None:
+        """A log line (``message`` or what it returns, built only when due),
+        at most once per ``diagnostics.log_throttle`` per ``key``.
+        """
+        skipped = self.throttle(key, time.monotonic())
+        if skipped is None:
+            return
+        text = message if isinstance(message, str) else message()
+        if skipped:
+            text += f' ({skipped} more since the last such message)'
+        self._lines.append((level, text))
+
+
+def _solve(model: Model, q: Sequence[float], qd: Sequence[float], qdd: Sequence[float]) -> Any:
+    """:func:`flight_sim_dynamics.solve`; ``unreachable`` or ``solver_error`` when
+    there is nothing to publish.
+    """
+    try:
+        sol = fsd.solve(model, q, qd, qdd)
+    except Exception as exc:  # noqa: BLE001 - a malformed call: never escape
+        raise SetpointError(SOLVER_ERROR, f'{type(exc).__name__}: {exc}') from None
+    if sol.status is Status.UNREACHABLE:
+        raise SetpointError(UNREACHABLE, f'unreachable pose: {sol.detail}')
+    if sol.status is Status.INVALID_INPUT:
+        raise SetpointError(SOLVER_ERROR, f'invalid input: {sol.detail}')
+    return sol
