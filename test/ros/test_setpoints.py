@@ -498,6 +498,7 @@ def test_planner_sequence_continuous():
     assert once.period == 3.0 and once.finished(3.01) and not once.finished(3.0)
 
 
+@pytest.mark.ros
 def test_setpoint_helpers_do_not_import_rclpy():
     """The rclpy-free modules of the ROS adapter stay importable (and
     testable) without rclpy."""
