@@ -84,7 +84,18 @@ class ForceHistory:
     def __init__(self, t: Sequence[float], force: object) -> None:
         self.t = sample_times(t)
         self.force = finite_rows('force', force, self.t.size)
-        self.slope = node_slopes(self.t, self.force)
+        with np.errstate(over='ignore', invalid='ignore'):
+            self.slope = node_slopes(self.t, self.force)
+            # |h00|, |h01| <= 1 and |h10|, |h11| < 1: this bounds the spline on each interval
+            bound = (np.abs(self.force[:-1]) + np.abs(self.force[1:]) + np.diff(self.t)[:, None]
+                     * (np.abs(self.slope[:-1]) + np.abs(self.slope[1:])))
+        bad = np.flatnonzero(~np.all(np.isfinite(bound), axis=1))
+        if bad.size:        # the largest force among the rows the interval's slopes use
+            lo = max(0, int(bad[0]) - 2)
+            k = lo + int(np.argmax(np.abs(self.force[lo:bad[0] + 4]).max(axis=1)))
+            raise ValueError(f'the forces of the row at t = {float(self.t[k])!r} s '
+                             f'({np.abs(self.force[k]).max():.3g} N) are too large to '
+                             'interpolate (the spline overflows)')
 
     @property
     def start(self) -> float:

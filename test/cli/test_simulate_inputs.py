@@ -1,0 +1,56 @@
+"""``simulate``'s inputs as a user gives them, in-process: forces the spline
+cannot hold, input sizes, the scene of a parameter file, .npz and poses-only
+inputs, the summary it prints, the plot of its output."""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from flight_sim_dynamics.cli import csv_io
+from flight_sim_dynamics.cli import main as cli
+from flight_sim_dynamics.core.interpolation import ForceHistory
+
+HEADER = 't,force_a,force_b,force_c\n'
+
+
+def one_error(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith('error: '), err
+    return lines[0]
+
+
+def read(path) -> csv_io.Table:
+    return csv_io.read_csv(path, required=(), allow_extra=True, text_columns=('status',))
+
+
+@pytest.mark.parametrize('big', ['1e308', '-1.7e308', '1e306'])
+def test_forces_too_large_to_interpolate_are_refused_never_written_as_nan(tmp_path, capsys,
+                                                                           big):
+    forces, out = tmp_path / 'f.csv', tmp_path / 'o.csv'
+    forces.write_text(HEADER + f'0,0,0,0\n0.01,{big},0,{big}\n0.02,0,0,0\n0.03,0,0,0\n'
+                      '0.04,0,0,0\n0.05,0,0,0\n')
+    with warnings.catch_warnings():
+        warnings.simplefilter('error')          # no numpy overflow warning either
+        assert cli.main(['simulate', '--forces', str(forces), '-o', str(out)]) == 2
+    assert 't = 0.01 s' in one_error(capsys.readouterr().err)     # names the row
+    assert not out.exists()
+
+
+def test_large_forces_the_spline_holds_are_simulated_without_nan(tmp_path, capsys):
+    forces, out = tmp_path / 'f.csv', tmp_path / 'o.csv'
+    forces.write_text(HEADER + '0,0,0,0\n0.01,1e300,-1e300,1e300\n0.02,0,0,0\n0.03,0,0,0\n')
+    assert cli.main(['simulate', '--forces', str(forces), '-o', str(out)]) in (0, 1)
+    assert out.exists() and 'nan' not in out.read_text()
+    assert np.all(np.isfinite(read(out).data))
+
+
+def test_force_history_refuses_what_it_cannot_interpolate():
+    t = np.arange(6) * 0.01
+    force = np.zeros((6, 3))
+    force[3, 1] = 1e308
+    with pytest.raises(ValueError, match='t = 0.03 s'):
+        ForceHistory(t, force)
+    force[3, 1] = 1e250
+    assert np.all(np.isfinite(ForceHistory(t, force)(np.linspace(0, 0.05, 101))))
