@@ -19,6 +19,7 @@ import stat
 import sys
 import tempfile
 import threading
+import time
 import zipfile
 from dataclasses import dataclass, field
 from typing import IO, Iterator, Sequence
@@ -77,17 +78,26 @@ def _display(path: str | os.PathLike[str]) -> str:
     return '<stdin>' if os.fspath(path) == '-' else os.fspath(path)
 
 
-def read_bytes(path: str | os.PathLike[str]) -> bytes:
-    """The file's contents (``-``: standard input); CsvError if it cannot be read."""
-    if os.fspath(path) == '-':
-        return sys.stdin.buffer.read()
+def read_bytes(path: str | os.PathLike[str], limit: int | None = None) -> bytes:
+    """The file's contents (``-``: standard input); CsvError if it cannot be
+    read or holds more than ``limit`` bytes.
+    """
+    stdin = os.fspath(path) == '-'
     try:
-        with open(path, 'rb') as f:
-            return f.read()
+        with contextlib.nullcontext(sys.stdin.buffer) if stdin else open(path, 'rb') as f:
+            data = f.read(-1 if limit is None else limit + 1)
     except IsADirectoryError:
         raise CsvError('is a directory, not a CSV file', path=_display(path)) from None
     except OSError as exc:
         raise CsvError(f'cannot read: {exc.strerror or exc}', path=_display(path)) from None
+    _check_size(len(data), limit, path)
+    return data
+
+
+def _check_size(size: int, limit: int | None, path: str | os.PathLike[str]) -> None:
+    if limit is not None and size > limit:
+        raise CsvError(f'larger than {limit >> 20} MiB, more than this command reads',
+                       path=_display(path))
 
 
 def parse_header(raw: bytes, path: str, *, required: Sequence[str],
@@ -138,11 +148,12 @@ def _did_you_mean(name: str, candidates: Sequence[str]) -> str:
 
 def read_csv(path: str | os.PathLike[str], *, required: Sequence[str],
              allow_extra: bool = False, text_columns: Sequence[str] = (),
-             skip_extra: bool = False) -> Table:
+             skip_extra: bool = False, limit: int | None = None) -> Table:
     """Read a numeric CSV file whose header names ``required`` (any order; more
-    with ``allow_extra`` or ``skip_extra``); CsvError at the first problem.
+    with ``allow_extra`` or ``skip_extra``; at most ``limit`` bytes); CsvError
+    at the first problem.
     """
-    return parse_csv(read_bytes(path), _display(path), required=required,
+    return parse_csv(read_bytes(path, limit), _display(path), required=required,
                      allow_extra=allow_extra, text_columns=text_columns, skip_extra=skip_extra)
 
 
@@ -244,13 +255,16 @@ def _raise_first_error(rows: list[bytes], names: Sequence[str], path: str,
 
 
 def read_table(path: str | os.PathLike[str], *, required: Sequence[str],
-               optional: Sequence[str] = ()) -> Table:
-    """The output of ``solve`` (CSV, ``-``, or .npz): ``required``,
-    ``optional`` and the ``status`` words.
+               optional: Sequence[str] = (), limit: int | None = None) -> Table:
+    """The output of ``solve`` (CSV, ``-``, or .npz, at most ``limit`` bytes):
+    ``required``, ``optional`` and the ``status`` words.
     """
     if is_npz(path):
+        with contextlib.suppress(OSError):      # (a missing file: read_npz says so)
+            _check_size(os.path.getsize(path), limit, path)
         return read_npz(path, required=required, optional=optional)
-    return read_csv(path, required=required, allow_extra=True, text_columns=('status',))
+    return read_csv(path, required=required, allow_extra=True, text_columns=('status',),
+                    limit=limit)
 
 
 def is_npz(path: str | os.PathLike[str]) -> bool:
@@ -326,7 +340,8 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[IO[bytes]]:
     all (a temporary file replaces it at the end; ``-``: standard output).
     Devices, FIFOs and sockets are written through; a symlink's target is
     replaced, keeping its mode; a read-only file is refused; SIGTERM/SIGHUP
-    remove the temporary file and end with 128 + the signal.
+    remove the temporary file and end with 128 + the signal (after a SIGKILL,
+    the next write to ``path`` removes it).
     """
     if os.fspath(path) == '-':
         yield sys.stdout.buffer
@@ -355,9 +370,10 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[IO[bytes]]:
     if not os.path.isdir(directory):
         raise CsvError(f"cannot write: directory '{os.path.dirname(shown) or '.'}' does not "
                        'exist', path=shown)
+    _remove_stale(directory, os.path.basename(target))
     with _errors_named(shown):
-        fd, tmp = tempfile.mkstemp(prefix='.' + os.path.basename(target) + '.', suffix='.tmp',
-                                   dir=directory)
+        fd, tmp = tempfile.mkstemp(prefix=f'.{os.path.basename(target)}.{os.getpid()}.',
+                                   suffix='.tmp', dir=directory)
     try:
         with _signals_end_the_write(), _errors_named(shown):
             with os.fdopen(fd, 'wb') as f:
@@ -373,6 +389,23 @@ def atomic_output(path: str | os.PathLike[str]) -> Iterator[IO[bytes]]:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+
+
+def _remove_stale(directory: str, base: str) -> None:
+    """Remove the temporary files a killed write of ``base`` left (SIGKILL runs
+    no handler): a minute old, their writer (the pid in the name) gone.
+    """
+    ours = re.compile(re.escape(f'.{base}.') + r'(\d{1,7})\.[a-z0-9_]{8}\.tmp')
+    with contextlib.suppress(OSError):
+        for entry in os.scandir(directory):
+            found = ours.fullmatch(entry.name)
+            if found and time.time() - entry.stat().st_mtime > 60:
+                try:
+                    os.kill(int(found[1]), 0)
+                except ProcessLookupError:
+                    os.unlink(entry.path)
+                except OSError:         # alive, another user's
+                    pass
 
 
 @contextlib.contextmanager

@@ -33,6 +33,8 @@ OUTPUT_COLUMNS = (TRAJECTORY_COLUMNS + tuple(f'length_{leg}' for leg in LEGS)
                   + tuple(f'rate_{leg}' for leg in LEGS) + tuple(f'force_{leg}' for leg in LEGS))
 ERROR_COLUMNS = (tuple(f'{name}_error' for name in POSE)
                  + tuple(f'length_error_{leg}' for leg in LEGS))
+#: The most ``simulate`` reads of an input file: its rows are held in memory several times.
+MAX_INPUT_BYTES = 64 << 20
 
 
 def configure(p: argparse.ArgumentParser) -> None:
@@ -99,12 +101,12 @@ def run(args: argparse.Namespace) -> int:
     initial = None if args.initial is None else (args.initial[:3], args.initial[3:])
     if args.forces is not None:
         table = read_csv(args.forces, required=FORCE_COLUMNS, allow_extra=True,
-                         text_columns=('status',))
+                         text_columns=('status',), limit=MAX_INPUT_BYTES)
         forces = ForceHistory(table['t'], np.column_stack([table[n] for n in FORCE_COLUMNS[1:]]))
         sim = simulate(plant, forces=forces, initial=initial, step=args.step)
     else:
         if args.reference is not None:
-            table = read_csv(args.reference, required=TRAJECTORY_COLUMNS)
+            table = read_csv(args.reference, required=TRAJECTORY_COLUMNS, limit=MAX_INPUT_BYTES)
             cols = [np.column_stack([table[n] for n in TRAJECTORY_COLUMNS[k:k + 3]])
                     for k in (1, 4, 7)]
             reference = Reference.from_samples(table['t'], *cols)

@@ -10,11 +10,13 @@ import stat
 import subprocess
 import sys
 import threading
+import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from flight_sim_dynamics.cli.csv_io import CsvError, atomic_output
+from flight_sim_dynamics.cli.csv_io import CsvError, atomic_output, write_csv
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -108,3 +110,30 @@ def test_the_cli_writes_through_dev_null(tmp_path):
                            '-o', '/dev/null'], cwd=ROOT, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     assert stat.S_ISCHR(os.stat('/dev/null').st_mode)
+
+
+@pytest.mark.ros
+def test_the_leftover_of_a_killed_write_is_removed_by_the_next_write(tmp_path):
+    """SIGKILL runs no handler: the temporary file stays; the next write to the
+    same output removes it once it is a minute old and its writer gone, and
+    touches no other file."""
+    out = tmp_path / 'o.csv'
+    code = ('import os, signal, sys\nfrom flight_sim_dynamics.cli.csv_io import atomic_output\n'
+            'with atomic_output(sys.argv[1]) as f:\n    f.write(b"partial")\n    f.flush()\n'
+            '    os.kill(os.getpid(), signal.SIGKILL)\n')
+    done = subprocess.run([sys.executable, '-c', code, str(out)], cwd=ROOT, timeout=60)
+    assert done.returncode == -signal.SIGKILL
+    left = [p for p in tmp_path.iterdir() if p.name.endswith('.tmp')]
+    assert len(left) == 1 and left[0].name.startswith('.o.csv.'), left
+    other = tmp_path / '.o.csv.notours.tmp'
+    other.write_text('x')
+    live = tmp_path / f'.o.csv.{os.getpid()}.abcdefgh.tmp'     # its writer runs (this test)
+    live.write_text('x')
+    write_csv(out, ['a'], np.array([[1.0]]))           # too recent: kept
+    assert left[0].exists()
+    old = time.time() - 120
+    for path in (left[0], other, live):
+        os.utime(path, (old, old))
+    write_csv(out, ['a'], np.array([[2.0]]))
+    assert not left[0].exists() and other.exists() and live.exists()
+    assert out.read_text() == 'a\n2\n'

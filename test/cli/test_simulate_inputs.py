@@ -54,3 +54,27 @@ def test_force_history_refuses_what_it_cannot_interpolate():
         ForceHistory(t, force)
     force[3, 1] = 1e250
     assert np.all(np.isfinite(ForceHistory(t, force)(np.linspace(0, 0.05, 101))))
+
+
+@pytest.mark.parametrize('stdin', [False, True])
+def test_a_forces_file_larger_than_the_cap_is_one_error_line(tmp_path, capsys, monkeypatch,
+                                                             stdin):
+    from flight_sim_dynamics.cli import simulate
+    monkeypatch.setattr(simulate, 'MAX_INPUT_BYTES', 4096)
+    rows = ''.join(f'{k * 1e-3!r},1,2,3\n' for k in range(400))     # > 4 KiB, valid
+    forces, out = tmp_path / 'f.csv', tmp_path / 'o.csv'
+    forces.write_text(HEADER + rows)
+    if stdin:
+        monkeypatch.setattr('sys.stdin', open(forces))
+    assert cli.main(['simulate', '--forces', '-' if stdin else str(forces), '-o', str(out)]) == 2
+    assert 'MiB' in one_error(capsys.readouterr().err)
+    assert not out.exists()
+
+
+def test_the_cap_leaves_a_file_under_it_alone(tmp_path, monkeypatch):
+    from flight_sim_dynamics.cli import simulate
+    monkeypatch.setattr(simulate, 'MAX_INPUT_BYTES', 4096)
+    forces, out = tmp_path / 'f.csv', tmp_path / 'o.csv'
+    forces.write_text(HEADER + '0,1,2,3\n0.01,1,2,3\n')
+    assert cli.main(['simulate', '--forces', str(forces), '-o', str(out)]) == 0
+    assert len(read(out)) == 11
