@@ -47,8 +47,8 @@ def sample_times(t: object) -> np.ndarray:
     steps = np.diff(arr)
     if not np.all(steps > 0):
         i = int(np.argmin(steps > 0))
-        raise ValueError(f'times must increase strictly: t[{i + 1}] = {arr[i + 1]!r} '
-                         f'after t[{i}] = {arr[i]!r}')
+        raise ValueError(f'times must increase strictly: t[{i + 1}] = {float(arr[i + 1])!r} '
+                         f'after t[{i}] = {float(arr[i])!r}')
     return arr
 
 

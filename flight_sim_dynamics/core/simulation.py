@@ -51,7 +51,7 @@ class Servo:
             value = tuple(float(v) for v in getattr(self, name))
             if len(value) != 3 or not all(math.isfinite(v) and v >= 0 for v in value):
                 raise ValueError(f'servo {name} must be 3 finite numbers >= 0 (legs A, B, C), '
-                                 f'got {getattr(self, name)!r}')
+                                 f'got {value}')
             object.__setattr__(self, name, value)
 
     @classmethod
@@ -65,9 +65,9 @@ class Servo:
                              f'got {hz!r} Hz, {damping!r}')
         require_inertia(model)
         M, _, base = affine_terms(model, _REST, _REST)
-        mass = np.diag(np.linalg.solve(base.jacobian.T, M.T).T)
-        w = 2.0 * math.pi * hz
-        return cls(tuple(mass * w * w), tuple(2.0 * damping * mass * w))
+        mass = np.diag(np.linalg.solve(base.jacobian.T, M.T).T).tolist()
+        w = 2.0 * math.pi * hz          # Python floats: an overflow is inf, refused, no warning
+        return cls(tuple(m * w * w for m in mass), tuple(2.0 * damping * m * w for m in mass))
 
 
 def deliver(command: np.ndarray, rate: np.ndarray, max_force: float,
@@ -252,12 +252,12 @@ def step_count(start: float, end: float, step: float) -> int:
     """Number of whole steps from start to end (validated step)."""
     if not (math.isfinite(step) and step > 0):
         raise ValueError(f'step must be a positive number of seconds, got {step!r}')
-    steps = int(math.floor((end - start) / step + 1e-9))
-    if steps < 1:
+    count = (end - start) / step + 1e-9         # a float: may be huge, or inf
+    if count < 1:
         raise ValueError(f'the motion lasts {end - start:g} s, less than one step of {step:g} s')
-    if steps > MAX_STEPS:
-        raise ValueError(f'{steps} steps of {step:g} s: more than {MAX_STEPS}')
-    return steps
+    if count >= MAX_STEPS + 1:
+        raise ValueError(f'{count:.3g} steps of {step:g} s: more than {MAX_STEPS}')
+    return int(count)
 
 
 def _state(initial: tuple | None, default: tuple[np.ndarray, np.ndarray]

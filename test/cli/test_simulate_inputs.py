@@ -3,6 +3,7 @@ cannot hold, input sizes, the scene of a parameter file, .npz and poses-only
 inputs, the summary it prints, the plot of its output."""
 from __future__ import annotations
 
+import re
 import warnings
 
 import numpy as np
@@ -78,3 +79,26 @@ def test_the_cap_leaves_a_file_under_it_alone(tmp_path, monkeypatch):
     forces.write_text(HEADER + '0,1,2,3\n0.01,1,2,3\n')
     assert cli.main(['simulate', '--forces', str(forces), '-o', str(out)]) == 0
     assert len(read(out)) == 11
+
+
+@pytest.mark.parametrize('rows, options, shown', [
+    ('0,0,0,0\n0.2,0,0,0\n0.1,0,0,0\n', [], '0.1'),            # t decreases
+    ('0,0,0,0\n0.03,0,0,0\n', ['--step', '1e-300'], 'e+'),     # 3e+298 steps
+    ('0,0,0,0\n1,0,0,0\n', ['--step', '5e-324'], 'inf'),       # a step count past floats
+])
+def test_error_lines_show_plain_short_numbers(tmp_path, capsys, rows, options, shown):
+    forces, out = tmp_path / 'f.csv', tmp_path / 'o.csv'
+    forces.write_text(HEADER + rows)
+    assert cli.main(['simulate', '--forces', str(forces), '-o', str(out), *options]) == 2
+    line = one_error(capsys.readouterr().err)
+    assert 'np.' not in line and 'internal error' not in line and shown in line, line
+    assert len(line) < 200 and not re.search(r'\d{18}', line), line
+
+
+def test_servo_gains_that_overflow_are_an_error_with_plain_numbers(tmp_path, capsys):
+    with warnings.catch_warnings():
+        warnings.simplefilter('error')
+        assert cli.main(['simulate', '--motion', 'vertical', '--bandwidth', '1e200',
+                         '-o', str(tmp_path / 'o.csv')]) == 2
+    line = one_error(capsys.readouterr().err)
+    assert 'np.' not in line and 'inf' in line, line
