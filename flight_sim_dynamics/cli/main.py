@@ -23,6 +23,7 @@ import flight_sim_dynamics as fsd
 
 from . import csv_io
 from .csv_io import TRAJECTORY_COLUMNS, CsvError
+from ..config.parameters import packaged_values
 from ..config.scenes import SceneError
 from ..core.forward_kinematics import poses_along
 from ..core.model import JOINT_NAMES, Model
@@ -62,15 +63,24 @@ class CliError(Exception):
 
 def load_model(params: str | None, scene: str | None = None, option: str = '--params',
                scene_option: str = '--scene') -> Model:
-    """The model of ``--params`` and ``--scene``; a CliError names the option at fault."""
+    """The model of ``--params`` and ``--scene``; a CliError names the option at
+    fault, a note the file's values of an effect the scene leaves off.
+    """
     if params is not None and not os.path.isfile(params):
         raise CliError(f"{option} {params}: no such file")
     try:
-        return fsd.load_model(params, scene=scene)
+        model = fsd.load_model(params, scene=scene)
     except SceneError as exc:           # before its parent class ParameterError
         raise CliError(f'{scene_option}: {exc}') from None
     except fsd.ParameterError as exc:
         raise CliError(f"{option} {params or '(packaged defaults)'}: {exc}") from None
+    unused = [k for k, v in model.values.items() if k.split('.')[0] in ('payload', 'friction')
+              and not getattr(model.effects, k.split('.')[0]) and v != packaged_values().get(k)]
+    if unused:
+        print(f"note: {option} {params}: {', '.join(unused)} not simulated: scene "
+              f"'{model.scene}' leaves {' and '.join(sorted({k.split('.')[0] for k in unused}))} "
+              'off', file=sys.stderr)
+    return model
 
 
 class _Parser(argparse.ArgumentParser):
@@ -168,13 +178,14 @@ def report_not_ok(prefix: str, status: Sequence, detail: Sequence,
               f'at {where(bad[0])}: {status[bad[0]]}: {detail[bad[0]]}', file=sys.stderr)
 
 
-def read_trajectory(path: str | os.PathLike[str], model: Model) -> csv_io.Table:
-    """The trajectory table of ``path`` with every column of
-    :data:`~.csv_io.TRAJECTORY_COLUMNS`; a group of three that none of the
-    columns names (rates, accelerations) is estimated from the poses as the
-    node does, with a note on standard error.
+def read_trajectory(path: str | os.PathLike[str], model: Model,
+                    limit: int | None = None) -> csv_io.Table:
+    """The trajectory table of ``path`` (at most ``limit`` bytes) with every
+    column of :data:`~.csv_io.TRAJECTORY_COLUMNS`; a group of three that none
+    of the columns names (rates, accelerations) is estimated from the poses as
+    the node does, with a note on standard error.
     """
-    raw = csv_io.read_bytes(path)
+    raw = csv_io.read_bytes(path, limit)
     header = raw.partition(b'\n')[0].decode('utf-8', 'replace').lstrip('\ufeff')
     named = {n.strip() for n in header.split(',')}
     rates, accelerations = (any(n in named for n in group)
@@ -185,7 +196,7 @@ def read_trajectory(path: str | os.PathLike[str], model: Model) -> csv_io.Table:
                              required=required, skip_extra=True)
     if table.skipped:
         print(f"note: {table.path}: ignoring column{'s' if len(table.skipped) > 1 else ''} "
-              f"{', '.join(repr(n) for n in table.skipped)}; solve reads "
+              f"{', '.join(repr(n) for n in table.skipped)}; a trajectory has "
               + ','.join(TRAJECTORY_COLUMNS), file=sys.stderr)
     if rates and accelerations:
         return table

@@ -9,7 +9,7 @@ import os
 
 import numpy as np
 
-from .csv_io import atomic_output, read_table
+from .csv_io import CsvError, atomic_output, read_table
 from .main import LENGTH_COLUMNS, PLOT_COLUMNS, CliError
 
 ACTUATORS = ('A', 'B', 'C')
@@ -83,7 +83,8 @@ def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
 def configure(p: argparse.ArgumentParser) -> None:
     """The options of ``plot``."""
     p.add_argument('input', metavar='OUT_CSV_OR_NPZ',
-                   help='output of solve, CSV or .npz (needs ' + ','.join(PLOT_COLUMNS) + ')')
+                   help='output of solve, CSV or .npz (needs ' + ','.join(PLOT_COLUMNS) + '), or '
+                        "of simulate (its powers: force x rate)")
     p.add_argument('-o', '--output', required=True, metavar='IMAGE',
                    help='image to write; the format follows the extension (.png, .svg, .pdf)')
     p.add_argument('--title', default=None,
@@ -110,9 +111,22 @@ def run(args: argparse.Namespace) -> int:
     fmt = output_format(args.output)      # fail before reading a large file
     if not 1 <= args.dpi <= 1200:
         raise CliError(f'--dpi must be between 1 and 1200, got {args.dpi}')
-    table = read_table(args.input, required=PLOT_COLUMNS, optional=LENGTH_COLUMNS)
-    force, power = (np.column_stack([table[f'{field}_{leg}'] for leg in 'abc'])
-                    for field in ('force', 'power'))
+    rates = tuple(f'rate_{leg}' for leg in 'abc')
+    table = read_table(args.input, required=PLOT_COLUMNS[:4],
+                       optional=LENGTH_COLUMNS + PLOT_COLUMNS[4:] + rates)
+
+    def legs(field: str) -> np.ndarray:
+        return np.column_stack([table[f'{field}_{leg}'] for leg in 'abc'])
+
+    force = legs('force')
+    if set(PLOT_COLUMNS[4:]) <= set(table.names):
+        power = legs('power')
+    elif set(rates) <= set(table.names):       # simulate's output: P = f dL/dt
+        power = force * legs('rate')
+    else:
+        missing = ', '.join(repr(n) for n in PLOT_COLUMNS[4:] if n not in table.names)
+        raise CsvError(f"missing {missing} (or {','.join(rates)}, to compute the powers)",
+                       path=table.path, line=1)
     title = args.title if args.title is not None else default_title(args.input)
     # solve writes the rows it cannot solve as zeros; a leg length is never 0
     lengths = [n for n in LENGTH_COLUMNS if n in table.names]

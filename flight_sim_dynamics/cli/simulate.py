@@ -22,8 +22,8 @@ from ..core.model import Model
 from ..core.motions import MOTIONS
 from ..core.simulation import (DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, DEFAULT_STEP,
                                ForceHistory, Reference, Servo, simulate)
-from .csv_io import TRAJECTORY_COLUMNS, read_csv, write_csv
-from .main import load_model, report_not_ok
+from .csv_io import TRAJECTORY_COLUMNS, read_table, write_csv
+from .main import load_model, read_trajectory, report_not_ok
 
 LEGS = ('a', 'b', 'c')
 FORCE_COLUMNS = ('t',) + tuple(f'force_{leg}' for leg in LEGS)
@@ -41,10 +41,11 @@ def configure(p: argparse.ArgumentParser) -> None:
     source = p.add_mutually_exclusive_group(required=True)
     source.add_argument('--forces', metavar='CSV',
                         help='open loop: actuator forces, columns ' + ','.join(FORCE_COLUMNS)
-                             + " ('-' for standard input; solve's output will do)")
+                             + " ('-' for standard input; solve's output, CSV or .npz, will do)")
     source.add_argument('--reference', metavar='CSV',
                         help='closed loop: a reference motion, the trajectory CSV solve reads ('
-                             + ','.join(TRAJECTORY_COLUMNS) + ')')
+                             + ','.join(TRAJECTORY_COLUMNS) + '; missing rates or accelerations '
+                             'estimated as solve does)')
     source.add_argument('--motion', choices=tuple(MOTIONS),
                         help='closed loop: a built-in reference motion')
     p.add_argument('-o', '--output', required=True, metavar='CSV',
@@ -56,8 +57,9 @@ def configure(p: argparse.ArgumentParser) -> None:
                         '--plant-params (default: the packaged parameters)')
     p.add_argument('--plant-params', metavar='YAML', default=None,
                    help='parameter file of the simulated machine (default: --params)')
-    p.add_argument('--plant-scene', metavar='NAME_OR_YAML', default='full',
-                   help='effects the simulated machine has (default full; needs inertia)')
+    p.add_argument('--plant-scene', metavar='NAME_OR_YAML', default=None,
+                   help="effects the simulated machine has (default: the plant file's scene, "
+                        'as solve reads it; needs inertia)')
     p.add_argument('--feedforward', metavar='none|NAME_OR_YAML', default=None,
                    help='closed loop: scene of the feed-forward, or none (default: the '
                         'plant scene)')
@@ -100,19 +102,18 @@ def run(args: argparse.Namespace) -> int:
                        '--plant-params' if args.plant_params else '--params', '--plant-scene')
     initial = None if args.initial is None else (args.initial[:3], args.initial[3:])
     if args.forces is not None:
-        table = read_csv(args.forces, required=FORCE_COLUMNS, allow_extra=True,
-                         text_columns=('status',), limit=MAX_INPUT_BYTES)
+        table = read_table(args.forces, required=FORCE_COLUMNS, limit=MAX_INPUT_BYTES)
         forces = ForceHistory(table['t'], np.column_stack([table[n] for n in FORCE_COLUMNS[1:]]))
         sim = simulate(plant, forces=forces, initial=initial, step=args.step)
     else:
         if args.reference is not None:
-            table = read_csv(args.reference, required=TRAJECTORY_COLUMNS, limit=MAX_INPUT_BYTES)
+            table = read_trajectory(args.reference, plant, limit=MAX_INPUT_BYTES)
             cols = [np.column_stack([table[n] for n in TRAJECTORY_COLUMNS[k:k + 3]])
                     for k in (1, 4, 7)]
             reference = Reference.from_samples(table['t'], *cols)
         else:
             reference = Reference.from_motion(MOTIONS[args.motion])
-        scene = args.feedforward if args.feedforward is not None else args.plant_scene
+        scene = args.feedforward if args.feedforward is not None else plant.scene
         feedforward = None if scene == 'none' else load_model(args.params, scene,
                                                                    scene_option='--feedforward')
         sim = simulate(plant, reference=reference, feedforward=feedforward,
@@ -124,6 +125,14 @@ def run(args: argparse.Namespace) -> int:
         names += ERROR_COLUMNS
     write_csv(args.output, names, np.column_stack(columns),
               text=('status', [str(s) for s in sim.status]))
+    summary = (f"simulate: plant scene '{plant.scene}', {len(sim.t)} rows, t = {sim.t[0]:g} to "
+               f'{sim.t[-1]:g} s, {sim.outcome}')
+    if sim.pose_error is not None:
+        e = sim.tracking()
+        summary += '; tracking error max (RMS): ' + ', '.join(
+            f"{n} {e[n + '_max']:.3g} ({e[n + '_rms']:.3g}) {unit}"
+            for n, unit in (('surge', 'm'), ('heave', 'm'), ('roll', 'rad'), ('length', 'm')))
+    print(summary, file=sys.stderr if args.output == '-' else sys.stdout)
     report_not_ok('', sim.status, sim.detail, lambda i: f't = {sim.t[i]:.6g} s')
     if sim.outcome != fsd.Status.OK:
         print(f'warning: simulation stopped: {sim.outcome}: {sim.outcome_detail}; '

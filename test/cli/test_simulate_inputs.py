@@ -11,6 +11,7 @@ import pytest
 
 from flight_sim_dynamics.cli import csv_io
 from flight_sim_dynamics.cli import main as cli
+from flight_sim_dynamics.config.files import default_params_path
 from flight_sim_dynamics.core.interpolation import ForceHistory
 
 HEADER = 't,force_a,force_b,force_c\n'
@@ -102,3 +103,90 @@ def test_servo_gains_that_overflow_are_an_error_with_plain_numbers(tmp_path, cap
                          '-o', str(tmp_path / 'o.csv')]) == 2
     line = one_error(capsys.readouterr().err)
     assert 'np.' not in line and 'inf' in line, line
+
+
+# ---------------------------------------------------------------------------
+# simulate as solve: the same machine, the same inputs; a result printed
+# ---------------------------------------------------------------------------
+@pytest.fixture(scope='module')
+def vertical(tmp_path_factory):
+    """The vertical example at 1 kHz (simulate's default step), a params file
+    whose scene is payload, and solve's output for it (CSV and .npz)."""
+    folder = tmp_path_factory.mktemp('vertical')
+    traj, params = folder / 'vertical.csv', folder / 'payload.yaml'
+    params.write_text(default_params_path().read_text().replace('scene: full', 'scene: payload'))
+    assert cli.main(['example', 'vertical', '--rate', '1000', '-o', str(traj)]) == 0
+    for out in ('solved.csv', 'solved.npz'):
+        assert cli.main(['solve', str(traj), '--params', str(params), '-o',
+                         str(folder / out)]) == 0
+    return folder
+
+
+def test_a_params_files_scene_is_simulated_as_solve_reads_it(vertical, tmp_path):
+    solved = read(vertical / 'solved.csv')
+    out = tmp_path / 'sim.csv'
+    assert cli.main(['simulate', '--reference', str(vertical / 'vertical.csv'), '--params',
+                     str(vertical / 'payload.yaml'), '-o', str(out)]) == 0
+    sim = read(out)
+    assert len(sim) == len(solved)
+    for leg in 'abc':                   # tracked exactly: the forces are solve's
+        np.testing.assert_allclose(sim[f'force_{leg}'], solved[f'force_{leg}'], atol=1e-3)
+    out = tmp_path / 'open.csv'         # open loop, the plant from the same file
+    assert cli.main(['simulate', '--forces', str(vertical / 'solved.csv'), '--plant-params',
+                     str(vertical / 'payload.yaml'), '-o', str(out)]) == 0
+    assert np.max(np.abs(read(out)['heave'] - read(vertical / 'vertical.csv')['heave'])) < 1e-6
+
+
+def test_a_payload_the_scene_leaves_off_is_named_in_a_note(tmp_path, capsys):
+    heavy = tmp_path / 'heavy.yaml'
+    heavy.write_text(default_params_path().read_text().replace('mass: 140.0', 'mass: 180.0'))
+    assert cli.main(['simulate', '--motion', 'vertical', '--plant-params', str(heavy),
+                     '-o', str(tmp_path / 'o.csv')]) == 0
+    err = capsys.readouterr().err
+    assert 'note:' in err and 'payload.mass' in err, err
+    assert cli.main(['simulate', '--motion', 'vertical', '--plant-params', str(heavy),
+                     '--plant-scene', 'payload', '-o', str(tmp_path / 'p.csv')]) == 0
+    assert capsys.readouterr().err == ''
+    assert not np.array_equal(read(tmp_path / 'o.csv')['force_a'],
+                              read(tmp_path / 'p.csv')['force_a'])
+
+
+def test_simulate_prints_a_one_line_tracking_summary(tmp_path, capsys):
+    out = tmp_path / 'o.csv'
+    assert cli.main(['simulate', '--motion', 'vertical', '--bandwidth', '2', '--feedforward',
+                     'none', '-o', str(out)]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert len(lines) == 1, lines
+    sim = read(out)
+    peak = max(np.max(np.abs(sim[f'length_error_{leg}'])) for leg in 'abc')
+    assert f'{peak:.3g}' in lines[0] and str(len(sim)) in lines[0], lines[0]
+    assert cli.main(['simulate', '--motion', 'vertical', '-o', '-']) == 0     # the CSV on stdout
+    captured = capsys.readouterr()
+    assert captured.out.startswith('t,') and len(captured.err.strip().splitlines()) == 1
+
+
+def test_plot_draws_simulates_output_with_its_powers(tmp_path):
+    pytest.importorskip('matplotlib')
+    out, png = tmp_path / 'o.csv', tmp_path / 'o.png'
+    assert cli.main(['simulate', '--motion', 'vertical', '-o', str(out)]) == 0
+    assert cli.main(['plot', str(out), '-o', str(png)]) == 0
+    assert png.read_bytes().startswith(b'\x89PNG')
+
+
+def test_reference_may_be_poses_only_as_for_solve(vertical, tmp_path, capsys):
+    full = read(vertical / 'vertical.csv')
+    poses = tmp_path / 'poses.csv'
+    csv_io.write_csv(poses, ('t', 'surge', 'heave', 'roll'),
+                     np.column_stack([full[n] for n in ('t', 'surge', 'heave', 'roll')]))
+    out = tmp_path / 'o.csv'
+    assert cli.main(['simulate', '--reference', str(poses), '-o', str(out)]) == 0
+    assert 'note:' in capsys.readouterr().err
+    assert np.max(np.abs(read(out)['heave'] - full['heave'])) < 1e-3
+
+
+def test_forces_may_be_solves_npz(vertical, tmp_path):
+    a, b = tmp_path / 'a.csv', tmp_path / 'b.csv'
+    for forces, out in (('solved.npz', a), ('solved.csv', b)):
+        assert cli.main(['simulate', '--forces', str(vertical / forces), '--params',
+                         str(vertical / 'payload.yaml'), '-o', str(out)]) == 0
+    assert a.read_text() == b.read_text()
