@@ -50,7 +50,7 @@ setup(
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
-            'flight-sim-dynamics = flight_sim_dynamics.cli.main:main',
+            'flight-sim-dynamics = flight_sim_dynamics.__main__:main',
             'dynamics_node = flight_sim_dynamics.ros.node:main',
             'platform_sim = flight_sim_dynamics.ros.sim_node:main',
         ],

@@ -13,18 +13,34 @@ Python API (model/data style)::
 
 The numerical core imports numpy only; rclpy is needed by the node alone.
 """
-from .core import trajectories
-from .core.forward_dynamics import ForwardDynamics, forward_dynamics
-from .core.forward_kinematics import ForwardSolution, forward_kinematics
-from .core.kinematics import UnreachablePoseError
-from .core.model import JOINT_NAMES, LEG_NAMES, Model
-from .config.parameters import ParameterError, load_model
-from .core.simulation import Servo, Simulation, simulate
-from .core.solver import Solution, solve, solve_batch
-from .core.status import Status
+import importlib
+from typing import Any
 
-__all__ = ['load_model', 'solve', 'solve_batch', 'forward_kinematics', 'forward_dynamics',
-           'simulate', 'Simulation', 'Servo', 'Model', 'Solution', 'ForwardSolution',
-           'ForwardDynamics', 'Status', 'ParameterError',
-           'UnreachablePoseError', 'JOINT_NAMES', 'LEG_NAMES', 'trajectories']
+#: The public API, name -> module: imported on first use, so that importing
+#: the package is quick (the command line's Ctrl-C handler is in place before numpy loads).
+_API = {'trajectories': '.core.trajectories',
+        'ForwardDynamics': '.core.forward_dynamics', 'forward_dynamics': '.core.forward_dynamics',
+        'ForwardSolution': '.core.forward_kinematics',
+        'forward_kinematics': '.core.forward_kinematics',
+        'UnreachablePoseError': '.core.kinematics', 'JOINT_NAMES': '.core.model',
+        'LEG_NAMES': '.core.model', 'Model': '.core.model', 'ParameterError': '.config.parameters',
+        'load_model': '.config.parameters', 'Servo': '.core.simulation',
+        'Simulation': '.core.simulation', 'simulate': '.core.simulation',
+        'Solution': '.core.solver', 'solve': '.core.solver', 'solve_batch': '.core.solver',
+        'Status': '.core.status'}
+
+__all__ = list(_API)
 __version__ = '0.1.0'
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _API:
+        raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+    module = importlib.import_module(_API[name], __name__)
+    value = module if name == 'trajectories' else getattr(module, name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

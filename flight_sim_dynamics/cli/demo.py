@@ -31,6 +31,7 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 
 from ..core.motions import PLANNER_MOTIONS as MOTIONS
@@ -39,7 +40,7 @@ from ..config.parameters import default_params_path
 from ..ros.planner import PlannerNode, setpoint_qos, spin_until
 from ..ros.dynamics_node import default_qos
 from ..ros.setpoints import DIAGNOSTIC_TASK, LEVEL_NAMES, quaternion_to_rpy
-from ..ros.process import SIM_MODULE, start_node, stop_node
+from ..ros.process import SIM_MODULE, start_node, stop_node, stop_on_signals, stop_requested
 
 #: How the twin reads the dynamics node's answers: one remap.
 TWIN_REMAP = ('-r', 'actuator_commands:=actuator_states')
@@ -96,6 +97,8 @@ def round_trip(executor: Any, planner: PlannerNode, monitor: Monitor,
     deadline = time.monotonic() + timeout
     answered = False
     while not answered and time.monotonic() < deadline:
+        if stop_requested():
+            raise KeyboardInterrupt
         stamp = planner.get_clock().now().nanoseconds - 1_000_000_000
         planner.probe(stamp)
         answered = spin_until(executor, lambda: stamp in monitor.stamps[-5:], timeout=0.2)
@@ -257,6 +260,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the demo; 0 when every setpoint was answered."""
     argv = list(sys.argv[1:] if argv is None else argv)
     args = build_parser().parse_args(rclpy.utilities.remove_ros_args(['demo', *argv])[1:])
+    # Ctrl-C requests a stop, seen between callbacks (as in the node executables):
+    # no KeyboardInterrupt raised inside a timer callback
+    stop_on_signals()
     params_file = args.params_file or default_params_path()
     args.output.parent.mkdir(parents=True, exist_ok=True)
     log_path = args.output.with_name(args.output.stem + '_node.log')   # next to the PNG
@@ -270,7 +276,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f'[demo] starting the twin: platform_sim --ros-args -r '
               f'actuator_commands:=actuator_states (log: {twin_log})')
     context = rclpy.Context()
-    rclpy.init(args=['demo', *argv], context=context)
+    rclpy.init(args=['demo', *argv], context=context,
+               signal_handler_options=SignalHandlerOptions.NO)
     from rclpy.experimental import EventsExecutor
     executor = EventsExecutor(context=context)
     planner = PlannerNode(sequence, args.rate, context=context)
@@ -284,8 +291,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     def twin_down() -> bool:
         return twin_proc is not None and twin_proc.poll() is not None
 
+    def spin(predicate: Any, timeout: float | None = None) -> bool:
+        done = spin_until(executor, predicate, timeout)
+        if stop_requested():
+            raise KeyboardInterrupt
+        return done
+
     try:
-        ready = spin_until(executor, lambda: (
+        ready = spin(lambda: (
             planner.subscribers_ready() and monitor.sub.get_publisher_count() > 0
             and (twin is None or twin.sub.get_publisher_count() > 0)
             or node_proc.poll() is not None or twin_down()), timeout=20.0)
@@ -313,13 +326,13 @@ def main(argv: Sequence[str] | None = None) -> int:
                 print(text, flush=True)
 
         while not planner.done:
-            spin_until(executor, lambda: planner.done or time.monotonic() - live.last_time >= 1.0)
+            spin(lambda: planner.done or time.monotonic() - live.last_time >= 1.0)
             if node_proc.poll() is not None:
                 print('[demo] the node exited; its log:\n' + log_path.read_text()[-2000:])
                 return 1
             if time.monotonic() - live.last_time >= 1.0:
                 summary()
-        spin_until(executor, lambda: len(monitor.stamps) >= planner.sent, timeout=5.0)
+        spin(lambda: len(monitor.stamps) >= planner.sent, timeout=5.0)
         summary(final=True)
         received = len(monitor.stamps)
         latency = sorted((r - s) * 1e-6 for r, s in zip(monitor.received_at, monitor.stamps))
@@ -337,8 +350,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         twin_ok = True
         if twin is not None:
             end_ns = t0_ns + round((planner.sent - 1) * 1e9 / args.rate)
-            spin_until(executor, lambda: bool(twin.rows) and twin.rows[-1][0] >= end_ns,
-                       timeout=3.0)
+            spin(lambda: bool(twin.rows) and twin.rows[-1][0] >= end_ns,
+                 timeout=3.0)
             t, simulated, commanded = tracking(twin, sequence, t0_ns, end_ns)
             print(f'[demo] twin: {twin_summary(t, simulated, commanded)}')
             twin_ok = len(t) > 0 and not twin_down()
