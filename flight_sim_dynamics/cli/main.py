@@ -373,6 +373,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         epilog=f'Example: {PROG} example vertical -o vertical.csv && '
                f'{PROG} solve vertical.csv -o out.csv && {PROG} plot out.csv -o fig.png. '
                'Errors: exit status 2 and one line "error: ..." on standard error.')
+    parser.add_argument('--version', action='version', version=f'%(prog)s {fsd.__version__}')
     sub = parser.add_subparsers(dest='command', metavar='COMMAND', parser_class=_Parser)
     for name, (help_text, configure, handler) in SUBCOMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text[:1].upper() + help_text[1:])
@@ -383,6 +384,24 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         # Listed for --help only: main() forwards these before argparse runs.
         sub.add_parser(name, help=help_text + ' (options are passed through)', add_help=False)
     return parser
+
+
+#: The options that name a file a command reads.
+INPUT_OPTIONS = ('input', 'csv', 'forces', 'reference', 'params', 'plant_params')
+
+
+def refuse_replacing_an_input(args: argparse.Namespace) -> None:
+    """CliError when ``-o`` names a file the command reads (os.path.samefile:
+    links and other spellings too): it would be replaced before it is read.
+    """
+    output = getattr(args, 'output', None)
+    for name in INPUT_OPTIONS:
+        given = getattr(args, name, None)
+        if isinstance(given, str) and isinstance(output, str) and '-' not in (given, output):
+            with contextlib.suppress(OSError):      # either does not exist yet: not the same
+                if os.path.samefile(given, output):
+                    raise CliError(f'-o {output} is the input {given}: it would be replaced; '
+                                   'write to another file')
 
 
 def _one_line(message: object) -> str:
@@ -404,6 +423,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             parser.print_help(sys.stderr)
             return 2
         args.argv = argv[1:]            # the options as given (workspace's markdown names them)
+        refuse_replacing_an_input(args)
         return args.handler(args)
     except KeyboardInterrupt:
         print('error: interrupted', file=sys.stderr)

@@ -146,7 +146,8 @@ def markdown(results: Sequence[RollResult], motions: Sequence[MotionReport], mod
     return '\n'.join(out)
 
 
-_CAUSE_STYLE = {LOOP_D: dict(color='0.86', hatch='//', label='unreachable: loop D cannot close'),
+_CAUSE_STYLE = {LOOP_D: dict(color='0.86', hatch='//', label='unreachable: loop D cannot close '
+                             '(crank D cannot reach the rod), outside and in the enclosed disk'),
                 LOOP_E: dict(color='0.62', hatch='\\\\', label='unreachable: loop E cannot close'),
                 E2_OFF_ROD: dict(color='#f4c58f', hatch='xx',
                                  label='unreachable: slider E2 off the rod (outside A3-G)'),

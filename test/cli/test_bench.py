@@ -3,6 +3,7 @@ the accuracy side is right. No timing is asserted (the machine is shared)."""
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -93,3 +94,14 @@ def test_cli_registers_bench():
     args = cli.build_parser().parse_args(['bench', '--quick', '--out-dir', 'x', '--no-plot'])
     assert args.quick and args.no_plot and args.out_dir == 'x'
     assert callable(args.handler)
+
+
+def test_the_figure_caption_describes_the_bar_chart_and_the_docs_page_has_it(quick_run):
+    """The caption under scenes.png is written by bench with the figure: bars
+    per variant (error left, time right), not a scatter of time against error;
+    docs/scenes.md is the page bench writes."""
+    md = quick_run[2]
+    caption = md.split('](scenes.png)', 1)[1].split('##', 1)[0].strip()
+    assert 'bar' in caption and 'x =' not in caption, caption
+    docs = (Path(__file__).resolve().parents[2] / 'docs' / 'scenes.md').read_text()
+    assert caption in docs and 'dotted floor' not in docs

@@ -638,3 +638,55 @@ def test_forward_round_trip_from_the_command_line(tmp_path, capsys):
     assert cli.main(['forward', '3', '3', '3']) == 1
     assert 'status=unreachable' in capsys.readouterr().out
     assert cli.main(['forward', '1', '2']) == 2
+
+
+@pytest.mark.parametrize('command', ['solve', 'simulate', 'plot', 'link'])
+def test_an_output_that_is_an_input_is_refused_and_the_input_kept(tmp_path, capsys, command):
+    write_trajectory(tmp_path / 'traj.csv', 'vertical')
+    assert cli.main(['solve', str(tmp_path / 'traj.csv'), '-o', str(tmp_path / 's.csv')]) == 0
+    before = {p: p.read_bytes() for p in tmp_path.iterdir()}
+    args = {'solve': ['solve', str(tmp_path / 'traj.csv'), '-o', str(tmp_path / 'traj.csv')],
+            'simulate': ['simulate', '--forces', str(tmp_path / 's.csv'), '-o',
+                         str(tmp_path / '.' / 's.csv')],
+            'plot': ['plot', str(tmp_path / 's.csv'), '-o', str(tmp_path / 's.csv')],
+            'link': ['solve', str(tmp_path / 'traj.csv'), '-o', str(tmp_path / 'l.csv')]}
+    if command == 'link':
+        (tmp_path / 'l.csv').symlink_to(tmp_path / 'traj.csv')
+        before[tmp_path / 'l.csv'] = (tmp_path / 'l.csv').read_bytes()
+    assert cli.main(args[command]) == 2
+    one_error_line(capsys.readouterr().err)
+    assert {p: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
+def test_version(capsys):
+    import flight_sim_dynamics as fsd
+    assert cli.main(['--version']) == 0
+    assert fsd.__version__ in capsys.readouterr().out
+
+
+def test_the_demo_twin_figure_shows_its_labels_whole(tmp_path, monkeypatch):
+    """demo_twin.png: every axis label inside the saved figure (constrained layout)."""
+    pytest.importorskip('matplotlib')
+    pytest.importorskip('rclpy')
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from flight_sim_dynamics.cli import demo
+    from flight_sim_dynamics.core.motions import PLANNER_MOTIONS, PlannerSequence
+    saved = []
+    original = Figure.savefig
+    monkeypatch.setattr(Figure, 'savefig',
+                        lambda self, *a, **k: (saved.append(self), original(self, *a, **k)))
+    sequence = PlannerSequence(list(PLANNER_MOTIONS))
+    t = np.linspace(0.0, sequence.period, 500)
+    commanded = np.array([sequence.sample(x)[0] for x in t])
+    demo.plot_tracking(t, commanded + 1e-4, commanded, sequence, tmp_path / 'demo_twin.png')
+    fig, = saved
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    box = fig.bbox
+    for ax in fig.axes:
+        for label in (ax.yaxis.label, ax.xaxis.label):
+            if label.get_text():
+                extent = label.get_window_extent(renderer)
+                assert box.x0 <= extent.x0 and extent.x1 <= box.x1, label.get_text()
+                assert box.y0 <= extent.y0 and extent.y1 <= box.y1, label.get_text()

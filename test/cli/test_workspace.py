@@ -282,3 +282,21 @@ def test_the_legend_is_short_and_regions_are_drawn_one_by_one():
     regions = cli_workspace._regions((r < 0.2) | (r >= 0.6))      # an island inside a ring
     assert sorted(int(m.sum()) for m in regions)[0] == int((r < 0.2).sum())
     assert len(regions) == 2
+
+
+def test_the_enclosed_disk_of_the_map_is_named_in_the_legend():
+    """The default map has a small region of its own inside the E2-off-rod one
+    (a disk, at about surge -0.25 m, heave -1.1 m): loop D, the same cause as
+    the outer band, and the legend's loop D entry says it covers both."""
+    from flight_sim_dynamics.cli import workspace as cli_workspace
+    from flight_sim_dynamics.core.workspace import LOOP_D, REACHABLE
+
+    model = fsd.load_model()
+    surge, heave = np.meshgrid(np.linspace(-0.8, 0.2, 21), np.linspace(-1.6, -0.6, 21))
+    q = np.column_stack([surge.ravel(), heave.ravel(), np.zeros(surge.size)])
+    disk = ws.categorise(ws.at_rest(model, q)).reshape(surge.shape) == LOOP_D
+    assert disk[10, 11]                                           # (-0.25, -1.1)
+    assert not (disk[0].any() or disk[-1].any() or disk[:, 0].any() or disk[:, -1].any())
+    _, labels = cli_workspace._legend_handles(model, {REACHABLE, LOOP_D})
+    loop_d = [label for label in labels if label.startswith('unreachable: loop D')]
+    assert len(loop_d) == 1 and 'disk' in loop_d[0], labels
