@@ -67,10 +67,8 @@ class SimConfig:
 
 
 def sim_config(values: Mapping[str, Any]) -> SimConfig:
-    """Check every twin parameter (dotted names, defaults for the absent ones)
-    and build the plant (:func:`..config.parameters.load_model`) and its
-    servos; raises ParameterError (also for a plant scene without inertia or
-    a start pose the plant cannot take).
+    """The checked parameters (defaults for the absent ones), plant and servos;
+    ParameterError also for a scene without inertia or a pose the plant cannot take.
     """
     checked = {spec.name: prm.check_value(spec, values.get(spec.name, spec.default))
                for spec in SIM_PARAMETERS}
@@ -157,10 +155,7 @@ class CommandStats:
         self._overruns_at_start = self.overruns
 
     def stamp(self, stamp_ns: int) -> None:
-        """Accept a command's stamp, or raise SetpointError (repeated, or
-        before the last accepted one; :data:`RESTART_AFTER` in a row are a
-        restart, accepted).
-        """
+        """Accept a command's stamp or raise SetpointError (:data:`RESTART_AFTER`)."""
         last = self.last_stamp
         if last is not None and stamp_ns <= last:
             self._behind += 1
@@ -178,9 +173,7 @@ class CommandStats:
         self.last_rejection = f'{reason}: {message}'
 
     def tick(self, work: float, period: float, dropped: int) -> None:
-        """One tick of the loop: its work time (s) against its period; steps
-        it had to drop.
-        """
+        """One tick: its work time (s) against its period, steps it dropped."""
         self._work.append(work)
         if dropped or work > period:
             self.overruns += 1
@@ -188,9 +181,8 @@ class CommandStats:
 
     def report(self, now: float, twin: TwinStepper, started: bool, rate: float
                ) -> tuple[int, str, list[tuple[str, str]]]:
-        """(level, message, [(key, value), ...]) for this period; starts a new
-        one. ERROR once the plant stopped; WARN for rejections, overruns or a
-        plant beyond an actuator limit this period.
+        """(level, message, [(key, value), ...]) of this period, and a new one:
+        ERROR stopped; WARN rejections, overruns or the plant beyond a limit.
         """
         wall = now - self._start if self._start is not None else math.nan
         simulated = twin.time - self._sim_start
@@ -236,9 +228,7 @@ class CommandStats:
 
 
 class PlatformSim(Node):
-    """The digital twin as a ROS 2 node (module docstring); ``kwargs`` go to
-    rclpy's Node. Invalid start-up parameters raise ParameterError.
-    """
+    """The twin node; ``kwargs`` go to rclpy's Node; bad parameters raise ParameterError."""
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(SIM_NODE_NAME, automatically_declare_parameters_from_overrides=True,
@@ -278,10 +268,9 @@ class PlatformSim(Node):
         self._diag_timer = self.create_timer(values['diagnostics.period'],
                                              self._on_diagnostics, clock=steady)
         self.get_logger().info(
-            f"ready: plant scene {self.config.plant.scene}, RK4 at {self._rate:g} Hz, "
-            f"ticks at {values['tick_rate']:g} Hz, servo {values['servo.bandwidth']:g} Hz "
-            f"(kp {', '.join(f'{k:.4g}' for k in self.config.servo.kp)} N/m); waiting for "
-            'actuator_commands')
+            f"ready: plant scene {self.config.plant.scene}, RK4 at {self._rate:g} Hz, ticks at "
+            f"{values['tick_rate']:g} Hz, servo {values['servo.bandwidth']:g} Hz (kp "
+            f"{', '.join(f'{k:.4g}' for k in self.config.servo.kp)} N/m); waiting for commands")
 
     def _rest(self) -> None:
         """At rest at ``initial``, waiting for a first command (any stamp)."""
@@ -294,9 +283,7 @@ class PlatformSim(Node):
         self._dropped = 0                        # steps dropped after stalls
 
     def _catch_up(self, now: float) -> int:
-        """Make the steps due at ``now`` (monotonic s); returns the steps
-        dropped (more than ``max_catch_up`` due after a stall).
-        """
+        """Make the steps due at ``now``; the steps dropped beyond ``max_catch_up``."""
         if self._started_at is None or not self.twin.running:
             return 0
         due = int((now - self._started_at) * self._rate) - self.twin.steps - self._dropped
@@ -374,9 +361,7 @@ class PlatformSim(Node):
                               f'{type(exc).__name__}: {exc}', error=True)
 
     def _publish(self) -> None:
-        """The state, stamped with the simulated time on the ROS clock (its
-        now before the first command and once stopped).
-        """
+        """The state at its simulated time (ROS now before it starts, once stopped)."""
         twin = self.twin
         if self._started_at is None or not twin.running:
             stamp_ns = self.get_clock().now().nanoseconds
