@@ -311,7 +311,7 @@ if set(_GEOMETRY_DEFAULTS) != set(GEOMETRY_KEYS):   # one list of lengths: core.
     raise ImportError(f'schema geometry {sorted(_GEOMETRY_DEFAULTS)} != core.model.GEOMETRY_KEYS')
 
 # ----------------------------------------------------------------------------
-# Parameters of the twin node (platform_sim, docs/twin_node.md): the plant is
+# Parameters of the twin node (platform_sim, docs/twin.md): the plant is
 # a model built by the one rule (load_model of a params file and a scene).
 # ----------------------------------------------------------------------------
 SIM_NODE_NAME = 'platform_sim'

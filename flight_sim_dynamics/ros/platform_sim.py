@@ -1,15 +1,10 @@
-"""The twin node ``platform_sim``: the machine without the machine.
+"""The twin node ``platform_sim``: the machine without the machine (docs/twin.md).
 
-Subscribes ``actuator_commands`` (JointState in the layout of the dynamics
-node's ``actuator_states``: leg length and rate references, feed-forward
-forces; ``-r actuator_commands:=actuator_states`` connects the two), runs
-servos and plant in real time (:class:`..core.twin.TwinStepper`: RK4 at
-``rate``, the last command held; a timer at ``tick_rate`` makes the steps due,
-a command first brings the plant up to its arrival) and publishes
-``platform_pose``, ``platform_twist``, ``measured_actuator_states`` and
-/diagnostics. A bad command is rejected, counted and logged (throttled); a
-plant that leaves the workspace stops at rest with an ERROR status; nothing
-non-finite is published. Parameters are read-only. docs/twin_node.md.
+A command is checked as it arrives and kept; the tick (``tick_rate``) holds
+the newest one from its arrival on, makes the RK4 steps due at ``rate``
+(:class:`..core.twin.TwinStepper`) and publishes the state. So a burst of
+commands costs a decode and a check each, never the loop its rate: commands
+a newer one replaced before a tick are counted, not simulated.
 """
 from __future__ import annotations
 
@@ -19,10 +14,14 @@ from dataclasses import dataclass
 from typing import Any, Mapping, Sequence
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import PoseStamped, TwistStamped
+from geometry_msgs.msg import Point, Pose, PoseStamped, Quaternion, Twist, TwistStamped, Vector3
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
+from rclpy.serialization import deserialize_message
+from rclpy.time import Time
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Header
+from std_srvs.srv import Trigger
 
 from ..config import parameters as prm
 from ..config.schema import SIM_NODE_NAME, SIM_PARAMETERS
@@ -36,16 +35,22 @@ from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, STAMP_BACKWARDS, STA
 
 #: Seconds between two log lines of one rejection reason.
 LOG_THROTTLE = 2.0
+UNDECODABLE = 'undecodable'      # bytes that are no JointState
 BAD_NAMES = 'bad_names'          # names that are not the three legs, once each
 BAD_SIZE = 'bad_size'            # an array of another size than 3 (or 0: velocity, effort)
+BEYOND_LIMITS = 'beyond_limits'  # no command the machine could be sent (LIMIT_MARGIN)
 #: Why a command is rejected, in the order /diagnostics lists them.
-COMMAND_REASONS = (BAD_NAMES, BAD_SIZE, NON_FINITE, STAMP_REPEATED, STAMP_BACKWARDS)
+COMMAND_REASONS = (UNDECODABLE, BAD_NAMES, BAD_SIZE, NON_FINITE, BEYOND_LIMITS,
+                   STAMP_REPEATED, STAMP_BACKWARDS)
+#: A command beyond this many times the force or speed limit, or a stroke
+#: beyond the stroke range by more than the range itself, is a fault upstream:
+#: held, the servos would drive the plant out of its workspace at full force.
+LIMIT_MARGIN = 10.0
 #: Commands in a row stamped before the last accepted one that are a restart
 #: of the stream (a planner restarted with its clock): accepted from then on.
 RESTART_AFTER = 3
 #: The status name of the twin in /diagnostics (``<node>: <task>``).
 SIM_TASK = 'platform simulation'
-SIM_SPECS: Mapping[str, prm.ParamSpec] = {spec.name: spec for spec in SIM_PARAMETERS}
 
 
 @dataclass(frozen=True)
@@ -56,22 +61,17 @@ class SimConfig:
     plant: Model
     servo: Servo
 
-    @property
-    def step(self) -> float:
-        return 1.0 / self.values['rate']
-
     def stepper(self) -> TwinStepper:
-        return TwinStepper(self.plant, self.servo, self.step, self.values['initial'])
+        return TwinStepper(self.plant, self.servo, 1.0 / self.values['rate'],
+                           self.values['initial'])
 
 
 def sim_config(values: Mapping[str, Any]) -> SimConfig:
-    """Check every twin parameter (dotted names, defaults for the absent ones)
-    and build the plant (:func:`..config.parameters.load_model`) and its
-    servos; raises ParameterError (also for a plant scene without inertia or
-    a start pose the plant cannot take).
+    """The checked parameters (defaults for the absent ones), plant and servos;
+    ParameterError also for a scene without inertia or a pose the plant cannot take.
     """
-    checked = {name: prm.check_value(spec, values.get(name, spec.default))
-               for name, spec in SIM_SPECS.items()}
+    checked = {spec.name: prm.check_value(spec, values.get(spec.name, spec.default))
+               for spec in SIM_PARAMETERS}
     try:
         plant = prm.load_model(checked['plant.params_file'] or None,
                                checked['plant.scene'] or None)
@@ -97,7 +97,7 @@ def sim_config(values: Mapping[str, Any]) -> SimConfig:
 
 
 def check_command(names: Sequence[str], position: Sequence[float],
-                  velocity: Sequence[float], effort: Sequence[float]
+                  velocity: Sequence[float], effort: Sequence[float], plant: Model
                   ) -> tuple[Vec3, Vec3, Vec3]:
     """(length, rate, force) of a command, legs A, B, C; raises
     :class:`SetpointError` with the reason (:data:`COMMAND_REASONS`; the
@@ -106,22 +106,27 @@ def check_command(names: Sequence[str], position: Sequence[float],
     if len(names) != 3 or sorted(names) != sorted(LEG_NAMES):
         raise SetpointError(BAD_NAMES, f'names must be {", ".join(LEG_NAMES)} once each, '
                                        f'got {list(names)!r:.200}')
-    if len(position) != 3:
-        raise SetpointError(BAD_SIZE, f'position must have 3 values, got {len(position)}')
-    for what, values in (('velocity', velocity), ('effort', effort)):
-        if len(values) not in (0, 3):
-            raise SetpointError(BAD_SIZE, f'{what} must have 3 values or none, '
-                                          f'got {len(values)}')
     order = [names.index(leg) for leg in LEG_NAMES]
     out = []
     for what, values in (('position', position), ('velocity', velocity), ('effort', effort)):
-        if not values:
-            out.append((0.0, 0.0, 0.0))
-            continue
-        picked = (float(values[order[0]]), float(values[order[1]]), float(values[order[2]]))
+        if len(values) != 3 and (what == 'position' or len(values)):
+            raise SetpointError(BAD_SIZE, f'{what} must have 3 values'
+                                + ('' if what == 'position' else ' or none')
+                                + f', got {len(values)}')
+        picked = tuple(float(values[i]) for i in order) if len(values) else (0.0, 0.0, 0.0)
         if not all(math.isfinite(v) for v in picked):
             raise SetpointError(NON_FINITE, f'{what} has a non-finite value {picked!r}')
         out.append(picked)
+    lim = plant.limits
+    span = lim.stroke_max - lim.stroke_min
+    for what, values, low, high in (
+            ('stroke (m)', [v - v0 for v, v0 in zip(out[0], plant.geometry.L0)],
+             lim.stroke_min - span, lim.stroke_max + span),
+            ('rate (m/s)', out[1], -LIMIT_MARGIN * lim.max_speed, LIMIT_MARGIN * lim.max_speed),
+            ('force (N)', out[2], -LIMIT_MARGIN * lim.max_force, LIMIT_MARGIN * lim.max_force)):
+        if not all(low <= v <= high for v in values):
+            raise SetpointError(BEYOND_LIMITS, f'{what} {[f"{v:.4g}" for v in values]} beyond '
+                                               f'[{low:.4g}, {high:.4g}]')
     return out[0], out[1], out[2]
 
 
@@ -133,6 +138,7 @@ class CommandStats:
     def __init__(self) -> None:
         self.received = 0
         self.accepted = 0
+        self.superseded = 0                  # accepted, replaced by a newer one before a tick
         self.rejected = {reason: 0 for reason in COMMAND_REASONS}
         self.restarts = 0
         self.last_rejection = ''
@@ -140,20 +146,16 @@ class CommandStats:
         self._behind = 0
         self.overruns = 0                    # ticks late or with dropped steps, total
         self.dropped_steps = 0
-        self.non_finite_outputs = 0          # states not published (never seen: a guard)
-        self._period_reset(None, 0.0)
+        self.new_period(None, 0.0)
 
-    def _period_reset(self, now: float | None, sim_time: float) -> None:
+    def new_period(self, now: float | None, sim_time: float) -> None:
         self._start, self._sim_start = now, sim_time
         self._work: list[float] = []
         self._rejected_at_start = sum(self.rejected.values())
         self._overruns_at_start = self.overruns
 
     def stamp(self, stamp_ns: int) -> None:
-        """Accept a command's stamp, or raise SetpointError (repeated, or
-        before the last accepted one; :data:`RESTART_AFTER` in a row are a
-        restart, accepted).
-        """
+        """Accept a command's stamp or raise SetpointError (:data:`RESTART_AFTER`)."""
         last = self.last_stamp
         if last is not None and stamp_ns <= last:
             self._behind += 1
@@ -171,9 +173,7 @@ class CommandStats:
         self.last_rejection = f'{reason}: {message}'
 
     def tick(self, work: float, period: float, dropped: int) -> None:
-        """One tick of the loop: its work time (s) against its period; steps
-        it had to drop.
-        """
+        """One tick: its work time (s) against its period, steps it dropped."""
         self._work.append(work)
         if dropped or work > period:
             self.overruns += 1
@@ -181,9 +181,8 @@ class CommandStats:
 
     def report(self, now: float, twin: TwinStepper, started: bool, rate: float
                ) -> tuple[int, str, list[tuple[str, str]]]:
-        """(level, message, [(key, value), ...]) for this period; starts a new
-        one. ERROR once the plant stopped; WARN for rejections, overruns or a
-        plant beyond an actuator limit this period.
+        """(level, message, [(key, value), ...]) of this period, and a new one:
+        ERROR stopped; WARN rejections, overruns or the plant beyond a limit.
         """
         wall = now - self._start if self._start is not None else math.nan
         simulated = twin.time - self._sim_start
@@ -192,17 +191,12 @@ class CommandStats:
         n = len(work)
         rejected = sum(self.rejected.values()) - self._rejected_at_start
         overruns = self.overruns - self._overruns_at_start
-        problems = []
-        level = OK
         if not twin.running:
             level, problems = ERROR, [f'stopped: {twin.outcome}: {twin.detail}']
         else:
-            if rejected:
-                problems.append(f'{rejected} commands rejected')
-            if overruns:
-                problems.append(f'{overruns} overruns')
-            if str(twin.status) != 'ok':
-                problems.append(f'plant {twin.status}: {twin.status_detail}')
+            problems = [text for show, text in (
+                (rejected, f'{rejected} commands rejected'), (overruns, f'{overruns} overruns'),
+                (str(twin.status) != 'ok', f'plant {twin.status}: {twin.status_detail}')) if show]
             level = WARN if problems else OK
         message = ('; '.join(problems) if problems
                    else 'waiting for commands' if not started else 'OK')
@@ -223,20 +217,18 @@ class CommandStats:
             ('steps dropped', str(self.dropped_steps)),
             ('commands received', str(self.received)),
             ('commands accepted', str(self.accepted)),
+            ('commands superseded', str(self.superseded)),
             ('rejected total', str(sum(self.rejected.values()))),
         ]
         values += [(f'rejected {reason}', str(count)) for reason, count in self.rejected.items()]
         values += [('stream restarts', str(self.restarts)),
-                   ('non-finite states not published', str(self.non_finite_outputs)),
                    ('last rejection', self.last_rejection)]
-        self._period_reset(now, twin.time)
+        self.new_period(now, twin.time)
         return level, message, values
 
 
 class PlatformSim(Node):
-    """The digital twin as a ROS 2 node (module docstring); ``kwargs`` go to
-    rclpy's Node. Invalid start-up parameters raise ParameterError.
-    """
+    """The twin node; ``kwargs`` go to rclpy's Node; bad parameters raise ParameterError."""
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(SIM_NODE_NAME, automatically_declare_parameters_from_overrides=True,
@@ -253,29 +245,21 @@ class PlatformSim(Node):
         self.config = sim_config({spec.name: plain(self.get_parameter(spec.name).value)
                                   for spec in SIM_PARAMETERS})
         values = self.config.values
-        self.twin = self.config.stepper()
         self.stats = CommandStats()
         self._rate = values['rate']
         self._tick_period = 1.0 / values['tick_rate']
         self._max_steps = max(1, int(values['max_catch_up'] * self._rate))
-        self._started_at: float | None = None    # monotonic time of the first command
-        self._stamp0 = 0                         # ROS time (ns) of simulated time 0
-        self._dropped = 0                        # steps dropped after stalls
         self._throttle = LogThrottle(LOG_THROTTLE)
+        self._rest()
 
-        frame_id = values['frame_id']
-        self._pose = PoseStamped()
-        self._pose.header.frame_id = frame_id
-        self._twist = TwistStamped()
-        self._twist.header.frame_id = frame_id
-        self._measured = JointState(name=list(LEG_NAMES))
-        self._measured.header.frame_id = frame_id
         self._pose_pub = self.create_publisher(PoseStamped, 'platform_pose', default_qos())
         self._twist_pub = self.create_publisher(TwistStamped, 'platform_twist', default_qos())
         self._measured_pub = self.create_publisher(JointState, 'measured_actuator_states',
                                                    default_qos())
+        # raw: a message that does not decode is counted, not lost inside rclpy
         self._command_sub = self.create_subscription(JointState, 'actuator_commands',
-                                                     self._on_command, default_qos())
+                                                     self._on_command, default_qos(), raw=True)
+        self._reset_srv = self.create_service(Trigger, '~/reset', self._on_reset)
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self._diag_name = diagnostic_name(self.get_fully_qualified_name(), SIM_TASK)
         # Timers on the steady clock: they keep ticking with use_sim_time and no /clock.
@@ -284,116 +268,123 @@ class PlatformSim(Node):
         self._diag_timer = self.create_timer(values['diagnostics.period'],
                                              self._on_diagnostics, clock=steady)
         self.get_logger().info(
-            f"ready: plant scene {self.config.plant.scene}, RK4 at {self._rate:g} Hz, "
-            f"ticks at {values['tick_rate']:g} Hz, servo {values['servo.bandwidth']:g} Hz "
-            f"(kp {', '.join(f'{k:.4g}' for k in self.config.servo.kp)} N/m); waiting for "
-            'actuator_commands')
+            f"ready: plant scene {self.config.plant.scene}, RK4 at {self._rate:g} Hz, ticks at "
+            f"{values['tick_rate']:g} Hz, servo {values['servo.bandwidth']:g} Hz (kp "
+            f"{', '.join(f'{k:.4g}' for k in self.config.servo.kp)} N/m); waiting for commands")
 
-    # -- the loop -------------------------------------------------------------------------
+    def _rest(self) -> None:
+        """At rest at ``initial``, waiting for a first command (any stamp)."""
+        self.twin = self.config.stepper()
+        self.stats.last_stamp = None
+        self.stats.new_period(time.monotonic(), 0.0)
+        self._pending: tuple[float, tuple[Vec3, Vec3, Vec3]] | None = None  # (arrival, command)
+        self._started_at: float | None = None    # monotonic time of the first command
+        self._stamp0 = 0                         # ROS time (ns) of simulated time 0
+        self._dropped = 0                        # steps dropped after stalls
+
     def _catch_up(self, now: float) -> int:
-        """Make the steps due at ``now`` (monotonic s); returns the steps
-        dropped (more than ``max_catch_up`` due after a stall).
-        """
+        """Make the steps due at ``now``; the steps dropped beyond ``max_catch_up``."""
         if self._started_at is None or not self.twin.running:
             return 0
         due = int((now - self._started_at) * self._rate) - self.twin.steps - self._dropped
-        dropped = 0
-        if due > self._max_steps:
-            dropped = due - self._max_steps
-            self._dropped += dropped
-            due = self._max_steps
-        if due > 0:
-            self.twin.advance(due)
+        dropped = max(0, due - self._max_steps)
+        self._dropped += dropped
+        if due - dropped > 0:
+            self.twin.advance(due - dropped)
         return dropped
 
     def _on_tick(self) -> None:
         try:
             start = time.monotonic()
-            dropped = self._catch_up(start)
+            dropped = 0
+            if self._pending is not None:
+                arrival, command = self._pending
+                self._pending = None
+                if self._started_at is None:
+                    self._started_at = arrival
+                    self._stamp0 = self.get_clock().now().nanoseconds - round(
+                        (start - arrival) * 1e9)
+                    self.get_logger().info('first command: the simulation runs')
+                dropped = self._catch_up(arrival)      # the held command up to its arrival
+                self.twin.command(*command)
+            dropped += self._catch_up(start)
             self._publish()
             if self._started_at is not None:
                 self.stats.tick(time.monotonic() - start, self._tick_period, dropped)
         except Exception as exc:  # noqa: BLE001 - nothing escapes a callback
             self._internal_error(exc)
 
-    def _on_command(self, msg: JointState) -> None:
-        """One command: checked, then held from its arrival on."""
+    def _on_command(self, data: bytes) -> None:
+        """Decode and check a command; keep it for the next tick."""
         stats = self.stats
         try:
             now = time.monotonic()
             stats.received += 1
-            stamp = msg.header.stamp
             try:
-                length, rate, force = check_command(msg.name, msg.position, msg.velocity,
-                                                    msg.effort)
-                stats.stamp(stamp.sec * 1_000_000_000 + stamp.nanosec)
+                try:
+                    msg = deserialize_message(data, JointState)
+                except Exception as exc:  # noqa: BLE001 - rclpy's RMWError, a private type
+                    raise SetpointError(UNDECODABLE, f'{len(data)} bytes: {exc}') from None
+                command = check_command(msg.name, msg.position, msg.velocity, msg.effort,
+                                        self.config.plant)
+                stats.stamp(msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec)
             except SetpointError as exc:
                 stats.reject(exc.reason, str(exc))
-                self._log_rejection(exc.reason, str(exc), now)
+                self._log(exc.reason, f'command rejected ({exc.reason}): {exc}')
                 return
-            if self._started_at is None:
-                self._started_at = now
-                self._stamp0 = self.get_clock().now().nanoseconds
-                self.get_logger().info('first command: the simulation runs')
-            else:
-                dropped = self._catch_up(now)     # the old command up to now
-                if dropped:
-                    stats.tick(0.0, self._tick_period, dropped)
-            self.twin.command(length, rate, force)
+            stats.superseded += self._pending is not None
+            self._pending = (now, command)
             stats.accepted += 1
         except Exception as exc:  # noqa: BLE001
             self._internal_error(exc)
 
-    def _log_rejection(self, reason: str, message: str, now: float) -> None:
-        skipped = self._throttle(reason, now)
+    def _on_reset(self, request: Trigger.Request, response: Trigger.Response
+                  ) -> Trigger.Response:
+        """Back at rest at ``initial``, the stop and the stamp order cleared."""
+        twin = self.twin
+        was = 'running' if twin.running else f'stopped: {twin.outcome}: {twin.detail}'
+        self._rest()
+        response.success = True
+        response.message = f"at rest at {list(self.config.values['initial'])} (was {was})"
+        self.get_logger().info('reset: ' + response.message)
+        return response
+
+    def _log(self, key: str, text: str, error: bool = False) -> None:
+        """At most one line per ``key`` per :data:`LOG_THROTTLE` s."""
+        skipped = self._throttle(key, time.monotonic())
         if skipped is not None:
             more = f' ({skipped} more since the last line)' if skipped else ''
-            self.get_logger().warn(f'command rejected ({reason}): {message}{more}')
+            (self.get_logger().error if error else self.get_logger().warn)(text + more)
 
     def _internal_error(self, exc: Exception) -> None:
-        skipped = self._throttle('internal', time.monotonic())
-        if skipped is not None:
-            self.get_logger().error(f'internal error (the node carries on): '
-                                    f'{type(exc).__name__}: {exc}')
-
-    # -- outputs ---------------------------------------------------------------------------
-    def _stamp_ns(self) -> int:
-        """Simulated time on the ROS clock (the wall clock's now before the
-        first command and once stopped).
-        """
-        if self._started_at is None or not self.twin.running:
-            return self.get_clock().now().nanoseconds
-        return self._stamp0 + round((self.twin.steps + self._dropped) * 1e9 / self._rate)
+        self._log('internal', f'internal error (the node carries on): '
+                              f'{type(exc).__name__}: {exc}', error=True)
 
     def _publish(self) -> None:
+        """The state at its simulated time (ROS now before it starts, once stopped)."""
         twin = self.twin
-        q, qd = twin.q.tolist(), twin.qd.tolist()
-        length, rate, force = twin.length.tolist(), twin.rate.tolist(), twin.force.tolist()
-        if not math.isfinite(sum(q) + sum(qd) + sum(length) + sum(rate) + sum(force)):
-            self.stats.non_finite_outputs += 1      # a guard: the stepper never gives NaN
-            return
-        sec, nanosec = divmod(self._stamp_ns(), 1_000_000_000)
-        pose = self._pose
-        pose.header.stamp.sec, pose.header.stamp.nanosec = sec, nanosec
-        p, o = pose.pose.position, pose.pose.orientation
-        p.x, p.y, p.z = q[0], 0.0, q[1]
-        o.x, o.y, o.z, o.w = rpy_to_quaternion(q[2])
-        self._pose_pub.publish(pose)
-        twist = self._twist
-        twist.header.stamp.sec, twist.header.stamp.nanosec = sec, nanosec
-        twist.twist.linear.x, twist.twist.linear.z, twist.twist.angular.x = qd
-        self._twist_pub.publish(twist)
-        measured = self._measured
-        measured.header.stamp = pose.header.stamp
-        measured.position, measured.velocity, measured.effort = length, rate, force
-        self._measured_pub.publish(measured)
+        if self._started_at is None or not twin.running:
+            stamp_ns = self.get_clock().now().nanoseconds
+        else:
+            stamp_ns = self._stamp0 + round((twin.steps + self._dropped) * 1e9 / self._rate)
+        header = Header(stamp=Time(nanoseconds=stamp_ns).to_msg(),
+                        frame_id=self.config.values['frame_id'])
+        (x, z, roll), (xd, zd, rolld) = twin.q.tolist(), twin.qd.tolist()
+        ox, oy, oz, w = rpy_to_quaternion(roll)
+        self._pose_pub.publish(PoseStamped(header=header, pose=Pose(
+            position=Point(x=x, z=z), orientation=Quaternion(x=ox, y=oy, z=oz, w=w))))
+        self._twist_pub.publish(TwistStamped(header=header, twist=Twist(
+            linear=Vector3(x=xd, z=zd), angular=Vector3(x=rolld))))
+        self._measured_pub.publish(JointState(
+            header=header, name=LEG_NAMES, position=twin.length.tolist(),
+            velocity=twin.rate.tolist(), effort=twin.force.tolist()))
 
     def _on_diagnostics(self) -> None:
         try:
             level, message, values = self.stats.report(
                 time.monotonic(), self.twin, self._started_at is not None, self._rate)
-            if level == ERROR and self._throttle('stopped', time.monotonic()) is not None:
-                self.get_logger().error(message)
+            if level == ERROR:
+                self._log('stopped', message, error=True)
             msg = DiagnosticArray(status=[DiagnosticStatus(
                 level=bytes([level]), name=self._diag_name, message=message,
                 hardware_id=SIM_NODE_NAME, values=[KeyValue(key=k, value=v) for k, v in values])])

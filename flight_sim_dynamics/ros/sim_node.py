@@ -15,7 +15,7 @@ from .platform_sim import PlatformSim
 
 
 def build_parser() -> argparse.ArgumentParser:
-    return executable_parser(
+    parser = executable_parser(
         'platform_sim',
         'Digital twin of the flight simulator as a ROS 2 node: subscribes '
         'actuator_commands (JointState: leg length and rate references, feed-forward '
@@ -23,7 +23,12 @@ def build_parser() -> argparse.ArgumentParser:
         'plant in real time and publishes platform_pose, platform_twist, '
         'measured_actuator_states and /diagnostics. Connect it to dynamics_node with '
         '--ros-args -r actuator_commands:=actuator_states.',
-        'See docs/twin_node.md for topics and parameters.')
+        'See docs/twin.md for topics and parameters.')
+    # The single-threaded executor looks at the tick timer on every wait, whatever
+    # the command rate; the events executor serves a burst of commands first.
+    executor = parser._option_string_actions['--executor']
+    executor.default, executor.help = 'single', 'rclpy executor (default: single)'
+    return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
