@@ -37,7 +37,8 @@ from sensor_msgs.msg import JointState
 from ..core.motions import PLANNER_MOTIONS as MOTIONS
 from ..core.motions import PlannerSequence
 from ..config.parameters import default_params_path
-from ..ros.planner import PlannerNode, setpoint_qos, spin_until
+from ..ros.node import spin_until
+from ..ros.planner import PlannerNode
 from ..ros.dynamics_node import default_qos
 from ..ros.setpoints import DIAGNOSTIC_TASK, LEVEL_NAMES, quaternion_to_rpy
 from ..ros.process import SIM_MODULE, start_node, stop_node, stop_on_signals, stop_requested
@@ -59,7 +60,7 @@ class Monitor(Node):
         self.status = 'no diagnostics yet'
         self.diagnostics: dict[str, str] = {}
         self.sub = self.create_subscription(JointState, 'actuator_states', self._on_state,
-                                            setpoint_qos(1000))
+                                            default_qos())
         self.diag_sub = self.create_subscription(DiagnosticArray, '/diagnostics',
                                                  self._on_diagnostics, 10)
 

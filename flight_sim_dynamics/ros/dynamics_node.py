@@ -1,23 +1,7 @@
-"""The ROS 2 node (:class:`DynamicsNode`; its executable is :mod:`.node`):
-pose/twist/accel setpoints in, leg lengths, rates and forces out.
-
-Every complete setpoint (pose, twist and acceleration with one header stamp
-on ``pose_setpoint``, ``twist_setpoint``, ``accel_setpoint``; or one point of
-a trajectory_msgs/JointTrajectory over surge, heave, roll on
-``platform_setpoint``) becomes one solve and one ``actuator_states`` and
-``joint_states`` message stamped like it. The rules are rclpy-free
-(:class:`.setpoints.SetpointIntake`); this module subscribes, publishes, logs
-and owns the clocks, the parameters and the lifecycle.
-
-A managed node: ``configure`` validates the parameters, builds the model and
-creates the endpoints (a failure leaves it unconfigured, the reason logged);
-``activate`` starts answering; while inactive, setpoints count as
-``inactive``; ``cleanup`` and ``shutdown`` release the endpoints.
-
-Nothing a client sends takes the node down: rclpy's parameter and lifecycle
-services are kept, each behind a guard (a request rclpy 7.1.6 would die on is
-refused with a reason), and every rejected setpoint is counted in
-/diagnostics and logged (throttled). Topics, QoS, parameters: docs/node.md.
+"""The managed node :class:`DynamicsNode`: each setpoint becomes one
+``actuator_states`` and one ``joint_states`` stamped like it (rules:
+:class:`.setpoints.SetpointIntake`). Nothing a client sends takes it down.
+Topics, QoS, parameters: docs/node.md.
 """
 from __future__ import annotations
 
@@ -28,11 +12,9 @@ from typing import Any, Callable
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
-from lifecycle_msgs.srv import ChangeState, GetAvailableStates, GetAvailableTransitions, GetState
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 ParameterType, SetParametersResult)
-from rcl_interfaces.srv import (DescribeParameters, GetParameters, GetParameterTypes,
-                                ListParameters, SetParameters, SetParametersAtomically)
+from rcl_interfaces.srv import SetParameters, SetParametersAtomically
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
@@ -54,50 +36,35 @@ from .setpoints import (ACCEL, BAD_SETPOINT, ERROR, INACTIVE, LEVEL_NAMES, PLATF
                         diagnostic_name)
 
 SUCCESS, FAILURE = TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE
-#: Seconds one reading of the clock serves the future-stamp check (a bound of
-#: input.max_future, ~1 s, is 200 times coarser; a reading costs ~2 us).
-LATEST_STAMP_REUSE = 0.005
-#: Bytes a valid trajectory point takes at most (3 positions, velocities and
-#: accelerations, time_from_start, padding), and a platform_setpoint's bytes
-#: besides its points: a larger message is refused before it is decoded.
+LATEST_STAMP_REUSE = 0.005       # s one clock reading serves the future-stamp check
+# bytes of a valid trajectory point at most, and of the rest of a
+# platform_setpoint: a larger message is refused undecoded
 MAX_POINT_BYTES = 128
 MAX_MESSAGE_OVERHEAD = 65536
-#: Parameters in one set request; more is refused whole (the node has 75).
+# bounds of one parameter set request (the node's only thread validates it)
 MAX_PARAMETERS_PER_REQUEST = 256
-#: Model validations one SetParameters request may cost to find which of its
-#: values conflict (each ~1.5 ms of the node's only thread).
-MAX_VALIDATIONS_PER_REQUEST = 12
-#: Characters of one string value in a set request.
+MAX_VALIDATIONS_PER_REQUEST = 12  # model validations, ~1.5 ms each
 MAX_STRING_LENGTH = 4096
-#: Parameters ROS itself declares on every node; not ours to check.
 ROS_PARAMETERS = frozenset({'use_sim_time', 'start_type_description_service'})
-#: The policies a start-up ``qos_overrides.*`` parameter may set.
 QOS_POLICIES = (QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY)
 _KNOWN_TYPES = frozenset(t.value for t in Parameter.Type) - {ParameterType.PARAMETER_NOT_SET}
-#: The exact conversions to a declared type: integer to double, element-wise.
 _COERCIONS = {(Parameter.Type.DOUBLE, Parameter.Type.INTEGER),
               (Parameter.Type.DOUBLE_ARRAY, Parameter.Type.INTEGER_ARRAY)}
-_KIND_TYPES = {'double': Parameter.Type.DOUBLE, 'double_array': Parameter.Type.DOUBLE_ARRAY,
-               'integer': Parameter.Type.INTEGER, 'string': Parameter.Type.STRING,
-               'bool': Parameter.Type.BOOL}
+_KIND_TYPES = {kind: Parameter.Type[kind.upper()]
+               for kind in ('double', 'double_array', 'integer', 'string', 'bool')}
 _NOT_DECIDED = ('not applied: the parameters of this request conflict with each other, and '
                 f'finding which ones fail needs more than {MAX_VALIDATIONS_PER_REQUEST} '
                 'validations of the model; send fewer parameters per request')
 
 
 def default_qos(depth: int = 1000) -> QoSProfile:
-    """Setpoints and outputs: reliable, KEEP_LAST 1000 (1 s at 1 kHz: absorbs a
-    stall), VOLATILE (a late joiner must not get stale setpoints or forces).
-    """
+    """Reliable, KEEP_LAST 1000 (1 s at 1 kHz), VOLATILE (nothing stale)."""
     return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
                       reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.VOLATILE)
 
 
 def check_qos(qos: QoSProfile) -> SetParametersResult:
-    """Refuse overrides that cannot work: KEEP_LAST with depth < 1, or a
-    reliability other than reliable / best_effort.
-    """
     if qos.history == HistoryPolicy.KEEP_LAST and qos.depth < 1:
         return _failed(f'depth must be >= 1 with keep_last, got {qos.depth}')
     if qos.reliability not in (ReliabilityPolicy.RELIABLE, ReliabilityPolicy.BEST_EFFORT):
@@ -107,9 +74,6 @@ def check_qos(qos: QoSProfile) -> SetParametersResult:
 
 
 def descriptor_for(spec: prm.ParamSpec, read_only: bool = False) -> ParameterDescriptor:
-    """The ParameterDescriptor of one parameter of the schema: description with
-    unit, type, range.
-    """
     text = spec.full_description
     if spec.exclusive_minimum and spec.minimum is not None:
         text += f' (must be > {spec.minimum:g})'
@@ -126,22 +90,18 @@ def descriptor_for(spec: prm.ParamSpec, read_only: bool = False) -> ParameterDes
         d.integer_range = [IntegerRange(from_value=int(-2 ** 63 if low is None else low),
                                         to_value=int(2 ** 63 - 1 if high is None else high),
                                         step=1)]
-    if spec.length:
-        d.additional_constraints = f'{spec.length} numbers'
-    if spec.choices:
-        d.additional_constraints = 'one of: ' + ', '.join(spec.choices)
+    if spec.choices or spec.length:
+        d.additional_constraints = ('one of: ' + ', '.join(spec.choices) if spec.choices
+                                    else f'{spec.length} numbers')
     return d
 
 
 def plain(value: Any) -> Any:
-    """A parameter value as plain Python (arrays become lists)."""
     return value if isinstance(value, (bool, int, float, str)) else list(value)
 
 
 def typed(param: Parameter, declared: Parameter.Type) -> tuple[Parameter, str | None]:
-    """``param`` in the ``declared`` type when it is an integer (array) for a
-    double (array): the one exact conversion, and a note saying so.
-    """
+    """An integer (array) given for a double (array) converted, with a note."""
     if (declared, param.type_) not in _COERCIONS:
         return param, None
     value = (float(param.value) if declared == Parameter.Type.DOUBLE
@@ -160,7 +120,6 @@ def _failed(reason: str) -> SetParametersResult:
 
 
 def _declared(spec: prm.ParamSpec, value: Any) -> Parameter:
-    """``value`` of a schema parameter as a Parameter of its declared type."""
     if spec.kind == 'double':
         value = float(value)
     elif spec.kind == 'double_array':
@@ -173,15 +132,12 @@ class _Refused(ValueError):
 
 
 class DynamicsNode(LifecycleNode):
-    """Inverse dynamics of the flight simulator as a managed ROS 2 node (module
-    docstring); ``kwargs`` go to rclpy's Node. Starts unconfigured: :meth:`start`
-    (or a lifecycle manager) configures and activates it. :attr:`failure`: why
-    the last configure failed; :attr:`finalized`: done once shut down.
+    """Starts unconfigured; :meth:`start` (or a lifecycle manager) configures
+    and activates it. :attr:`failure`: why configure failed.
     """
 
     def __init__(self, **kwargs: Any) -> None:
-        # every --ros-args parameter is declared first, so that the ones that
-        # are not ours (typos) can be told apart with public API only
+        # every given parameter declared: typos can be told apart with public API
         super().__init__(prm.NODE_NAME, automatically_declare_parameters_from_overrides=True,
                          **kwargs)
         self.failure: str | None = None
@@ -192,7 +148,7 @@ class DynamicsNode(LifecycleNode):
         self._active = False
         self._starting = False
         self._unknown_reported = False
-        self._latest: int | None = None          # _latest_stamp(), reused until _latest_until
+        self._latest: int | None = None
         self._latest_until = 0.0
         self._endpoints: list[Any] = []
         self._actuator_pub = self._joint_pub = self._markers_pub = self._diag_pub = None
@@ -201,7 +157,7 @@ class DynamicsNode(LifecycleNode):
         self._actuator_msg = JointState(name=list(LEG_NAMES))
         self._joint_msg = JointState(name=list(JOINT_NAMES))
         self._diag_name = diagnostic_name(self.get_fully_qualified_name())
-        # timers on the steady clock: they keep ticking with use_sim_time and no /clock
+        # timers on the steady clock: they tick with use_sim_time and no /clock
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._given, self._refused = self._declare_parameters()
         self._guard_services()
@@ -210,17 +166,12 @@ class DynamicsNode(LifecycleNode):
 
     # -- parameters ----------------------------------------------------------------
     def _declare_parameters(self) -> tuple[set[str], dict[str, str]]:
-        """Declare the schema's parameters with their descriptors, at the given
-        value (command line, params file) or the packaged default. A given value
-        the schema refuses (``-p bodies.platform.mass:=-1.0``) does not end a
-        managed node: the parameter keeps its default, and every configure
-        fails with the reason until the parameter is set. Returns the names
-        given and the refused ones with their reasons.
+        """Declare the schema at the given values, else the defaults. A refused
+        given value keeps the default and fails every configure until set.
         """
         names = set(self.list_parameters([], 0).names) - ROS_PARAMETERS
         given = {name: self.get_parameter(name) for name in names}
         for name in names:
-            # re-declared below (ours), by the endpoints (qos_overrides.*) or not at all
             self.undeclare_parameter(name)
         try:
             defaults = prm.validate(prm.read_params_file(prm.default_params_path()),
@@ -244,9 +195,6 @@ class DynamicsNode(LifecycleNode):
 
     @staticmethod
     def _check(param: Parameter, spec: prm.ParamSpec) -> str | None:
-        """What is wrong with one value of a schema parameter on its own (type,
-        range: microseconds), naming the declared type; None if nothing.
-        """
         declared = _KIND_TYPES[spec.kind]
         try:
             prm.check_value(spec, plain(param.value))
@@ -263,9 +211,7 @@ class DynamicsNode(LifecycleNode):
         return {name: plain(self.get_parameter(name).value) for name in prm.SPECS}
 
     def _runtime_of(self, values: dict[str, Any], changed: Any = prm.SPECS) -> Runtime:
-        """Validate ``values`` and build the runtime (the model only when a
-        model parameter is among ``changed``); raises ParameterError.
-        """
+        """The model is rebuilt only when a model parameter changed."""
         model = self._runtime.model if self._runtime is not None else None
         if model is None or any(prm.SPECS[n] in prm.MODEL_PARAMETERS for n in changed):
             model = prm.model_from_values({s.name: values[s.name] for s in prm.MODEL_PARAMETERS})
@@ -273,10 +219,7 @@ class DynamicsNode(LifecycleNode):
             {s.name: values[s.name] for s in prm.NODE_PARAMETERS}))
 
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
-        """The one validating callback: the whole parameter set as it would be
-        after the change. Accepted: the new runtime is staged, committed by
-        :meth:`_on_parameters_set`; refused: the reason, the model unchanged.
-        """
+        """Validate the whole set as it would be; stage the runtime for the commit."""
         ours = [p for p in params if p.name in prm.SPECS]
         if not ours:
             return SetParametersResult(successful=True)
@@ -300,7 +243,6 @@ class DynamicsNode(LifecycleNode):
         return _failed(reason)
 
     def _on_parameters_set(self, params: list[Parameter]) -> None:
-        """Commit a staged change: one reference, read once per cycle."""
         try:
             for p in params:
                 self._refused.pop(p.name, None)
@@ -326,23 +268,15 @@ class DynamicsNode(LifecycleNode):
 
     # -- the guard around rclpy's services -------------------------------------------
     def _guard_services(self) -> None:
-        """Put rclpy's parameter and lifecycle services behind a guard: a
-        request that fails is answered (success false, empty lists), never
-        fatal. In rclpy 7.1.6 the parameter services die on a value of unknown
-        type (ValueError out of the executor) and apply a SetParameters request
-        one parameter at a time (a big request stalls the node): the set
-        services get :meth:`_set_request`. ChangeState raises RCLError for a
-        transition the current state does not have.
+        """Every service (parameters, lifecycle): a failing request is answered as
+        a failure, never fatal (rclpy 7.1.6 dies on a value of unknown type and
+        on a transition the state lacks); SetParameters gets :meth:`_set_request`.
         """
         own = {SetParameters: lambda req, resp: self._set_request(req, resp, False),
                SetParametersAtomically: lambda req, resp: self._set_request(req, resp, True)}
         for service in self.services:
-            if service.srv_type in (DescribeParameters, GetParameters, GetParameterTypes,
-                                    ListParameters, SetParameters, SetParametersAtomically,
-                                    ChangeState, GetState, GetAvailableStates,
-                                    GetAvailableTransitions):
-                service.callback = self._guarded(service.srv_name,
-                                                 own.get(service.srv_type, service.callback))
+            service.callback = self._guarded(service.srv_name,
+                                             own.get(service.srv_type, service.callback))
 
     def _guarded(self, name: str, handler: Callable[[Any, Any], Any]) -> Callable[[Any, Any], Any]:
         def guarded(request: Any, response: Any) -> Any:
@@ -361,9 +295,6 @@ class DynamicsNode(LifecycleNode):
         return guarded
 
     def _parse(self, msg: Any) -> tuple[Parameter | None, str | None, str | None]:
-        """(parameter in its declared type, a note if converted, the reason it
-        is refused) of one parameter of a set request.
-        """
         value = msg.value
         if value.type not in _KNOWN_TYPES:
             return None, None, f"parameter '{msg.name}': unknown value type {value.type}"
@@ -384,10 +315,7 @@ class DynamicsNode(LifecycleNode):
             return _failed(str(exc))
 
     def _set_request(self, request: Any, response: Any, atomic: bool) -> Any:
-        """A set request: refused whole beyond :data:`MAX_PARAMETERS_PER_REQUEST`,
-        typed (:func:`typed`), then applied as one change. A SetParameters
-        request that fails as a whole is sorted out (:meth:`_sort_out`).
-        """
+        """Applied as one change; a failed SetParameters is sorted out."""
         msgs = list(request.parameters)
         if len(msgs) > MAX_PARAMETERS_PER_REQUEST:
             result = _failed(f'{len(msgs)} parameters in one request, more than '
@@ -412,19 +340,15 @@ class DynamicsNode(LifecycleNode):
 
     def _sort_out(self, params: list[Parameter | None], notes: list[str | None],
                   problems: list[str | None], tried: bool) -> list[SetParametersResult]:
-        """Which parameters of a SetParameters request that failed as a whole
-        fail, in order: the request is halved, each half applied as one change
-        (a half that holds is kept, one that fails is halved again), so a later
-        value of a name overrides an earlier one as in rclpy's one-at-a-time
-        rule. At most :data:`MAX_VALIDATIONS_PER_REQUEST` changes are tried;
-        the parameters not decided by then fail saying so.
+        """Which parameters of a failed SetParameters fail: halves applied in
+        order, a failing half halved again (rclpy's one-at-a-time outcome), at
+        most :data:`MAX_VALIDATIONS_PER_REQUEST` tries.
         """
         results: list[SetParametersResult | None] = [_failed(p) if p else None
                                                      for p in problems]
         budget = [MAX_VALIDATIONS_PER_REQUEST]
 
         def resolve(chunk: list[int], known_failed: bool) -> bool:
-            """Decide ``chunk``; True if all of it was applied."""
             if known_failed and len(chunk) > 1:
                 result = None
             elif budget[0] > 0:
@@ -454,10 +378,8 @@ class DynamicsNode(LifecycleNode):
 
     # -- lifecycle -----------------------------------------------------------------
     def start(self) -> bool:
-        """configure, then activate (``autostart``); False (and :attr:`failure`)
-        when configure failed.
-        """
-        self._starting = True       # a failure is the caller's one error: line, not a log
+        """Configure, then activate; False (see :attr:`failure`) if configure failed."""
+        self._starting = True       # a failure is the caller's ``error:`` line, not a log
         try:
             if self.trigger_configure() != SUCCESS:
                 return False
@@ -466,9 +388,6 @@ class DynamicsNode(LifecycleNode):
         return self.trigger_activate() == SUCCESS
 
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
-        """Validate the parameters, build the model, create the endpoints; on a
-        bad parameter: unconfigured, the reason logged and in :attr:`failure`.
-        """
         try:
             if self._refused:
                 raise _Refused(next(iter(self._refused.values())))
@@ -528,7 +447,6 @@ class DynamicsNode(LifecycleNode):
         return SUCCESS
 
     def _release(self) -> None:
-        """Destroy what configure created: back to unconfigured."""
         self._active = False
         for timer in filter(None, (self._diag_timer, self._poll_timer, self._markers_timer)):
             self.destroy_timer(timer)
@@ -544,9 +462,6 @@ class DynamicsNode(LifecycleNode):
         self._runtime = self._staged = None
 
     def _create_endpoints(self, runtime: Runtime) -> None:
-        """Outputs (lifecycle publishers: silent unless active), setpoint
-        subscriptions, /diagnostics, markers and the timers.
-        """
         config = runtime.config
         options = QoSOverridingOptions(QOS_POLICIES, callback=check_qos)
         try:
@@ -560,17 +475,16 @@ class DynamicsNode(LifecycleNode):
                 self._endpoints.append(self.create_subscription(
                     msg_type, f'{kind}_setpoint', lambda msg, kind=kind: self._on_setpoint(
                         kind, msg), default_qos(), qos_overriding_options=options))
-            # serialized: its size is checked before rclpy decodes it (a million
-            # points would take seconds of the node's only thread)
+            # serialized: the size is checked before decoding (a million points
+            # would take seconds of the node's only thread)
             self._endpoints.append(self.create_subscription(
                 JointTrajectory, PLATFORM, self._on_platform, default_qos(), raw=True,
                 qos_overriding_options=options))
         except (InvalidQosOverridesError, RuntimeError, AssertionError, TypeError,
                 ValueError) as exc:
-            # rclpy: an unknown policy name (RuntimeError), a wrong type (assert)
             raise prm.ParameterError(prm.QOS_OVERRIDES + '*', None,
                                      f'invalid QoS override: {exc}') from None
-        # /diagnostics: the standard topic, default QoS; it reports while inactive too
+        # reports while inactive too
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self._diag_timer = self.create_timer(config.diagnostics_period, self._on_diagnostics,
                                              clock=self._steady)
@@ -585,9 +499,7 @@ class DynamicsNode(LifecycleNode):
         return min(max(config.sync_wait / 2.0, 0.001), 0.05)
 
     def _latest_stamp(self) -> int | None:
-        """The latest stamp accepted now (ns): the clock plus input.max_future;
-        None: no check (0, or a sim-time clock before its first /clock).
-        """
+        """Clock + input.max_future (ns); None: no check (0, or no /clock yet)."""
         mono = time.monotonic()
         if mono >= self._latest_until:
             max_future = self._runtime.config.input_max_future
@@ -598,9 +510,7 @@ class DynamicsNode(LifecycleNode):
 
     # -- setpoints in, answers out -------------------------------------------------
     def _on_setpoint(self, kind: str, msg: Any) -> None:
-        """One setpoint message: the intake's answers published, its lines
-        logged. Nothing escapes a callback (it would stop the executor).
-        """
+        # nothing escapes a callback (it would stop the executor)
         try:
             self._publish(self._intake.receive(kind, msg, time.monotonic(),
                                                self._latest_stamp(), self._active))
@@ -608,9 +518,6 @@ class DynamicsNode(LifecycleNode):
             self._internal_error(exc)
 
     def _on_platform(self, data: bytes) -> None:
-        """A serialized platform_setpoint: refused undecoded beyond the size of
-        ``input.max_points`` points, else decoded by rclpy.
-        """
         try:
             max_points = self._runtime.config.input_max_points
             if len(data) > MAX_MESSAGE_OVERHEAD + max_points * MAX_POINT_BYTES:
@@ -627,7 +534,6 @@ class DynamicsNode(LifecycleNode):
             self._internal_error(exc)
 
     def _on_poll(self) -> None:
-        """Release setpoints whose bounded wait expired."""
         try:
             self._publish(self._intake.poll(time.monotonic()))
         except Exception as exc:  # noqa: BLE001
@@ -660,14 +566,12 @@ class DynamicsNode(LifecycleNode):
                 self.get_logger().info(text)
 
     def _internal_error(self, exc: Exception) -> None:
-        """An error of the node's own: counted and logged; none while shutting
-        down (a publish after shutdown is the shutdown's).
-        """
+        # not while shutting down: a failed publish then is the shutdown's
         if self._intake is not None and self.context.ok():
             self._log(self._intake.internal_error(exc))
 
     def _markers_rate(self, rate: float) -> None:
-        """(Re)start the markers timer at ``rate`` Hz; 0: stop, and clear the view."""
+        """0: stop, and clear the view."""
         if self._markers_timer is not None:
             self.destroy_timer(self._markers_timer)
             self._markers_timer = None
@@ -678,7 +582,6 @@ class DynamicsNode(LifecycleNode):
                                                     clock=self._steady)
 
     def _on_markers(self) -> None:
-        """The mechanism at the last answered setpoint, stamped like it."""
         try:
             if self._intake.last_solution is not None:
                 self._markers_pub.publish(self._markers.update(self._intake.last_solution,
@@ -705,7 +608,6 @@ class DynamicsNode(LifecycleNode):
             self._internal_error(exc)
 
     def _stamp_check(self, max_future: float) -> str:
-        """How stamps are checked against the clock now (for /diagnostics)."""
         if not max_future:
             return 'off (input.max_future = 0)'
         if not self.get_clock().now().nanoseconds:

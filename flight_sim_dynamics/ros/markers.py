@@ -1,18 +1,6 @@
-"""The mechanism as a ``visualization_msgs/MarkerArray`` for RViz or Foxglove:
-one solution of :func:`fsd.solve <flight_sim_dynamics.core.solver.solve>`
-drawn in the node's ``output.frame_id``, at the positions of the inverse
-geometric problem (eqs. 5-8; ``sol.geometric`` placed by
-:func:`~flight_sim_dynamics.core.mechanism.mechanism_points`, as ``animate``
-draws them).
-
-One marker per part (:data:`NAMESPACES`, id 0 each, updated in place): the
-legs, rod and cranks as lines, the plate as triangles, the joints as spheres,
-the solve's status as text above G. Colours: ``ok`` / ``limit``: each leg by
-its force relative to ``limits.max_force`` (green, yellow, red; red beyond
-any of its limits); ``near_singular``: legs magenta; ``unreachable`` /
-``invalid_input`` (no positions): the last pose drawn again, grey and half
-transparent (never a NaN). The messages are made once and reused; no rclpy
-here: the node publishes the array.
+"""One solution as a MarkerArray (eqs. 5-8), one marker per part updated in
+place; legs coloured by |force| / max_force (red beyond a limit, magenta near
+singular); without positions the last pose in grey. No rclpy here.
 """
 from __future__ import annotations
 
@@ -33,12 +21,8 @@ from ..core.vectors import backend
 
 _SCALAR = backend(False)
 
-#: The namespaces of the markers, in the order of the array; id 0 each. The
-#: line parts are :data:`SEGMENTS`, the joint spheres :data:`JOINTS`, the
-#: plate's triangles :data:`PLATE` (core/mechanism.py).
 NAMESPACES = LEG_NAMES + ('rod', 'platform', 'crank_d', 'crank_e', 'joints', 'status')
 
-#: Line widths (m) and sphere diameter.
 WIDTH = {'leg_a': 0.04, 'leg_b': 0.04, 'leg_c': 0.04, 'rod': 0.05, 'crank_d': 0.03,
          'crank_e': 0.03}
 JOINT_DIAMETER = 0.07
@@ -46,7 +30,6 @@ TEXT_HEIGHT = 0.08
 TEXT_ABOVE = 0.35          # m above G
 MAX_TEXT = 120             # characters of the status text
 
-#: Colours (r, g, b, a).
 RED = (1.0, 0.0, 0.0, 1.0)
 MAGENTA = (1.0, 0.0, 1.0, 1.0)
 GREY = (0.5, 0.5, 0.5, 0.4)
@@ -56,9 +39,7 @@ PART_COLOURS = {'rod': (0.25, 0.35, 0.8, 1.0), 'platform': (0.6, 0.65, 0.75, 0.8
 
 
 def force_colour(fraction: float) -> tuple[float, float, float, float]:
-    """Green (0) -> yellow (0.5) -> red (1) for |f| / limits.max_force; a
-    fraction beyond [0, 1] (or not a number) is clipped (NaN: red).
-    """
+    """Green (0) -> yellow (0.5) -> red (1), clipped; NaN: red."""
     r = 1.0 if fraction != fraction else min(max(fraction, 0.0), 1.0)
     if r <= 0.5:
         return (2.0 * r, 1.0, 0.0, 1.0)
@@ -74,7 +55,6 @@ def _set_point(p: Point, xyz: Sequence[float]) -> None:
 
 
 def _over_limits(sol: Solution, leg: int) -> bool:
-    """Leg ``leg`` beyond its stroke, speed or force limit (``limits.*``)."""
     lim = sol.model.limits
     stroke = float(sol.stroke[leg])
     return not (lim.stroke_min <= stroke <= lim.stroke_max
@@ -83,9 +63,7 @@ def _over_limits(sol: Solution, leg: int) -> bool:
 
 
 class MarkerBuilder:
-    """Builds the :class:`MarkerArray` of the mechanism for one solution at a
-    time, reusing its messages; ``frame_id``: the node's ``output.frame_id``.
-    """
+    """One MarkerArray, rewritten in place by :meth:`update`."""
 
     def __init__(self, model: Model, frame_id: str) -> None:
         self.header = Header(stamp=Time(), frame_id=frame_id)
@@ -96,7 +74,7 @@ class MarkerBuilder:
         sizes = {'platform': len(PLATE), 'joints': len(JOINTS), 'status': 0}
         for ns in NAMESPACES:
             m = Marker(ns=ns, id=0, type=kinds.get(ns, Marker.LINE_LIST), action=Marker.ADD)
-            m.header = self.header        # one header for all: one stamp to write
+            m.header = self.header        # shared: one stamp to write
             m.pose.orientation.w = 1.0
             m.points = [Point() for _ in range(sizes.get(ns, 2))]
             if ns in WIDTH:
@@ -112,7 +90,7 @@ class MarkerBuilder:
         self._last = mechanism_points(model, inverse_geometry(model, (0.0, 0.0, 0.0), _SCALAR))
         self._draw(self._last)
         self._colour_void()
-        self._set_text('no solution yet')
+        self.markers['status'].text = 'no solution yet'
 
     @property
     def frame_id(self) -> str:
@@ -120,15 +98,10 @@ class MarkerBuilder:
 
     @frame_id.setter
     def frame_id(self, value: str) -> None:
-        """A new ``output.frame_id`` (a run-time parameter change)."""
         self.header.frame_id = value
 
     def update(self, sol: Solution, sec: int, nanosec: int) -> MarkerArray:
-        """The markers of one solution of :func:`fsd.solve` (not a batch),
-        stamped ``sec``, ``nanosec``. Returns the builder's one MarkerArray,
-        rewritten in place: publish it before the next update. The geometry
-        is ``sol.model``'s (a model swapped at run time is followed).
-        """
+        """The markers of one solution (not a batch): publish before the next update."""
         stamp = self.header.stamp
         stamp.sec, stamp.nanosec = int(sec), int(nanosec)
         status = sol.status
@@ -152,20 +125,17 @@ class MarkerBuilder:
             self._draw(pts)
             self._colour(sol, status)
         text = str(status) if not sol.detail else f'{status}: {sol.detail}'
-        self._set_text(text if len(text) <= MAX_TEXT else text[:MAX_TEXT - 3] + '...')
+        self.markers['status'].text = (text if len(text) <= MAX_TEXT
+                                       else text[:MAX_TEXT - 3] + '...')
         return self.array
 
     def clear(self) -> MarkerArray:
-        """One DELETEALL marker (a new array): for when the markers are
-        switched off (``output.markers_rate`` = 0) or the node stops.
-        """
+        """One DELETEALL marker (a new array)."""
         m = Marker(action=Marker.DELETEALL)
         m.header = Header(stamp=self.header.stamp, frame_id=self.header.frame_id)
         return MarkerArray(markers=[m])
 
-    # ------------------------------------------------------------------
     def _draw(self, pts: dict) -> None:
-        """Write the positions into the markers' points."""
         for ns, (a, b) in SEGMENTS.items():
             p = self.markers[ns].points
             _set_point(p[0], pts[a])
@@ -178,7 +148,6 @@ class MarkerBuilder:
         _set_point(self.markers['status'].pose.position, (g[0], g[1], g[2] + TEXT_ABOVE))
 
     def _colour(self, sol: Solution, status: Status) -> None:
-        """Colours of a solution with positions (ok, limit, near_singular)."""
         for ns, rgba in PART_COLOURS.items():
             _set_colour(self.markers[ns].color, rgba)
         max_force = sol.model.limits.max_force
@@ -192,10 +161,6 @@ class MarkerBuilder:
             _set_colour(self.markers[ns].color, rgba)
 
     def _colour_void(self) -> None:
-        """Every part grey and half transparent; the status text stays white."""
         for ns in NAMESPACES:
             _set_colour(self.markers[ns].color,
                         PART_COLOURS['status'] if ns == 'status' else GREY)
-
-    def _set_text(self, text: str) -> None:
-        self.markers['status'].text = text

@@ -1,15 +1,7 @@
-"""The executable of the ROS 2 node (``dynamics_node``): runs a
-:class:`~.dynamics_node.DynamicsNode` until Ctrl-C / SIGTERM.
-
-    dynamics_node --ros-args --params-file config/flight_sim_dynamics.yaml
-    flight-sim-dynamics node --ros-args -r __ns:=/sim
-
-With ``autostart`` (the default) the node is configured and activated at
-once, and a start-up it cannot make (a bad parameter, params file, scene, QoS
-override or ROS argument) ends it with one ``error:`` line and exit status 2;
-with ``autostart:=false`` it waits unconfigured for a lifecycle manager. An
-older node of the same name (:class:`DuplicateGuard`) ends it with exit 2
-unless ``allow_duplicate_name``; the ``shutdown`` transition with exit 0.
+"""The ``dynamics_node`` executable: runs a :class:`~.dynamics_node.DynamicsNode`
+until Ctrl-C / SIGTERM or the ``shutdown`` transition (exit 0). A start-up it
+cannot make, or an older node of the same name, ends it with one ``error:``
+line and exit status 2; ``autostart:=false`` waits for a lifecycle manager.
 """
 from __future__ import annotations
 
@@ -26,88 +18,63 @@ from typing import Any, Callable, Iterator, NoReturn, Sequence, TypeVar
 import rclpy
 import rclpy.task
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.time import Time
-from std_msgs.msg import Header
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
+from rclpy.time import Time
+from std_msgs.msg import Header
 
 from ..config import parameters as prm
 from ..config.files import params_files_in, read_params_file
 from .dynamics_node import DynamicsNode
 from .process import stop_on_signals, stop_requested
 
-EXECUTORS = ('events', 'single')
-DEFAULT_EXECUTOR = 'events'
-#: Longest spin between two looks at a requested stop (Ctrl-C, SIGTERM), s.
-SPIN_STEP = 0.1
+SPIN_STEP = 0.1                  # s between two looks at a requested stop
 N = TypeVar('N', bound=Node)
-#: Seconds the middleware gets to release the nodes and shut down on the way
-#: out (it takes milliseconds). Past them the process ends anyway, with the
-#: Python stacks of its threads on stderr and exit status 1 (faulthandler's
-#: watchdog: a C thread, which runs while rclpy holds the GIL in a destroy).
-#: Seen once in CI: a start refused for a bad QoS override printed its
-#: ``error:`` line and then hung for 30 s in this teardown.
+# s for the teardown; then faulthandler (a C thread, runs while rclpy holds the GIL) exits 1
 TEARDOWN_TIMEOUT = 10.0
 
 
 def make_executor(name: str, context: Any = None) -> Any:
-    """``events``: rclpy.experimental.EventsExecutor; ``single``:
-    SingleThreadedExecutor.
-    """
-    if name == 'events':
-        return EventsExecutor(context=context)
-    return SingleThreadedExecutor(context=context)
+    return (EventsExecutor if name == 'events' else SingleThreadedExecutor)(context=context)
 
 
 def executable_parser(prog: str, description: str, epilog: str) -> argparse.ArgumentParser:
-    """The command line of a node executable: its own options before
-    ``--ros-args`` (the executor).
-    """
+    """A node executable's own options (before ``--ros-args``)."""
     parser = argparse.ArgumentParser(prog=prog, description=description, epilog=epilog)
-    parser.add_argument('--executor', choices=EXECUTORS, default=DEFAULT_EXECUTOR,
-                        help=f'rclpy executor (default: {DEFAULT_EXECUTOR})')
+    parser.add_argument('--executor', choices=('events', 'single'), default='events',
+                        help='rclpy executor (default: events)')
     return parser
 
 
 def build_parser() -> argparse.ArgumentParser:
     return executable_parser(
         'dynamics_node',
-        'ROS 2 node of flight_sim_dynamics: subscribes pose_setpoint, twist_setpoint, '
-        'accel_setpoint (one setpoint: the three with one stamp) and platform_setpoint '
-        '(trajectory_msgs/JointTrajectory over surge, heave, roll: one setpoint per '
-        'point); publishes actuator_states, joint_states and /diagnostics. ROS arguments '
-        'go after --ros-args, e.g. --ros-args --params-file '
-        'config/flight_sim_dynamics.yaml -r __ns:=/sim -p limits.max_force:=500.0',
+        'ROS 2 node of flight_sim_dynamics: pose/twist/accel_setpoint and '
+        'platform_setpoint in; actuator_states, joint_states and /diagnostics out. '
+        'ROS arguments go after --ros-args, e.g. --ros-args -p limits.max_force:=500.0',
         'See docs/node.md for topics, parameters and QoS.')
 
 
 def refuse(message: str) -> NoReturn:
-    """A start-up the executable cannot make: one ``error:`` line on stderr,
-    then exit status 2 (SystemExit, as argparse's usage errors; inside
-    :func:`running` the line comes before the teardown).
-    """
+    """One ``error:`` line on stderr, exit status 2 (as argparse's usage errors)."""
     print('error: ' + ' '.join(str(message).split()), file=sys.stderr)
     raise SystemExit(2)
 
 
 def own_options(program: str, parser: argparse.ArgumentParser,
                 argv: Sequence[str]) -> argparse.Namespace:
-    """The executable's own options (those before ``--ros-args``); a ROS
-    argument or params file rcl refuses is refused (:func:`refuse`).
-    """
+    """The options before ``--ros-args``; ROS arguments rcl refuses: :func:`refuse`."""
     try:
         own = rclpy.utilities.remove_ros_args([program, *argv])[1:]
-    except Exception as exc:  # noqa: BLE001 - rcl's refusal (bad ROS arguments or params
-        # file) comes as rclpy's private _rclpy_pybind11 error types
+    except Exception as exc:  # noqa: BLE001 - rcl's refusals are private pybind11 types
         refuse(_params_file_problem(argv) or f'invalid ROS arguments: {exc}')
     return parser.parse_args(own)
 
 
 def create(node_class: Callable[[], N]) -> N:
-    """The node ``node_class()``; invalid parameters are refused (:func:`refuse`)."""
     try:
         return node_class()
     except (prm.ParameterError, ParameterException) as exc:
@@ -115,9 +82,7 @@ def create(node_class: Callable[[], N]) -> N:
 
 
 def _params_file_problem(argv: Sequence[str]) -> str | None:
-    """What the package's own reader says of the ``--params-file`` files (a
-    clearer message than rcl's, naming the file and the key), or None.
-    """
+    """The package reader's message on the params files (names file and key)."""
     for path in params_files_in(argv):
         try:
             read_params_file(path)
@@ -127,14 +92,9 @@ def _params_file_problem(argv: Sequence[str]) -> str | None:
 
 
 class DuplicateGuard:
-    """Tells this node whether an older node of the same fully qualified name
-    is running: both would answer every setpoint.
-
-    Each node publishes its start (wall-clock time and a unique id) once on
-    the hidden topic ``~/_instance`` (transient local, so a node that starts
-    later receives it) and listens there. A node that receives the start of
-    an older namesake (ties broken by the id) is the newcomer: :attr:`found`
-    gets the reason and the executable exits 2. The older one carries on.
+    """:attr:`found` is done when an older node of this name runs (both would
+    answer every setpoint): each publishes its start time and id once on
+    ``~/_instance`` (transient local); the newer one is told to exit.
     """
 
     def __init__(self, node: Node) -> None:
@@ -166,13 +126,8 @@ class DuplicateGuard:
 
 @contextlib.contextmanager
 def running(program: str, argv: Sequence[str]) -> Iterator[list[Any]]:
-    """The frame of every executable of the package (node, twin, demo planner):
-    Ctrl-C and SIGTERM request a stop, seen between callbacks
-    (:func:`.process.stop_on_signals`, issue 15 #3), and rclpy is initialised
-    without its own signal handlers. The nodes the block appends to the
-    yielded list are destroyed, and rclpy shut down, on the way out, within
-    :data:`TEARDOWN_TIMEOUT`; a KeyboardInterrupt or an external shutdown
-    ends the block quietly.
+    """Every executable's frame: stop signals seen between callbacks; the nodes
+    appended to the yielded list are destroyed and rclpy shut down on the way out.
     """
     stop_on_signals()
     rclpy.init(args=[program, *argv], signal_handler_options=SignalHandlerOptions.NO)
@@ -193,16 +148,12 @@ def running(program: str, argv: Sequence[str]) -> Iterator[list[Any]]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the node until Ctrl-C / SIGTERM. ``argv``: arguments after the
-    program name (None: sys.argv[1:]), ROS arguments after ``--ros-args``.
-    """
     argv = list(sys.argv[1:] if argv is None else argv)
     args = own_options('dynamics_node', build_parser(), argv)
     with running('dynamics_node', argv) as nodes:
         node = create(DynamicsNode)
         nodes.append(node)
-        # the one rule for parameter files (config.parameters.read_params): an
-        # unknown name or bad value in a --params-file ends the start (exit 2)
+        # an unknown name or bad value in a --params-file ends the start
         create(lambda: prm.check_params_files(argv, node.get_fully_qualified_name()))
         duplicate = None
         if not node.get_parameter('allow_duplicate_name').value:
@@ -217,23 +168,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-def spin(executor: Any, context: Any = None,
-         until: rclpy.task.Future | Sequence[rclpy.task.Future] | None = None) -> None:
-    """Spin until the context shuts down, a stop is requested (Ctrl-C, SIGTERM:
-    :func:`.process.stop_on_signals`) or ``until`` (a future, or any of
-    several) is done.
-
-    Always with a timeout: rclpy 7.1.6's EventsExecutor busy-loops at 100 % CPU
-    in ``spin()`` (and hangs in ``spin_until_future_complete`` without a
-    timeout), and does not return on SIGINT; with a timeout it idles and the
-    stop is noticed within :data:`SPIN_STEP`.
+def spin_until(executor: Any, predicate: Callable[[], bool], timeout: float | None = None,
+               step: float = 0.05) -> bool:
+    """Spin until ``predicate()``, the timeout, shutdown or a requested stop;
+    always with a timeout: rclpy 7.1.6's EventsExecutor busy-loops in ``spin()``.
     """
-    futures = [until] if isinstance(until, rclpy.task.Future) else list(until or ())
-    # one future to wait on, done with the first of ``until``
-    future = futures[0] if len(futures) == 1 else rclpy.task.Future()
-    while (rclpy.ok(context=context) and not any(f.done() for f in [future, *futures])
-           and not stop_requested()):
-        executor.spin_until_future_complete(future, timeout_sec=SPIN_STEP)
+    deadline = None if timeout is None else time.monotonic() + timeout
+    never = rclpy.task.Future()
+    while rclpy.ok(context=executor.context) and not predicate() and not stop_requested():
+        if deadline is not None and time.monotonic() >= deadline:
+            break
+        executor.spin_until_future_complete(never, timeout_sec=step)
+    return bool(predicate())
+
+
+def spin(executor: Any, until: Sequence[rclpy.task.Future] = ()) -> None:
+    """Spin until shutdown, a requested stop or any of ``until`` is done."""
+    spin_until(executor, lambda: any(f.done() for f in until), step=SPIN_STEP)
 
 
 if __name__ == '__main__':

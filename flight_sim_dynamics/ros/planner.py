@@ -1,7 +1,5 @@
-"""Demo planner: streams pose, twist and acceleration setpoints of the paper's
-motions (and a motion-cueing sequence) to the dynamics node, one header stamp
-per sample on its three messages, ``start + k / rate`` in the node clock's
-time base.
+"""Demo planner: streams pose, twist and accel setpoints of the paper's motions
+(and a motion-cueing sequence), stamped ``start + k / rate`` on the node's clock.
 
     flight-sim-dynamics demo-planner --example general --rate 200 --loop
     flight-sim-dynamics demo-planner --example cueing --no-accel
@@ -17,37 +15,19 @@ import rclpy
 import rclpy.task
 from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.time import Time
 
 from ..core.motions import PLANNER_MOTIONS as MOTIONS
 from ..core.motions import PlannerSequence
-from .setpoints import rpy_to_quaternion
-from .node import own_options, running
+from .dynamics_node import default_qos
+from .node import own_options, running, spin_until
 from .process import stop_requested
-
-ALL = 'all'
-CHOICES = (*MOTIONS, ALL)
-
-
-def motions_of(example: str) -> list[str]:
-    """The motions an ``--example`` value stands for (``all``: every one)."""
-    return list(MOTIONS) if example == ALL else [example]
-
-
-def setpoint_qos(depth: int = 100) -> QoSProfile:
-    """The node's default setpoint QoS: reliable, KEEP_LAST, volatile."""
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=depth,
-                      reliability=ReliabilityPolicy.RELIABLE,
-                      durability=DurabilityPolicy.VOLATILE)
+from .setpoints import rpy_to_quaternion
 
 
 class PlannerNode(Node):
-    """Publishes a :class:`~flight_sim_dynamics.core.motions.PlannerSequence` at a fixed rate.
-
-    ``on_sample(stamp_ns, label)`` is called after each published sample;
-    ``done`` becomes True when a non-looping sequence has been sent.
-    Publishing starts with :meth:`start` (so a caller can wait for discovery).
+    """Publishes a PlannerSequence at ``rate`` from :meth:`start` on;
+    ``on_sample(stamp_ns, label)`` after each sample; ``done`` once sent.
     """
 
     def __init__(self, sequence: PlannerSequence, rate: float, *, twist: bool = True,
@@ -59,14 +39,13 @@ class PlannerNode(Node):
         self.rate = float(rate)
         self.send_twist, self.send_accel = twist, accel
         self.on_sample = on_sample
-        qos = setpoint_qos()
+        qos = default_qos(100)
         self.pose_pub = self.create_publisher(PoseStamped, 'pose_setpoint', qos)
         self.twist_pub = self.create_publisher(TwistStamped, 'twist_setpoint', qos)
         self.accel_pub = self.create_publisher(AccelStamped, 'accel_setpoint', qos)
         self._pose, self._twist, self._accel = PoseStamped(), TwistStamped(), AccelStamped()
-        self._pose.header.frame_id = frame_id
-        self._twist.header.frame_id = frame_id
-        self._accel.header.frame_id = frame_id
+        for msg in (self._pose, self._twist, self._accel):
+            msg.header.frame_id = frame_id
         self.sent = 0
         self.done = False
         self._k = 0
@@ -75,7 +54,6 @@ class PlannerNode(Node):
         self._timer = None
 
     def subscribers_ready(self) -> bool:
-        """The node's setpoint subscriptions are matched."""
         return (self.pose_pub.get_subscription_count() > 0
                 and (not self.send_twist or self.twist_pub.get_subscription_count() > 0)
                 and (not self.send_accel or self.accel_pub.get_subscription_count() > 0))
@@ -83,8 +61,7 @@ class PlannerNode(Node):
     def start(self) -> None:
         self._t0_ns = self.get_clock().now().nanoseconds
         self._wall0 = time.monotonic()
-        # A fast timer that catches up by sample index: the sample count follows
-        # wall time exactly even when one timer period is late.
+        # a fast timer catching up by index: the count follows wall time
         self._timer = self.create_timer(min(0.5 / self.rate, 0.01), self._on_timer)
 
     def _on_timer(self) -> None:
@@ -96,8 +73,7 @@ class PlannerNode(Node):
         except Exception:
             if self.context.ok():
                 raise
-            # the context was shut down under this callback (issue 15 #3): a
-            # publish after shutdown is not an error; stop quietly
+            # the context was shut down under this callback: stop quietly
             self.done = True
 
     def _publish(self, k: int) -> None:
@@ -115,11 +91,8 @@ class PlannerNode(Node):
             self.on_sample(stamp_ns, label)
 
     def probe(self, stamp_ns: int) -> None:
-        """One setpoint at rest at the sequence's first pose, stamped
-        ``stamp_ns`` (before :meth:`start`; not counted in :attr:`sent`): a
-        caller that sees it answered knows the whole chain has matched, both
-        ways (matching seen from one side does not say the other side has
-        matched, and what is published before is lost).
+        """One setpoint at rest, not counted: answered, it proves the chain matched
+        both ways (matching seen from one side does not).
         """
         q = self.sequence.sample(0.0)[0]
         self._send(stamp_ns, q, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
@@ -147,30 +120,13 @@ class PlannerNode(Node):
             self.accel_pub.publish(ac)
 
 
-def spin_until(executor: Any, predicate: Any, timeout: float | None = None,
-               step: float = 0.05) -> bool:
-    """Spin (always with a timeout: see node.spin) until ``predicate()``, the
-    deadline, shutdown or a requested stop (Ctrl-C, SIGTERM:
-    :func:`.process.stop_on_signals`).
-    """
-    deadline = None if timeout is None else time.monotonic() + timeout
-    never = rclpy.task.Future()
-    while rclpy.ok(context=executor.context) and not predicate() and not stop_requested():
-        if deadline is not None and time.monotonic() >= deadline:
-            break
-        executor.spin_until_future_complete(never, timeout_sec=step)
-    return bool(predicate())
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='flight-sim-dynamics demo-planner',
-        description='Publish pose_setpoint, twist_setpoint and accel_setpoint of the '
-                    "paper's motions (vertical, rectilinear, general: eq. 6, 3 s each) or "
-                    'a motion-cueing-style sequence (cueing: surge and heave pulses plus '
-                    'roll, washed back to neutral, 6.5 s). ROS arguments (remapping, '
-                    'namespace) go after --ros-args.')
-    parser.add_argument('--example', choices=CHOICES, default='general',
+        description="Publish pose/twist/accel_setpoint of the paper's motions (eq. 6, "
+                    '3 s each) or a motion-cueing sequence (6.5 s). ROS arguments go after '
+                    '--ros-args.')
+    parser.add_argument('--example', choices=(*MOTIONS, 'all'), default='general',
                         help='motion to play; all = the three examples then cueing '
                              '(default: general)')
     parser.add_argument('--rate', type=float, default=100.0, metavar='HZ',
@@ -188,7 +144,6 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the demo planner until the sequence is sent (or Ctrl-C with --loop)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     args = own_options('demo_planner', build_parser(), argv)
     if not (args.rate > 0 and args.rate <= 10000):
@@ -198,7 +153,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                              'are not a stream the node expects)')
     from rclpy.experimental import EventsExecutor
     with running('demo_planner', argv) as nodes:
-        sequence = PlannerSequence(motions_of(args.example), loop=args.loop)
+        sequence = PlannerSequence(list(MOTIONS) if args.example == 'all' else [args.example],
+                                   loop=args.loop)
         node = PlannerNode(sequence, args.rate, twist=not args.no_twist,
                            accel=not args.no_accel)
         nodes.append(node)
@@ -215,8 +171,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         node.start()
         spin_until(executor, lambda: node.done)
         if node.done and not stop_requested():
-            # let the last messages leave (reliable): wait until acknowledged
-            node.pose_pub.wait_for_all_acked(rclpy.duration.Duration(seconds=2.0))
+                node.pose_pub.wait_for_all_acked(rclpy.duration.Duration(seconds=2.0))
         log.info(f'sent {node.sent} setpoints')
     return 0
 

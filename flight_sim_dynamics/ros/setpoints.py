@@ -1,21 +1,7 @@
-"""The node's setpoint rules, without rclpy: from setpoint messages to the
-numbers to publish, the log lines due and the /diagnostics counters.
-
-:class:`SetpointIntake` takes each message (``pose_setpoint``,
-``twist_setpoint``, ``accel_setpoint``: geometry_msgs stamped messages;
-``platform_setpoint``: a trajectory_msgs/JointTrajectory over surge, heave,
-roll), checks it, joins the three topics by exact stamp and orders every
-setpoint (:class:`StampSynchroniser`), estimates what the planner did not
-send (:mod:`..core.estimator`), solves (:func:`flight_sim_dynamics.solve`,
-eqs. 5-23) and returns the :class:`Answer` s to publish and the log lines
-due. The node (:mod:`.dynamics_node`) publishes and logs; nothing here calls
-back into it.
-
-Stamp policy (docs/node.md, "Stamps"): a stamp more than ``input.max_future``
-ahead of the node's clock is ``future_stamp`` and leaves no state behind;
-setpoints far behind the last answered one, sustained, are a planner restart;
-a setpoint the node rejects leaves no trace in the stamp order or the
-estimator's history. Units: SI (m, rad, s); stamps are integer nanoseconds.
+"""The node's setpoint rules, without rclpy: :class:`SetpointIntake` checks each
+message, joins and orders the setpoints, estimates what is missing, solves
+(eqs. 5-23) and returns the answers and log lines due. A rejected setpoint
+leaves no trace (docs/node.md, "Stamps"). SI units; stamps in integer ns.
 """
 from __future__ import annotations
 
@@ -28,16 +14,11 @@ from typing import Any, Callable, Iterable, NamedTuple, Sequence
 import flight_sim_dynamics as fsd
 
 from ..config.parameters import NodeConfig
-from ..core.estimator import DerivativeEstimator, Vec3, wrap_angle
+from ..core.estimator import DerivativeEstimator, Vec3
 from ..core.model import Limits, Model
 from ..core.status import Status
 
-__all__ = ['wrap_angle']
-
-# ----------------------------------------------------------------------------
-# Rejection reasons (diagnostics counters): a rejected setpoint is not solved
-# and nothing is published for it.
-# ----------------------------------------------------------------------------
+# Rejection reasons (diagnostics counters): nothing is published for them.
 NON_FINITE = 'non_finite'                  # NaN or infinity in a field
 BAD_QUATERNION = 'bad_quaternion'          # zero-length or non-unit quaternion
 STAMP_REPEATED = 'stamp_repeated'          # stamp equal to the last answered one
@@ -54,42 +35,33 @@ NON_FINITE_OUTPUT = 'non_finite_output'    # the solver returned NaN/inf (never 
 BAD_SETPOINT = 'bad_setpoint'              # a malformed platform_setpoint message or point
 WARMING_UP = 'warming_up'                  # its estimate needs history the node lacks
 INACTIVE = 'inactive'                      # received while the node is not active
-JOINING = 'joining'                        # a stream joined mid-way (its other messages
-#                                            were published before the node listened)
+JOINING = 'joining'                        # a stream joined mid-way
 REJECTION_REASONS = (NON_FINITE, BAD_QUATERNION, STAMP_REPEATED, STAMP_BACKWARDS,
                      FUTURE_STAMP, DUPLICATE, NO_POSE, LATE, OVERFLOW, ABSURD_ACCELERATION,
                      UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT, BAD_SETPOINT, WARMING_UP,
                      INACTIVE, JOINING)
-#: Reasons that make the diagnostics level ERROR (the other faults: WARN).
 ERROR_REASONS = frozenset({NON_FINITE, BAD_QUATERNION, ABSURD_ACCELERATION,
                            UNREACHABLE, SOLVER_ERROR, NON_FINITE_OUTPUT, BAD_SETPOINT})
-#: Not answered by design: counted, logged at INFO, the level stays OK.
+# not answered by design: counted, logged at INFO, the level stays OK
 QUIET_REASONS = frozenset({WARMING_UP, INACTIVE, JOINING})
 
 # Motion the mechanism cannot follow: reported, ignored, the setpoint is solved.
 SWAY, YAW, PITCH = 'sway', 'yaw', 'pitch'
 UNFOLLOWABLE_COMPONENTS = (SWAY, YAW, PITCH)
 
-# Message kinds (diagnostics counters "received <kind>").
 POSE, TWIST, ACCEL = 'pose', 'twist', 'accel'
 KINDS = (POSE, TWIST, ACCEL)
 PLATFORM = 'platform_setpoint'
-#: ``joint_names`` of a ``platform_setpoint`` (any order; units m, m, rad).
 PLATFORM_DOF_NAMES = ('surge', 'heave', 'roll')
 
-# Diagnostic levels (those of diagnostic_msgs/DiagnosticStatus); INFO: logs only.
+# diagnostic_msgs/DiagnosticStatus levels; INFO: log lines only
 OK, WARN, ERROR = 0, 1, 2
 INFO = OK
 LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR'}
-#: The node's status name in /diagnostics: ``<fully qualified name>: <task>``.
 DIAGNOSTIC_TASK = 'inverse dynamics'
-#: Setpoints in a row far behind the last answered one that make a planner restart.
-RESTART_CONFIRMATIONS = 3
-#: Seconds after the first message during which the partial setpoints of a
-#: stream joined mid-way are ``joining`` (quiet), not late/overflow/no_pose.
-JOIN_WINDOW = 1.0
+RESTART_CONFIRMATIONS = 3          # setpoints in a row far behind: a planner restart
+JOIN_WINDOW = 1.0                  # s after the first message: partial setpoints are joining
 
-_NOTHING: tuple[str, ...] = ()
 _SHOWN = reprlib.Repr()
 _SHOWN.maxlist = _SHOWN.maxtuple = 6
 _SHOWN.maxstring = 40
@@ -105,7 +77,7 @@ class SetpointError(ValueError):
 
 
 def diagnostic_name(node_fqn: str, task: str = DIAGNOSTIC_TASK) -> str:
-    """The status name of the node ``node_fqn`` (doing ``task``) in /diagnostics."""
+    """The node's status name in /diagnostics."""
     return f'{node_fqn}: {task}'
 
 
@@ -115,23 +87,17 @@ def fmt_stamp(stamp_ns: int) -> str:
 
 
 def check_not_future(stamp_ns: int, latest_ns: int | None) -> None:
-    """``future_stamp`` for a stamp after ``latest_ns`` (None: no check)."""
     if latest_ns is not None and stamp_ns > latest_ns:
         raise SetpointError(FUTURE_STAMP, f'stamp {fmt_stamp(stamp_ns)} is more than '
                                           'input.max_future ahead of the node\'s clock (latest '
                                           f'accepted {fmt_stamp(latest_ns)})')
 
 
-# ----------------------------------------------------------------------------
-# Message checks: the mechanism's coordinates q = (surge, heave, roll)
-# ----------------------------------------------------------------------------
+# -- message checks: q = (surge, heave, roll) -----------------------------------
 def quaternion_to_rpy(x: float, y: float, z: float, w: float,
                       tolerance: float = 1e-3) -> Vec3:
-    """Roll, pitch, yaw (rad) of ``R = Rz(yaw) Ry(pitch) Rx(roll)`` (REP-103).
-
-    The quaternion must be finite and of unit length within ``tolerance``; it
-    is normalised before use (else :class:`SetpointError`). A quaternion
-    carrying a pitch (the platform's parasitic pitch) gives the same roll.
+    """Roll, pitch, yaw of ``Rz(yaw) Ry(pitch) Rx(roll)`` (REP-103) of a finite
+    quaternion of unit length within ``tolerance`` (else SetpointError).
     """
     if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z) and math.isfinite(w)):
         raise SetpointError(NON_FINITE, f'orientation has a non-finite component '
@@ -161,10 +127,7 @@ def rpy_to_quaternion(roll: float, pitch: float = 0.0, yaw: float = 0.0
 
 
 class Motion(NamedTuple):
-    """A pose, twist or acceleration setpoint: ``q`` = (surge, heave, roll) or
-    its derivative; ``sway``, ``pitch``, ``yaw``: what the message asked for
-    beyond them (position.y / linear.y, pitch / angular.y, yaw / angular.z).
-    """
+    """``q`` = (surge, heave, roll) or a derivative; sway, pitch, yaw: beyond q."""
 
     q: Vec3
     sway: float
@@ -174,9 +137,7 @@ class Motion(NamedTuple):
 
 def pose_input(px: float, py: float, pz: float, qx: float, qy: float, qz: float, qw: float,
                quaternion_tolerance: float = 1e-3) -> Motion:
-    """A geometry_msgs/Pose in the REP-103 simulator base: surge = position.x,
-    heave = position.z, roll = the ZYX roll of the orientation.
-    """
+    """Surge = position.x, heave = position.z, roll = the ZYX roll (REP-103)."""
     if not math.isfinite(px + py + pz) and not all(map(math.isfinite, (px, py, pz))):
         raise SetpointError(NON_FINITE, f'position has a non-finite component '
                                         f'({px!r}, {py!r}, {pz!r})')
@@ -186,7 +147,7 @@ def pose_input(px: float, py: float, pz: float, qx: float, qy: float, qz: float,
 
 def rate_input(lx: float, ly: float, lz: float, ax: float, ay: float, az: float,
                what: str = 'twist') -> Motion:
-    """A Twist or Accel: d/dt of (surge, heave, roll) = (linear.x, linear.z, angular.x)."""
+    """d/dt of (surge, heave, roll) = (linear.x, linear.z, angular.x)."""
     # a sum is finite iff every term is, unless it overflows (then one by one)
     if not math.isfinite(lx + ly + lz + ax + ay + az) and not all(
             map(math.isfinite, (lx, ly, lz, ax, ay, az))):
@@ -196,9 +157,6 @@ def rate_input(lx: float, ly: float, lz: float, ax: float, ay: float, az: float,
 
 def check_acceleration(qdd: Iterable[float], max_linear: float, max_angular: float,
                        source: str = 'acceleration') -> None:
-    """``absurd_acceleration``: |d2 surge|, |d2 heave| > ``max_linear`` or
-    |d2 roll| > ``max_angular``.
-    """
     a_surge, a_heave, a_roll = qdd
     if abs(a_surge) > max_linear or abs(a_heave) > max_linear:
         raise SetpointError(ABSURD_ACCELERATION,
@@ -213,10 +171,8 @@ def check_acceleration(qdd: Iterable[float], max_linear: float, max_angular: flo
 def unfollowable(pose: Motion, twist: Motion | None, accel: Motion | None,
                  parasitic_pitch: float, position_tolerance: float,
                  angle_tolerance: float) -> tuple[str, ...]:
-    """Components the mechanism cannot follow: sway and yaw beyond the
-    tolerances (rates per s, per s^2), a pitch that is neither zero nor the
-    parasitic pitch (REP-103, = -beta). The pitch rates are the parasitic
-    pitch's own derivatives, which a planner cannot choose: not checked.
+    """Sway and yaw beyond the tolerances, a pitch neither zero nor the
+    parasitic pitch (-beta); pitch rates are not the planner's to choose.
     """
     sway = abs(pose.sway) > position_tolerance
     yaw = abs(pose.yaw) > angle_tolerance
@@ -227,15 +183,12 @@ def unfollowable(pose: Motion, twist: Motion | None, accel: Motion | None,
     pitch = abs(pose.pitch) > angle_tolerance and \
         abs(pose.pitch - parasitic_pitch) > angle_tolerance
     if not (sway or yaw or pitch):
-        return _NOTHING
+        return ()
     return tuple(name for name, bad in ((SWAY, sway), (YAW, yaw), (PITCH, pitch)) if bad)
 
 
 class PlatformPoint(NamedTuple):
-    """One checked point of a ``platform_setpoint``: ``stamp_ns`` = header.stamp
-    + time_from_start, ``header`` = that stamp as (sec, nanosec); ``twist`` /
-    ``accel`` None when the point has none (then estimated).
-    """
+    """One checked trajectory point; twist / accel None: estimated."""
 
     stamp_ns: int
     header: tuple[int, int]
@@ -245,9 +198,7 @@ class PlatformPoint(NamedTuple):
 
 
 def platform_dof_order(joint_names: Sequence[str]) -> tuple[int, int, int]:
-    """Index of surge, heave and roll in ``joint_names``, which must be exactly
-    :data:`PLATFORM_DOF_NAMES` in any order (else ``bad_setpoint``).
-    """
+    """Index of surge, heave and roll in ``joint_names`` (any order)."""
     key = list(joint_names)
     if len(key) != 3 or set(key) != set(PLATFORM_DOF_NAMES):
         raise SetpointError(BAD_SETPOINT, f'joint_names must be {", ".join(PLATFORM_DOF_NAMES)} '
@@ -258,7 +209,6 @@ def platform_dof_order(joint_names: Sequence[str]) -> tuple[int, int, int]:
 
 def _point_problem(p: Sequence[float], v: Sequence[float], a: Sequence[float],
                    e: Sequence[float]) -> SetpointError | None:
-    """What is wrong with the numbers of one point, if anything."""
     if len(p) != 3:
         return SetpointError(BAD_SETPOINT, f'positions must be 3 numbers (in the order of '
                                            f'joint_names), got {len(p)}: {_SHOWN.repr(list(p))}')
@@ -279,18 +229,8 @@ def _point_problem(p: Sequence[float], v: Sequence[float], a: Sequence[float],
 
 def platform_setpoints(msg: Any, max_linear: float, max_angular: float,
                        latest_ns: int | None = None) -> list[PlatformPoint | SetpointError]:
-    """The setpoints of one ``platform_setpoint`` message (a JointTrajectory),
-    point by point.
-
-    The message as a whole is ``bad_setpoint`` (raised) for ``joint_names``
-    other than :data:`PLATFORM_DOF_NAMES` or no points. Else one item per
-    point: a :class:`PlatformPoint` or the :class:`SetpointError` of that
-    point alone: ``bad_setpoint`` (time_from_start < 0, a stamp beyond int32
-    seconds, positions not 3 numbers, velocities / accelerations neither 3
-    nor empty, effort not empty), ``non_finite``, ``absurd_acceleration``,
-    ``future_stamp``, ``stamp_repeated`` / ``stamp_backwards`` (points must
-    be in increasing stamp order). A point with time_from_start 0 keeps the
-    header stamp as received.
+    """A PlatformPoint or SetpointError per point (stamp: header.stamp +
+    time_from_start, increasing); bad joint_names or no points: raised.
     """
     surge, heave, roll = platform_dof_order(msg.joint_names)
     if not msg.points:
@@ -338,15 +278,10 @@ def platform_setpoints(msg: Any, max_linear: float, max_angular: float,
     return out
 
 
-# ----------------------------------------------------------------------------
-# Joining and ordering the setpoints
-# ----------------------------------------------------------------------------
+# -- joining and ordering the setpoints -------------------------------------------
 @dataclass(slots=True)
 class Setpoint:
-    """One setpoint: the pose, twist and acceleration carrying ``stamp_ns``
-    (``twist``/``accel`` None: not delivered in time, then estimated) and the
-    stamp as (sec, nanosec) for the outputs.
-    """
+    """The messages with one stamp (twist / accel None: estimated)."""
 
     stamp_ns: int
     pose: Motion | None = None
@@ -356,10 +291,7 @@ class Setpoint:
     first_arrival: float = 0.0
 
 
-@dataclass(frozen=True, slots=True)
-class Rejected:
-    """A message the synchroniser dropped: ``reason`` in REJECTION_REASONS."""
-
+class Rejected(NamedTuple):
     reason: str
     kind: str
     stamp_ns: int
@@ -367,35 +299,13 @@ class Rejected:
 
 
 class StampSynchroniser:
-    """Join pose, twist and acceleration messages with the same header stamp
-    (exact match, bounded wait) and order every setpoint.
-
-    * A setpoint is released once its pose and the message of every expected
-      stream are there. A twist/accel stream is expected for a stamp while it
-      is active and has not delivered a newer stamp; inactive once a setpoint
-      waited ``wait`` s for it in vain, active again with its next message.
-    * Setpoints are released in stamp order (older incomplete ones first, with
-      what they have; without a pose: ``no_pose``). A pose not after the last
-      released stamp is ``stamp_repeated`` / ``stamp_backwards``; a twist or
-      accel for a released stamp ``late``; a stamp the caller rejected
-      (:meth:`discard`) drops its other messages.
-    * A planner restart is told from a stray old message by persistence:
-      :data:`RESTART_CONFIRMATIONS` setpoints in a row, increasing, all more
-      than ``restart_jump`` s behind the last released stamp reset the history
-      (:attr:`restarts` counts it; ``restart_jump`` 0: never).
-    * A rejected message leaves no trace: a twist or accel counts for its
-      stream only once its pose is there; :meth:`withdraw` undoes a released
-      setpoint the caller could not answer. At most ``max_pending`` stamps
-      wait (the oldest is released, or ``overflow``).
-    * Joining a running stream: for ``join_window`` s after the first message
-      the partial setpoints of topics that matched at different moments are
-      ``joining`` (quiet), not late / no_pose / overflow.
-    * :meth:`add_complete` (a whole setpoint in one message) follows the same
-      stamp rules and releases older pending setpoints first.
-
-    :meth:`add`, :meth:`add_complete` and :meth:`poll` return ``(released,
-    rejected)``; the caller passes the time (monotonic s) and polls faster
-    than ``wait``.
+    """Join pose, twist and accel by exact stamp (bounded wait); release in
+    stamp order, once the pose and every active stream are there (a stream
+    waited for ``wait`` s in vain is inactive until its next message); older
+    incomplete ones first. :data:`RESTART_CONFIRMATIONS` increasing setpoints
+    more than ``restart_jump`` s behind are a planner restart; at most
+    ``max_pending`` stamps wait; for ``join_window`` s partial setpoints are
+    ``joining``. Methods return (released, rejected); poll faster than ``wait``.
     """
 
     def __init__(self, wait: float = 0.05, max_pending: int = 64,
@@ -403,35 +313,18 @@ class StampSynchroniser:
         self.wait = float(wait)
         self.join_window = float(join_window)
         self.max_pending = int(max_pending)
-        self.restart_jump = restart_jump
-        self.restarts = 0                  # planner restarts detected
-        self._behind: list[int] = []       # stamps of the setpoints in a row far behind
+        self.restart_jump_ns = int(round(float(restart_jump) * 1e9))
+        self.restarts = 0
+        self._behind: list[int] = []       # setpoints in a row far behind
         self._pending: dict[int, Setpoint] = {}
-        self._last_released: int | None = None
+        self.last_released: int | None = None
         self.active = {TWIST: True, ACCEL: True}
         self._newest: dict[str, int | None] = {TWIST: None, ACCEL: None}
-        # stamps the caller rejected -> kinds already seen (insertion-ordered, bounded)
-        self._discarded: dict[int, set[str]] = {}
-        self._join_until: float | None = None   # end of the joining window (monotonic s)
-        self._first_pose: int | None = None     # stamp of the first pose since start / reset
-        self._in_join = False                   # the last call was in the joining window
-        # end of each twist/accel topic's own joining window (its first message opens it)
-        self._stream_join_until: dict[str, float] = {}
-
-    # -- public --------------------------------------------------------------
-    @property
-    def last_released(self) -> int | None:
-        """Stamp (ns) of the last released setpoint, None before the first."""
-        return self._last_released
-
-    @property
-    def restart_jump(self) -> float:
-        """Backward jump (s) beyond which persistent setpoints are a restart."""
-        return self._restart_jump_ns * 1e-9
-
-    @restart_jump.setter
-    def restart_jump(self, seconds: float) -> None:
-        self._restart_jump_ns = int(round(float(seconds) * 1e9))
+        self._discarded: dict[int, set[str]] = {}   # rejected stamp -> kinds seen (bounded)
+        self._join_until: float | None = None
+        self._first_pose: int | None = None
+        self._in_join = False
+        self._stream_join_until: dict[str, float] = {}   # each twist/accel topic's own window
 
     @property
     def pending(self) -> int:
@@ -440,27 +333,21 @@ class StampSynchroniser:
     def reset(self) -> None:
         """Forget pending setpoints and stamp history (streams stay as they are)."""
         self._pending.clear()
-        self._last_released = None
+        self.last_released = None
         self._discarded.clear()
         self._behind.clear()
         self._newest = {TWIST: None, ACCEL: None}
         self._first_pose = None
 
     def withdraw(self, setpoint: Setpoint, answered: int | None) -> None:
-        """The caller could not answer the released ``setpoint``: its stamp is
-        discarded and the stamp order goes back to ``answered`` (the last
-        stamp the caller answered), so it leaves no trace.
-        """
+        """Undo a released setpoint the caller could not answer."""
         self.discard(setpoint.stamp_ns, POSE, setpoint)
-        last = self._last_released
+        last = self.last_released
         if last is not None and last == setpoint.stamp_ns:
-            self._last_released = answered
+            self.last_released = answered
 
     def discard(self, stamp_ns: int, kind: str, entry: Setpoint | None = None) -> None:
-        """The caller rejected the ``kind`` message with this stamp: drop the
-        pending setpoint and ignore the other messages with the stamp (a
-        second one of a kind seen is a duplicate); ``entry``: if released.
-        """
+        """Drop the stamp of a rejected message; its other messages are ignored."""
         pending = self._pending.pop(stamp_ns, None)
         entry = pending if pending is not None else entry
         seen = self._discarded.setdefault(stamp_ns, set())
@@ -485,7 +372,7 @@ class StampSynchroniser:
                                          f'{fmt_stamp(stamp_ns)} (ignored)'))
             seen.add(kind)
             return released, rejected
-        last = self._last_released
+        last = self.last_released
         if last is not None and stamp_ns <= last:
             if kind != POSE:
                 # an old message proves its stream alive; it is not its newest stamp
@@ -544,15 +431,10 @@ class StampSynchroniser:
     def add_complete(self, stamp_ns: int, pose: Any, twist: Any, accel: Any, now: float,
                      header: Any = None, kind: str = PLATFORM
                      ) -> tuple[list[Setpoint], list[Rejected]]:
-        """Add a whole setpoint that came in one message (``kind``), its twist
-        and accel None when to be estimated. The stamp rules of :meth:`add`
-        hold; a stamp pending or rejected is a ``duplicate`` (this one is
-        dropped); older pending setpoints are released first, as when a newer
-        three-message setpoint completes. The twist/accel streams are not touched.
-        """
+        """A whole setpoint in one message, under the stamp rules of :meth:`add`."""
         released: list[Setpoint] = []
         rejected: list[Rejected] = []
-        last = self._last_released
+        last = self.last_released
         if last is not None and stamp_ns <= last and not self._restarted(stamp_ns, last):
             rejected.append(_not_after_last(kind, stamp_ns, last))
             return released, rejected
@@ -591,25 +473,20 @@ class StampSynchroniser:
             self._release_through(newest, released, rejected)
         return released, rejected
 
-    # -- internals -----------------------------------------------------------
     def _joining(self, now: float) -> bool:
-        """Whether ``now`` is in the joining window (which the first message opens)."""
         if self._join_until is None:
             self._join_until = now + self.join_window
         self._in_join = now < self._join_until
         return self._in_join
 
     def _stream_joining(self, kind: str, now: float) -> bool:
-        """Whether ``now`` is in the joining window of the ``kind`` topic."""
         until = self._stream_join_until.setdefault(kind, now + self.join_window)
         return now < until
 
     def _restarted(self, stamp_ns: int, last: int) -> bool:
-        """True when this setpoint, stamped <= ``last``, confirms a planner
-        restart (the history is then reset and it is accepted).
-        """
+        """This setpoint (not after ``last``) confirms a planner restart."""
         behind = self._behind
-        if not self._restart_jump_ns or last - stamp_ns <= self._restart_jump_ns:
+        if not self.restart_jump_ns or last - stamp_ns <= self.restart_jump_ns:
             behind.clear()
             return False
         if behind and stamp_ns <= behind[-1]:
@@ -622,7 +499,6 @@ class StampSynchroniser:
         return True
 
     def _streams_seen(self, entry: Setpoint) -> None:
-        """The twist/accel of a setpoint with its pose count for their streams."""
         stamp = entry.stamp_ns
         for kind in (TWIST, ACCEL):
             if getattr(entry, kind) is not None:
@@ -658,13 +534,12 @@ class StampSynchroniser:
                                      f'{kinds} stamped {fmt_stamp(entry.stamp_ns)} '
                                      'has no pose with the same stamp'))
             return
-        self._last_released = entry.stamp_ns
+        self.last_released = entry.stamp_ns
         if self._behind:
             self._behind.clear()
         released.append(entry)
 
     def _drop_before_first_pose(self, first: int, rejected: list) -> None:
-        """The pose-less stamps before the ``first`` pose: never completed."""
         for stamp in sorted(s for s in self._pending if s < first):
             entry = self._pending.pop(stamp)
             rejected.append(_joined('+'.join(k for k in (TWIST, ACCEL)
@@ -687,14 +562,12 @@ class StampSynchroniser:
 
 
 def _joined(kind: str, stamp_ns: int, why: str) -> Rejected:
-    """A message of a stream joined mid-way that completes no setpoint."""
     return Rejected(JOINING, kind, stamp_ns,
                     f'{kind} stamped {fmt_stamp(stamp_ns)} dropped while joining the running '
                     f'stream ({why})')
 
 
 def _not_after_last(kind: str, stamp_ns: int, last: int) -> Rejected:
-    """``stamp_repeated`` / ``stamp_backwards`` of a setpoint not after ``last``."""
     repeated = stamp_ns == last
     return Rejected(STAMP_REPEATED if repeated else STAMP_BACKWARDS, kind, stamp_ns,
                     f'{kind} stamp {fmt_stamp(stamp_ns)} '
@@ -702,27 +575,16 @@ def _not_after_last(kind: str, stamp_ns: int, last: int) -> Rejected:
                     f'{fmt_stamp(last)}')
 
 
-
-# ----------------------------------------------------------------------------
-# Actuator limits, counters and statistics of /diagnostics, log throttle
-# ----------------------------------------------------------------------------
+# -- actuator limits, /diagnostics, log throttle ----------------------------------
 class LimitReport(NamedTuple):
-    """Outcome of :func:`check_limits`; ``usage``: the largest value/limit."""
-
     level: int
     exceeded: tuple[str, ...]
     near: tuple[str, ...]
-    usage: float
 
 
 def check_limits(stroke: Sequence[float], rate: Sequence[float], force: Sequence[float],
                  limits: Limits, warn_fraction: float) -> LimitReport:
-    """Compare one solution with the actuator limits (``limits.*``): beyond one
-    is ERROR, within ``warn_fraction`` of one WARN (published anyway: the
-    numbers are what the motion requires). Usage: |force| / max_force, |rate| /
-    max_speed, the stroke's distance from the middle of its range over the
-    half-range.
-    """
+    """Beyond a limit: ERROR, within ``warn_fraction`` of one: WARN (published anyway)."""
     mid = 0.5 * (limits.stroke_max + limits.stroke_min)
     half = 0.5 * (limits.stroke_max - limits.stroke_min)
     usages = {}
@@ -733,32 +595,21 @@ def check_limits(stroke: Sequence[float], rate: Sequence[float], force: Sequence
     exceeded = tuple(name for name, u in usages.items() if u > 1.0)
     near = tuple(name for name, u in usages.items() if warn_fraction <= u <= 1.0)
     level = ERROR if exceeded else WARN if near else OK
-    return LimitReport(level, exceeded, near, max(usages.values()))
+    return LimitReport(level, exceeded, near)
 
 
 class CycleStats:
-    """Counters (from start-up) and per-period statistics (solve times,
-    condition extremes, worst level; reset by :meth:`report`) of /diagnostics.
-    """
+    """/diagnostics: counters from start-up, statistics per period."""
 
     def __init__(self) -> None:
         self.received = {POSE: 0, TWIST: 0, ACCEL: 0, PLATFORM: 0}   # messages
-        self.answered = 0
-        self.estimated_twist = 0
-        self.estimated_accel = 0
         self.rejected = {reason: 0 for reason in REJECTION_REASONS}
         self.ignored = {c: 0 for c in UNFOLLOWABLE_COMPONENTS}
-        self.limit_exceeded = 0
-        self.near_limit = 0
-        self.near_singular = 0
-        self.parameter_changes = 0
-        self.parameter_rejections = 0
-        self.planner_restarts = 0        # stamp history reset (StampSynchroniser.restarts)
-        self.stamp_check = ''            # how stamps are checked against the clock
-        self.last_message = ''
-        self.last_cond = math.nan
-        self.last_jacobian_cond = math.nan
-        self.last_force: tuple[float, float, float] | None = None
+        self.answered = self.estimated_twist = self.estimated_accel = 0
+        self.limit_exceeded = self.near_limit = self.near_singular = 0
+        self.parameter_changes = self.parameter_rejections = self.planner_restarts = 0
+        self.stamp_check = self.last_message = ''
+        self.last_cond = self.last_jacobian_cond = math.nan
         self._period_reset(None)
 
     def _period_reset(self, now: float | None) -> None:
@@ -771,7 +622,6 @@ class CycleStats:
         self._period_start = now
 
     def note(self, level: int, message: str) -> None:
-        """Raise this period's level to ``level`` and remember why."""
         if level > self._level:
             self._level = level
         if level > OK and message not in self._messages and len(self._messages) < 5:
@@ -780,20 +630,15 @@ class CycleStats:
     def reject(self, reason: str, message: str) -> None:
         self.rejected[reason] += 1
         self.last_message = message
-        if reason in QUIET_REASONS:         # expected: counted and shown, the level stays
+        if reason in QUIET_REASONS:
             return
         self.note(ERROR if reason in ERROR_REASONS else WARN, f'rejected ({reason})')
 
-    def solved(self, seconds: float, cond: float, jacobian_cond: float,
-               force: tuple[float, float, float]) -> None:
-        """One answered setpoint: solve time, the solver's kinematic condition
-        (of Q) and actuator-Jacobian condition, the forces.
-        """
+    def solved(self, seconds: float, cond: float, jacobian_cond: float) -> None:
         self.answered += 1
         self._times.append(seconds)
         self.last_cond = cond
         self.last_jacobian_cond = jacobian_cond
-        self.last_force = force
         if cond > self._cond_max:
             self._cond_max = cond
         if jacobian_cond > self._jacobian_cond_max:
@@ -801,9 +646,7 @@ class CycleStats:
 
     def report(self, now: float, exact_cond: float = math.nan
                ) -> tuple[int, str, list[tuple[str, str]]]:
-        """(level, message, [(key, value), ...]) for this period; starts a new one.
-        ``exact_cond``: cond(Q) of the last solution (SVD), if known.
-        """
+        """(level, message, [(key, value)]) of this period; starts the next."""
         times = sorted(self._times)
         n = len(times)
         period = (now - self._period_start) if self._period_start is not None else math.nan
@@ -865,22 +708,13 @@ class CycleStats:
         return level, message, values
 
 
-#: What a statistic without samples reads in /diagnostics (never 'nan': a
-#: monitor parsing numbers would get NaN).
-NO_SAMPLES = 'no samples'
-
-
 def number(value: float, fmt: str) -> str:
-    """``value`` formatted with ``fmt``, or :data:`NO_SAMPLES` when it is not
-    finite (a statistic of an empty period).
-    """
-    return format(value, fmt) if math.isfinite(value) else NO_SAMPLES
+    """Never 'nan' in /diagnostics: a monitor parsing numbers would get NaN."""
+    return format(value, fmt) if math.isfinite(value) else 'no samples'
 
 
 class LogThrottle:
-    """At most one log line per ``key`` per ``period`` seconds; counts the
-    suppressed ones so the next line can say how many were skipped.
-    """
+    """At most one log line per key per ``period`` s, counting the suppressed."""
 
     def __init__(self, period: float = 1.0) -> None:
         self.period = float(period)
@@ -897,9 +731,7 @@ class LogThrottle:
         return self._suppressed.pop(key, 0)
 
 
-# ----------------------------------------------------------------------------
-# From messages to answers
-# ----------------------------------------------------------------------------
+# -- from messages to answers -----------------------------------------------------
 class Runtime(NamedTuple):
     """What a cycle reads from the parameters, swapped as one reference."""
 
@@ -908,9 +740,7 @@ class Runtime(NamedTuple):
 
 
 class Answer(NamedTuple):
-    """The outputs of one answered setpoint: its stamp (sec, nanosec), the leg
-    lengths, rates and forces (eq. 23) and the 12 joint variables and rates.
-    """
+    """Stamp, leg lengths, rates and forces (eq. 23), the 12 joints and rates."""
 
     header: tuple[int, int]
     length: list[float]
@@ -920,15 +750,12 @@ class Answer(NamedTuple):
     joint_rates: list[float]
 
 
-#: What a call returns: the answers to publish, in stamp order, and the log
-#: lines due (level, message), already throttled.
+#: The answers to publish (stamp order) and the log lines due (throttled).
 Outcome = tuple[list[Answer], list[tuple[int, str]]]
 
 
 class SetpointIntake:
-    """Setpoint messages in, :data:`Outcome` s out (module docstring). Nothing
-    raises out of the public methods: an internal error is a ``solver_error``.
-    """
+    """Messages in, :data:`Outcome` s out; an internal error is a ``solver_error``."""
 
     def __init__(self, runtime: Runtime) -> None:
         config = runtime.config
@@ -938,8 +765,8 @@ class SetpointIntake:
         self.sync = StampSynchroniser(config.sync_wait, config.sync_max_pending,
                                       config.input_restart_jump, join_window=JOIN_WINDOW)
         self.estimator = self._new_estimator(config)
-        self.last_solution: Any = None              # of the last answered setpoint
-        self.last_header: tuple[int, int] = (0, 0)  # its stamp
+        self.last_solution: Any = None
+        self.last_header: tuple[int, int] = (0, 0)
         self._answered: int | None = None           # stamp of the last answered setpoint
         self._answers: list[Answer] = []
         self._lines: list[tuple[int, str]] = []
@@ -955,13 +782,9 @@ class SetpointIntake:
         self._answers, self._lines = [], []
         return out
 
-    # -- messages ----------------------------------------------------------------
     def receive(self, kind: str, msg: Any, now: float, latest_ns: int | None,
                 active: bool = True) -> Outcome:
-        """One message of ``kind`` (:data:`KINDS` or :data:`PLATFORM`) received at
-        ``now`` (monotonic s); ``latest_ns``: the latest stamp accepted now
-        (None: no check); inactive: counted as ``inactive``, never answered.
-        """
+        """One message; ``latest_ns``: the latest stamp accepted now (None: any)."""
         try:
             self.stats.received[kind] += 1
             if not active:
@@ -1006,9 +829,7 @@ class SetpointIntake:
         self._dispatch(*self.sync.add(kind, stamp_ns, item, now, (sec, nanosec)))
 
     def _platform(self, msg: Any, now: float, latest_ns: int | None) -> None:
-        """Whole setpoints, one per point, ordered with the three-topic ones
-        (``msg``: a JointTrajectory, or the SetpointError that refused it).
-        """
+        """``msg``: a JointTrajectory, or the SetpointError that refused it."""
         config = self.runtime.config
         if isinstance(msg, SetpointError):
             self.reject(msg.reason, f'{PLATFORM} rejected: {msg}')
@@ -1031,7 +852,6 @@ class SetpointIntake:
                                                        point.accel, now, point.header))
 
     def poll(self, now: float) -> Outcome:
-        """Release the setpoints whose bounded wait expired (call periodically)."""
         try:
             if self.sync.pending:
                 self._dispatch(*self.sync.poll(now))
@@ -1057,11 +877,9 @@ class SetpointIntake:
             except Exception as exc:  # noqa: BLE001 - one failure must not skip the others
                 self.internal_error(exc)
 
-    # -- one cycle -----------------------------------------------------------------
     def _process(self, sp: Setpoint) -> None:
-        """Estimate what is missing, solve, check: one setpoint. A setpoint not
-        answered leaves no trace (warming up: its pose is history the next
-        estimates need).
+        """Estimate, solve, check; not answered: no trace (warming up: its pose
+        is history the next estimates need).
         """
         runtime = self.runtime            # read once: a parameter change applies next cycle
         try:
@@ -1071,8 +889,6 @@ class SetpointIntake:
             elapsed = time.perf_counter() - t0
             answer = Answer(sp.header, sol.length.tolist(), sol.rate.tolist(),
                             sol.force.tolist(), sol.joints.tolist(), sol.joint_rates.tolist())
-            # a sum is finite iff every term is (inf - inf is nan): nothing
-            # non-finite is published
             if not math.isfinite(sum(map(sum, answer[1:]))):
                 raise SetpointError(NON_FINITE_OUTPUT, 'solver returned a non-finite value '
                                                        '(not published)')
@@ -1090,9 +906,6 @@ class SetpointIntake:
         self.last_solution, self.last_header = sol, sp.header
 
     def _rates(self, sp: Setpoint, config: NodeConfig) -> tuple[Vec3, Vec3]:
-        """The given rates and accelerations, else estimated (counted); the
-        setpoint enters the estimator's history once answered (commit).
-        """
         twist, accel = sp.twist, sp.accel
         qd, qdd = self.estimator.estimate(sp.stamp_ns * 1e-9, sp.pose.q,
                                           None if twist is None else twist.q,
@@ -1111,9 +924,6 @@ class SetpointIntake:
 
     def _assess(self, sol: Any, sp: Setpoint, runtime: Runtime, seconds: float,
                 answer: Answer) -> None:
-        """Count a published solution (ignored components, near singularity,
-        actuator limits, solve time) and log what is due.
-        """
         config, stats = runtime.config, self.stats
         ignored = unfollowable(sp.pose, sp.twist, sp.accel, -sol.beta,
                                config.input_position_tolerance, config.input_angle_tolerance)
@@ -1137,12 +947,9 @@ class SetpointIntake:
         elif limits.near:
             stats.near_limit += 1
             stats.note(WARN, 'near an actuator limit')
-        stats.solved(seconds, sol.kinematic_condition, sol.jacobian_condition,
-                     tuple(answer.force))
+        stats.solved(seconds, sol.kinematic_condition, sol.jacobian_condition)
 
-    # -- parameters and lifecycle ------------------------------------------------------
     def reconfigure(self, runtime: Runtime) -> None:
-        """Swap in new (validated) parameters: from the next cycle."""
         old, new = self.runtime.config, runtime.config
         self.runtime = runtime
         if (new.estimator_method, new.estimator_max_gap) != (old.estimator_method,
@@ -1150,14 +957,11 @@ class SetpointIntake:
             self.estimator = self._new_estimator(new)
         self.sync.wait = new.sync_wait
         self.sync.max_pending = new.sync_max_pending
-        self.sync.restart_jump = new.input_restart_jump
+        self.sync.restart_jump_ns = int(round(new.input_restart_jump * 1e9))
         self.throttle.period = new.diagnostics_log_throttle
 
     def reset(self, reason: str | None = None) -> Outcome:
-        """Forget the pending setpoints, the stamp order and the estimator's
-        history (activate, deactivate, cleanup); with ``reason``, each dropped
-        pending setpoint is counted under it.
-        """
+        """Forget pending setpoints and history; drops counted under ``reason``."""
         for _ in range(self.sync.pending if reason else 0):
             self.reject(reason, 'pending setpoint dropped: the node was deactivated')
         self.sync.reset()
@@ -1165,16 +969,13 @@ class SetpointIntake:
         self._answered = None
         return self._flush()
 
-    # -- rejections and log lines --------------------------------------------------
     def reject(self, reason: str, message: str) -> None:
-        """Count a rejection under ``reason`` and log it (throttled)."""
         self.stats.reject(reason, message)
         level = (ERROR if reason in (UNREACHABLE, SOLVER_ERROR)
                  else INFO if reason in QUIET_REASONS else WARN)
         self.log(level, reason, message)
 
     def internal_error(self, exc: BaseException) -> Outcome:
-        """An error of the node's own (a bug, a failed publish): counted, logged."""
         try:
             self.reject(SOLVER_ERROR, f'internal error: {type(exc).__name__}: {exc}')
         except Exception:  # noqa: BLE001 - even reporting failed: stay up
@@ -1182,9 +983,7 @@ class SetpointIntake:
         return self._flush()
 
     def log(self, level: int, key: str, message: str | Callable[[], str]) -> None:
-        """A log line (``message`` or what it returns, built only when due),
-        at most once per ``diagnostics.log_throttle`` per ``key``.
-        """
+        """Throttled per ``key``; a callable message is built only when due."""
         skipped = self.throttle(key, time.monotonic())
         if skipped is None:
             return
@@ -1195,9 +994,6 @@ class SetpointIntake:
 
 
 def _solve(model: Model, q: Sequence[float], qd: Sequence[float], qdd: Sequence[float]) -> Any:
-    """:func:`flight_sim_dynamics.solve`; ``unreachable`` or ``solver_error`` when
-    there is nothing to publish.
-    """
     try:
         sol = fsd.solve(model, q, qd, qdd)
     except Exception as exc:  # noqa: BLE001 - a malformed call: never escape

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.config.parameters import NodeConfig
+from flight_sim_dynamics.core.estimator import wrap_angle
 from flight_sim_dynamics.core.model import Limits
 from flight_sim_dynamics.core.motions import PLANNER_MOTIONS as MOTIONS
 from flight_sim_dynamics.core.motions import CUEING_DURATION, PlannerSequence, motion_cueing
@@ -23,7 +24,7 @@ from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_Q
                                                SetpointError, StampSynchroniser,
                                                check_acceleration, check_limits, pose_input,
                                                quaternion_to_rpy, rate_input,
-                                               rpy_to_quaternion, unfollowable, wrap_angle)
+                                               rpy_to_quaternion, unfollowable)
 
 def field_name(parameter: str) -> str:
     return parameter.replace('.', '_')
@@ -429,7 +430,7 @@ def test_cycle_stats_report():
     stats = CycleStats()
     level, message, values = stats.report(0.0)
     assert level == OK and message == 'waiting for setpoints'
-    stats.solved(0.001, 12.0, 3.5, (1.0, 2.0, 3.0))
+    stats.solved(0.001, 12.0, 3.5)
     stats.reject(NON_FINITE, 'nan')
     level, message, values = stats.report(1.0, exact_cond=10.25)
     d = dict(values)
@@ -449,14 +450,14 @@ def test_cycle_stats_solve_time_figures():
     stats = CycleStats()
     times = [2e-6] * 99 + [5e-3]
     for t in times:
-        stats.solved(t, 1.0, 1.0, (0.0, 0.0, 0.0))
+        stats.solved(t, 1.0, 1.0)
     d = dict(stats.report(1.0)[2])
     assert float(d['solve time median (us)']) == pytest.approx(2.0)
     assert float(d['solve time mean (us)']) == pytest.approx(1e6 * sum(times) / 100, rel=1e-3)
     assert float(d['solve time p99 (us)']) == pytest.approx(2.0)
     assert float(d['solve time max (us)']) == pytest.approx(5000.0)
     for t in (1e-6, 3e-6, 2e-6, 10e-6):       # even count: mean of the middle two
-        stats.solved(t, 1.0, 1.0, (0.0, 0.0, 0.0))
+        stats.solved(t, 1.0, 1.0)
     d = dict(stats.report(2.0)[2])
     assert float(d['solve time median (us)']) == pytest.approx(2.5)
     d = dict(stats.report(3.0)[2])            # no solve this period
