@@ -45,7 +45,7 @@ def executable_parser(prog: str, description: str, epilog: str) -> argparse.Argu
     """A node executable's own options (before ``--ros-args``)."""
     parser = argparse.ArgumentParser(prog=prog, description=description, epilog=epilog)
     parser.add_argument('--executor', choices=('events', 'single'), default='events',
-                        help='rclpy executor (default: events)')
+                        help='rclpy executor (default: %(default)s)')
     return parser
 
 

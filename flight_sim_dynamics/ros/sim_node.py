@@ -26,8 +26,7 @@ def build_parser() -> argparse.ArgumentParser:
         'See docs/twin.md for topics and parameters.')
     # The single-threaded executor looks at the tick timer on every wait, whatever
     # the command rate; the events executor serves a burst of commands first.
-    executor = parser._option_string_actions['--executor']
-    executor.default, executor.help = 'single', 'rclpy executor (default: single)'
+    parser.set_defaults(executor='single')
     return parser
 
 
