@@ -1,28 +1,10 @@
 /*
- * flight_sim_dynamics.core._kernel: the solver's scalar path (paper eq. 5-23) as
- * straight-line C, for one control cycle (solve) or a batch (solve_batch).
- *
- * This is a transcription of the Python modules kinematics.py and
- * dynamics.py (and the status rule of status.py), line by line and in the
- * same order of operations, so that the two agree to round-off; the Python
- * code is the reference (it is itself checked against an independent
- * implementation in test/reference/reference_model.py), and the test suite checks this
- * kernel against it for every combination of effects, random reachable
- * poses, unreachable poses, singular poses and garbage input
- * (test/core/test_kernel.py). Function names follow the Python ones.
- *
- * The model arrives as a packed array of doubles (core/kernel.py, pack_model,
- * in the layout PACKED_MODEL below, which this module exports) and a bit set
- * of effects; a disabled effect is skipped, as in the Python code.
- *
- * Results: one row of OUT_SIZE doubles per sample (RESULT_ROW below, also
- * exported), including the status code and its info (status.sample_status).
- *
- * The digital twin (forward_dynamics.py, simulation.py) has two more entry
- * points: affine (M and b of f = M qdd + b with the row of solve(q, qd, 0),
- * from one pose) and integrate (simulation.integrate's RK4 loop for a
- * tabulated force law, no Python per stage); test/core/test_twin_kernel.py
- * checks them against the Python code.
+ * flight_sim_dynamics.core._kernel: the solver's scalar path (paper eq. 5-23)
+ * for one cycle (solve) or a batch (solve_batch), and the twin's affine terms
+ * and RK4 loop. A line-by-line transcription of kinematics.py, dynamics.py,
+ * status.py, forward_dynamics.py and simulation.py, in the same order of
+ * operations (the Python code is the reference; test/core/test_kernel.py and
+ * test_twin_kernel.py check the two agree). Function names follow the Python ones.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -30,14 +12,8 @@
 #include <math.h>
 #include <string.h>
 
-/*
- * The contracts with the Python side are declared here, once each, as
- * X-macro lists: the enum the C code uses and the table the module exports
- * (PyInit__kernel) come from the same line. core/kernel.py reads the exported
- * tables (it packs the model by the names below and reads result rows by the
- * offsets below) and checks the names against the package's own lists
- * (model.BODY_NAMES, effects.EFFECT_NAMES, kinematics.LOOPS, status.Status).
- */
+/* The contracts with the Python side, as X-macro lists: the C enum and the
+   exported table (PyInit__kernel) come from one line; core/kernel.py checks them. */
 #define AS_ENUM(id, name) id,
 #define AS_NAME(id, name) name,
 /* id, id_END = id + size - 1: the next id follows the last double of this one */
@@ -160,9 +136,7 @@ static inline double pymod(double a, double b)
     return m;
 }
 
-/* ------------------------------------------------------------------------ */
-/* Inverse geometry (kinematics.closure, inverse_geometry; eq. 5-8)          */
-/* ------------------------------------------------------------------------ */
+/* ---- Inverse geometry (kinematics.closure, inverse_geometry; eq. 5-8) ---- */
 typedef struct {
     v3 G, l, t, n, A3, D2, E2, B4, C4, dA, dB, dC, e2B, e2C, dD, dE;
     double roll, beta, u, LA, LB, LC, hB, hC;
@@ -260,10 +234,8 @@ static void inverse_geometry(const double *P, const double *q, geometric *g, int
     }
 }
 
-/* ------------------------------------------------------------------------ */
-/* Connectivity: block factorisation of Q (kinematics.factorize,             */
-/* solve_connectivity; eq. 11-12, 16)                                        */
-/* ------------------------------------------------------------------------ */
+/* ---- Connectivity: block factorisation of Q (kinematics.factorize,
+   solve_connectivity; eq. 11-12, 16) ---- */
 typedef struct { v3 aD, bD, cA, aE, cE, cB, cC, eB, eC; double detD, detE; } connectivity;
 
 static void factorize(const double *P, const geometric *g, connectivity *f)
@@ -362,10 +334,7 @@ static void acceleration_column(const double *P, const geometric *g, const doubl
     S[11] = Gdd.y + 2.0 * v * beta_d * zl.y + beta_d2 * (g->G.y - g->E2.y) + thE2 * g->E2.y;
 }
 
-/* ------------------------------------------------------------------------ */
-/* Inverse dynamics (dynamics.body_states, required_wrench, joint_forces;   */
-/* eq. 18-22)                                                                */
-/* ------------------------------------------------------------------------ */
+/* ---- Inverse dynamics (dynamics.body_states, required_wrench, joint_forces; eq. 18-22) */
 typedef struct {
     int present, moving;
     axes3 R;
@@ -573,11 +542,8 @@ static double condition_2x2(v3 a, v3 b)
     return sigma_max2 / det;
 }
 
-/* ------------------------------------------------------------------------ */
-/* The status rule (status.sample_status): code and info of one sample, the */
-/* worst that applies. A solve that stops at 1 (bad input) or 2 (open loop) */
-/* passes no results (finite, zero conditions, zero legs).                  */
-/* ------------------------------------------------------------------------ */
+/* ---- The status rule (status.sample_status): code and info of one sample, the
+   worst that applies; a solve stopped at 1 (bad input) or 2 (open loop) has no results. */
 static const double NO_LEGS[3] = {0.0, 0.0, 0.0};
 
 static int sample_status(const double *P, int bad_input, int open_loop, int finite, double kin,
@@ -617,9 +583,7 @@ static void stop(const double *P, int bad_input, int open_loop, double *out)
                                   NO_LEGS, &out[O_INFO]);
 }
 
-/* ------------------------------------------------------------------------ */
-/* One sample: solver._solve, then the status rule                           */
-/* ------------------------------------------------------------------------ */
+/* ---- One sample: solver._solve, then the status rule ---- */
 static const int ACTUATED[3] = {1, 5, 8};
 
 /* what a pose and its rates fix, whatever the accelerations: the geometry,
@@ -799,9 +763,7 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
     solve_posed(P, fx, q, qd, qdd, out, &p, st, 1);
 }
 
-/* ------------------------------------------------------------------------ */
-/* Forward dynamics (forward_dynamics.affine_terms): f = M qdd + b           */
-/* ------------------------------------------------------------------------ */
+/* ---- Forward dynamics (forward_dynamics.affine_terms): f = M qdd + b ---- */
 static const double REST[3] = {0.0, 0.0, 0.0};
 
 /* acc and eps of the bodies for the joint accelerations G = K e_j and the
@@ -898,9 +860,7 @@ static void affine_one(const double *P, int fx, const double *q, const double *q
             M[i] = 0.0;
 }
 
-/* ------------------------------------------------------------------------ */
-/* The twin's RK4 loop (simulation.integrate) for a tabulated force law      */
-/* ------------------------------------------------------------------------ */
+/* ---- The twin's RK4 loop (simulation.integrate) for a tabulated force law ---- */
 /* simulation.TabulatedLaw: the stage forces ff (stages x 3), and for a servo
    the leg lengths and rates of the reference, gains and actuator limits */
 typedef struct {
@@ -1051,9 +1011,7 @@ static Py_ssize_t rk4(const double *P, int fx, const tabulated_law *law, double 
     return steps + 1;
 }
 
-/* ------------------------------------------------------------------------ */
-/* Python bindings                                                            */
-/* ------------------------------------------------------------------------ */
+/* ---- Python bindings ---- */
 static int get_params(PyObject *obj, Py_buffer *view)
 {
     if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS) < 0)
