@@ -1142,11 +1142,8 @@ static int get_doubles(PyObject *obj, Py_buffer *view, Py_ssize_t n, int writabl
 }
 
 PyDoc_STRVAR(affine_doc,
-"affine(params, effects, out, M, b, q0, q1, q2, qd0, qd1, qd2)\n"
-"    -> (status, info, beta, kinematic_condition, jacobian_condition)\n\n"
-"forward_dynamics.affine_terms in one pass: fills `out` (OUT_SIZE doubles) with the\n"
-"row of solve(q, qd, 0), `M` (9 doubles, 3x3 row-major) and `b` (3) with the terms\n"
-"of f = M qdd + b, and returns the scalars of the row (as solve).");
+"affine(params, effects, out, M, b, q0, q1, q2, qd0, qd1, qd2) -> scalars as solve\n\n"
+"The row of solve(q, qd, 0), M (3x3) and b of f = M qdd + b (kernel.affine_row).");
 
 static PyObject *py_affine(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
@@ -1177,12 +1174,7 @@ done:
 PyDoc_STRVAR(integrate_doc,
 "integrate(params, effects, ff, length_ref, rate_ref, kp, kd, max_force, max_speed,\n"
 "          servo, h, k0, steps, q, qd, qdd, force) -> int\n\n"
-"simulation.integrate for a TabulatedLaw, rows k0 to steps (0 <= k0 <= steps; the\n"
-"state of row k0 read from q, qd): ff, length_ref, rate_ref are (2 steps + 1, 3)\n"
-"stage tables, kp and kd 3 gains, servo 0 (apply ff) or 1 (servo and deliver); q,\n"
-"qd, qdd, force are writable (steps + 1, 3) rows. Returns the first row whose step\n"
-"did not complete (steps + 1 when all did): its q, qd hold the state reached, the\n"
-"Python code takes that step. Releases the GIL while it runs.");
+"RK4 rows k0 to steps of a TabulatedLaw; the first row not completed (kernel.integrate_rows).");
 
 static PyObject *py_integrate(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
