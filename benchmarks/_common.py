@@ -6,7 +6,7 @@ import os
 import platform
 import subprocess
 from pathlib import Path
-from typing import Sequence
+from flight_sim_dynamics.cli.bench import table  # noqa: F401 - the benchmarks' tables
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -23,8 +23,3 @@ def header(what: str) -> str:
     return (f'# {now}, commit {commit()}, {os.cpu_count()} CPUs, load average '
             f'{os.getloadavg()[0]:.2f}, Python {platform.python_version()}; {what}')
 
-
-def table(columns: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
-    lines = ['| ' + ' | '.join(columns) + ' |',
-             '|' + '|'.join([':---'] + ['---:'] * (len(columns) - 1)) + '|']
-    return '\n'.join(lines + ['| ' + ' | '.join(map(str, row)) + ' |' for row in rows])

@@ -26,6 +26,7 @@ from ..core.workspace import (DEFAULT_RANGE, DEFAULT_ZOOM, DEGENERATE, E2_OFF_RO
                               KINDS, LEGS, LOOP_D, LOOP_E, REACHABLE, LineRanges, MotionReport,
                               RollMap, RollResult, boundary_shares, general_pose_at_roll,
                               near_singular_share, paper_motions, sample_roll)
+from .bench import table
 from .csv_io import atomic_output
 from .main import load_model
 from .plotting import output_format
@@ -110,11 +111,6 @@ def summary_lines(results: Sequence[RollResult], motions: Sequence[MotionReport]
     return lines
 
 
-def _md_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
-    return ''.join('| ' + ' | '.join(row) + ' |\n' for row in
-                   [header, [':---' if k else '---:' for k in range(len(header))], *rows])
-
-
 def markdown(results: Sequence[RollResult], motions: Sequence[MotionReport], model: Model,
              args: argparse.Namespace, image: str | None, md_path: str) -> str:
     """The summary as a markdown page that shows the figure ``image``."""
@@ -136,11 +132,11 @@ def markdown(results: Sequence[RollResult], motions: Sequence[MotionReport], mod
                'set is the same at every roll angle.\n')
     out.append('## What bounds the workspace\n\nShare of the length of each boundary made by '
                'each constraint (grid estimate), and the share of the cells within the stroke '
-               'limits whose status is `near_singular`.\n\n' + _md_table(
+               'limits whose status is `near_singular`.\n\n' + table(
                    ('roll', 'boundary of the reachable set (overview)',
                     'boundary within the stroke limits '
                     f'({"zoom" if results[0].zoom is not None else "overview"})',
-                    'near_singular'), bounds(results, model)))
+                    'near_singular'), bounds(results, model)) + '\n')
     out.append('## Reachable ranges and the paper\'s motions\n\n```text\n'
                + '\n'.join(summary_lines(results, motions, model)) + '\n```\n')
     return '\n'.join(out)
