@@ -28,7 +28,7 @@ from ..config.scenes import SceneError
 from ..core.forward_kinematics import poses_along
 from ..core.model import JOINT_NAMES, Model
 from ..core.trajectories import DURATION, PAPER_EXAMPLES, paper_example, sample_times
-from ..core.estimator import DerivativeEstimator
+from ..core.estimator import estimate_rows
 
 PROG = 'flight-sim-dynamics'
 DEFAULT_RATE_HZ = 100.0
@@ -202,13 +202,9 @@ def read_trajectory(path: str | os.PathLike[str], model: Model,
         return table
     method = model.values.get('estimator.method', 'backward2')
     gap = model.values.get('estimator.max_gap', 0.5)
-    estimator = DerivativeEstimator(method, gap)
     t, q = table['t'], table.data[:, [table.names.index(n) for n in POSE_INPUT[1:]]]
     qd_in = table.data[:, [table.names.index(n) for n in RATE_COLUMNS]] if rates else None
-    qd, qdd = np.empty_like(q), np.empty_like(q)
-    for i in range(len(table)):
-        given = tuple(qd_in[i]) if qd_in is not None else None
-        qd[i], qdd[i] = estimator.update(float(t[i]), tuple(q[i]), given, None)
+    qd, qdd = estimate_rows(t, q, qd_in, method, gap)
     added = [(names, v) for names, v, given in ((RATE_COLUMNS, qd, rates),
                                                 (ACC_COLUMNS, qdd, accelerations)) if not given]
     table = dataclasses.replace(table, names=table.names + sum((n for n, _ in added), ()),

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 ESTIMATORS = ('backward', 'backward2')
 Vec3 = tuple[float, float, float]
 
@@ -148,3 +150,17 @@ class DerivativeEstimator:
         self._real.append(known)
         if len(self._t) > 3:
             del self._t[0], self._q[0], self._qd[0], self._real[0]
+
+
+def estimate_rows(t: np.ndarray, q: np.ndarray, qd: np.ndarray | None = None,
+                  method: str = 'backward2', max_gap: float = 0.5
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Rates (``qd`` where given) and accelerations of the samples (t, q) as the
+    node estimates them, row by row (:meth:`DerivativeEstimator.update`).
+    """
+    est = DerivativeEstimator(method, max_gap)
+    rates, accs = np.empty_like(q), np.empty_like(q)
+    for k, (tk, qk) in enumerate(zip(np.asarray(t).tolist(), q.tolist())):
+        given = None if qd is None else tuple(qd[k].tolist())
+        rates[k], accs[k] = est.update(tk, tuple(qk), given, None)
+    return rates, accs
