@@ -81,14 +81,9 @@ def step_sequence(steps: Sequence[Step], t: np.ndarray | float) -> Trajectory:
     return q, qd, qdd
 
 
-def motion_cueing(t: np.ndarray | float) -> Trajectory:
-    """q, qd, qdd (each (N, 3)) of ``cueing`` at times ``t`` (s)."""
-    return step_sequence(CUEING_STEPS, t)
-
-
-def violent_motion(t: np.ndarray | float) -> Trajectory:
-    """q, qd, qdd (each (N, 3)) of ``violent`` at times ``t`` (s)."""
-    return step_sequence(VIOLENT_STEPS, t)
+#: q, qd, qdd (each (N, 3)) of ``cueing`` and ``violent`` at times ``t`` (s).
+motion_cueing = partial(step_sequence, CUEING_STEPS)
+violent_motion = partial(step_sequence, VIOLENT_STEPS)
 
 
 @dataclass(frozen=True)
