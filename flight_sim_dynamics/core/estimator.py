@@ -46,26 +46,15 @@ def backward_derivative(times: list[float], values: list[Vec3], order: int) -> V
 class DerivativeEstimator:
     """Fill in missing rates and accelerations from the stream itself.
 
-    Each :meth:`update` takes the pose of one setpoint (stamp in seconds) and
-    the measured twist/acceleration when the planner sent them (None
-    otherwise). Missing rates are the backward derivative of the last poses;
-    missing accelerations the backward derivative of the last rates (the
-    measured ones when they came, else the estimated ones), so a pose-only
-    stream gets its accelerations from a second difference of poses.
-    Roll is unwrapped across +-pi before differencing.
-
-    The history restarts on the first setpoint, after a gap longer than
-    ``max_gap`` seconds, and on :meth:`reset`; the first setpoint of a
-    history is taken at rest (what it lacks is zero). With ``warm_up`` (the
-    node), a second difference never uses that assumed rest: an
-    acceleration whose estimate would need it is None (not estimated; the
-    node does not answer such a setpoint) rather than the rate jump from
-    "rest" to the stream's real rate divided by one step.
-
-    :meth:`update` estimates and records a setpoint. The node records one
-    only once it has answered it (:meth:`estimate`, then :meth:`commit`): a
-    setpoint rejected after its estimate (an absurd estimate, an unreachable
-    pose) leaves no trace in the estimates of the next ones.
+    Missing rates are the backward derivative of the last poses (roll
+    unwrapped across +-pi), missing accelerations that of the last rates,
+    given or estimated. The history restarts on the first setpoint, after a
+    gap longer than ``max_gap`` s and on :meth:`reset`; its first setpoint is
+    taken at rest. With ``warm_up`` (the node) an acceleration that would
+    difference that assumed rest is None (not estimated) instead.
+    :meth:`update` estimates and records a setpoint; the node records one
+    only once it has answered it (:meth:`estimate`, then :meth:`commit`), so
+    a rejected setpoint leaves no trace in the next estimates.
     """
 
     def __init__(self, method: str = 'backward2', max_gap: float = 0.5,
