@@ -800,17 +800,10 @@ static void unit_accelerations(const double *P, const geometric *g, const double
     }
 }
 
-/* M of f = M qdd + b at a pose p whose bodies (frames, centres of mass, which
-   move) the solve's body_states left in st: every term of the recursion is
-   affine in qdd (eq. 15-17: Gamma = K qdd + Q^-1 (velocity terms); eq. 18-23
-   linear in the body accelerations; friction reads the leg rates only), so
-   column j of M is the force of the accelerations of a unit qdd e_j alone
-   (joint accelerations K e_j; no gravity, velocity products, friction: they
-   are in b). Those accelerations of a body are its velocities per unit qd_j
-   (a_j, and eps_j in body axes w_j), so by virtual power (eq. 23)
-   M = J^-T Mq with Mq[i][j] = sum over the moving bodies of
-   m a_i . a_j + w_i . I w_j: the recursion's three passes in one sum (the
-   same M to rounding, test_twin_kernel.py). */
+/* M of f = M qdd + b at the pose p, bodies in st (forward_dynamics.affine_terms):
+   column j is the force of a unit qdd e_j alone (eq. 15-23 are affine in qdd),
+   whose body accelerations are the velocities per unit qd_j (a_j, w_j); by
+   virtual power (eq. 23) M = J^-T Mq, Mq[i][j] = sum m a_i . a_j + w_i . I w_j. */
 static void mass_matrix(const double *P, const pose_terms *p, const body_state *st, double *M)
 {
     v3 com[N_BODIES], acc[3][N_BODIES], eps[3][N_BODIES];
@@ -955,11 +948,8 @@ static int stage(const double *P, int fx, const tabulated_law *law, Py_ssize_t j
     return solve3(M, rhs, qdd);
 }
 
-/* RK4 rows k0..steps (simulation.integrate, same operations in the same
-   order; k0 <= steps): each of q, qd, qdd, force is (steps + 1) x 3; the state
-   of row k0 is read from q, qd. Returns the first row whose step did not
-   complete (steps + 1 when all did); its q and qd hold the state reached, its
-   qdd and force are left for the Python code, which takes that step itself. */
+/* RK4 rows k0..steps (simulation.integrate, same operations in the same order;
+   kernel.integrate_rows): returns the first row whose step did not complete. */
 static Py_ssize_t rk4(const double *P, int fx, const tabulated_law *law, double h,
                       Py_ssize_t k0, Py_ssize_t steps, double *Q, double *QD,
                       double *QDD, double *F)
