@@ -1,9 +1,6 @@
-"""Command line: ``flight-sim-dynamics COMMAND`` (``--help`` lists them).
-
-``node``, ``sim``, ``demo-planner`` and ``demo`` hand the rest of the command
-line to their module (rclpy); the others are parsed here. Every error is exit
-status 2 and one line ``error: ...`` on standard error, and leaves no
-partial output file.
+"""Command line: ``flight-sim-dynamics COMMAND`` (``--help`` lists them; ``node``,
+``sim``, ``demo-planner`` and ``demo`` are handed to their module). Every error
+is exit status 2, one line ``error: ...`` on standard error, no partial output.
 """
 from __future__ import annotations
 

@@ -1,12 +1,8 @@
-"""The workspace map: ``flight-sim-dynamics workspace [-o map.png]``.
-
-Per roll angle, a panel of the (surge, heave) plane at rest
-(:mod:`..core.workspace`): the reachable region coloured by cond(Q) (or the
-kinematic condition), the unreachable regions hatched by cause (loop D, loop
-E, slider E2 off the rod), the stroke-limit contours, the singular curves and
-the paper's motions (eq. 6); a second row zooms on the central configuration.
-The summary (intervals along the axes, areas, the paper's motions) goes to
-stdout, and with ``--markdown`` to a page. matplotlib is imported by :func:`plot` only.
+"""``flight-sim-dynamics workspace``: per roll angle a panel of the (surge,
+heave) plane at rest (:mod:`..core.workspace`), reachable cells coloured by
+condition, unreachable ones hatched by cause, with the stroke limits, singular
+curves and the paper's motions (eq. 6); the summary on stdout (``--markdown``:
+a page). matplotlib is imported by :func:`plot` only.
 """
 from __future__ import annotations
 

@@ -1,24 +1,15 @@
 """Parameters: the one rule for reading parameter files, and the model built
-from validated values.
+from validated values (schema :mod:`.schema`, checks :mod:`.validation`, both
+re-exported here).
 
 One YAML file in ROS 2 parameter format (``flight_sim_dynamics:
-ros__parameters: ...``) feeds the solver (:func:`load_model`), the command
-line (``solve --params``) and the node (``--ros-args --params-file``). Nested
-YAML maps become dotted names (``geometry.d1``, ``bodies.rod.mass``), exactly
-as ROS 2 flattens them. The rule, the same for all three
-(:func:`read_params`):
-
-* a file may be partial: what it gives overrides the packaged defaults;
-* a name that is not a parameter is an error, with the closest known name
-  ("did you mean") and the file;
-* ``qos_overrides.*`` names are the node's (rclpy's start-up QoS overrides):
-  the node reads them, :func:`load_model` ignores them;
-* the file is read by the rules of :mod:`.yaml_io` (bounded size, no aliases,
-  no value that ROS 2 would read differently), so that every bad file is one
-  :class:`ParameterError` naming it, in well under a second.
-
-The schema is :mod:`.schema`, the checks :mod:`.validation`; both are
-re-exported here.
+ros__parameters: ...``, nested maps as dotted names ``bodies.rod.mass``) feeds
+the solver (:func:`load_model`), the command line (``--params``) and the node
+(``--params-file``), by one rule (:func:`read_params`): a file may be partial
+(it overrides the packaged defaults); an unknown name is an error ("did you
+mean", naming the file); ``qos_overrides.*`` are the node's, ignored by
+:func:`load_model`; the file is read by :mod:`.yaml_io`'s rules, so that every
+bad file is one :class:`ParameterError` naming it.
 """
 from __future__ import annotations
 
@@ -119,15 +110,11 @@ def packaged_values() -> dict[str, Any]:
 
 def load_model(path: str | os.PathLike[str] | None = None,
                scene: str | os.PathLike[str] | None = None) -> Model:
-    """Load and validate a parameter file (None: the packaged defaults) and a
-    scene (a name from config/scenes or a path; None: the file's ``scene``
-    parameter if it has one, else ``full``, the paper's model).
-
-    The file may be partial: what it gives overrides the packaged file. A name
-    that is not a parameter is an error ("did you mean"); node parameters are
-    accepted (one file serves the node too) and ``qos_overrides.*`` are the
-    node's: ignored here. Raises :class:`ParameterError` for any bad file or
-    value.
+    """Load and validate a parameter file (None: the packaged defaults; by the
+    rule of the module docstring, node parameters accepted) and a scene (a name
+    from config/scenes or a path; None: the file's ``scene`` parameter, else
+    ``full``, the paper's model). Raises :class:`ParameterError` for any bad
+    file or value.
     """
     values = packaged_values()
     if path is not None:
