@@ -1,11 +1,7 @@
-"""What each effect costs and buys: ``flight-sim-dynamics bench``.
-
-For every packaged scene and single-effect variant of ``full``: the median and
-p99 time of one cycle (variants interleaved, shuffled per state) against the
-force error relative to ``full`` on the test motions (eq. 6 and ``violent``);
-and the force error when the node's estimator supplies the accelerations, at
-60, 250 and 1000 Hz. Prints the tables and writes ``scenes.md`` and
-``scenes.png`` to ``--out-dir`` (or docs/ with ``--update-docs``).
+"""What each effect costs and buys: ``flight-sim-dynamics bench``. Per packaged
+scene and single-effect variant of ``full``, the median and p99 time of a
+cycle against the force error relative to ``full`` (eq. 6 and ``violent``),
+and the error when the node's estimator supplies the accelerations.
 """
 from __future__ import annotations
 

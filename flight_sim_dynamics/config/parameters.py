@@ -56,15 +56,11 @@ def read_params(path: str | os.PathLike[str], node: str = '/' + NODE_NAME
 
 def model_from_values(values: Mapping[str, Any], *, require_all: bool = True,
                       scene: Scene | str | None = None) -> Model:
-    """Validate ``values`` (flat dotted names) and build the :class:`Model`.
-
-    ``scene`` (a :class:`~.scenes.Scene`, a scene name or path; None = the
-    ``scene`` parameter in ``values``, else ``full``) selects the effects; its
-    parameter overrides apply on top of ``values``.
-    Raises :class:`ParameterError` if anything is invalid, including a geometry
-    whose loops cannot close at the central configuration (crank D, crank E
-    meeting the rod between A3 and G, eq. 7-8), and :class:`~.scenes.SceneError`
-    for a bad scene.
+    """Validate ``values`` (flat dotted names) and build the :class:`Model`, with
+    the effects and overrides of ``scene`` (a :class:`~.scenes.Scene`, name or
+    path; None: the ``scene`` parameter, else ``full``). :class:`ParameterError`
+    if anything is invalid, including a geometry whose loops cannot close at the
+    central configuration (eq. 7-8); :class:`~.scenes.SceneError` for a bad scene.
     """
     if scene is None:
         scene = values.get('scene', SPECS['scene'].default)

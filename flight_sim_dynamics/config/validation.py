@@ -117,13 +117,10 @@ def check_names(values: Mapping[str, Any], where: str = '') -> None:
 
 
 def validate(values: Mapping[str, Any], *, require_all: bool = True) -> dict[str, Any]:
-    """Check a flat dict of parameters against the schema.
-
-    Unknown keys are errors. With ``require_all`` every required model
-    parameter (gravity, geometry, bodies) must be present (as when building a
-    model from a complete set of values); otherwise missing ones take their
-    packaged defaults. Effect parameters (payload, friction) and node
-    parameters default when absent. Returns the complete, canonical flat dict.
+    """Check a flat dict of parameters against the schema (unknown keys are
+    errors); returns the complete, canonical flat dict. Absent parameters take
+    their defaults, except required model parameters (gravity, geometry,
+    bodies) with ``require_all``.
     """
     check_names(values)
     result = defaults()

@@ -17,13 +17,10 @@ def wrap_angle(angle: float) -> float:
 
 
 def backward_derivative(times: list[float], values: list[Vec3], order: int) -> Vec3:
-    """Derivative at ``times[-1]`` from the last samples (causal).
-
-    ``order`` 1: two-point backward difference ``(f_k - f_k-1) / h`` (error
-    ``h f''/2``). ``order`` 2: derivative at ``t_k`` of the parabola through
-    the last three samples (BDF2, error ``h^2 f'''/3`` on a uniform grid);
-    the steps may be unequal. Falls back to order 1 with two samples and to
-    zero with one.
+    """Derivative at ``times[-1]`` from the last samples (causal): ``order`` 1
+    ``(f_k - f_k-1) / h`` (error ``h f''/2``), 2 the parabola through the last
+    three, steps unequal or not (BDF2, error ``h^2 f'''/3``); order 1 with two
+    samples, zero with one.
     """
     n = len(times)
     if n < 2:
