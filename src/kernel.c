@@ -1002,12 +1002,14 @@ static Py_ssize_t rk4(const double *P, int fx, const tabulated_law *law, double 
 }
 
 /* ---- Python bindings ---- */
-static int get_params(PyObject *obj, Py_buffer *view)
+/* a C-contiguous float64 buffer of exactly n doubles (writable if asked) */
+static int get_doubles(PyObject *obj, Py_buffer *view, Py_ssize_t n, int writable,
+                       const char *name)
 {
-    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS) < 0)
+    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0)) < 0)
         return -1;
-    if (view->len != (Py_ssize_t)(P_SIZE * sizeof(double))) {
-        PyErr_Format(PyExc_ValueError, "packed model must be %d doubles", (int)P_SIZE);
+    if (view->len != n * (Py_ssize_t)sizeof(double)) {
+        PyErr_Format(PyExc_ValueError, "%s must be %zd doubles", name, n);
         PyBuffer_Release(view);
         return -1;
     }
@@ -1046,16 +1048,10 @@ static PyObject *py_solve(PyObject *self, PyObject *const *args, Py_ssize_t narg
     if (one_sample_args("solve", args, nargs, 12, 3, 9, &fx, x) < 0)
         return NULL;
     Py_buffer pv, ov;
-    if (get_params(args[0], &pv) < 0)
+    if (get_doubles(args[0], &pv, P_SIZE, 0, "packed model") < 0)
         return NULL;
-    if (PyObject_GetBuffer(args[2], &ov, PyBUF_C_CONTIGUOUS | PyBUF_WRITABLE) < 0) {
+    if (get_doubles(args[2], &ov, OUT_SIZE, 1, "out") < 0) {
         PyBuffer_Release(&pv);
-        return NULL;
-    }
-    if (ov.len != (Py_ssize_t)(OUT_SIZE * sizeof(double))) {
-        PyBuffer_Release(&pv);
-        PyBuffer_Release(&ov);
-        PyErr_Format(PyExc_ValueError, "out must be %d doubles", (int)OUT_SIZE);
         return NULL;
     }
     double *out = (double *)ov.buf;
@@ -1083,7 +1079,7 @@ static PyObject *py_solve_batch(PyObject *self, PyObject *const *args, Py_ssize_
     Py_buffer views[5];
     int got = 0;
     PyObject *result = NULL;
-    if (get_params(args[0], &views[0]) < 0)
+    if (get_doubles(args[0], &views[0], P_SIZE, 0, "packed model") < 0)
         return NULL;
     got = 1;
     for (int i = 0; i < 4; i++) {
@@ -1115,20 +1111,6 @@ done:
     for (int i = 0; i < got; i++)
         PyBuffer_Release(&views[i]);
     return result;
-}
-
-/* a C-contiguous float64 buffer of exactly n doubles (writable if asked) */
-static int get_doubles(PyObject *obj, Py_buffer *view, Py_ssize_t n, int writable,
-                       const char *name)
-{
-    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0)) < 0)
-        return -1;
-    if (view->len != n * (Py_ssize_t)sizeof(double)) {
-        PyErr_Format(PyExc_ValueError, "%s must be %zd doubles", name, n);
-        PyBuffer_Release(view);
-        return -1;
-    }
-    return 0;
 }
 
 PyDoc_STRVAR(affine_doc,
