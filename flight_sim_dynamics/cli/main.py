@@ -137,19 +137,12 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
 def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond: bool = False
                 ) -> tuple[tuple[str, ...], np.ndarray, list[str]]:
     """Solve every row of a trajectory table: (column names, data, statuses)."""
-    col = {name: j for j, name in enumerate(table.names)}
     data = table.data
-
-    def pick(names: Sequence[str]) -> np.ndarray:
-        return data[:, [col[n] for n in names]]
-
-    q = pick(('surge', 'heave', 'roll'))
-    qd = pick(('surge_rate', 'heave_rate', 'roll_rate'))
-    qdd = pick(('surge_acc', 'heave_acc', 'roll_acc'))
-    sol = fsd.solve_batch(model, q, qd, qdd)
+    sol = fsd.solve_batch(model, *(data[:, [table.names.index(n) for n in group]] for group in (
+        POSE_INPUT[1:], RATE_COLUMNS, ACC_COLUMNS)))
     report_not_ok(f'{table.path}: ', sol.status, sol.detail,
                   lambda i: f'line {int(table.lines[i])}')
-    columns = [data[:, col['t']]] + [
+    columns = [table['t']] + [
         np.asarray(getattr(sol, field), dtype=float).reshape(len(data), -1)
         for field in ('length', 'stroke', 'rate', 'force', 'power', 'acceleration', 'beta',
                       'kinematic_condition', 'jacobian_condition')]
