@@ -1,10 +1,7 @@
-"""Validation of parameter values against the schema (:mod:`.schema`).
-
-Strict and never guessing: a missing, unknown or mistyped key, a value out
-of its physical range, an impossible inertia tensor raise
-:class:`ParameterError` naming the key and the value. The only conversion
-made is an integer given for a floating-point parameter (``mass: 2``), which
-is exact and is accepted as the same number.
+"""Validation of parameter values against the schema (:mod:`.schema`), strict:
+a missing, unknown or mistyped key, a value out of range, an impossible inertia
+tensor is a :class:`ParameterError` naming key and value. The one conversion:
+an integer for a floating-point parameter (``mass: 2``, exact).
 """
 from __future__ import annotations
 

@@ -1,9 +1,7 @@
-"""Workspace sampling at rest (geometry, not motion), the numerics of
-``flight-sim-dynamics workspace``: grid maps per roll angle by what ends
-reachability (:func:`sample_map`), the intervals along the axes through the
-central configuration and the areas, each crossing located by bisection
-(:func:`line_ranges`, :func:`areas`), what makes the boundary
-(:func:`boundary_shares`) and how the paper's motions fare (eq. 6).
+"""Workspace sampling at rest, the numerics of ``flight-sim-dynamics workspace``:
+grid maps per roll angle by what ends reachability (:func:`sample_map`), intervals
+and areas with bisected crossings (:func:`line_ranges`, :func:`areas`), what makes
+the boundary (:func:`boundary_shares`) and the paper's motions (eq. 6).
 """
 from __future__ import annotations
 
