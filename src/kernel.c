@@ -1076,28 +1076,26 @@ static PyObject *py_solve_batch(PyObject *self, PyObject *const *args, Py_ssize_
     long fx = PyLong_AsLong(args[1]);
     if (fx == -1 && PyErr_Occurred())
         return NULL;
-    Py_buffer views[5];
+    Py_buffer views[5];     /* q (its size gives N), params, qd, qdd, out */
     int got = 0;
     PyObject *result = NULL;
-    if (get_doubles(args[0], &views[0], P_SIZE, 0, "packed model") < 0)
+    if (PyObject_GetBuffer(args[2], &views[0], PyBUF_C_CONTIGUOUS) < 0)
         return NULL;
-    got = 1;
-    for (int i = 0; i < 4; i++) {
-        int flags = PyBUF_C_CONTIGUOUS | (i == 3 ? PyBUF_WRITABLE : 0);
-        if (PyObject_GetBuffer(args[2 + i], &views[1 + i], flags) < 0)
+    Py_ssize_t n = views[0].len / (Py_ssize_t)(3 * sizeof(double));
+    static const int arg[5] = {2, 0, 3, 4, 5};
+    static const char *const names[5] = {"q", "packed model", "qd", "qdd", "out"};
+    const Py_ssize_t sizes[5] = {3 * n, P_SIZE, 3 * n, 3 * n, OUT_SIZE * n};
+    if (views[0].len != 3 * n * (Py_ssize_t)sizeof(double)) {
+        PyErr_SetString(PyExc_ValueError, "q must be (N, 3) doubles");
+        PyBuffer_Release(&views[0]);
+        return NULL;
+    }
+    for (got = 1; got < 5; got++)
+        if (get_doubles(args[arg[got]], &views[got], sizes[got], got == 4, names[got]) < 0)
             goto done;
-        got++;
-    }
-    Py_ssize_t n = views[1].len / (Py_ssize_t)(3 * sizeof(double));
-    if (views[1].len != n * 3 * (Py_ssize_t)sizeof(double)
-            || views[2].len != views[1].len || views[3].len != views[1].len
-            || views[4].len != n * OUT_SIZE * (Py_ssize_t)sizeof(double)) {
-        PyErr_SetString(PyExc_ValueError, "q, qd, qdd must be (N, 3) and out (N, OUT_SIZE)");
-        goto done;
-    }
     {
-        const double *P = (const double *)views[0].buf;
-        const double *q = (const double *)views[1].buf, *qd = (const double *)views[2].buf,
+        const double *P = (const double *)views[1].buf;
+        const double *q = (const double *)views[0].buf, *qd = (const double *)views[2].buf,
                      *qdd = (const double *)views[3].buf;
         double *out = (double *)views[4].buf;
         Py_BEGIN_ALLOW_THREADS
