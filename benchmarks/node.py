@@ -31,11 +31,9 @@ WARM = 200
 
 
 def qos() -> Any:
-    """The node's default QoS of setpoints and outputs."""
-    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
-                      reliability=ReliabilityPolicy.RELIABLE,
-                      durability=DurabilityPolicy.VOLATILE)
+    """The node's default QoS of setpoints and outputs: reliable, volatile, keep last 1000."""
+    from rclpy.qos import QoSProfile
+    return QoSProfile(depth=1000)
 
 
 def spin_for(executor: Any, seconds: float, until: Any = lambda: False) -> bool:

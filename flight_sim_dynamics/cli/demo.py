@@ -72,11 +72,9 @@ class Monitor(Node):
 
 def round_trip(executor: Any, planner: PlannerNode, monitor: Monitor,
                timeout: float = 10.0) -> bool:
-    """Probe setpoints (at rest, stamped 1 s back) until one is answered and
-    the node's diagnostics have counted a twist and an acceleration: the
-    node's readers and writers have matched too, not only ours (else the
-    first answers of the stream can be lost). The probes' answers are not
-    kept.
+    """Probe setpoints (at rest, stamped 1 s back, answers not kept) until one is
+    answered and the node's diagnostics count a twist and an acceleration: the
+    node's own endpoints have matched too (else the stream's first answers can be lost).
     """
     deadline = time.monotonic() + timeout
     answered = False
