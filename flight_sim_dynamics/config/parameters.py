@@ -41,11 +41,9 @@ QOS_OVERRIDES = 'qos_overrides.'
 
 def read_params(path: str | os.PathLike[str], node: str = '/' + NODE_NAME
                 ) -> tuple[dict[str, Any], dict[str, Any]]:
-    """Read one parameter file by the one rule (module docstring): returns
-    (the parameters of the schema it gives, its ``qos_overrides.*`` values),
-    each a flat dict of dotted names. Raises :class:`ParameterError` for an
-    unknown name ("did you mean", naming the file) or any unreadable file; the
-    values themselves are checked when a model is built from them.
+    """Read one parameter file by the one rule (module docstring): (its schema
+    parameters, its ``qos_overrides.*``), flat dicts of dotted names; each value
+    of a known name checked, the whole when a model is built from them.
     """
     flat = read_params_file(path, node)
     qos = {k: v for k, v in flat.items() if k.startswith(QOS_OVERRIDES)}
@@ -119,11 +117,9 @@ def load_model(path: str | os.PathLike[str] | None = None,
 
 
 def check_params_files(args: Sequence[str], node: str = '/' + NODE_NAME) -> None:
-    """Apply the one rule to the ``--params-file`` files of a node's command
-    line ``args`` (``node``: its fully qualified name): names checked, and the
-    values, over the packaged ones, validated against the schema as
-    load_model validates them (the node's executable: a bad file is one
-    ParameterError, exit 2).
+    """The one rule on the ``--params-file`` files of a node's command line
+    ``args`` (``node``: its fully qualified name), values over the packaged ones
+    validated as load_model does: a bad file is one ParameterError.
     """
     values = packaged_values()
     for path in params_files_in(args):

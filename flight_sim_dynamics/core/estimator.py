@@ -82,10 +82,7 @@ class DerivativeEstimator:
 
     def update(self, t: float, q: Vec3, qd: Vec3 | None, qdd: Vec3 | None
                ) -> tuple[Vec3, Vec3 | None]:
-        """Record a setpoint and return its (rates, accelerations): the given
-        ones where present, estimates otherwise (:meth:`estimate`, then
-        :meth:`commit`).
-        """
+        """:meth:`estimate` then :meth:`commit`: (rates, accelerations), given or estimated."""
         rates = self.estimate(t, q, qd, qdd)
         self.commit()
         return rates
