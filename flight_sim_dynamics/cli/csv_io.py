@@ -459,12 +459,6 @@ def write_npz(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarr
         np.savez(f, **arrays)
 
 
-def write_table(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarray,
-                text: tuple[str, Sequence[str]] | None = None) -> None:
-    """:func:`write_npz` if ``path`` ends in .npz, else :func:`write_csv`."""
-    (write_npz if is_npz(path) else write_csv)(path, names, data, text)
-
-
 def _checked(names: Sequence[str], data: np.ndarray, text: tuple[str, Sequence[str]] | None
              ) -> tuple[np.ndarray, Sequence[str] | None]:
     data = np.asarray(data, dtype=np.float64)

@@ -217,7 +217,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
     model = load_model(args.params, args.scene)
     table = read_trajectory(args.input, model)
     names, data, status = solve_table(model, table, joints=args.joints, exact_cond=args.cond)
-    csv_io.write_table(args.output, names, data, text=('status', status))
+    write = csv_io.write_npz if csv_io.is_npz(args.output) else csv_io.write_csv
+    write(args.output, names, data, text=('status', status))
     return 0
 
 
