@@ -421,7 +421,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except (CliError, CsvError, ValueError, OSError) as exc:
-        # ValueError covers ParameterError, UnreachablePoseError, PlotError
+        # ValueError covers ParameterError, UnreachablePoseError
         where = isinstance(exc, OSError) and exc.filename is not None
         message = f"'{exc.filename}': {exc.strerror or exc}" if where else exc
         print(f'error: {_one_line(message)}', file=sys.stderr)
