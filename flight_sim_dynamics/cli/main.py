@@ -294,8 +294,6 @@ def forward(command: str, argv: Sequence[str]) -> int:
             return exc.code or 0
         print(exc.code, file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        raise
     except Exception as exc:  # noqa: BLE001 - the module's own error: one line, exit 2
         if needs_plot_extra(exc):
             raise CliError(plot_extra_message(command)) from None
