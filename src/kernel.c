@@ -730,9 +730,8 @@ static void solve_at(const double *P, int fx, const pose_terms *p, const double 
     out[O_INFO] = info;
 }
 
-/* one sample into the row `out`; returns 1 when p holds its pose and st its
-   bodies (the input is finite and every loop closes), 0 when the sample
-   stopped before */
+/* one sample into the row `out`; 1 when p holds its pose and st its bodies
+   (finite input, every loop closed), 0 when the sample stopped before */
 static int solve_posed(const double *P, int fx, const double *q, const double *qd,
                        const double *qdd, double *out, pose_terms *p, body_state *st,
                        int angles)
@@ -831,10 +830,8 @@ static void mass_matrix(const double *P, const pose_terms *p, const body_state *
                            + p->Jinv[2][m] * Mq[2][j];
 }
 
-/* The row of solve(q, qd, 0) in `out`, b = its force and M (row-major 3x3,
-   mass_matrix), from one pose. M and b are 0 when the sample is void
-   (unreachable, invalid input); a non-finite entry of M (exact singularity)
-   is 0, as solve's numbers are. */
+/* forward_dynamics.affine_terms: the row of solve(q, qd, 0) in `out`, b and M
+   (row-major 3x3), 0 when void; a non-finite entry of M is 0, as solve's numbers. */
 static void affine_one(const double *P, int fx, const double *q, const double *qd,
                        double *out, double *M, double *b, int angles)
 {
@@ -925,9 +922,8 @@ static int solve3(const double *M, const double *r, double *x)
     return isfinite(x[0]) && isfinite(x[1]) && isfinite(x[2]);
 }
 
-/* simulation._stage: qdd and the applied force at (q, qd), stage j; 0 when the
-   stage stops or is left to the Python code (a status that stops, M
-   ill-conditioned, results not finite) */
+/* simulation._stage at (q, qd), stage j; 0 when the stage stops or is left to the
+   Python code (a status that stops, M ill-conditioned, results not finite) */
 static int stage(const double *P, int fx, const tabulated_law *law, Py_ssize_t j,
                  const double *q, const double *qd, double *qdd, double *force)
 {
