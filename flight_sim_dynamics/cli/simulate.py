@@ -15,9 +15,8 @@ from ..core.motions import MOTIONS
 from ..core.simulation import (DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, DEFAULT_STEP,
                                ForceHistory, Reference, Servo, simulate)
 from .csv_io import TRAJECTORY_COLUMNS, read_table, write_csv
-from .main import load_model, read_trajectory, report_not_ok
+from .main import LEGS, load_model, read_trajectory, report_not_ok
 
-LEGS = ('a', 'b', 'c')
 FORCE_COLUMNS = ('t',) + tuple(f'force_{leg}' for leg in LEGS)
 POSE = ('surge', 'heave', 'roll')
 #: Output columns, in order (closed loop adds ERROR_COLUMNS; then ``status``).
