@@ -170,10 +170,8 @@ def report_not_ok(prefix: str, status: Sequence, detail: Sequence,
 
 def read_trajectory(path: str | os.PathLike[str], model: Model,
                     limit: int | None = None) -> csv_io.Table:
-    """The trajectory table of ``path`` (at most ``limit`` bytes) with every
-    column of :data:`~.csv_io.TRAJECTORY_COLUMNS`; a group of three that none
-    of the columns names (rates, accelerations) is estimated from the poses as
-    the node does, with a note on standard error.
+    """The trajectory table of ``path`` (at most ``limit`` bytes), rates or
+    accelerations it lacks estimated from the poses as the node does (a note).
     """
     raw = csv_io.read_bytes(path, limit)
     header = raw.partition(b'\n')[0].decode('utf-8', 'replace').lstrip('\ufeff')

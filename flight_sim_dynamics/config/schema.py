@@ -25,12 +25,9 @@ MAX_PATH = 4096             # characters of a file path (PATH_MAX on Linux)
 
 @dataclass(frozen=True)
 class ParamSpec:
-    """One declared parameter: its dotted name, type, default and meaning.
-
-    ``kind`` is one of ``double``, ``double_array``, ``integer``, ``string``,
-    ``bool``. ``minimum``/``maximum`` bound a number, or every element of an
-    array (inclusive unless ``exclusive_minimum``); ``length`` fixes the size
-    of an array; ``max_length`` bounds a string.
+    """One declared parameter. ``kind``: ``double``, ``double_array``, ``integer``,
+    ``string`` or ``bool``; ``minimum``/``maximum`` bound a number or each element
+    (inclusive unless ``exclusive_minimum``); ``length``: an array's size.
     """
 
     name: str

@@ -119,10 +119,9 @@ ForceLaw = Callable[[int, Solution], np.ndarray]
 
 @dataclass(frozen=True)
 class TabulatedLaw:
-    """The force laws of :func:`simulate` as tables over the half-step index j:
-    open loop ``ff[j]``; closed loop (``servo``) ``deliver(ff[j] + kp
-    (length_ref[j] - L) + kd (rate_ref[j] - Ldot))``. Data, so that the kernel
-    can integrate it.
+    """The force laws of :func:`simulate` as data the kernel integrates, over the
+    half-step index j: ``ff[j]``, or (``servo``) ``deliver(ff[j] + kp
+    (length_ref[j] - L) + kd (rate_ref[j] - Ldot))``.
     """
 
     ff: np.ndarray              # (2 steps + 1, 3) feed-forward (open loop: applied) forces, N
