@@ -39,9 +39,7 @@ class TwinStepper:
         self.q, self.qd = q.copy(), np.zeros(3)
         self.time = 0.0                      # s of simulated time
         self.steps = 0
-        self._length_ref = np.zeros(3)
-        self._rate_ref = np.zeros(3)
-        self._ff = np.zeros(3)
+        self._length_ref, self._rate_ref, self._ff = (np.zeros(3) for _ in range(3))  # command
         self.outcome = Status.OK             # ok while running, else why it stopped
         self.detail = ''
         # (qdd, delivered force, solve) of the current state's first stage; None: to evaluate
