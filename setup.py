@@ -1,11 +1,6 @@
-"""Build script of the flight_sim_dynamics ament_python package.
-
-Works with colcon (ROS 2) and with plain pip:
-
-* colcon build: scripts go to install/flight_sim_dynamics/lib/flight_sim_dynamics
-  (setup.cfg), data files to install/flight_sim_dynamics/share/...
-* pip install . (or -e .): scripts go to <venv>/bin, data files to
-  <venv>/share/flight_sim_dynamics/... (the wheel's data scheme is sys.prefix).
+"""Build script of the flight_sim_dynamics ament_python package: colcon build
+(scripts in lib/flight_sim_dynamics, setup.cfg) or pip install (scripts in
+<venv>/bin); data files in <prefix>/share/flight_sim_dynamics.
 """
 from glob import glob
 
@@ -13,10 +8,8 @@ from setuptools import Extension, find_packages, setup
 
 package_name = 'flight_sim_dynamics'
 
-# The compiled kernel (src/kernel.c, see flight_sim_dynamics/core/kernel.py and docs/kernel.md).
-# optional=True: without a C compiler the package still installs and solves
-# with its Python code (same results, slower). -ffp-contract=off keeps the
-# operations the ones written (no fused multiply-add), like the Python code.
+# The compiled kernel (docs/kernel.md); optional: without a C compiler the Python code
+# solves (same results, slower). -ffp-contract=off: no fused multiply-add, as in Python.
 kernel = Extension(
     f'{package_name}.core._kernel', sources=['src/kernel.c'], optional=True,
     extra_compile_args=['-O2', '-ffp-contract=off', '-fno-math-errno'])
@@ -28,12 +21,10 @@ setup(
                                     'scripts', 'scripts.*']),
     ext_modules=[kernel],
     data_files=[
-        ('share/ament_index/resource_index/packages',
-            ['resource/' + package_name]),
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', sorted(glob('config/*.yaml'))),
-        ('share/' + package_name + '/config/scenes',
-            sorted(glob('config/scenes/*.yaml'))),
+        ('share/' + package_name + '/config/scenes', sorted(glob('config/scenes/*.yaml'))),
         ('share/' + package_name + '/launch', sorted(glob('launch/*.launch.py'))),
     ],
     python_requires='>=3.10',

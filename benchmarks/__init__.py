@@ -1,7 +1,4 @@
-"""Scripts that print figures (not installed; run from the repository root).
-
-python -m benchmarks.solve     # solve us per call, solve_batch us per sample
-python -m benchmarks.node      # the node's round trip next to a same-traffic echo
-python -m benchmarks.twin      # the twin's real-time factor (--out PNG: tracking figure)
-python -m benchmarks.csv       # flight-sim-dynamics solve end to end
+"""Scripts that print figures (not installed; run from the repository root):
+``python -m benchmarks.solve`` (solve, solve_batch), ``.node`` (round trip next to
+a same-traffic echo), ``.twin`` (real-time factor), ``.csv`` (solve end to end).
 """

@@ -18,18 +18,17 @@ from typing import Sequence
 import numpy as np
 
 import flight_sim_dynamics as fsd
+from flight_sim_dynamics.cli.csv_io import TRAJECTORY_COLUMNS
 
 from ._common import ROOT, header, table
 
-COLUMNS = ('t,surge,heave,roll,surge_rate,heave_rate,roll_rate,'
-           'surge_acc,heave_acc,roll_acc')
 
 
 def write_trajectory(path: Path, rows: int) -> None:
     t = np.linspace(0.0, 3.0, rows)
     q, qd, qdd = fsd.trajectories.paper_example('general', t)
     np.savetxt(path, np.column_stack([t, q, qd, qdd]), fmt='%.17g', delimiter=',',
-               header=COLUMNS, comments='')
+               header=','.join(TRAJECTORY_COLUMNS), comments='')
 
 
 def wall_s(argv: list[str]) -> float:

@@ -1,10 +1,6 @@
-"""The node's round trip under a setpoint stream, next to a same-traffic rclpy
-echo in the same run: a driver process publishes pose + twist + accel (one
-stamp) at --rate and times each sample until its ``actuator_states`` arrives.
-The node runs as a user starts it (packaged parameters, markers at their
-default rate); the echo has the same three subscriptions and publishes the
-same two JointStates per setpoint (``actuator_states``, ``joint_states``),
-with no solve. Echo and node alternate, each --repeats times.
+"""The node's round trip under a setpoint stream (pose + twist + accel at
+--rate, each timed until its ``actuator_states``), next to a same-traffic rclpy
+echo (the node's three subscriptions and two JointStates, no solve), alternating.
 
     python -m benchmarks.node [--rate 1000] [--seconds 5] [--repeats 3] [--quick]
 """
@@ -35,11 +31,9 @@ WARM = 200
 
 
 def qos() -> Any:
-    """The node's default QoS of setpoints and outputs."""
-    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-    return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
-                      reliability=ReliabilityPolicy.RELIABLE,
-                      durability=DurabilityPolicy.VOLATILE)
+    """The node's default QoS of setpoints and outputs: reliable, volatile, keep last 1000."""
+    from rclpy.qos import QoSProfile
+    return QoSProfile(depth=1000)
 
 
 def spin_for(executor: Any, seconds: float, until: Any = lambda: False) -> bool:

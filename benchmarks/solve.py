@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 import statistics
 import time
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -37,10 +37,6 @@ def per_sample_us(model: fsd.Model, batch: tuple) -> float:
     return (time.perf_counter() - start) / len(batch[0]) * 1e6
 
 
-def median(call: Callable[[], float], repeats: int) -> float:
-    return statistics.median(call() for _ in range(repeats))
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog='python -m benchmarks.solve',
                                 description=__doc__.splitlines()[0])
@@ -56,10 +52,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     for label, on in paths:
         with kernel.use_kernel(on):
             fsd.solve_batch(model, *states(10))                  # warm-up
-            row = [median(lambda: per_call_us(model, calls), repeats)]
+            row = [statistics.median(per_call_us(model, calls) for _ in range(repeats))]
             for n in sizes:
                 batch = states(n)
-                row.append(median(lambda: per_sample_us(model, batch), repeats))
+                row.append(statistics.median(per_sample_us(model, batch)
+                                             for _ in range(repeats)))
         figures[label] = row
     print(header(f'median of {repeats}; {calls} solves per run'))
     rows = [[label] + [f'{v:.2f}' for v in values] for label, values in figures.items()]

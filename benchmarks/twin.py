@@ -1,9 +1,6 @@
-"""The digital twin's real-time factor (simulated s per wall-clock s) of
-``fsd.simulate`` on the built-in ``violent`` motion, RK4 at 1 kHz, closed loop
-(full feed-forward) and open loop (its inverse-dynamics forces), through the
-compiled kernel and the Python code (FSD_KERNEL=0, timed on the motion's first
---python-seconds) in one run. With --out, also the closed loop's tracking
-error by feed-forward scene, as a table and a figure (PNG).
+"""The twin's real-time factor (``fsd.simulate``, ``violent``, RK4 at 1 kHz,
+closed and open loop), kernel and Python code (its first --python-seconds) in
+one run; --out: also the tracking error by feed-forward scene, and its figure.
 
     python -m benchmarks.twin [--repeats 11] [--quick] [--out docs/twin_tracking.png]
 """

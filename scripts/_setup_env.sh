@@ -1,13 +1,8 @@
 # shellcheck shell=bash
-# Sourced by run_tests.sh and run_demo.sh: `source _setup_env.sh REQUIREMENTS_FILE`.
-# Creates or reuses .venv (Python 3.11; PYTHON=... to choose), installs the
-# pinned REQUIREMENTS_FILE and `pip install .` (not -e: editable wheels drop
-# data_files), puts .venv first on PATH, cd's to the root. FSD_SKIP_INSTALL=1: no pip.
-
-if [ "$#" -ne 1 ]; then
-    echo "_setup_env.sh: usage: source _setup_env.sh REQUIREMENTS_FILE" >&2
-    return 2
-fi
+# `source _setup_env.sh REQUIREMENTS_FILE` (run_tests.sh, run_demo.sh): creates or reuses .venv
+# (Python 3.11; PYTHON=...), installs REQUIREMENTS_FILE and `pip install .` (not -e: editable
+# wheels drop data_files), puts .venv first on PATH, cd's to the root. FSD_SKIP_INSTALL=1: no pip.
+[ "$#" -eq 1 ] || { echo "_setup_env.sh: usage: source _setup_env.sh REQUIREMENTS_FILE" >&2; return 2; }
 
 FSD_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 FSD_VENV="$FSD_ROOT/.venv"

@@ -1,8 +1,5 @@
-"""The parameter tables of docs/node.md (dynamics_node) and docs/twin.md
-(platform_sim), from the declarations the nodes make their descriptors from.
-
-    python -m scripts.node_param_table            # print the tables
-    python -m scripts.node_param_table --update   # write them into docs/node.md, docs/twin.md
+"""The parameter tables of docs/node.md and docs/twin.md, from the declarations
+the nodes make their descriptors from (``--update``: write them there).
 """
 from __future__ import annotations
 

@@ -1,12 +1,7 @@
-"""The paper's three examples reproduced with the command line: the figures
-and the tables of docs/reproduction.md.
+"""The figures and tables of docs/reproduction.md, every number read back
+from the files of ``flight-sim-dynamics example``, ``solve`` and ``plot``.
 
-    python -m scripts.reproduction_table                  # print the tables
     python -m scripts.reproduction_table --figures docs --update docs/reproduction.md
-
-For each example this runs ``flight-sim-dynamics example NAME``, ``solve`` and
-(with ``--figures``) ``plot``, and reads the solve output back: every number
-printed comes from those files.
 """
 from __future__ import annotations
 

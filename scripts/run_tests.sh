@@ -1,11 +1,7 @@
 #!/usr/bin/env bash
-# Run the tests on a fresh machine (only Python 3.11 + PyPI needed): creates or
-# reuses .venv, installs requirements-test.txt and the package, runs
-# `python -m pytest -q ARGS` and exits with pytest's code (5: nothing collected).
-#   bash scripts/run_tests.sh                              everything (CI)
-#   bash scripts/run_tests.sh -m "not ros and not slow"    the unit tier
-#   bash scripts/run_tests.sh test/core                    one folder
-# (no path given: test/; tiers: setup.cfg and test/conftest.py; FSD_SKIP_INSTALL=1: no pip)
+# `python -m pytest -q ARGS` in .venv (created, requirements-test.txt and the package
+# installed; FSD_SKIP_INSTALL=1: no pip), e.g. no ARGS: everything (CI);
+# -m "not ros and not slow": the unit tier (setup.cfg); test/core: one folder.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/_setup_env.sh" requirements-test.txt
 

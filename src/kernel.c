@@ -1,28 +1,10 @@
 /*
- * flight_sim_dynamics.core._kernel: the solver's scalar path (paper eq. 5-23) as
- * straight-line C, for one control cycle (solve) or a batch (solve_batch).
- *
- * This is a transcription of the Python modules kinematics.py and
- * dynamics.py (and the status rule of status.py), line by line and in the
- * same order of operations, so that the two agree to round-off; the Python
- * code is the reference (it is itself checked against an independent
- * implementation in test/reference/reference_model.py), and the test suite checks this
- * kernel against it for every combination of effects, random reachable
- * poses, unreachable poses, singular poses and garbage input
- * (test/core/test_kernel.py). Function names follow the Python ones.
- *
- * The model arrives as a packed array of doubles (core/kernel.py, pack_model,
- * in the layout PACKED_MODEL below, which this module exports) and a bit set
- * of effects; a disabled effect is skipped, as in the Python code.
- *
- * Results: one row of OUT_SIZE doubles per sample (RESULT_ROW below, also
- * exported), including the status code and its info (status.sample_status).
- *
- * The digital twin (forward_dynamics.py, simulation.py) has two more entry
- * points: affine (M and b of f = M qdd + b with the row of solve(q, qd, 0),
- * from one pose) and integrate (simulation.integrate's RK4 loop for a
- * tabulated force law, no Python per stage); test/core/test_twin_kernel.py
- * checks them against the Python code.
+ * flight_sim_dynamics.core._kernel: the solver's scalar path (paper eq. 5-23)
+ * for one cycle (solve) or a batch (solve_batch), and the twin's affine terms
+ * and RK4 loop. A line-by-line transcription of kinematics.py, dynamics.py,
+ * status.py, forward_dynamics.py and simulation.py, in the same order of
+ * operations (the Python code is the reference; test/core/test_kernel.py and
+ * test_twin_kernel.py check the two agree). Function names follow the Python ones.
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -30,14 +12,8 @@
 #include <math.h>
 #include <string.h>
 
-/*
- * The contracts with the Python side are declared here, once each, as
- * X-macro lists: the enum the C code uses and the table the module exports
- * (PyInit__kernel) come from the same line. core/kernel.py reads the exported
- * tables (it packs the model by the names below and reads result rows by the
- * offsets below) and checks the names against the package's own lists
- * (model.BODY_NAMES, effects.EFFECT_NAMES, kinematics.LOOPS, status.Status).
- */
+/* The contracts with the Python side, as X-macro lists: the C enum and the
+   exported table (PyInit__kernel) come from one line; core/kernel.py checks them. */
 #define AS_ENUM(id, name) id,
 #define AS_NAME(id, name) name,
 /* id, id_END = id + size - 1: the next id follows the last double of this one */
@@ -160,9 +136,7 @@ static inline double pymod(double a, double b)
     return m;
 }
 
-/* ------------------------------------------------------------------------ */
-/* Inverse geometry (kinematics.closure, inverse_geometry; eq. 5-8)          */
-/* ------------------------------------------------------------------------ */
+/* ---- Inverse geometry (kinematics.closure, inverse_geometry; eq. 5-8) ---- */
 typedef struct {
     v3 G, l, t, n, A3, D2, E2, B4, C4, dA, dB, dC, e2B, e2C, dD, dE;
     double roll, beta, u, LA, LB, LC, hB, hC;
@@ -260,10 +234,8 @@ static void inverse_geometry(const double *P, const double *q, geometric *g, int
     }
 }
 
-/* ------------------------------------------------------------------------ */
-/* Connectivity: block factorisation of Q (kinematics.factorize,             */
-/* solve_connectivity; eq. 11-12, 16)                                        */
-/* ------------------------------------------------------------------------ */
+/* ---- Connectivity: block factorisation of Q (kinematics.factorize,
+   solve_connectivity; eq. 11-12, 16) ---- */
 typedef struct { v3 aD, bD, cA, aE, cE, cB, cC, eB, eC; double detD, detE; } connectivity;
 
 static void factorize(const double *P, const geometric *g, connectivity *f)
@@ -362,10 +334,7 @@ static void acceleration_column(const double *P, const geometric *g, const doubl
     S[11] = Gdd.y + 2.0 * v * beta_d * zl.y + beta_d2 * (g->G.y - g->E2.y) + thE2 * g->E2.y;
 }
 
-/* ------------------------------------------------------------------------ */
-/* Inverse dynamics (dynamics.body_states, required_wrench, joint_forces;   */
-/* eq. 18-22)                                                                */
-/* ------------------------------------------------------------------------ */
+/* ---- Inverse dynamics (dynamics.body_states, required_wrench, joint_forces; eq. 18-22) */
 typedef struct {
     int present, moving;
     axes3 R;
@@ -573,11 +542,8 @@ static double condition_2x2(v3 a, v3 b)
     return sigma_max2 / det;
 }
 
-/* ------------------------------------------------------------------------ */
-/* The status rule (status.sample_status): code and info of one sample, the */
-/* worst that applies. A solve that stops at 1 (bad input) or 2 (open loop) */
-/* passes no results (finite, zero conditions, zero legs).                  */
-/* ------------------------------------------------------------------------ */
+/* ---- The status rule (status.sample_status): code and info of one sample, the
+   worst that applies; a solve stopped at 1 (bad input) or 2 (open loop) has no results. */
 static const double NO_LEGS[3] = {0.0, 0.0, 0.0};
 
 static int sample_status(const double *P, int bad_input, int open_loop, int finite, double kin,
@@ -617,9 +583,7 @@ static void stop(const double *P, int bad_input, int open_loop, double *out)
                                   NO_LEGS, &out[O_INFO]);
 }
 
-/* ------------------------------------------------------------------------ */
-/* One sample: solver._solve, then the status rule                           */
-/* ------------------------------------------------------------------------ */
+/* ---- One sample: solver._solve, then the status rule ---- */
 static const int ACTUATED[3] = {1, 5, 8};
 
 /* what a pose and its rates fix, whatever the accelerations: the geometry,
@@ -766,9 +730,8 @@ static void solve_at(const double *P, int fx, const pose_terms *p, const double 
     out[O_INFO] = info;
 }
 
-/* one sample into the row `out`; returns 1 when p holds its pose and st its
-   bodies (the input is finite and every loop closes), 0 when the sample
-   stopped before */
+/* one sample into the row `out`; 1 when p holds its pose and st its bodies
+   (finite input, every loop closed), 0 when the sample stopped before */
 static int solve_posed(const double *P, int fx, const double *q, const double *qd,
                        const double *qdd, double *out, pose_terms *p, body_state *st,
                        int angles)
@@ -799,9 +762,7 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
     solve_posed(P, fx, q, qd, qdd, out, &p, st, 1);
 }
 
-/* ------------------------------------------------------------------------ */
-/* Forward dynamics (forward_dynamics.affine_terms): f = M qdd + b           */
-/* ------------------------------------------------------------------------ */
+/* ---- Forward dynamics (forward_dynamics.affine_terms): f = M qdd + b ---- */
 static const double REST[3] = {0.0, 0.0, 0.0};
 
 /* acc and eps of the bodies for the joint accelerations G = K e_j and the
@@ -838,17 +799,10 @@ static void unit_accelerations(const double *P, const geometric *g, const double
     }
 }
 
-/* M of f = M qdd + b at a pose p whose bodies (frames, centres of mass, which
-   move) the solve's body_states left in st: every term of the recursion is
-   affine in qdd (eq. 15-17: Gamma = K qdd + Q^-1 (velocity terms); eq. 18-23
-   linear in the body accelerations; friction reads the leg rates only), so
-   column j of M is the force of the accelerations of a unit qdd e_j alone
-   (joint accelerations K e_j; no gravity, velocity products, friction: they
-   are in b). Those accelerations of a body are its velocities per unit qd_j
-   (a_j, and eps_j in body axes w_j), so by virtual power (eq. 23)
-   M = J^-T Mq with Mq[i][j] = sum over the moving bodies of
-   m a_i . a_j + w_i . I w_j: the recursion's three passes in one sum (the
-   same M to rounding, test_twin_kernel.py). */
+/* M of f = M qdd + b at the pose p, bodies in st (forward_dynamics.affine_terms):
+   column j is the force of a unit qdd e_j alone (eq. 15-23 are affine in qdd),
+   whose body accelerations are the velocities per unit qd_j (a_j, w_j); by
+   virtual power (eq. 23) M = J^-T Mq, Mq[i][j] = sum m a_i . a_j + w_i . I w_j. */
 static void mass_matrix(const double *P, const pose_terms *p, const body_state *st, double *M)
 {
     v3 com[N_BODIES], acc[3][N_BODIES], eps[3][N_BODIES];
@@ -876,10 +830,8 @@ static void mass_matrix(const double *P, const pose_terms *p, const body_state *
                            + p->Jinv[2][m] * Mq[2][j];
 }
 
-/* The row of solve(q, qd, 0) in `out`, b = its force and M (row-major 3x3,
-   mass_matrix), from one pose. M and b are 0 when the sample is void
-   (unreachable, invalid input); a non-finite entry of M (exact singularity)
-   is 0, as solve's numbers are. */
+/* forward_dynamics.affine_terms: the row of solve(q, qd, 0) in `out`, b and M
+   (row-major 3x3), 0 when void; a non-finite entry of M is 0, as solve's numbers. */
 static void affine_one(const double *P, int fx, const double *q, const double *qd,
                        double *out, double *M, double *b, int angles)
 {
@@ -898,9 +850,7 @@ static void affine_one(const double *P, int fx, const double *q, const double *q
             M[i] = 0.0;
 }
 
-/* ------------------------------------------------------------------------ */
-/* The twin's RK4 loop (simulation.integrate) for a tabulated force law      */
-/* ------------------------------------------------------------------------ */
+/* ---- The twin's RK4 loop (simulation.integrate) for a tabulated force law ---- */
 /* simulation.TabulatedLaw: the stage forces ff (stages x 3), and for a servo
    the leg lengths and rates of the reference, gains and actuator limits */
 typedef struct {
@@ -972,9 +922,8 @@ static int solve3(const double *M, const double *r, double *x)
     return isfinite(x[0]) && isfinite(x[1]) && isfinite(x[2]);
 }
 
-/* simulation._stage: qdd and the applied force at (q, qd), stage j; 0 when the
-   stage stops or is left to the Python code (a status that stops, M
-   ill-conditioned, results not finite) */
+/* simulation._stage at (q, qd), stage j; 0 when the stage stops or is left to the
+   Python code (a status that stops, M ill-conditioned, results not finite) */
 static int stage(const double *P, int fx, const tabulated_law *law, Py_ssize_t j,
                  const double *q, const double *qd, double *qdd, double *force)
 {
@@ -995,11 +944,8 @@ static int stage(const double *P, int fx, const tabulated_law *law, Py_ssize_t j
     return solve3(M, rhs, qdd);
 }
 
-/* RK4 rows k0..steps (simulation.integrate, same operations in the same
-   order; k0 <= steps): each of q, qd, qdd, force is (steps + 1) x 3; the state
-   of row k0 is read from q, qd. Returns the first row whose step did not
-   complete (steps + 1 when all did); its q and qd hold the state reached, its
-   qdd and force are left for the Python code, which takes that step itself. */
+/* RK4 rows k0..steps (simulation.integrate, same operations in the same order;
+   kernel.integrate_rows): returns the first row whose step did not complete. */
 static Py_ssize_t rk4(const double *P, int fx, const tabulated_law *law, double h,
                       Py_ssize_t k0, Py_ssize_t steps, double *Q, double *QD,
                       double *QDD, double *F)
@@ -1051,15 +997,15 @@ static Py_ssize_t rk4(const double *P, int fx, const tabulated_law *law, double 
     return steps + 1;
 }
 
-/* ------------------------------------------------------------------------ */
-/* Python bindings                                                            */
-/* ------------------------------------------------------------------------ */
-static int get_params(PyObject *obj, Py_buffer *view)
+/* ---- Python bindings ---- */
+/* a C-contiguous float64 buffer of exactly n doubles (writable if asked) */
+static int get_doubles(PyObject *obj, Py_buffer *view, Py_ssize_t n, int writable,
+                       const char *name)
 {
-    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS) < 0)
+    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0)) < 0)
         return -1;
-    if (view->len != (Py_ssize_t)(P_SIZE * sizeof(double))) {
-        PyErr_Format(PyExc_ValueError, "packed model must be %d doubles", (int)P_SIZE);
+    if (view->len != n * (Py_ssize_t)sizeof(double)) {
+        PyErr_Format(PyExc_ValueError, "%s must be %zd doubles", name, n);
         PyBuffer_Release(view);
         return -1;
     }
@@ -1098,16 +1044,10 @@ static PyObject *py_solve(PyObject *self, PyObject *const *args, Py_ssize_t narg
     if (one_sample_args("solve", args, nargs, 12, 3, 9, &fx, x) < 0)
         return NULL;
     Py_buffer pv, ov;
-    if (get_params(args[0], &pv) < 0)
+    if (get_doubles(args[0], &pv, P_SIZE, 0, "packed model") < 0)
         return NULL;
-    if (PyObject_GetBuffer(args[2], &ov, PyBUF_C_CONTIGUOUS | PyBUF_WRITABLE) < 0) {
+    if (get_doubles(args[2], &ov, OUT_SIZE, 1, "out") < 0) {
         PyBuffer_Release(&pv);
-        return NULL;
-    }
-    if (ov.len != (Py_ssize_t)(OUT_SIZE * sizeof(double))) {
-        PyBuffer_Release(&pv);
-        PyBuffer_Release(&ov);
-        PyErr_Format(PyExc_ValueError, "out must be %d doubles", (int)OUT_SIZE);
         return NULL;
     }
     double *out = (double *)ov.buf;
@@ -1132,28 +1072,26 @@ static PyObject *py_solve_batch(PyObject *self, PyObject *const *args, Py_ssize_
     long fx = PyLong_AsLong(args[1]);
     if (fx == -1 && PyErr_Occurred())
         return NULL;
-    Py_buffer views[5];
+    Py_buffer views[5];     /* q (its size gives N), params, qd, qdd, out */
     int got = 0;
     PyObject *result = NULL;
-    if (get_params(args[0], &views[0]) < 0)
+    if (PyObject_GetBuffer(args[2], &views[0], PyBUF_C_CONTIGUOUS) < 0)
         return NULL;
-    got = 1;
-    for (int i = 0; i < 4; i++) {
-        int flags = PyBUF_C_CONTIGUOUS | (i == 3 ? PyBUF_WRITABLE : 0);
-        if (PyObject_GetBuffer(args[2 + i], &views[1 + i], flags) < 0)
+    Py_ssize_t n = views[0].len / (Py_ssize_t)(3 * sizeof(double));
+    static const int arg[5] = {2, 0, 3, 4, 5};
+    static const char *const names[5] = {"q", "packed model", "qd", "qdd", "out"};
+    const Py_ssize_t sizes[5] = {3 * n, P_SIZE, 3 * n, 3 * n, OUT_SIZE * n};
+    if (views[0].len != 3 * n * (Py_ssize_t)sizeof(double)) {
+        PyErr_SetString(PyExc_ValueError, "q must be (N, 3) doubles");
+        PyBuffer_Release(&views[0]);
+        return NULL;
+    }
+    for (got = 1; got < 5; got++)
+        if (get_doubles(args[arg[got]], &views[got], sizes[got], got == 4, names[got]) < 0)
             goto done;
-        got++;
-    }
-    Py_ssize_t n = views[1].len / (Py_ssize_t)(3 * sizeof(double));
-    if (views[1].len != n * 3 * (Py_ssize_t)sizeof(double)
-            || views[2].len != views[1].len || views[3].len != views[1].len
-            || views[4].len != n * OUT_SIZE * (Py_ssize_t)sizeof(double)) {
-        PyErr_SetString(PyExc_ValueError, "q, qd, qdd must be (N, 3) and out (N, OUT_SIZE)");
-        goto done;
-    }
     {
-        const double *P = (const double *)views[0].buf;
-        const double *q = (const double *)views[1].buf, *qd = (const double *)views[2].buf,
+        const double *P = (const double *)views[1].buf;
+        const double *q = (const double *)views[0].buf, *qd = (const double *)views[2].buf,
                      *qdd = (const double *)views[3].buf;
         double *out = (double *)views[4].buf;
         Py_BEGIN_ALLOW_THREADS
@@ -1169,26 +1107,9 @@ done:
     return result;
 }
 
-/* a C-contiguous float64 buffer of exactly n doubles (writable if asked) */
-static int get_doubles(PyObject *obj, Py_buffer *view, Py_ssize_t n, int writable,
-                       const char *name)
-{
-    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0)) < 0)
-        return -1;
-    if (view->len != n * (Py_ssize_t)sizeof(double)) {
-        PyErr_Format(PyExc_ValueError, "%s must be %zd doubles", name, n);
-        PyBuffer_Release(view);
-        return -1;
-    }
-    return 0;
-}
-
 PyDoc_STRVAR(affine_doc,
-"affine(params, effects, out, M, b, q0, q1, q2, qd0, qd1, qd2)\n"
-"    -> (status, info, beta, kinematic_condition, jacobian_condition)\n\n"
-"forward_dynamics.affine_terms in one pass: fills `out` (OUT_SIZE doubles) with the\n"
-"row of solve(q, qd, 0), `M` (9 doubles, 3x3 row-major) and `b` (3) with the terms\n"
-"of f = M qdd + b, and returns the scalars of the row (as solve).");
+"affine(params, effects, out, M, b, q0, q1, q2, qd0, qd1, qd2) -> scalars as solve\n\n"
+"The row of solve(q, qd, 0), M (3x3) and b of f = M qdd + b (kernel.affine_row).");
 
 static PyObject *py_affine(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
@@ -1219,12 +1140,7 @@ done:
 PyDoc_STRVAR(integrate_doc,
 "integrate(params, effects, ff, length_ref, rate_ref, kp, kd, max_force, max_speed,\n"
 "          servo, h, k0, steps, q, qd, qdd, force) -> int\n\n"
-"simulation.integrate for a TabulatedLaw, rows k0 to steps (0 <= k0 <= steps; the\n"
-"state of row k0 read from q, qd): ff, length_ref, rate_ref are (2 steps + 1, 3)\n"
-"stage tables, kp and kd 3 gains, servo 0 (apply ff) or 1 (servo and deliver); q,\n"
-"qd, qdd, force are writable (steps + 1, 3) rows. Returns the first row whose step\n"
-"did not complete (steps + 1 when all did): its q, qd hold the state reached, the\n"
-"Python code takes that step. Releases the GIL while it runs.");
+"RK4 rows k0 to steps of a TabulatedLaw; the first row not completed (kernel.integrate_rows).");
 
 static PyObject *py_integrate(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {

@@ -1,11 +1,8 @@
-"""``flight-sim-dynamics animate``: the mechanism following a solved trajectory
-(the output of ``solve``, CSV or .npz), side and front views, the actuator
-forces as bars and each frame's status; as .gif, .mp4 (ffmpeg) or a .png still.
-
-A frame's pose comes from the file's ``surge,heave,roll`` or, without them,
-from its leg lengths by forward kinematics; its points are the solver's
-(eq. 5-8, as the RViz markers). A row without a solution repeats the last pose
-drawn, grey and without forces. matplotlib is imported by this command only.
+"""``flight-sim-dynamics animate``: the mechanism following the output of
+``solve`` (side and front views, forces as bars, each frame's status) as .gif,
+.mp4 or a .png still. A frame's pose: the file's ``surge,heave,roll``, else
+forward kinematics of its leg lengths; its points are the solver's (eq. 5-8).
+A row without a solution repeats the last pose drawn, grey, without forces.
 """
 from __future__ import annotations
 

@@ -1,11 +1,7 @@
-"""What each effect costs and buys: ``flight-sim-dynamics bench``.
-
-For every packaged scene and single-effect variant of ``full``: the median and
-p99 time of one cycle (variants interleaved, shuffled per state) against the
-force error relative to ``full`` on the test motions (eq. 6 and ``violent``);
-and the force error when the node's estimator supplies the accelerations, at
-60, 250 and 1000 Hz. Prints the tables and writes ``scenes.md`` and
-``scenes.png`` to ``--out-dir`` (or docs/ with ``--update-docs``).
+"""What each effect costs and buys: ``flight-sim-dynamics bench``. Per packaged
+scene and single-effect variant of ``full``, the median and p99 time of a
+cycle against the force error relative to ``full`` (eq. 6 and ``violent``),
+and the error when the node's estimator supplies the accelerations.
 """
 from __future__ import annotations
 
@@ -29,7 +25,7 @@ from ..core import kernel
 from ..core.effects import EFFECT_NAMES
 from ..core.model import Model
 from ..core.motions import TEST_MOTIONS, duration, motion, sample_times
-from ..core.estimator import ESTIMATORS, DerivativeEstimator
+from ..core.estimator import ESTIMATORS, estimate_rows
 
 DOCS_DIR = 'docs'
 DEFAULT_OUT_DIR = 'out'
@@ -93,12 +89,7 @@ def estimated(method: str, rate: float, name: str, twist: bool
     """
     t = sample_times(rate, duration(name))
     q, qd, _ = motion(name, t)
-    est = DerivativeEstimator(method)
-    rates, accs = np.empty_like(q), np.empty_like(q)
-    for k in range(len(t)):
-        rates[k], accs[k] = est.update(float(t[k]), tuple(q[k].tolist()),
-                                       tuple(qd[k].tolist()) if twist else None, None)
-    return q, rates, accs
+    return (q, *estimate_rows(t, q, qd if twist else None, method))
 
 
 def estimator_errors(full: Model, name: str = 'violent') -> list[tuple[str, str, float, float]]:
@@ -138,9 +129,10 @@ def time_per_cycle(models: dict[str, Model], states: list, cycles: int
 
 
 def table(columns: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
+    """A markdown table: the first column left-aligned, the others right."""
     return '\n'.join(['| ' + ' | '.join(columns) + ' |',
                       '| :--- |' + ' ---: |' * (len(columns) - 1)]
-                     + ['| ' + ' | '.join(r) + ' |' for r in rows])
+                     + ['| ' + ' | '.join(map(str, r)) + ' |' for r in rows])
 
 
 def plot(points: list[tuple[str, str, float, float]], peak: float, path: str) -> None:

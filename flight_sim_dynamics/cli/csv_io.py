@@ -1,12 +1,7 @@
-"""Tables on disk for the command line: CSV (numbers only, SI units) and
-numpy's ``.npz``.
-
-A CSV file is a header line of column names and rows of finite decimal
-numbers; anything else is a :class:`CsvError` naming the file, the line
-(1 = the header) and the column. Writing is exact (shortest repr) and atomic
-(:func:`atomic_output`). An ``.npz`` (by the output's suffix) holds one
-float64 array per column, ``status`` as strings and ``names``, the column
-order; ``np.load(path)`` reads it.
+"""Tables on disk for the command line: CSV (a header line of names, rows of
+finite decimal numbers; anything else a :class:`CsvError` naming file, line
+and column) and ``.npz`` (a float64 array per column, ``status`` as strings,
+``names`` the order). Writing is exact (shortest repr) and atomic.
 """
 from __future__ import annotations
 
@@ -462,12 +457,6 @@ def write_npz(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarr
     arrays[NAMES_KEY] = np.asarray(order, dtype=str)
     with atomic_output(path) as f:
         np.savez(f, **arrays)
-
-
-def write_table(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarray,
-                text: tuple[str, Sequence[str]] | None = None) -> None:
-    """:func:`write_npz` if ``path`` ends in .npz, else :func:`write_csv`."""
-    (write_npz if is_npz(path) else write_csv)(path, names, data, text)
 
 
 def _checked(names: Sequence[str], data: np.ndarray, text: tuple[str, Sequence[str]] | None

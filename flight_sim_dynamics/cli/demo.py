@@ -1,26 +1,13 @@
-"""End-to-end demo: the dynamics node next to a planner.
-
-    flight-sim-dynamics demo [-o out/demo.png] [--rate 100] [--motions ...]
-
-1. starts the node as a separate process with the packaged parameter file
-   (``dynamics_node --ros-args --params-file <share>/config/flight_sim_dynamics.yaml``);
-2. runs the demo planner in this process: the paper's three motions (each
-   washed back to neutral) and the motion-cueing sequence;
-3. listens to ``actuator_states`` and ``/diagnostics`` and prints one line per
-   second: receive rate, last forces A/B/C, status;
-4. at the end plots forces and powers (effort x velocity of the received
-   messages) against time to ``-o`` and stops the node (its log is written
-   next to the PNG, ``<name>_node.log``). About 25 s in all.
-
-With ``--twin`` the twin node ``platform_sim`` runs too, driven by the node's
-``actuator_states`` (``-r actuator_commands:=actuator_states``); its simulated
-pose is plotted against the commanded motion, with the tracking error, to
-``<name>_twin.png`` (its log: ``<name>_twin.log``).
+"""End-to-end demo (``flight-sim-dynamics demo``, about 25 s): the node as a
+process with the packaged parameters (its log ``<output>_node.log``), the demo
+planner in this process, one summary line per second from ``actuator_states``
+and ``/diagnostics``, then the forces and powers received plotted to ``-o``.
+``--twin`` adds ``platform_sim`` on the node's ``actuator_states`` and plots
+commanded against simulated motion to ``<output>_twin.png``.
 """
 from __future__ import annotations
 
 import argparse
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -42,9 +29,6 @@ from ..ros.planner import PlannerNode
 from ..ros.dynamics_node import default_qos
 from ..ros.setpoints import DIAGNOSTIC_TASK, LEVEL_NAMES, quaternion_to_rpy
 from ..ros.process import SIM_MODULE, start_node, stop_node, stop_on_signals, stop_requested
-
-#: How the twin reads the dynamics node's answers: one remap.
-TWIN_REMAP = ('-r', 'actuator_commands:=actuator_states')
 
 
 class Monitor(Node):
@@ -89,11 +73,9 @@ class Monitor(Node):
 
 def round_trip(executor: Any, planner: PlannerNode, monitor: Monitor,
                timeout: float = 10.0) -> bool:
-    """Probe setpoints (at rest, stamped 1 s back) until one is answered and
-    the node's diagnostics have counted a twist and an acceleration: the
-    node's readers and writers have matched too, not only ours (else the
-    first answers of the stream can be lost). The probes' answers are not
-    kept.
+    """Probe setpoints (at rest, stamped 1 s back, answers not kept) until one is
+    answered and the node's diagnostics count a twist and an acceleration: the
+    node's own endpoints have matched too (else the stream's first answers can be lost).
     """
     deadline = time.monotonic() + timeout
     answered = False
@@ -175,13 +157,6 @@ def plot(monitor: Monitor, sequence: PlannerSequence, t0_ns: int, path: Path) ->
     fig.axes[1].set_xlabel('setpoint stamp (s from start)')
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
-
-
-def start_twin(log: Path) -> subprocess.Popen:
-    """``platform_sim`` as a process, remapped to the dynamics node's output
-    (default parameters: the packaged plant, 1 kHz, 5 Hz servos).
-    """
-    return start_node(None, TWIN_REMAP, log=log, module=SIM_MODULE)
 
 
 def tracking(monitor: TwinMonitor, sequence: PlannerSequence, t0_ns: int, end_ns: int
@@ -272,7 +247,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(f'[demo] node log: {log_path}')
     node_proc = start_node(params_file, log=log_path)
     twin_log = args.output.with_name(args.output.stem + '_twin.log')
-    twin_proc = start_twin(twin_log) if args.twin else None
+    # the twin reads the node's answers (one remap), default parameters: the packaged plant
+    twin_proc = start_node(None, ('-r', 'actuator_commands:=actuator_states'), log=twin_log,
+                           module=SIM_MODULE) if args.twin else None
     if twin_proc is not None:
         print(f'[demo] starting the twin: platform_sim --ros-args -r '
               f'actuator_commands:=actuator_states (log: {twin_log})')

@@ -1,9 +1,6 @@
-"""Command line: ``flight-sim-dynamics COMMAND`` (``--help`` lists them).
-
-``node``, ``sim``, ``demo-planner`` and ``demo`` hand the rest of the command
-line to their module (rclpy); the others are parsed here. Every error is exit
-status 2 and one line ``error: ...`` on standard error, and leaves no
-partial output file.
+"""Command line: ``flight-sim-dynamics COMMAND`` (``--help`` lists them; ``node``,
+``sim``, ``demo-planner`` and ``demo`` are handed to their module). Every error
+is exit status 2, one line ``error: ...`` on standard error, no partial output.
 """
 from __future__ import annotations
 
@@ -28,7 +25,7 @@ from ..config.scenes import SceneError
 from ..core.forward_kinematics import poses_along
 from ..core.model import JOINT_NAMES, Model
 from ..core.trajectories import DURATION, PAPER_EXAMPLES, paper_example, sample_times
-from ..core.estimator import DerivativeEstimator
+from ..core.estimator import estimate_rows
 
 PROG = 'flight-sim-dynamics'
 DEFAULT_RATE_HZ = 100.0
@@ -140,19 +137,12 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
 def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond: bool = False
                 ) -> tuple[tuple[str, ...], np.ndarray, list[str]]:
     """Solve every row of a trajectory table: (column names, data, statuses)."""
-    col = {name: j for j, name in enumerate(table.names)}
     data = table.data
-
-    def pick(names: Sequence[str]) -> np.ndarray:
-        return data[:, [col[n] for n in names]]
-
-    q = pick(('surge', 'heave', 'roll'))
-    qd = pick(('surge_rate', 'heave_rate', 'roll_rate'))
-    qdd = pick(('surge_acc', 'heave_acc', 'roll_acc'))
-    sol = fsd.solve_batch(model, q, qd, qdd)
+    sol = fsd.solve_batch(model, *(data[:, [table.names.index(n) for n in group]] for group in (
+        POSE_INPUT[1:], RATE_COLUMNS, ACC_COLUMNS)))
     report_not_ok(f'{table.path}: ', sol.status, sol.detail,
                   lambda i: f'line {int(table.lines[i])}')
-    columns = [data[:, col['t']]] + [
+    columns = [table['t']] + [
         np.asarray(getattr(sol, field), dtype=float).reshape(len(data), -1)
         for field in ('length', 'stroke', 'rate', 'force', 'power', 'acceleration', 'beta',
                       'kinematic_condition', 'jacobian_condition')]
@@ -180,10 +170,8 @@ def report_not_ok(prefix: str, status: Sequence, detail: Sequence,
 
 def read_trajectory(path: str | os.PathLike[str], model: Model,
                     limit: int | None = None) -> csv_io.Table:
-    """The trajectory table of ``path`` (at most ``limit`` bytes) with every
-    column of :data:`~.csv_io.TRAJECTORY_COLUMNS`; a group of three that none
-    of the columns names (rates, accelerations) is estimated from the poses as
-    the node does, with a note on standard error.
+    """The trajectory table of ``path`` (at most ``limit`` bytes), rates or
+    accelerations it lacks estimated from the poses as the node does (a note).
     """
     raw = csv_io.read_bytes(path, limit)
     header = raw.partition(b'\n')[0].decode('utf-8', 'replace').lstrip('\ufeff')
@@ -202,13 +190,9 @@ def read_trajectory(path: str | os.PathLike[str], model: Model,
         return table
     method = model.values.get('estimator.method', 'backward2')
     gap = model.values.get('estimator.max_gap', 0.5)
-    estimator = DerivativeEstimator(method, gap)
     t, q = table['t'], table.data[:, [table.names.index(n) for n in POSE_INPUT[1:]]]
     qd_in = table.data[:, [table.names.index(n) for n in RATE_COLUMNS]] if rates else None
-    qd, qdd = np.empty_like(q), np.empty_like(q)
-    for i in range(len(table)):
-        given = tuple(qd_in[i]) if qd_in is not None else None
-        qd[i], qdd[i] = estimator.update(float(t[i]), tuple(q[i]), given, None)
+    qd, qdd = estimate_rows(t, q, qd_in, method, gap)
     added = [(names, v) for names, v, given in ((RATE_COLUMNS, qd, rates),
                                                 (ACC_COLUMNS, qdd, accelerations)) if not given]
     table = dataclasses.replace(table, names=table.names + sum((n for n, _ in added), ()),
@@ -231,7 +215,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
     model = load_model(args.params, args.scene)
     table = read_trajectory(args.input, model)
     names, data, status = solve_table(model, table, joints=args.joints, exact_cond=args.cond)
-    csv_io.write_table(args.output, names, data, text=('status', status))
+    write = csv_io.write_npz if csv_io.is_npz(args.output) else csv_io.write_csv
+    write(args.output, names, data, text=('status', status))
     return 0
 
 
@@ -307,8 +292,6 @@ def forward(command: str, argv: Sequence[str]) -> int:
             return exc.code or 0
         print(exc.code, file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        raise
     except Exception as exc:  # noqa: BLE001 - the module's own error: one line, exit 2
         if needs_plot_extra(exc):
             raise CliError(plot_extra_message(command)) from None
@@ -434,7 +417,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except (CliError, CsvError, ValueError, OSError) as exc:
-        # ValueError covers ParameterError, UnreachablePoseError, PlotError
+        # ValueError covers ParameterError, UnreachablePoseError
         where = isinstance(exc, OSError) and exc.filename is not None
         message = f"'{exc.filename}': {exc.strerror or exc}" if where else exc
         print(f'error: {_one_line(message)}', file=sys.stderr)

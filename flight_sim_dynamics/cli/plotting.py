@@ -21,10 +21,6 @@ _STYLES = (dict(color=LEG_COLOURS[0], linestyle='-', linewidth=1.8),
            dict(color=LEG_COLOURS[2], linestyle='--', linewidth=1.6))
 
 
-class PlotError(ValueError):
-    """The figure cannot be written (unsupported format, ...)."""
-
-
 def output_format(path: str | os.PathLike[str]) -> str:
     """The image format named by the file extension (png, pdf, svg, ...)."""
     from matplotlib.backend_bases import FigureCanvasBase
@@ -32,7 +28,7 @@ def output_format(path: str | os.PathLike[str]) -> str:
     ext = os.path.splitext(os.fspath(path))[1].lower().lstrip('.')
     supported = FigureCanvasBase.get_supported_filetypes()
     if ext not in supported:
-        raise PlotError(f"cannot tell the image format of '{os.fspath(path)}': use one of "
+        raise CliError(f"cannot tell the image format of '{os.fspath(path)}': use one of "
                         + ', '.join('.' + e for e in sorted(supported)))
     return ext
 

@@ -1,13 +1,6 @@
 """``flight-sim-dynamics simulate``: the digital twin on files
-(:func:`flight_sim_dynamics.simulate`, RK4 at a fixed step).
-
-Open loop: ``--forces CSV`` (``t,force_a,force_b,force_c``). Closed loop:
-``--reference CSV`` or ``--motion NAME`` tracked by PD servos on the leg
-lengths (``--bandwidth`` or ``--gains``) with the ``--feedforward`` scene's
-forces, driving the plant (``--plant-params``, ``--plant-scene``). Writes the
-trajectory columns, leg lengths, rates, delivered forces, the tracking errors
-(closed loop) and a status per row; a run that stops writes the rows up to
-the stop, warns and exits with status 1.
+(:func:`flight_sim_dynamics.simulate`), open loop (``--forces``) or closed loop
+(``--reference``, ``--motion``); a run that stops writes its rows and exits 1.
 """
 from __future__ import annotations
 
@@ -18,14 +11,12 @@ import numpy as np
 
 import flight_sim_dynamics as fsd
 
-from ..core.model import Model
 from ..core.motions import MOTIONS
 from ..core.simulation import (DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, DEFAULT_STEP,
                                ForceHistory, Reference, Servo, simulate)
 from .csv_io import TRAJECTORY_COLUMNS, read_table, write_csv
-from .main import load_model, read_trajectory, report_not_ok
+from .main import LEGS, load_model, read_trajectory, report_not_ok
 
-LEGS = ('a', 'b', 'c')
 FORCE_COLUMNS = ('t',) + tuple(f'force_{leg}' for leg in LEGS)
 POSE = ('surge', 'heave', 'roll')
 #: Output columns, in order (closed loop adds ERROR_COLUMNS; then ``status``).
@@ -78,25 +69,14 @@ def configure(p: argparse.ArgumentParser) -> None:
                         'start')
 
 
-def _closed_loop_only(args: argparse.Namespace) -> None:
+def run(args: argparse.Namespace) -> int:
+    """The ``simulate`` subcommand; 0 when the run reached its end, 1 when it stopped."""
     given = [name for name, value in (('--feedforward', args.feedforward),
                                       ('--bandwidth', args.bandwidth), ('--gains', args.gains))
              if value is not None]
     if args.forces is not None and given:
         raise ValueError(f"{', '.join(given)}: closed loop only (--reference or --motion), "
                          'not with --forces')
-
-
-def _servo(args: argparse.Namespace, plant: Model) -> Servo:
-    if args.gains is not None:
-        return Servo(tuple(args.gains[:3]), tuple(args.gains[3:]))
-    hz = DEFAULT_BANDWIDTH_HZ if args.bandwidth is None else args.bandwidth
-    return Servo.for_bandwidth(plant, hz, DEFAULT_DAMPING)
-
-
-def run(args: argparse.Namespace) -> int:
-    """The ``simulate`` subcommand; 0 when the run reached its end, 1 when it stopped."""
-    _closed_loop_only(args)
     plant_params = args.plant_params if args.plant_params is not None else args.params
     plant = load_model(plant_params, args.plant_scene,
                        '--plant-params' if args.plant_params else '--params', '--plant-scene')
@@ -116,8 +96,11 @@ def run(args: argparse.Namespace) -> int:
         scene = args.feedforward if args.feedforward is not None else plant.scene
         feedforward = None if scene == 'none' else load_model(args.params, scene,
                                                                    scene_option='--feedforward')
+        hz = DEFAULT_BANDWIDTH_HZ if args.bandwidth is None else args.bandwidth
+        servo = (Servo(tuple(args.gains[:3]), tuple(args.gains[3:])) if args.gains is not None
+                 else Servo.for_bandwidth(plant, hz, DEFAULT_DAMPING))
         sim = simulate(plant, reference=reference, feedforward=feedforward,
-                       servo=_servo(args, plant), initial=initial, step=args.step)
+                       servo=servo, initial=initial, step=args.step)
     columns = [sim.t, sim.q, sim.qd, sim.qdd, sim.length, sim.rate, sim.force]
     names = OUTPUT_COLUMNS
     if sim.pose_error is not None:

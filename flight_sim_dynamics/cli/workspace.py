@@ -1,12 +1,8 @@
-"""The workspace map: ``flight-sim-dynamics workspace [-o map.png]``.
-
-Per roll angle, a panel of the (surge, heave) plane at rest
-(:mod:`..core.workspace`): the reachable region coloured by cond(Q) (or the
-kinematic condition), the unreachable regions hatched by cause (loop D, loop
-E, slider E2 off the rod), the stroke-limit contours, the singular curves and
-the paper's motions (eq. 6); a second row zooms on the central configuration.
-The summary (intervals along the axes, areas, the paper's motions) goes to
-stdout, and with ``--markdown`` to a page. matplotlib is imported by :func:`plot` only.
+"""``flight-sim-dynamics workspace``: per roll angle a panel of the (surge,
+heave) plane at rest (:mod:`..core.workspace`), reachable cells coloured by
+condition, unreachable ones hatched by cause, with the stroke limits, singular
+curves and the paper's motions (eq. 6); the summary on stdout (``--markdown``:
+a page). matplotlib is imported by :func:`plot` only.
 """
 from __future__ import annotations
 
@@ -26,6 +22,7 @@ from ..core.workspace import (DEFAULT_RANGE, DEFAULT_ZOOM, DEGENERATE, E2_OFF_RO
                               KINDS, LEGS, LOOP_D, LOOP_E, REACHABLE, LineRanges, MotionReport,
                               RollMap, RollResult, boundary_shares, general_pose_at_roll,
                               near_singular_share, paper_motions, sample_roll)
+from .bench import table
 from .csv_io import atomic_output
 from .main import load_model
 from .plotting import output_format
@@ -110,11 +107,6 @@ def summary_lines(results: Sequence[RollResult], motions: Sequence[MotionReport]
     return lines
 
 
-def _md_table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
-    return ''.join('| ' + ' | '.join(row) + ' |\n' for row in
-                   [header, [':---' if k else '---:' for k in range(len(header))], *rows])
-
-
 def markdown(results: Sequence[RollResult], motions: Sequence[MotionReport], model: Model,
              args: argparse.Namespace, image: str | None, md_path: str) -> str:
     """The summary as a markdown page that shows the figure ``image``."""
@@ -136,11 +128,11 @@ def markdown(results: Sequence[RollResult], motions: Sequence[MotionReport], mod
                'set is the same at every roll angle.\n')
     out.append('## What bounds the workspace\n\nShare of the length of each boundary made by '
                'each constraint (grid estimate), and the share of the cells within the stroke '
-               'limits whose status is `near_singular`.\n\n' + _md_table(
+               'limits whose status is `near_singular`.\n\n' + table(
                    ('roll', 'boundary of the reachable set (overview)',
                     'boundary within the stroke limits '
                     f'({"zoom" if results[0].zoom is not None else "overview"})',
-                    'near_singular'), bounds(results, model)))
+                    'near_singular'), bounds(results, model)) + '\n')
     out.append('## Reachable ranges and the paper\'s motions\n\n```text\n'
                + '\n'.join(summary_lines(results, motions, model)) + '\n```\n')
     return '\n'.join(out)

@@ -9,16 +9,11 @@ class ParameterError(ValueError):
     """A parameter value is missing, unknown, mistyped or physically invalid."""
 
     def __init__(self, key: str, value: Any, reason: str) -> None:
-        self.key = key
-        self.value = value
-        self.reason = reason
-        super().__init__(f"parameter '{key}' = {_short(value)}: {reason}")
-
-
-def _short(value: Any, limit: int = 200) -> str:
-    """Repr of a value, cut to ``limit`` characters."""
-    text = repr(value)
-    return text if len(text) <= limit else text[:limit] + f'... ({len(text)} characters)'
+        self.key, self.value, self.reason = key, value, reason
+        text = repr(value)
+        if len(text) > 200:
+            text = text[:200] + f'... ({len(text)} characters)'
+        super().__init__(f"parameter '{key}' = {text}: {reason}")
 
 
 def did_you_mean(name: str, known: Iterable[str]) -> str:

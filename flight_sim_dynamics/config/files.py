@@ -1,7 +1,4 @@
-"""Parameter files: the packaged one, the ``--params-file`` of a ROS command
-line, and a ROS 2 parameter YAML file read into flat dotted names, each value
-of a known name checked against the schema.
-"""
+"""Parameter files: the packaged one, ``--params-file``, a ROS 2 parameter file."""
 from __future__ import annotations
 
 import os

@@ -1,24 +1,15 @@
 """Parameters: the one rule for reading parameter files, and the model built
-from validated values.
+from validated values (schema :mod:`.schema`, checks :mod:`.validation`, both
+re-exported here).
 
 One YAML file in ROS 2 parameter format (``flight_sim_dynamics:
-ros__parameters: ...``) feeds the solver (:func:`load_model`), the command
-line (``solve --params``) and the node (``--ros-args --params-file``). Nested
-YAML maps become dotted names (``geometry.d1``, ``bodies.rod.mass``), exactly
-as ROS 2 flattens them. The rule, the same for all three
-(:func:`read_params`):
-
-* a file may be partial: what it gives overrides the packaged defaults;
-* a name that is not a parameter is an error, with the closest known name
-  ("did you mean") and the file;
-* ``qos_overrides.*`` names are the node's (rclpy's start-up QoS overrides):
-  the node reads them, :func:`load_model` ignores them;
-* the file is read by the rules of :mod:`.yaml_io` (bounded size, no aliases,
-  no value that ROS 2 would read differently), so that every bad file is one
-  :class:`ParameterError` naming it, in well under a second.
-
-The schema is :mod:`.schema`, the checks :mod:`.validation`; both are
-re-exported here.
+ros__parameters: ...``, nested maps as dotted names ``bodies.rod.mass``) feeds
+the solver (:func:`load_model`), the command line (``--params``) and the node
+(``--params-file``), by one rule (:func:`read_params`): a file may be partial
+(it overrides the packaged defaults); an unknown name is an error ("did you
+mean", naming the file); ``qos_overrides.*`` are the node's, ignored by
+:func:`load_model`; the file is read by :mod:`.yaml_io`'s rules, so that every
+bad file is one :class:`ParameterError` naming it.
 """
 from __future__ import annotations
 
@@ -50,11 +41,9 @@ QOS_OVERRIDES = 'qos_overrides.'
 
 def read_params(path: str | os.PathLike[str], node: str = '/' + NODE_NAME
                 ) -> tuple[dict[str, Any], dict[str, Any]]:
-    """Read one parameter file by the one rule (module docstring): returns
-    (the parameters of the schema it gives, its ``qos_overrides.*`` values),
-    each a flat dict of dotted names. Raises :class:`ParameterError` for an
-    unknown name ("did you mean", naming the file) or any unreadable file; the
-    values themselves are checked when a model is built from them.
+    """Read one parameter file by the one rule (module docstring): (its schema
+    parameters, its ``qos_overrides.*``), flat dicts of dotted names; each value
+    of a known name checked, the whole when a model is built from them.
     """
     flat = read_params_file(path, node)
     qos = {k: v for k, v in flat.items() if k.startswith(QOS_OVERRIDES)}
@@ -65,15 +54,11 @@ def read_params(path: str | os.PathLike[str], node: str = '/' + NODE_NAME
 
 def model_from_values(values: Mapping[str, Any], *, require_all: bool = True,
                       scene: Scene | str | None = None) -> Model:
-    """Validate ``values`` (flat dotted names) and build the :class:`Model`.
-
-    ``scene`` (a :class:`~.scenes.Scene`, a scene name or path; None = the
-    ``scene`` parameter in ``values``, else ``full``) selects the effects; its
-    parameter overrides apply on top of ``values``.
-    Raises :class:`ParameterError` if anything is invalid, including a geometry
-    whose loops cannot close at the central configuration (crank D, crank E
-    meeting the rod between A3 and G, eq. 7-8), and :class:`~.scenes.SceneError`
-    for a bad scene.
+    """Validate ``values`` (flat dotted names) and build the :class:`Model`, with
+    the effects and overrides of ``scene`` (a :class:`~.scenes.Scene`, name or
+    path; None: the ``scene`` parameter, else ``full``). :class:`ParameterError`
+    if anything is invalid, including a geometry whose loops cannot close at the
+    central configuration (eq. 7-8); :class:`~.scenes.SceneError` for a bad scene.
     """
     if scene is None:
         scene = values.get('scene', SPECS['scene'].default)
@@ -119,15 +104,11 @@ def packaged_values() -> dict[str, Any]:
 
 def load_model(path: str | os.PathLike[str] | None = None,
                scene: str | os.PathLike[str] | None = None) -> Model:
-    """Load and validate a parameter file (None: the packaged defaults) and a
-    scene (a name from config/scenes or a path; None: the file's ``scene``
-    parameter if it has one, else ``full``, the paper's model).
-
-    The file may be partial: what it gives overrides the packaged file. A name
-    that is not a parameter is an error ("did you mean"); node parameters are
-    accepted (one file serves the node too) and ``qos_overrides.*`` are the
-    node's: ignored here. Raises :class:`ParameterError` for any bad file or
-    value.
+    """Load and validate a parameter file (None: the packaged defaults; by the
+    rule of the module docstring, node parameters accepted) and a scene (a name
+    from config/scenes or a path; None: the file's ``scene`` parameter, else
+    ``full``, the paper's model). Raises :class:`ParameterError` for any bad
+    file or value.
     """
     values = packaged_values()
     if path is not None:
@@ -136,11 +117,9 @@ def load_model(path: str | os.PathLike[str] | None = None,
 
 
 def check_params_files(args: Sequence[str], node: str = '/' + NODE_NAME) -> None:
-    """Apply the one rule to the ``--params-file`` files of a node's command
-    line ``args`` (``node``: its fully qualified name): names checked, and the
-    values, over the packaged ones, validated against the schema as
-    load_model validates them (the node's executable: a bad file is one
-    ParameterError, exit 2).
+    """The one rule on the ``--params-file`` files of a node's command line
+    ``args`` (``node``: its fully qualified name), values over the packaged ones
+    validated as load_model does: a bad file is one ParameterError.
     """
     values = packaged_values()
     for path in params_files_in(args):

@@ -47,26 +47,21 @@ def available_scenes() -> list[str]:
     return sorted(p.stem for p in folder.glob('*.yaml')) if folder.is_dir() else []
 
 
-def scene_path(scene: str | os.PathLike[str]) -> Path:
-    """A scene name (file in the packaged scenes folder) or a path to a YAML file."""
-    text = os.fspath(scene)
-    if text.endswith(('.yaml', '.yml')) or os.sep in text:
-        return Path(text)
-    path = scenes_dir() / f'{text}.yaml'
+def load_scene(scene: str | os.PathLike[str] | None = None) -> Scene:
+    """Read and validate a scene: a name of the packaged scenes folder or the
+    path of a YAML file (None: the ``full`` scene, the paper's model).
+    """
+    text = os.fspath(DEFAULT_SCENE if scene is None else scene)
+    path = Path(text) if text.endswith(('.yaml', '.yml')) or os.sep in text else (
+        scenes_dir() / f'{text}.yaml')
     try:
-        found = path.is_file()
+        found = path == Path(text) or path.is_file()    # a path given: read_yaml says why not
     except OSError:             # e.g. a name too long for the file system
         found = False
     if not found:
         available = available_scenes()
         raise SceneError(text, 'no such scene; available: ' + ', '.join(available)
                          + did_you_mean(text, available))
-    return path
-
-
-def load_scene(scene: str | os.PathLike[str] | None = None) -> Scene:
-    """Read and validate a scene (None: the ``full`` scene, the paper's model)."""
-    path = scene_path(DEFAULT_SCENE if scene is None else scene)
     name = path.stem
     try:
         doc = read_yaml(path, 'scene')

@@ -3,10 +3,9 @@ unit, physical bounds, meaning), for the solver and the node alike.
 
 Model parameters are the paper's application data (Section 3; geometry of
 eq. 7-8, mass properties of eq. 18-19, gravity); node parameters tune the
-ROS 2 node. Every number is bounded to a physical or sensible range (issue
-12 #5: a centre of mass at 1e300 m is not a mechanism); every string has a
-bounded length. The bodies are the ones of :data:`core.model.BODY_NAMES`,
-the geometry keys those of :data:`core.model.GEOMETRY_KEYS`.
+ROS 2 node. Every number is bounded to a physical or sensible range (a
+centre of mass at 1e300 m is not a mechanism), every string in length. Bodies
+and geometry keys: :data:`core.model.BODY_NAMES`, :data:`core.model.GEOMETRY_KEYS`.
 """
 from __future__ import annotations
 
@@ -26,12 +25,9 @@ MAX_PATH = 4096             # characters of a file path (PATH_MAX on Linux)
 
 @dataclass(frozen=True)
 class ParamSpec:
-    """One declared parameter: its dotted name, type, default and meaning.
-
-    ``kind`` is one of ``double``, ``double_array``, ``integer``, ``string``,
-    ``bool``. ``minimum``/``maximum`` bound a number, or every element of an
-    array (inclusive unless ``exclusive_minimum``); ``length`` fixes the size
-    of an array; ``max_length`` bounds a string.
+    """One declared parameter. ``kind``: ``double``, ``double_array``, ``integer``,
+    ``string`` or ``bool``; ``minimum``/``maximum`` bound a number or each element
+    (inclusive unless ``exclusive_minimum``); ``length``: an array's size.
     """
 
     name: str
@@ -72,10 +68,7 @@ class ParamSpec:
         return bounds
 
 
-# ----------------------------------------------------------------------------
-# Model parameters (geometry, masses, inertias, gravity): defaults of
-# mechanism.md and the paper's application data.
-# ----------------------------------------------------------------------------
+# Model parameters: defaults of mechanism.md and the paper's application data.
 _GEOMETRY_DEFAULTS = dict(d1=0.4, d2=0.95, d3=0.65, d4=0.25, d5=1.35,
                           l1=0.65, l2=0.85, l3=0.75, l4=1.0, l5=1.3, l6=1.2,
                           b=1.2, h=1.4, h_G=1.1, s_A=0.29, s_B=0.33, s_C=0.33)
@@ -117,14 +110,6 @@ def _platform_inertia(mass: float) -> list[float]:
             0.0, 0.0, mass * h * h / 12]
 
 
-def _body_default(name: str) -> tuple[float, list[float], list[float]]:
-    """Default (mass, com, inertia) of one body of BODY_NAMES."""
-    mass, length_key, sign = _BODY_DATA[name]
-    length = _GEOMETRY_DEFAULTS[length_key]
-    inertia = _platform_inertia(mass) if name == 'platform' else _slender(mass, length)
-    return mass, [sign * length / 2, 0.0, 0.0], inertia
-
-
 def _model_specs() -> list[ParamSpec]:
     specs = [ParamSpec('gravity', 'double', 9.81,
                        'gravitational acceleration, acting along -y0 (down)', 'm/s^2',
@@ -134,7 +119,10 @@ def _model_specs() -> list[ParamSpec]:
                                _GEOMETRY_MEANING[key], 'm', minimum=0.0,
                                exclusive_minimum=True, maximum=MAX_LENGTH))
     for name in BODY_NAMES:
-        mass, com, inertia = _body_default(name)
+        mass, length_key, sign = _BODY_DATA[name]
+        length = _GEOMETRY_DEFAULTS[length_key]
+        com = [sign * length / 2, 0.0, 0.0]
+        inertia = _platform_inertia(mass) if name == 'platform' else _slender(mass, length)
         specs += [
             ParamSpec(f'bodies.{name}.mass', 'double', mass, f'mass of {name}', 'kg',
                       minimum=0.0, exclusive_minimum=True, maximum=MAX_MASS),
@@ -151,8 +139,7 @@ def _model_specs() -> list[ParamSpec]:
         'effects to simulate: a scene name from config/scenes (full, quasi_static, '
         'platform_only, payload) or the path of a scene YAML file', required=False,
         max_length=MAX_PATH))
-    # payload (cab and occupants): used when a scene enables the 'payload' effect.
-    # Defaults: a 60 kg cab plus an 80 kg occupant centred on the platform.
+    # used when a scene enables the effect; default payload: a 60 kg cab, an 80 kg occupant
     specs += [
         ParamSpec('payload.mass', 'double', 140.0,
                   'mass of the payload (cab and occupants) on the platform', 'kg',
@@ -188,7 +175,7 @@ def _model_specs() -> list[ParamSpec]:
                   'Jacobian dL/dq (Frobenius, roll column scaled by b/2)', '1',
                   minimum=1.0, maximum=1.0e16, required=False),
     ]
-    # actuator friction: used when a scene enables the 'friction' effect.
+    # used when a scene enables the 'friction' effect
     specs += [
         ParamSpec('friction.viscous', 'double_array', [20.0, 20.0, 20.0],
                   'viscous friction coefficient of actuators A, B, C', 'N s/m', length=3,
@@ -205,17 +192,13 @@ def _model_specs() -> list[ParamSpec]:
 
 MODEL_PARAMETERS: tuple[ParamSpec, ...] = tuple(_model_specs())
 
-# ----------------------------------------------------------------------------
-# Node parameters (limits, tolerances, QoS, ...): declared by the node, also
-# accepted in the YAML read by load_model so that one file serves both.
-# ----------------------------------------------------------------------------
+# Node parameters: declared by the node, also accepted by load_model (one file serves both).
+# (QoS: rclpy's read-only qos_overrides.<topic>.* parameters, declared by the node's endpoints.)
 NODE_PARAMETERS: tuple[ParamSpec, ...] = (
-    # Near-limit warnings (the limits themselves are model parameters: limits.*).
     ParamSpec('limits.warn_fraction', 'double', 0.9,
               'status WARN when a stroke, speed or force uses at least this fraction of its '
               'limit (stroke: of the half-range around its middle)', '1',
               minimum=0.0, maximum=1.0),
-    # Input checks.
     ParamSpec('input.max_linear_acceleration', 'double', 50.0,
               'setpoints whose surge or heave acceleration (given or estimated) exceeds this '
               'are rejected as absurd', 'm/s^2',
@@ -247,7 +230,6 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('input.max_points', 'integer', 1000,
               'most points in one platform_setpoint message; a longer message is rejected '
               'whole (undecoded when its size alone shows it)', '1', minimum=1, maximum=100000),
-    # Exact-stamp synchroniser.
     ParamSpec('sync.wait', 'double', 0.05,
               'longest wait for the twist and acceleration carrying a pose\'s stamp before '
               'the setpoint is solved without them (they are then estimated)', 's',
@@ -255,7 +237,6 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('sync.max_pending', 'integer', 64,
               'most setpoint stamps waiting for their other messages at once', '1',
               minimum=1, maximum=100000),
-    # Estimation of missing rates / accelerations.
     ParamSpec('estimator.method', 'string', 'backward2',
               'finite differences for missing rates and accelerations: backward (2-point, '
               'first order) or backward2 (3-point BDF2, second order)', '',
@@ -264,9 +245,6 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'a gap between setpoint stamps longer than this restarts the estimator '
               '(motion assumed to start from rest)', 's',
               minimum=0.0, exclusive_minimum=True, maximum=3600.0),
-    # (QoS: rclpy's read-only qos_overrides.<topic>.* parameters, declared by
-    # the node's endpoints; docs/node.md.)
-    # Diagnostics and logging.
     ParamSpec('diagnostics.period', 'double', 1.0,
               'period of the /diagnostics message', 's',
               minimum=0.01, maximum=3600.0),
@@ -276,7 +254,6 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('diagnostics.log_throttle', 'double', 2.0,
               'at most one log line per rejection reason per this period', 's',
               minimum=0.0, maximum=3600.0),
-    # The ROS graph.
     ParamSpec('autostart', 'bool', True,
               'configure and activate at start-up (a bad parameter then ends the process, '
               'exit 2); false: start unconfigured and wait for a lifecycle manager or '
@@ -284,7 +261,6 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('allow_duplicate_name', 'bool', False,
               'start even when a node of the same name and namespace is already running '
               '(else exit 2: both would answer every setpoint)', ''),
-    # Outputs.
     ParamSpec('output.frame_id', 'string', 'simulator_base',
               'header.frame_id of actuator_states: the REP-103 simulator base frame '
               '(origin at G\'s central position); leg lengths are frame-free scalars', '',
@@ -307,13 +283,12 @@ def defaults() -> dict[str, Any]:
     return {spec.name: (list(spec.default) if isinstance(spec.default, list) else spec.default)
             for spec in ALL_PARAMETERS}
 
+
 if set(_GEOMETRY_DEFAULTS) != set(GEOMETRY_KEYS):   # one list of lengths: core.model's
     raise ImportError(f'schema geometry {sorted(_GEOMETRY_DEFAULTS)} != core.model.GEOMETRY_KEYS')
 
-# ----------------------------------------------------------------------------
-# Parameters of the twin node (platform_sim, docs/twin.md): the plant is
-# a model built by the one rule (load_model of a params file and a scene).
-# ----------------------------------------------------------------------------
+# Parameters of the twin node platform_sim (docs/twin.md): the plant is load_model of a
+# params file and a scene.
 SIM_NODE_NAME = 'platform_sim'
 SIM_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('plant.params_file', 'string', '',

@@ -1,10 +1,7 @@
-"""Validation of parameter values against the schema (:mod:`.schema`).
-
-Strict and never guessing: a missing, unknown or mistyped key, a value out
-of its physical range, an impossible inertia tensor raise
-:class:`ParameterError` naming the key and the value. The only conversion
-made is an integer given for a floating-point parameter (``mass: 2``), which
-is exact and is accepted as the same number.
+"""Validation of parameter values against the schema (:mod:`.schema`), strict:
+a missing, unknown or mistyped key, a value out of range, an impossible inertia
+tensor is a :class:`ParameterError` naming key and value. The one conversion:
+an integer for a floating-point parameter (``mass: 2``, exact).
 """
 from __future__ import annotations
 
@@ -117,13 +114,10 @@ def check_names(values: Mapping[str, Any], where: str = '') -> None:
 
 
 def validate(values: Mapping[str, Any], *, require_all: bool = True) -> dict[str, Any]:
-    """Check a flat dict of parameters against the schema.
-
-    Unknown keys are errors. With ``require_all`` every required model
-    parameter (gravity, geometry, bodies) must be present (as when building a
-    model from a complete set of values); otherwise missing ones take their
-    packaged defaults. Effect parameters (payload, friction) and node
-    parameters default when absent. Returns the complete, canonical flat dict.
+    """Check a flat dict of parameters against the schema (unknown keys are
+    errors); returns the complete, canonical flat dict. Absent parameters take
+    their defaults, except required model parameters (gravity, geometry,
+    bodies) with ``require_all``.
     """
     check_names(values)
     result = defaults()

@@ -1,12 +1,9 @@
-"""Reading a YAML parameter or scene file the one safe way: every problem is
-one :class:`ParameterError` naming the file (and the key, if any).
-
-At most :data:`MAX_FILE_BYTES` are read; directories, NUL bytes and non-UTF-8
-text are refused; so are anchors and aliases ("billion laughs") and keys
-given twice. A plain value is a number only as a decimal (an integer of at
-most 19 digits), a boolean only as true/false, null as ``~``, ``null`` or
-nothing; anything else (``yes``, ``0x10``, ``010``, a date) is a string, so
-that no number reads differently here and in rcl's ``--params-file`` parser.
+"""Reading a YAML parameter or scene file the one safe way: every problem is one
+:class:`ParameterError` naming the file (and the key). At most
+:data:`MAX_FILE_BYTES`; no directory, NUL byte, non-UTF-8 text, anchor, alias or
+key given twice. A plain value is a number only as a decimal (integers of at most
+19 digits), a boolean only as true/false, null as ``~``, ``null`` or nothing;
+anything else (``yes``, ``0x10``, ``010``, a date) is a string, as rcl reads it.
 """
 from __future__ import annotations
 

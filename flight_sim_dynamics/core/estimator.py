@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 ESTIMATORS = ('backward', 'backward2')
 Vec3 = tuple[float, float, float]
 
@@ -15,13 +17,10 @@ def wrap_angle(angle: float) -> float:
 
 
 def backward_derivative(times: list[float], values: list[Vec3], order: int) -> Vec3:
-    """Derivative at ``times[-1]`` from the last samples (causal).
-
-    ``order`` 1: two-point backward difference ``(f_k - f_k-1) / h`` (error
-    ``h f''/2``). ``order`` 2: derivative at ``t_k`` of the parabola through
-    the last three samples (BDF2, error ``h^2 f'''/3`` on a uniform grid);
-    the steps may be unequal. Falls back to order 1 with two samples and to
-    zero with one.
+    """Derivative at ``times[-1]`` from the last samples (causal): ``order`` 1
+    ``(f_k - f_k-1) / h`` (error ``h f''/2``), 2 the parabola through the last
+    three, steps unequal or not (BDF2, error ``h^2 f'''/3``); order 1 with two
+    samples, zero with one.
     """
     n = len(times)
     if n < 2:
@@ -44,26 +43,15 @@ def backward_derivative(times: list[float], values: list[Vec3], order: int) -> V
 class DerivativeEstimator:
     """Fill in missing rates and accelerations from the stream itself.
 
-    Each :meth:`update` takes the pose of one setpoint (stamp in seconds) and
-    the measured twist/acceleration when the planner sent them (None
-    otherwise). Missing rates are the backward derivative of the last poses;
-    missing accelerations the backward derivative of the last rates (the
-    measured ones when they came, else the estimated ones), so a pose-only
-    stream gets its accelerations from a second difference of poses.
-    Roll is unwrapped across +-pi before differencing.
-
-    The history restarts on the first setpoint, after a gap longer than
-    ``max_gap`` seconds, and on :meth:`reset`; the first setpoint of a
-    history is taken at rest (what it lacks is zero). With ``warm_up`` (the
-    node), a second difference never uses that assumed rest: an
-    acceleration whose estimate would need it is None (not estimated; the
-    node does not answer such a setpoint) rather than the rate jump from
-    "rest" to the stream's real rate divided by one step.
-
-    :meth:`update` estimates and records a setpoint. The node records one
-    only once it has answered it (:meth:`estimate`, then :meth:`commit`): a
-    setpoint rejected after its estimate (an absurd estimate, an unreachable
-    pose) leaves no trace in the estimates of the next ones.
+    Missing rates are the backward derivative of the last poses (roll
+    unwrapped across +-pi), missing accelerations that of the last rates,
+    given or estimated. The history restarts on the first setpoint, after a
+    gap longer than ``max_gap`` s and on :meth:`reset`; its first setpoint is
+    taken at rest. With ``warm_up`` (the node) an acceleration that would
+    difference that assumed rest is None (not estimated) instead.
+    :meth:`update` estimates and records a setpoint; the node records one
+    only once it has answered it (:meth:`estimate`, then :meth:`commit`), so
+    a rejected setpoint leaves no trace in the next estimates.
     """
 
     def __init__(self, method: str = 'backward2', max_gap: float = 0.5,
@@ -94,10 +82,7 @@ class DerivativeEstimator:
 
     def update(self, t: float, q: Vec3, qd: Vec3 | None, qdd: Vec3 | None
                ) -> tuple[Vec3, Vec3 | None]:
-        """Record a setpoint and return its (rates, accelerations): the given
-        ones where present, estimates otherwise (:meth:`estimate`, then
-        :meth:`commit`).
-        """
+        """:meth:`estimate` then :meth:`commit`: (rates, accelerations), given or estimated."""
         rates = self.estimate(t, q, qd, qdd)
         self.commit()
         return rates
@@ -148,3 +133,17 @@ class DerivativeEstimator:
         self._real.append(known)
         if len(self._t) > 3:
             del self._t[0], self._q[0], self._qd[0], self._real[0]
+
+
+def estimate_rows(t: np.ndarray, q: np.ndarray, qd: np.ndarray | None = None,
+                  method: str = 'backward2', max_gap: float = 0.5
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Rates (``qd`` where given) and accelerations of the samples (t, q) as the
+    node estimates them, row by row (:meth:`DerivativeEstimator.update`).
+    """
+    est = DerivativeEstimator(method, max_gap)
+    rates, accs = np.empty_like(q), np.empty_like(q)
+    for k, (tk, qk) in enumerate(zip(np.asarray(t).tolist(), q.tolist())):
+        given = None if qd is None else tuple(qd[k].tolist())
+        rates[k], accs[k] = est.update(tk, tuple(qk), given, None)
+    return rates, accs

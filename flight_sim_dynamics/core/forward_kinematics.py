@@ -1,11 +1,7 @@
-"""Forward kinematics: the pose (surge, heave, roll) from three leg lengths.
-
-L(q) = L* is solved by a safeguarded Newton iteration on the exact Jacobian
-J = dL/dq (eq. 5-8, 11-12): Levenberg-Marquardt damping near a singular J, a
-backtracking line search that keeps every pose reachable (eq. 7) and reduces
-|L(q) - L*|. It stops at the tolerance (ok), at a residual that cannot be
-reduced with J^T r ~ 0 (unreachable) or after ``max_iterations``
-(not_converged), on the assembly mode connected to its start.
+"""Forward kinematics: the pose (surge, heave, roll) from three leg lengths, L(q) =
+L* by a safeguarded Newton iteration on J = dL/dq (eq. 5-8, 11-12): damped near a
+singular J, a line search that keeps poses reachable (eq. 7); ok at the tolerance,
+unreachable when J^T r ~ 0, else not_converged after ``max_iterations``.
 """
 from __future__ import annotations
 

@@ -83,6 +83,7 @@ class ForceHistory:
 
     def __init__(self, t: Sequence[float], force: object) -> None:
         self.t = sample_times(t)
+        self.start, self.end = float(self.t[0]), float(self.t[-1])
         self.force = finite_rows('force', force, self.t.size)
         with np.errstate(over='ignore', invalid='ignore'):
             self.slope = node_slopes(self.t, self.force)
@@ -96,14 +97,6 @@ class ForceHistory:
             raise ValueError(f'the forces of the row at t = {float(self.t[k])!r} s '
                              f'({np.abs(self.force[k]).max():.3g} N) are too large to '
                              'interpolate (the spline overflows)')
-
-    @property
-    def start(self) -> float:
-        return float(self.t[0])
-
-    @property
-    def end(self) -> float:
-        return float(self.t[-1])
 
     def __call__(self, times: np.ndarray) -> np.ndarray:
         """Forces (N, 3) at ``times`` (within [start, end], else ValueError)."""

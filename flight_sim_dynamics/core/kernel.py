@@ -1,13 +1,8 @@
-"""The compiled kernel: the solver's scalar path (eq. 5-23) as straight-line C.
-
-``src/kernel.c`` transcribes :mod:`.kinematics`, :mod:`.dynamics` and the
-status rule of :mod:`.status`; it is built as ``flight_sim_dynamics.core._kernel``
-on install (``python setup.py build_ext --inplace`` for the source tree).
-The solver uses it when it is built, else the Python code (the reference;
-docs/kernel.md); ``use_kernel(False)`` or FSD_KERNEL=0 forces the Python code.
-The layouts (packed model, result row, effect bits, bodies, loops, statuses)
-are declared once, in the C source; this module checks them against the
-package's own lists.
+"""The compiled kernel (``src/kernel.c``, built as ``core._kernel``; docs/kernel.md):
+the solver's scalar path (eq. 5-23) and the twin's RK4 loop in C. Used when
+built, else the Python code (the reference); ``use_kernel(False)`` or
+FSD_KERNEL=0 forces the Python code. The layouts are declared once, in the C
+source; this module checks them against the package's own lists.
 """
 from __future__ import annotations
 

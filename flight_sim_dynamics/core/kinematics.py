@@ -40,9 +40,7 @@ class UnreachablePoseError(ValueError):
     """A pose the mechanism cannot take: a loop of eq. (7) cannot close."""
 
     def __init__(self, loop: str, reason: str, index: int | None = None) -> None:
-        self.loop = loop
-        self.reason = reason
-        self.index = index
+        self.loop, self.reason, self.index = loop, reason, index
         where = '' if index is None else f' (sample {index})'
         super().__init__(f'unreachable pose{where}: loop {loop}: {reason}')
 

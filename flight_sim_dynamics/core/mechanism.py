@@ -6,7 +6,7 @@ frame: ``X = x0 - x0G``, ``Y = -z0``, ``Z = y0 - h_G``.
 from __future__ import annotations
 
 from .kinematics import Geometric
-from .model import Geometry, Model
+from .model import Model
 from .vectors import add, sub
 
 Point3 = tuple[float, float, float]
@@ -29,17 +29,12 @@ PLATE = ('A3_right', 'B4', 'C4', 'A3_right', 'C4', 'A3_left',
          'A3_right', 'C4', 'B4', 'A3_right', 'A3_left', 'C4')
 
 
-def base_origin(geom: Geometry) -> Point3:
-    """G at the central configuration, paper axes: the simulator base's origin."""
-    return (geom.d2 + geom.d3 + geom.d4, geom.h_G, 0.0)
-
-
 def mechanism_points(model: Model, g: Geometric) -> dict[str, Point3]:
     """Every point drawn (:data:`JOINTS`, ``G``, ``A3_right``, ``A3_left``) of the
     positions ``g`` of eq. (5)-(8), in the base frame.
     """
     geom = model.geometry
-    x0, y0, _ = base_origin(geom)
+    x0, y0 = geom.d2 + geom.d3 + geom.d4, geom.h_G     # the base's origin: G, central
     paper = {'A1': geom.A1, 'A3': g.A3, 'B1': geom.B1, 'B4': g.B4, 'C1': geom.C1, 'C4': g.C4,
              'D1': geom.D1, 'D2': g.D2, 'E1': geom.E1, 'E2': g.E2, 'G': g.G}
     # plate corners at the A3 end: A3 +/- (b/2) t, with (b/2) t = B4 - G

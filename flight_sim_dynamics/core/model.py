@@ -1,9 +1,6 @@
-"""The model: constant description of the mechanism (Pinocchio's *model*).
-
-The geometry (eq. 7-8 constants), the mass properties (eq. 18-19), gravity,
-and constants derived once at the central configuration (``beta0``, the
-slider offset ``s`` = D2E2, the joint zeros: the paper's ``alpha_i`` of
-eq. 1-2). Per-cycle quantities live in the solve.
+"""The model, constant (Pinocchio's *model*): geometry (eq. 7-8), mass properties
+(eq. 18-19), gravity and the constants of the central configuration (``beta0``,
+the slider offset ``s`` = D2E2, the joint zeros: the ``alpha_i`` of eq. 1-2).
 """
 from __future__ import annotations
 

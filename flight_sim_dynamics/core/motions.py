@@ -1,11 +1,7 @@
-"""The reference motions, one registry: name -> q, qd, qdd at times t, and duration.
-
-The paper's three examples (eq. 6): ``vertical``, ``rectilinear``,
-``general``; ``cueing``: surge and heave pulses and a roll tilt, each washed
-back to neutral; ``violent``: the same cues compressed (about 1.2 g and
-21 rad/s^2), a harsh test, not a motion for the machine. Their steps are
-quintic, so q, qd, qdd are continuous and exact. :class:`PlannerSequence`
-plays motions one after the other, as the demo planner streams them.
+"""The reference motions, one registry (name -> q, qd, qdd at times t, duration):
+the paper's three examples (eq. 6), ``cueing`` and ``violent`` (``cueing``
+compressed, a harsh test), sums of quintic steps (q, qd, qdd continuous and
+exact). :class:`PlannerSequence` plays motions in turn, as the demo planner does.
 """
 from __future__ import annotations
 
@@ -81,14 +77,9 @@ def step_sequence(steps: Sequence[Step], t: np.ndarray | float) -> Trajectory:
     return q, qd, qdd
 
 
-def motion_cueing(t: np.ndarray | float) -> Trajectory:
-    """q, qd, qdd (each (N, 3)) of ``cueing`` at times ``t`` (s)."""
-    return step_sequence(CUEING_STEPS, t)
-
-
-def violent_motion(t: np.ndarray | float) -> Trajectory:
-    """q, qd, qdd (each (N, 3)) of ``violent`` at times ``t`` (s)."""
-    return step_sequence(VIOLENT_STEPS, t)
+#: q, qd, qdd (each (N, 3)) of ``cueing`` and ``violent`` at times ``t`` (s).
+motion_cueing = partial(step_sequence, CUEING_STEPS)
+violent_motion = partial(step_sequence, VIOLENT_STEPS)
 
 
 @dataclass(frozen=True)

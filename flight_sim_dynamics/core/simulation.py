@@ -1,17 +1,11 @@
-"""Simulation, the digital twin: the plant under its actuator forces,
-integrated by RK4 at a fixed step, each stage solving the forward dynamics
-f = M qdd + b (eq. 14, 18-23; :mod:`.forward_dynamics`). With the compiled
-kernel the loop runs in C (:func:`integrate`); the Python loop is the reference.
-
-Open loop (``forces=``): a :class:`ForceHistory` interpolated by a cubic
-Hermite spline with five-point node slopes (exact for cubics, O(dt^4)); the
-platform under prescribed forces is unstable, so open loop is for short runs.
-Closed loop (``reference=``): per actuator a servo on leg length and rate,
-``command = f_ff + kp (L_ref - L) + kd (Ldot_ref - Ldot)`` (:class:`Servo`),
-f_ff the inverse dynamics of the reference with the ``feedforward`` model,
-saturated by the actuator's force-speed line (:func:`deliver`).
-A run stops (``outcome``, ``outcome_detail``) at a stage state that is
-unreachable, near a singularity or not finite. Never a NaN.
+"""Simulation, the digital twin: the plant under its actuator forces, RK4 at a
+fixed step, each stage solving the forward dynamics f = M qdd + b (eq. 14,
+18-23; :mod:`.forward_dynamics`; in C with the kernel, :func:`integrate`).
+Open loop (``forces=``, a :class:`ForceHistory`; unstable: for short runs) or
+closed loop (``reference=``): per actuator ``command = f_ff + kp (L_ref - L) +
+kd (Ldot_ref - Ldot)`` (:class:`Servo`), f_ff the ``feedforward`` model's
+inverse dynamics, saturated by :func:`deliver`. A run stops (``outcome``) at a
+stage state that is unreachable, near a singularity or not finite. Never a NaN.
 """
 from __future__ import annotations
 
@@ -125,10 +119,9 @@ ForceLaw = Callable[[int, Solution], np.ndarray]
 
 @dataclass(frozen=True)
 class TabulatedLaw:
-    """The force laws of :func:`simulate` as tables over the half-step index j:
-    open loop ``ff[j]``; closed loop (``servo``) ``deliver(ff[j] + kp
-    (length_ref[j] - L) + kd (rate_ref[j] - Ldot))``. Data, so that the kernel
-    can integrate it.
+    """The force laws of :func:`simulate` as data the kernel integrates, over the
+    half-step index j: ``ff[j]``, or (``servo``) ``deliver(ff[j] + kp
+    (length_ref[j] - L) + kd (rate_ref[j] - Ldot))``.
     """
 
     ff: np.ndarray              # (2 steps + 1, 3) feed-forward (open loop: applied) forces, N

@@ -1,13 +1,9 @@
-"""The digital twin in real time: the plant under its actuator servos,
-advanced step by step as commands arrive (the ``platform_sim`` node).
-
-The last command (leg length and rate references, feed-forward force) is held
-(zero-order hold) and the state advanced by the RK4 of
-:func:`.simulation.integrate`, every stage evaluating the servo law and the
-forward dynamics M(q) qdd = f - b(q, qd) (eq. 14, 18-23). With the kernel
-enabled the steps run in C. A stage state that is unreachable, near a
-singularity or not finite stops the stepper (:attr:`TwinStepper.outcome`),
-which holds the last state reached, at rest: never a NaN.
+"""The digital twin in real time (the ``platform_sim`` node): the plant under
+its actuator servos, the last command held, advanced by the RK4 of
+:func:`.simulation.integrate` (forward dynamics M(q) qdd = f - b(q, qd), eq.
+14, 18-23; in C when the kernel is enabled). A stage state that cannot be
+simulated stops the stepper (:attr:`TwinStepper.outcome`) at the last state
+reached, at rest: never a NaN.
 """
 from __future__ import annotations
 
@@ -43,9 +39,7 @@ class TwinStepper:
         self.q, self.qd = q.copy(), np.zeros(3)
         self.time = 0.0                      # s of simulated time
         self.steps = 0
-        self._length_ref = np.zeros(3)
-        self._rate_ref = np.zeros(3)
-        self._ff = np.zeros(3)
+        self._length_ref, self._rate_ref, self._ff = (np.zeros(3) for _ in range(3))  # command
         self.outcome = Status.OK             # ok while running, else why it stopped
         self.detail = ''
         # (qdd, delivered force, solve) of the current state's first stage; None: to evaluate

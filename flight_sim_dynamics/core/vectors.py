@@ -66,19 +66,12 @@ def mat_vec(m: np.ndarray, c: Vec) -> Vec:
             m[2][0] * c[0] + m[2][1] * c[1] + m[2][2] * c[2])
 
 
-def _nan_max(*values: float) -> float:
-    """max() that returns NaN if any value is NaN, like numpy.maximum and the kernel."""
-    return math.nan if any(v != v for v in values) else max(values)
-
-
-def _nan_min(*values: float) -> float:
-    """min() that returns NaN if any value is NaN (see _nan_max)."""
-    return math.nan if any(v != v for v in values) else min(values)
-
-
 _SCALAR = SimpleNamespace(
     sqrt=math.sqrt, sin=math.sin, cos=math.cos, atan2=math.atan2, hypot=math.hypot,
-    tanh=math.tanh, abs=abs, maximum=_nan_max, minimum=_nan_min,
+    tanh=math.tanh, abs=abs,
+    # max(), min(), but NaN if any value is NaN, like numpy.maximum and the kernel
+    maximum=lambda *v: math.nan if any(x != x for x in v) else max(v),
+    minimum=lambda *v: math.nan if any(x != x for x in v) else min(v),
     clip0=lambda x: x if x > 0.0 else 0.0,
     where=lambda cond, a, b: a if cond else b,
     isfinite=math.isfinite, logical_not=operator.not_,

@@ -1,9 +1,7 @@
-"""Workspace sampling at rest (geometry, not motion), the numerics of
-``flight-sim-dynamics workspace``: grid maps per roll angle by what ends
-reachability (:func:`sample_map`), the intervals along the axes through the
-central configuration and the areas, each crossing located by bisection
-(:func:`line_ranges`, :func:`areas`), what makes the boundary
-(:func:`boundary_shares`) and how the paper's motions fare (eq. 6).
+"""Workspace sampling at rest, the numerics of ``flight-sim-dynamics workspace``:
+grid maps per roll angle by what ends reachability (:func:`sample_map`), intervals
+and areas with bisected crossings (:func:`line_ranges`, :func:`areas`), what makes
+the boundary (:func:`boundary_shares`) and the paper's motions (eq. 6).
 """
 from __future__ import annotations
 
@@ -85,7 +83,6 @@ class RollMap:
     within: np.ndarray           # (ny, nx) reachable and strokes within limits
     stroke: np.ndarray           # (ny, nx, 3) m (NaN where unreachable)
     kinematic_condition: np.ndarray   # (ny, nx) (NaN where unreachable)
-    jacobian_condition: np.ndarray    # (ny, nx)
     colour: np.ndarray           # (ny, nx) cond(Q) or kinematic condition (NaN unreachable)
     near_singular: np.ndarray    # (ny, nx) status near_singular
     jacobian_det: np.ndarray     # (ny, nx) det(dL/dq): 0 on the actuator-Jacobian singularity
@@ -108,7 +105,6 @@ def sample_map(model: Model, roll_deg: float, extent: Sequence[float], resolutio
     shape = S.shape
     nan = np.nan
     kin = np.where(ok, sol.kinematic_condition, nan)
-    jac = np.where(ok, sol.jacobian_condition, nan)
     if exact_cond:
         colour = np.full(S.size, nan)
         idx = np.flatnonzero(ok)
@@ -121,7 +117,7 @@ def sample_map(model: Model, roll_deg: float, extent: Sequence[float], resolutio
     return RollMap(roll_deg=roll_deg, surge=surge, heave=heave, category=cat.reshape(shape),
                    within=within_strokes(model, sol, cat).reshape(shape),
                    stroke=stroke.reshape(shape + (3,)), kinematic_condition=kin.reshape(shape),
-                   jacobian_condition=jac.reshape(shape), colour=colour.reshape(shape),
+                   colour=colour.reshape(shape),
                    near_singular=near.reshape(shape),
                    jacobian_det=np.where(ok, np.linalg.det(sol.jacobian), nan).reshape(shape))
 
@@ -140,9 +136,6 @@ class Interval:
     @property
     def length(self) -> float:
         return self.hi - self.lo
-
-    def contains(self, x: float) -> bool:
-        return self.lo <= x <= self.hi
 
     def text(self) -> str:
         return f'[{self.lo:+.3f} ({self.lo_cause}), {self.hi:+.3f} ({self.hi_cause})]'
@@ -242,7 +235,7 @@ class LineRanges:
     intervals: dict[str, list[Interval]]   # KINDS -> intervals
 
     def through_centre(self, which: str) -> Interval | None:
-        return next((iv for iv in self.intervals[which] if iv.contains(0.0)), None)
+        return next((iv for iv in self.intervals[which] if iv.lo <= 0.0 <= iv.hi), None)
 
 
 def line_ranges(model: Model, roll_deg: float, extent: Sequence[float], samples: int = 4001,
