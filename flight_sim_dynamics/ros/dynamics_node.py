@@ -602,8 +602,11 @@ class DynamicsNode(LifecycleNode):
         logged. Nothing escapes a callback (it would stop the executor).
         """
         try:
+            # taken after deactivate or cleanup (queued before): counted inactive
+            active = self._active and self._runtime is not None
             self._publish(self._intake.receive(kind, msg, time.monotonic(),
-                                               self._latest_stamp(), self._active))
+                                               self._latest_stamp() if active else None,
+                                               active))
         except Exception as exc:  # noqa: BLE001
             self._internal_error(exc)
 
@@ -612,6 +615,9 @@ class DynamicsNode(LifecycleNode):
         ``input.max_points`` points, else decoded by rclpy.
         """
         try:
+            if self._runtime is None or not self._active:
+                self._on_setpoint(PLATFORM, None)       # counted inactive, not decoded
+                return
             max_points = self._runtime.config.input_max_points
             if len(data) > MAX_MESSAGE_OVERHEAD + max_points * MAX_POINT_BYTES:
                 msg = SetpointError(BAD_SETPOINT, f'{len(data)} bytes: more than a message of '
@@ -629,12 +635,16 @@ class DynamicsNode(LifecycleNode):
     def _on_poll(self) -> None:
         """Release setpoints whose bounded wait expired."""
         try:
-            self._publish(self._intake.poll(time.monotonic()))
+            if self._runtime is not None:
+                self._publish(self._intake.poll(time.monotonic()))
         except Exception as exc:  # noqa: BLE001
             self._internal_error(exc)
 
     def _publish(self, outcome: Outcome) -> None:
         answers, lines = outcome
+        if not answers:
+            self._log(outcome)
+            return
         config = self._runtime.config
         actuator, joints = self._actuator_msg, self._joint_msg
         actuator.header.frame_id = config.output_frame_id
@@ -680,7 +690,7 @@ class DynamicsNode(LifecycleNode):
     def _on_markers(self) -> None:
         """The mechanism at the last answered setpoint, stamped like it."""
         try:
-            if self._intake.last_solution is not None:
+            if self._markers_pub is not None and self._intake.last_solution is not None:
                 self._markers_pub.publish(self._markers.update(self._intake.last_solution,
                                                                *self._intake.last_header))
         except Exception as exc:  # noqa: BLE001
@@ -689,6 +699,8 @@ class DynamicsNode(LifecycleNode):
     def _on_diagnostics(self) -> None:
         try:
             runtime, stats = self._runtime, self._intake.stats
+            if runtime is None:         # a tick queued before cleanup
+                return
             stats.stamp_check = self._stamp_check(runtime.config.input_max_future)
             last = self._intake.last_solution
             level, message, values = stats.report(time.monotonic(),

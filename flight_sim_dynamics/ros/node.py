@@ -7,28 +7,22 @@
 With ``autostart`` (the default) the node is configured and activated at
 once, and a start-up it cannot make (a bad parameter, params file, scene, QoS
 override or ROS argument) ends it with one ``error:`` line and exit status 2;
-with ``autostart:=false`` it waits unconfigured for a lifecycle manager. An
-older node of the same name (:class:`DuplicateGuard`) ends it with exit 2
-unless ``allow_duplicate_name``; the ``shutdown`` transition with exit 0.
+with ``autostart:=false`` it waits unconfigured for a lifecycle manager. The
+``shutdown`` transition ends it with exit 0. As everywhere in ROS 2, node
+names are not unique: a second node of the same name and namespace answers
+every setpoint too (give each its own namespace).
 """
 from __future__ import annotations
 
 import argparse
 import contextlib
 import faulthandler
-import os
-import socket
 import sys
-import time
-import uuid
 from typing import Any, Callable, Iterator, NoReturn, Sequence, TypeVar
 
 import rclpy
 import rclpy.task
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.time import Time
-from std_msgs.msg import Header
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
@@ -126,44 +120,6 @@ def _params_file_problem(argv: Sequence[str]) -> str | None:
     return None
 
 
-class DuplicateGuard:
-    """Tells this node whether an older node of the same fully qualified name
-    is running: both would answer every setpoint.
-
-    Each node publishes its start (wall-clock time and a unique id) once on
-    the hidden topic ``~/_instance`` (transient local, so a node that starts
-    later receives it) and listens there. A node that receives the start of
-    an older namesake (ties broken by the id) is the newcomer: :attr:`found`
-    gets the reason and the executable exits 2. The older one carries on.
-    """
-
-    def __init__(self, node: Node) -> None:
-        self.found = rclpy.task.Future()
-        self._node = node
-        self._me = (time.time_ns(), f'{socket.gethostname()}:{os.getpid()}:{uuid.uuid4().hex}')
-        qos = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self._sub = node.create_subscription(Header, '~/_instance', self._on_instance, qos)
-        self._pub = node.create_publisher(Header, '~/_instance', qos)
-        start = Header(frame_id=self._me[1])
-        start.stamp = Time(nanoseconds=self._me[0]).to_msg()
-        self._pub.publish(start)
-
-    def _on_instance(self, msg: Header) -> None:
-        other = (msg.stamp.sec * 1_000_000_000 + msg.stamp.nanosec, msg.frame_id)
-        if other[1] == self._me[1] or self.found.done():
-            return
-        name = self._node.get_fully_qualified_name()
-        if other < self._me:
-            self.found.set_result(
-                f'another node named {name} is running (both would answer every setpoint): '
-                'give this one another name or namespace (--ros-args -r __node:=NAME or '
-                '-r __ns:=/NS), or set allow_duplicate_name:=true')
-        else:
-            self._node.get_logger().warn(f'a second node named {name} started ({other[1]}); '
-                                         'it is told to exit')
-
-
 @contextlib.contextmanager
 def running(program: str, argv: Sequence[str]) -> Iterator[list[Any]]:
     """The frame of every executable of the package (node, twin, demo planner):
@@ -204,35 +160,28 @@ def main(argv: Sequence[str] | None = None) -> int:
         # the one rule for parameter files (config.parameters.read_params): an
         # unknown name or bad value in a --params-file ends the start (exit 2)
         create(lambda: prm.check_params_files(argv, node.get_fully_qualified_name()))
-        duplicate = None
-        if not node.get_parameter('allow_duplicate_name').value:
-            duplicate = DuplicateGuard(node).found
-        if node.get_parameter('autostart').value and not node.start():
+        if not node.get_parameter('autostart').value:
+            node.get_logger().info('autostart is false: unconfigured, waiting for a lifecycle '
+                                   'manager (configure, then activate)')
+        elif not node.start():
             refuse(node.failure)
         executor = make_executor(args.executor)
         executor.add_node(node)
-        spin(executor, until=[node.finalized] + ([duplicate] if duplicate else []))
-        if duplicate is not None and duplicate.done():
-            refuse(duplicate.result())
+        spin(executor, until=node.finalized)
     return 0
 
 
-def spin(executor: Any, context: Any = None,
-         until: rclpy.task.Future | Sequence[rclpy.task.Future] | None = None) -> None:
+def spin(executor: Any, context: Any = None, until: rclpy.task.Future | None = None) -> None:
     """Spin until the context shuts down, a stop is requested (Ctrl-C, SIGTERM:
-    :func:`.process.stop_on_signals`) or ``until`` (a future, or any of
-    several) is done.
+    :func:`.process.stop_on_signals`) or ``until`` is done.
 
     Always with a timeout: rclpy 7.1.6's EventsExecutor busy-loops at 100 % CPU
     in ``spin()`` (and hangs in ``spin_until_future_complete`` without a
     timeout), and does not return on SIGINT; with a timeout it idles and the
     stop is noticed within :data:`SPIN_STEP`.
     """
-    futures = [until] if isinstance(until, rclpy.task.Future) else list(until or ())
-    # one future to wait on, done with the first of ``until``
-    future = futures[0] if len(futures) == 1 else rclpy.task.Future()
-    while (rclpy.ok(context=context) and not any(f.done() for f in [future, *futures])
-           and not stop_requested()):
+    future = until if until is not None else rclpy.task.Future()
+    while rclpy.ok(context=context) and not future.done() and not stop_requested():
         executor.spin_until_future_complete(future, timeout_sec=SPIN_STEP)
 
 
