@@ -370,6 +370,9 @@ class DynamicsNode(LifecycleNode):
         if len(value.string_value) > MAX_STRING_LENGTH:
             return None, None, (f"parameter '{msg.name}': string of {len(value.string_value)} "
                                 f'characters, more than {MAX_STRING_LENGTH}')
+        if not msg.name or not self.has_parameter(msg.name):
+            # rclpy creates a parameter named '' and loses undeclared names in its reason
+            return None, None, f'parameter {msg.name!r} is not declared: refused'
         param = Parameter.from_parameter_msg(msg)
         spec = prm.SPECS.get(param.name)
         if spec is None:            # rclpy's to answer (qos_overrides: read-only; unknown)

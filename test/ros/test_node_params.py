@@ -479,3 +479,15 @@ def test_a_rejected_type_leaves_the_declared_type(client, atomic):
     assert declared_types(client, [com]) == ([array], [array])
     results = client.set_params({com: list(before[0]), name: 5.0}, atomic=atomic)
     assert all(r.successful for r in results), results
+
+
+@pytest.mark.parametrize('atomic', [False, True])
+def test_an_empty_or_undeclared_name_is_refused_naming_it(client, atomic):
+    """Neither a parameter with an empty name nor an undeclared one is
+    created; the reason names the parameter."""
+    for name in ('', 'no_such.parameter'):
+        results = client.set_params({name: 1.5}, atomic=atomic)
+        assert not any(r.successful for r in results), (name, results)
+        assert all(repr(name) in r.reason for r in results), (name, results)
+    names = client.call('list', ListParameters.Request(depth=0)).result.names
+    assert '' not in names and 'no_such.parameter' not in names
