@@ -48,6 +48,7 @@ from visualization_msgs.msg import MarkerArray
 
 from ..config import parameters as prm
 from ..core.model import JOINT_NAMES, LEG_NAMES
+from ..core.solver import solve
 from .markers import MarkerBuilder
 from .setpoints import (ACCEL, BAD_SETPOINT, ERROR, INACTIVE, LEVEL_NAMES, PLATFORM, POSE,
                         TWIST, WARN, Outcome, Runtime, SetpointError, SetpointIntake,
@@ -691,11 +692,19 @@ class DynamicsNode(LifecycleNode):
                                                     clock=self._steady)
 
     def _on_markers(self) -> None:
-        """The mechanism at the last answered setpoint, stamped like it."""
+        """The mechanism at the last answered setpoint, stamped like it; before
+        the first one, at home (the central configuration), stamped now.
+        """
         try:
-            if self._markers_pub is not None and self._intake.last_solution is not None:
-                self._markers_pub.publish(self._markers.update(self._intake.last_solution,
-                                                               *self._intake.last_header))
+            if self._markers_pub is None:
+                return
+            if self._intake.last_solution is not None:
+                sol, header = self._intake.last_solution, self._intake.last_header
+            else:
+                zero = (0.0, 0.0, 0.0)
+                sol = solve(self._runtime.model, zero, zero, zero)
+                header = self.get_clock().now().seconds_nanoseconds()
+            self._markers_pub.publish(self._markers.update(sol, *header))
         except Exception as exc:  # noqa: BLE001
             self._internal_error(exc)
 
