@@ -374,6 +374,9 @@ class DynamicsNode(LifecycleNode):
         if not msg.name or not self.has_parameter(msg.name):
             # rclpy creates a parameter named '' and loses undeclared names in its reason
             return None, None, f'parameter {msg.name!r} is not declared: refused'
+        if self.describe_parameter(msg.name).read_only:
+            # refused on its own, so the rest of a dump loads back in one change
+            return None, None, f'parameter {msg.name!r} is read-only: refused'
         param = Parameter.from_parameter_msg(msg)
         spec = prm.SPECS.get(param.name)
         if spec is None:            # rclpy's to answer (qos_overrides: read-only; unknown)

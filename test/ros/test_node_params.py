@@ -491,3 +491,24 @@ def test_an_empty_or_undeclared_name_is_refused_naming_it(client, atomic):
         assert all(repr(name) in r.reason for r in results), (name, results)
     names = client.call('list', ListParameters.Request(depth=0)).result.names
     assert '' not in names and 'no_such.parameter' not in names
+
+
+def test_a_dump_of_every_parameter_loads_back(client):
+    """What `ros2 param load` sends with a `ros2 param dump`: every parameter
+    at its current value, read-only QoS overrides included. The writable ones
+    are applied; only the read-only ones fail, each saying so."""
+    from rcl_interfaces.srv import GetParameters
+    names = list(client.call('list', ListParameters.Request(depth=0)).result.names)
+    values = client.call('get', GetParameters.Request(names=names)).values
+    request = SetParameters.Request(parameters=[RclParameter(name=n, value=v)
+                                                for n, v in zip(names, values)])
+    read_only = {d.name for d in client.call('describe', DescribeParameters.Request(
+        names=names)).descriptors if d.read_only}
+    results = client.call('set', request, timeout=10.0).results
+    assert len(results) == len(names)
+    for name, result in zip(names, results):
+        if name in read_only:
+            assert not result.successful and 'read-only' in result.reason, (name, result)
+        else:
+            assert result.successful, (name, result.reason)
+    assert any(n.startswith('qos_overrides.') for n in read_only)
