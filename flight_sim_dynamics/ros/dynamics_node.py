@@ -71,7 +71,7 @@ MAX_VALIDATIONS_PER_REQUEST = 12
 #: Characters of one string value in a set request.
 MAX_STRING_LENGTH = 4096
 #: Parameters ROS itself declares on every node; not ours to check.
-ROS_PARAMETERS = frozenset({'use_sim_time', 'start_type_description_service'})
+ROS_PARAMETERS = prm.ROS_PARAMETERS
 #: The policies a start-up ``qos_overrides.*`` parameter may set.
 QOS_POLICIES = (QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY)
 _KNOWN_TYPES = frozenset(t.value for t in Parameter.Type) - {ParameterType.PARAMETER_NOT_SET}
