@@ -405,10 +405,12 @@ class DynamicsNode(LifecycleNode):
             notes = [n for _, n, _ in parsed]
             problems = [r for _, _, r in parsed]
             problem = next(filter(None, problems), None)
+            if problem:     # refused before the on-set callback, which logs the others
+                self.get_logger().warn(f'parameter change rejected, model unchanged: {problem}')
             result = _failed(problem) if problem else self._apply(params)
             if result.successful:
                 result.reason = '; '.join(filter(None, notes))
-            elif not atomic:
+            elif not atomic and len(msgs) > 1:
                 response.results = self._sort_out(params, notes, problems, problem is None)
                 return response
         if atomic:

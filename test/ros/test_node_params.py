@@ -512,3 +512,15 @@ def test_a_dump_of_every_parameter_loads_back(client):
         else:
             assert result.successful, (name, result.reason)
     assert any(n.startswith('qos_overrides.') for n in read_only)
+
+
+@pytest.mark.parametrize('name, value', [('bodies.platform.mass', -1.0),   # its own range
+                                         ('limits.stroke_max', -0.5)])     # below stroke_min
+def test_a_rejected_set_is_logged_once(client, node, name, value):
+    before = node.output().count('parameter change rejected')
+    [result] = client.set_params({name: value})
+    assert not result.successful and name in result.reason
+    assert client.spin_until(
+        lambda: node.output().count('parameter change rejected') > before, 5.0)
+    assert not client.spin_until(
+        lambda: node.output().count('parameter change rejected') > before + 1, 0.5)
