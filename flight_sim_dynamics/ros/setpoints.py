@@ -354,6 +354,7 @@ class Setpoint:
     accel: Motion | None = None
     header: Any = None
     first_arrival: float = 0.0
+    source: str = POSE        # the input that carried it: POSE (three topics) or PLATFORM
 
 
 @dataclass(frozen=True, slots=True)
@@ -408,6 +409,7 @@ class StampSynchroniser:
         self._behind: list[int] = []       # stamps of the setpoints in a row far behind
         self._pending: dict[int, Setpoint] = {}
         self._last_released: int | None = None
+        self._last_source: str | None = None     # the input of _last_released
         self.active = {TWIST: True, ACCEL: True}
         self._newest: dict[str, int | None] = {TWIST: None, ACCEL: None}
         # stamps the caller rejected -> kinds already seen (insertion-ordered, bounded)
@@ -499,7 +501,7 @@ class StampSynchroniser:
                                              'newer one)'))
                 self.active[kind] = True
                 return released, rejected
-            if not self._restarted(stamp_ns, last):
+            if not self._restarted(stamp_ns, last, POSE):
                 rejected.append(_not_after_last(kind, stamp_ns, last))
                 return released, rejected
         pending = self._pending
@@ -553,7 +555,7 @@ class StampSynchroniser:
         released: list[Setpoint] = []
         rejected: list[Rejected] = []
         last = self._last_released
-        if last is not None and stamp_ns <= last and not self._restarted(stamp_ns, last):
+        if last is not None and stamp_ns <= last and not self._restarted(stamp_ns, last, kind):
             rejected.append(_not_after_last(kind, stamp_ns, last))
             return released, rejected
         pending = self._pending
@@ -565,7 +567,8 @@ class StampSynchroniser:
         self._joining(now)
         if pending:
             self._release_through(stamp_ns, released, rejected)
-        self._release(Setpoint(stamp_ns, pose, twist, accel, header, now), released, rejected)
+        self._release(Setpoint(stamp_ns, pose, twist, accel, header, now, kind), released,
+                      rejected)
         return released, rejected
 
     def poll(self, now: float) -> tuple[list[Setpoint], list[Rejected]]:
@@ -604,12 +607,15 @@ class StampSynchroniser:
         until = self._stream_join_until.setdefault(kind, now + self.join_window)
         return now < until
 
-    def _restarted(self, stamp_ns: int, last: int) -> bool:
+    def _restarted(self, stamp_ns: int, last: int, source: str) -> bool:
         """True when this setpoint, stamped <= ``last``, confirms a planner
-        restart (the history is then reset and it is accepted).
+        restart (the history is then reset and it is accepted). Only the input
+        (``source``) that carried ``last`` can restart: another one lagging
+        behind it is refused, so outputs stay in stamp order.
         """
         behind = self._behind
-        if not self._restart_jump_ns or last - stamp_ns <= self._restart_jump_ns:
+        if (not self._restart_jump_ns or last - stamp_ns <= self._restart_jump_ns
+                or source != self._last_source):
             behind.clear()
             return False
         if behind and stamp_ns <= behind[-1]:
@@ -658,7 +664,7 @@ class StampSynchroniser:
                                      f'{kinds} stamped {fmt_stamp(entry.stamp_ns)} '
                                      'has no pose with the same stamp'))
             return
-        self._last_released = entry.stamp_ns
+        self._last_released, self._last_source = entry.stamp_ns, entry.source
         if self._behind:
             self._behind.clear()
         released.append(entry)
