@@ -1,4 +1,5 @@
-r"""Launch the flight_sim_dynamics node (a managed node), optionally the planner.
+r"""Launch the flight_sim_dynamics node (a managed node), optionally the demo
+planner and the twin (platform_sim, fed by the node's actuator_states).
 
 For a ROS 2 install (``ros2 launch`` is not on PyPI):
 
@@ -7,7 +8,8 @@ For a ROS 2 install (``ros2 launch`` is not on PyPI):
         namespace:=sim scene:=quasi_static params_file:=/path/to/params.yaml
     ros2 launch flight_sim_dynamics flight_sim_dynamics.launch.py \\
         autostart:=false        # then: ros2 lifecycle set /flight_sim_dynamics configure
-    ros2 launch flight_sim_dynamics flight_sim_dynamics.launch.py planner:=true
+    ros2 launch flight_sim_dynamics flight_sim_dynamics.launch.py planner:=true twin:=true
+    ros2 launch flight_sim_dynamics flight_sim_dynamics.launch.py use_sim_time:=true
 """
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, OpaqueFunction
@@ -20,17 +22,25 @@ PACKAGE = 'flight_sim_dynamics'
 
 
 def _node(context, *args, **kwargs):
-    """The node; ``scene`` overrides the params file only when given."""
-    overrides = {'autostart': LaunchConfiguration('autostart').perform(context).lower()
-                 in ('true', '1')}
+    """The node (and the twin); ``scene`` overrides the params file only when given."""
+    def flag(name):
+        return LaunchConfiguration(name).perform(context).lower() in ('true', '1')
+    overrides = {'autostart': flag('autostart'), 'use_sim_time': flag('use_sim_time')}
     scene = LaunchConfiguration('scene').perform(context)
     if scene:
         overrides['scene'] = scene
-    return [LifecycleNode(
+    nodes = [LifecycleNode(
         package=PACKAGE, executable='dynamics_node', name=PACKAGE,
         namespace=LaunchConfiguration('namespace'),
         parameters=[LaunchConfiguration('params_file'), overrides],
         output='screen')]
+    if flag('twin'):
+        nodes.append(Node(package=PACKAGE, executable='platform_sim', name='platform_sim',
+                          namespace=LaunchConfiguration('namespace'),
+                          parameters=[{'use_sim_time': overrides['use_sim_time']}],
+                          remappings=[('actuator_commands', 'actuator_states')],
+                          output='screen'))
+    return nodes
 
 
 def generate_launch_description() -> LaunchDescription:
@@ -46,11 +56,17 @@ def generate_launch_description() -> LaunchDescription:
         DeclareLaunchArgument('autostart', default_value='true',
                               description='configure and activate at once (false: wait for '
                                           'a lifecycle manager or ros2 lifecycle set)'),
+        DeclareLaunchArgument('use_sim_time', default_value='false',
+                              description='the node\'s clock from /clock'),
         DeclareLaunchArgument('planner', default_value='false',
                               description='also run the demo planner (looping the paper\'s '
-                                          'motions)'),
+                                          'three motions and a motion-cueing sequence)'),
+        DeclareLaunchArgument('twin', default_value='false',
+                              description='also run the twin (platform_sim) on the node\'s '
+                                          'actuator_states'),
         OpaqueFunction(function=_node),
         Node(package=PACKAGE, executable='flight-sim-dynamics', name='demo_planner',
-             arguments=['demo-planner', '--loop'], namespace=LaunchConfiguration('namespace'),
+             arguments=['demo-planner', '--example', 'all', '--loop'],
+             namespace=LaunchConfiguration('namespace'),
              output='screen', condition=IfCondition(LaunchConfiguration('planner'))),
     ])

@@ -37,6 +37,8 @@ __all__ = ['ALL_PARAMETERS', 'DEFAULT_PARAMS_FILE', 'MODEL_PARAMETERS', 'NODE_NA
 
 #: Prefix of rclpy's QoS override parameters (the node's, set at start-up).
 QOS_OVERRIDES = 'qos_overrides.'
+#: Parameters rclpy declares on every node: a params file may set them; the library ignores them.
+ROS_PARAMETERS = frozenset({'use_sim_time', 'start_type_description_service'})
 
 
 def read_params(path: str | os.PathLike[str], node: str = '/' + NODE_NAME
@@ -47,7 +49,7 @@ def read_params(path: str | os.PathLike[str], node: str = '/' + NODE_NAME
     """
     flat = read_params_file(path, node)
     qos = {k: v for k, v in flat.items() if k.startswith(QOS_OVERRIDES)}
-    values = {k: v for k, v in flat.items() if k not in qos}
+    values = {k: v for k, v in flat.items() if k not in qos and k not in ROS_PARAMETERS}
     check_names(values, str(path))
     return values, qos
 

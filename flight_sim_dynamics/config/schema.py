@@ -258,9 +258,6 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'configure and activate at start-up (a bad parameter then ends the process, '
               'exit 2); false: start unconfigured and wait for a lifecycle manager or '
               '`ros2 lifecycle set` (a failing configure then leaves it unconfigured)', ''),
-    ParamSpec('allow_duplicate_name', 'bool', False,
-              'start even when a node of the same name and namespace is already running '
-              '(else exit 2: both would answer every setpoint)', ''),
     ParamSpec('output.frame_id', 'string', 'simulator_base',
               'header.frame_id of actuator_states: the REP-103 simulator base frame '
               '(origin at G\'s central position); leg lengths are frame-free scalars', '',

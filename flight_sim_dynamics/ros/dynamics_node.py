@@ -30,6 +30,7 @@ from visualization_msgs.msg import MarkerArray
 
 from ..config import parameters as prm
 from ..core.model import JOINT_NAMES, LEG_NAMES
+from ..core.solver import solve
 from .markers import MarkerBuilder
 from .setpoints import (ACCEL, BAD_SETPOINT, ERROR, INACTIVE, LEVEL_NAMES, PLATFORM, POSE,
                         TWIST, WARN, Outcome, Runtime, SetpointError, SetpointIntake,
@@ -45,7 +46,7 @@ MAX_MESSAGE_OVERHEAD = 65536
 MAX_PARAMETERS_PER_REQUEST = 256
 MAX_VALIDATIONS_PER_REQUEST = 12  # model validations, ~1.5 ms each
 MAX_STRING_LENGTH = 4096
-ROS_PARAMETERS = frozenset({'use_sim_time', 'start_type_description_service'})
+ROS_PARAMETERS = prm.ROS_PARAMETERS
 QOS_POLICIES = (QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY)
 _KNOWN_TYPES = frozenset(t.value for t in Parameter.Type) - {ParameterType.PARAMETER_NOT_SET}
 _COERCIONS = {(Parameter.Type.DOUBLE, Parameter.Type.INTEGER),
@@ -301,6 +302,12 @@ class DynamicsNode(LifecycleNode):
         if len(value.string_value) > MAX_STRING_LENGTH:
             return None, None, (f"parameter '{msg.name}': string of {len(value.string_value)} "
                                 f'characters, more than {MAX_STRING_LENGTH}')
+        if not msg.name or not self.has_parameter(msg.name):
+            # rclpy creates a parameter named '' and loses undeclared names in its reason
+            return None, None, f'parameter {msg.name!r} is not declared: refused'
+        if self.describe_parameter(msg.name).read_only:
+            # refused on its own, so the rest of a dump loads back in one change
+            return None, None, f'parameter {msg.name!r} is read-only: refused'
         param = Parameter.from_parameter_msg(msg)
         spec = prm.SPECS.get(param.name)
         if spec is None:            # rclpy's to answer (qos_overrides: read-only; unknown)
@@ -326,10 +333,12 @@ class DynamicsNode(LifecycleNode):
             notes = [n for _, n, _ in parsed]
             problems = [r for _, _, r in parsed]
             problem = next(filter(None, problems), None)
+            if problem:     # refused before the on-set callback, which logs the others
+                self.get_logger().warn(f'parameter change rejected, model unchanged: {problem}')
             result = _failed(problem) if problem else self._apply(params)
             if result.successful:
                 result.reason = '; '.join(filter(None, notes))
-            elif not atomic:
+            elif not atomic and len(msgs) > 1:
                 response.results = self._sort_out(params, notes, problems, problem is None)
                 return response
         if atomic:
@@ -512,13 +521,19 @@ class DynamicsNode(LifecycleNode):
     def _on_setpoint(self, kind: str, msg: Any) -> None:
         # nothing escapes a callback (it would stop the executor)
         try:
+            # taken after deactivate or cleanup (queued before): counted inactive
+            active = self._active and self._runtime is not None
             self._publish(self._intake.receive(kind, msg, time.monotonic(),
-                                               self._latest_stamp(), self._active))
+                                               self._latest_stamp() if active else None,
+                                               active))
         except Exception as exc:  # noqa: BLE001
             self._internal_error(exc)
 
     def _on_platform(self, data: bytes) -> None:
         try:
+            if self._runtime is None or not self._active:
+                self._on_setpoint(PLATFORM, None)       # counted inactive, not decoded
+                return
             max_points = self._runtime.config.input_max_points
             if len(data) > MAX_MESSAGE_OVERHEAD + max_points * MAX_POINT_BYTES:
                 msg = SetpointError(BAD_SETPOINT, f'{len(data)} bytes: more than a message of '
@@ -535,12 +550,16 @@ class DynamicsNode(LifecycleNode):
 
     def _on_poll(self) -> None:
         try:
-            self._publish(self._intake.poll(time.monotonic()))
+            if self._runtime is not None:
+                self._publish(self._intake.poll(time.monotonic()))
         except Exception as exc:  # noqa: BLE001
             self._internal_error(exc)
 
     def _publish(self, outcome: Outcome) -> None:
         answers, lines = outcome
+        if not answers:
+            self._log(outcome)
+            return
         config = self._runtime.config
         actuator, joints = self._actuator_msg, self._joint_msg
         actuator.header.frame_id = config.output_frame_id
@@ -582,16 +601,27 @@ class DynamicsNode(LifecycleNode):
                                                     clock=self._steady)
 
     def _on_markers(self) -> None:
+        """The mechanism at the last answered setpoint, stamped like it; before
+        the first one, at home (the central configuration), stamped now.
+        """
         try:
+            if self._markers_pub is None:
+                return
             if self._intake.last_solution is not None:
-                self._markers_pub.publish(self._markers.update(self._intake.last_solution,
-                                                               *self._intake.last_header))
+                sol, header = self._intake.last_solution, self._intake.last_header
+            else:
+                zero = (0.0, 0.0, 0.0)
+                sol = solve(self._runtime.model, zero, zero, zero)
+                header = self.get_clock().now().seconds_nanoseconds()
+            self._markers_pub.publish(self._markers.update(sol, *header))
         except Exception as exc:  # noqa: BLE001
             self._internal_error(exc)
 
     def _on_diagnostics(self) -> None:
         try:
             runtime, stats = self._runtime, self._intake.stats
+            if runtime is None:         # a tick queued before cleanup
+                return
             stats.stamp_check = self._stamp_check(runtime.config.input_max_future)
             last = self._intake.last_solution
             level, message, values = stats.report(time.monotonic(),

@@ -1,18 +1,16 @@
 """The ``dynamics_node`` executable: runs a :class:`~.dynamics_node.DynamicsNode`
 until Ctrl-C / SIGTERM or the ``shutdown`` transition (exit 0). A start-up it
-cannot make, or an older node of the same name, ends it with one ``error:``
-line and exit status 2; ``autostart:=false`` waits for a lifecycle manager.
+cannot make ends it with one ``error:`` line and exit status 2;
+``autostart:=false`` waits for a lifecycle manager. As everywhere in ROS 2,
+node names are not unique: give each instance its own namespace.
 """
 from __future__ import annotations
 
 import argparse
 import contextlib
 import faulthandler
-import os
-import socket
 import sys
 import time
-import uuid
 from typing import Any, Callable, Iterator, NoReturn, Sequence, TypeVar
 
 import rclpy
@@ -21,10 +19,7 @@ from rclpy.node import Node
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
-from rclpy.time import Time
-from std_msgs.msg import Header
 
 from ..config import parameters as prm
 from ..config.files import params_files_in, read_params_file
@@ -91,39 +86,6 @@ def _params_file_problem(argv: Sequence[str]) -> str | None:
     return None
 
 
-class DuplicateGuard:
-    """:attr:`found` is done when an older node of this name runs (both would
-    answer every setpoint): each publishes its start time and id once on
-    ``~/_instance`` (transient local); the newer one is told to exit.
-    """
-
-    def __init__(self, node: Node) -> None:
-        self.found = rclpy.task.Future()
-        self._node = node
-        self._me = (time.time_ns(), f'{socket.gethostname()}:{os.getpid()}:{uuid.uuid4().hex}')
-        qos = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self._sub = node.create_subscription(Header, '~/_instance', self._on_instance, qos)
-        self._pub = node.create_publisher(Header, '~/_instance', qos)
-        start = Header(frame_id=self._me[1])
-        start.stamp = Time(nanoseconds=self._me[0]).to_msg()
-        self._pub.publish(start)
-
-    def _on_instance(self, msg: Header) -> None:
-        other = (msg.stamp.sec * 1_000_000_000 + msg.stamp.nanosec, msg.frame_id)
-        if other[1] == self._me[1] or self.found.done():
-            return
-        name = self._node.get_fully_qualified_name()
-        if other < self._me:
-            self.found.set_result(
-                f'another node named {name} is running (both would answer every setpoint): '
-                'give this one another name or namespace (--ros-args -r __node:=NAME or '
-                '-r __ns:=/NS), or set allow_duplicate_name:=true')
-        else:
-            self._node.get_logger().warn(f'a second node named {name} started ({other[1]}); '
-                                         'it is told to exit')
-
-
 @contextlib.contextmanager
 def running(program: str, argv: Sequence[str]) -> Iterator[list[Any]]:
     """Every executable's frame: stop signals seen between callbacks; the nodes
@@ -155,16 +117,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         nodes.append(node)
         # an unknown name or bad value in a --params-file ends the start
         create(lambda: prm.check_params_files(argv, node.get_fully_qualified_name()))
-        duplicate = None
-        if not node.get_parameter('allow_duplicate_name').value:
-            duplicate = DuplicateGuard(node).found
-        if node.get_parameter('autostart').value and not node.start():
+        if not node.get_parameter('autostart').value:
+            node.get_logger().info('autostart is false: unconfigured, waiting for a lifecycle '
+                                   'manager (configure, then activate)')
+        elif not node.start():
             refuse(node.failure)
         executor = make_executor(args.executor)
         executor.add_node(node)
-        spin(executor, until=[node.finalized] + ([duplicate] if duplicate else []))
-        if duplicate is not None and duplicate.done():
-            refuse(duplicate.result())
+        spin(executor, until=[node.finalized])
     return 0
 
 

@@ -289,6 +289,7 @@ class Setpoint:
     accel: Motion | None = None
     header: Any = None
     first_arrival: float = 0.0
+    source: str = POSE        # the input that carried it: POSE (three topics) or PLATFORM
 
 
 class Rejected(NamedTuple):
@@ -318,6 +319,7 @@ class StampSynchroniser:
         self._behind: list[int] = []       # setpoints in a row far behind
         self._pending: dict[int, Setpoint] = {}
         self.last_released: int | None = None
+        self._last_source: str | None = None     # the input of last_released
         self.active = {TWIST: True, ACCEL: True}
         self._newest: dict[str, int | None] = {TWIST: None, ACCEL: None}
         self._discarded: dict[int, set[str]] = {}   # rejected stamp -> kinds seen (bounded)
@@ -386,7 +388,7 @@ class StampSynchroniser:
                                              'newer one)'))
                 self.active[kind] = True
                 return released, rejected
-            if not self._restarted(stamp_ns, last):
+            if not self._restarted(stamp_ns, last, POSE):
                 rejected.append(_not_after_last(kind, stamp_ns, last))
                 return released, rejected
         pending = self._pending
@@ -435,7 +437,7 @@ class StampSynchroniser:
         released: list[Setpoint] = []
         rejected: list[Rejected] = []
         last = self.last_released
-        if last is not None and stamp_ns <= last and not self._restarted(stamp_ns, last):
+        if last is not None and stamp_ns <= last and not self._restarted(stamp_ns, last, kind):
             rejected.append(_not_after_last(kind, stamp_ns, last))
             return released, rejected
         pending = self._pending
@@ -447,7 +449,8 @@ class StampSynchroniser:
         self._joining(now)
         if pending:
             self._release_through(stamp_ns, released, rejected)
-        self._release(Setpoint(stamp_ns, pose, twist, accel, header, now), released, rejected)
+        self._release(Setpoint(stamp_ns, pose, twist, accel, header, now, kind), released,
+                      rejected)
         return released, rejected
 
     def poll(self, now: float) -> tuple[list[Setpoint], list[Rejected]]:
@@ -483,10 +486,14 @@ class StampSynchroniser:
         until = self._stream_join_until.setdefault(kind, now + self.join_window)
         return now < until
 
-    def _restarted(self, stamp_ns: int, last: int) -> bool:
-        """This setpoint (not after ``last``) confirms a planner restart."""
+    def _restarted(self, stamp_ns: int, last: int, source: str) -> bool:
+        """This setpoint (not after ``last``) confirms a planner restart; only
+        the input (``source``) that carried ``last`` can restart: another one
+        lagging behind it is refused, so outputs stay in stamp order.
+        """
         behind = self._behind
-        if not self.restart_jump_ns or last - stamp_ns <= self.restart_jump_ns:
+        if (not self.restart_jump_ns or last - stamp_ns <= self.restart_jump_ns
+                or source != self._last_source):
             behind.clear()
             return False
         if behind and stamp_ns <= behind[-1]:
@@ -534,7 +541,7 @@ class StampSynchroniser:
                                      f'{kinds} stamped {fmt_stamp(entry.stamp_ns)} '
                                      'has no pose with the same stamp'))
             return
-        self.last_released = entry.stamp_ns
+        self.last_released, self._last_source = entry.stamp_ns, entry.source
         if self._behind:
             self._behind.clear()
         released.append(entry)

@@ -72,6 +72,24 @@ def test_partial_file_with_qos_overrides_runs_the_node(tmp_path):
         assert node.stop() == 0, node.output()
 
 
+def test_parameters_ros_owns_are_accepted_in_a_params_file(tmp_path):
+    """use_sim_time and start_type_description_service, as every ROS node
+    takes them (launch's parameters=[{'use_sim_time': True}] writes such a
+    file): the node starts on sim time; load_model ignores them."""
+    path = tmp_path / 'ros.yaml'
+    path.write_text(HEADER + '    use_sim_time: true\n    start_type_description_service: false\n'
+                    '    bodies:\n      platform:\n        mass: 6.5\n')
+    assert fsd.load_model(path).bodies['platform'].mass == 6.5
+    node = NodeProcess(params_file=path)
+    client = Client('ros_owned_client')
+    try:
+        client.wait_for_node(node)
+        assert client.get_params(['use_sim_time', 'bodies.platform.mass']) == [True, 6.5]
+    finally:
+        client.close()
+        assert node.stop() == 0, node.output()
+
+
 #: Values the library accepts, each with what the library reads.
 ACCEPTED = ['9.81', '1e3', '2.5e-3', '1E+1', '+.5', '5.', '7', '-0', '.inf', '-.inf', '.nan',
             "'yes'", '"0x10"', 'true', 'false', 'simulator_base', '[1.0, 2.0e-3, 3.]',

@@ -31,4 +31,5 @@ def test_launch_description_declares_its_arguments():
     spec.loader.exec_module(module)
     description = module.generate_launch_description()
     names = {a.name for a in description.entities if isinstance(a, DeclareLaunchArgument)}
-    assert names == {'params_file', 'namespace', 'scene', 'autostart', 'planner'}
+    assert names == {'params_file', 'namespace', 'scene', 'autostart', 'planner',
+                     'use_sim_time', 'twin'}

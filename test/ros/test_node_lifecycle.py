@@ -173,3 +173,29 @@ def test_invalid_transitions_are_refused_and_the_node_keeps_running():
         code = proc.stop()
     assert code == 0
     assert 'Traceback' not in proc.output()
+
+
+def test_cleanup_under_a_stream_is_quiet():
+    """A cleanup while setpoints keep arriving: those the node takes after it
+    stopped being active are dropped quietly (counted inactive), never an
+    internal error."""
+    proc, client = managed('/lcstream')
+    try:
+        base = time.time_ns() - 10 ** 9
+        for k in range(5):
+            assert client.change(Transition.TRANSITION_CONFIGURE)
+            assert client.change(Transition.TRANSITION_ACTIVATE)
+            client.wait_matched()
+            for i in range(1500):       # a backlog the node is still working through
+                client.send(base + (k * 2000 + i) * 1_000_000, Q, QD, QDD)
+            assert client.change(Transition.TRANSITION_DEACTIVATE)
+            assert client.change(Transition.TRANSITION_CLEANUP)
+        assert client.change(Transition.TRANSITION_CONFIGURE)
+        values = client.wait_diagnostics(lambda v: 'rejected total' in v)
+        assert proc.alive()
+    finally:
+        client.close()
+        proc.stop()
+    log = proc.output()
+    assert 'ERROR' not in log and 'internal error' not in log, log[-3000:]
+    assert int(values.get('rejected solver_error', 0)) == 0, values

@@ -13,7 +13,7 @@ from visualization_msgs.msg import MarkerArray
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.core.trajectories import paper_example
 from flight_sim_dynamics.ros.markers import SEGMENTS
-from node_harness import QOS, stamp_ns
+from node_harness import PARAMS_FILE, QOS, Client, NodeProcess, stamp_ns
 from test_markers import expected_points, xyz
 
 pytestmark = pytest.mark.ros
@@ -54,3 +54,23 @@ def test_markers_rate_zero_stops_them(client):
     [result] = client.set_params({'output.markers_rate': 30.0})
     assert result.successful
     assert client.spin_until(lambda: len(arrays) > count + 1, 3.0)
+
+
+def test_markers_show_the_machine_at_home_before_any_setpoint(model):
+    proc = NodeProcess('-r', '__ns:=/home_markers', params_file=PARAMS_FILE)
+    client = Client('home_markers_client', namespace='/home_markers')
+    arrays: list[MarkerArray] = []
+    client.node.create_subscription(MarkerArray, 'markers', arrays.append, QOS)
+    try:
+        client.wait_for_node(proc)
+        assert client.spin_until(lambda: any(a.markers for a in arrays), 10.0), \
+            proc.output()[-2000:]
+        expected = expected_points(fsd.solve(model, (0.0,) * 3, (0.0,) * 3, (0.0,) * 3))
+        markers = {m.ns: m for m in next(a for a in arrays if a.markers).markers}
+        for ns, (start, end) in SEGMENTS.items():
+            np.testing.assert_allclose(xyz(markers[ns].points[0]), expected[start], atol=1e-9)
+            np.testing.assert_allclose(xyz(markers[ns].points[1]), expected[end], atol=1e-9)
+        assert not client.actuator       # nothing was answered: this is the home pose
+    finally:
+        client.close()
+        assert proc.stop() == 0

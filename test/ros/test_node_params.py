@@ -479,3 +479,48 @@ def test_a_rejected_type_leaves_the_declared_type(client, atomic):
     assert declared_types(client, [com]) == ([array], [array])
     results = client.set_params({com: list(before[0]), name: 5.0}, atomic=atomic)
     assert all(r.successful for r in results), results
+
+
+@pytest.mark.parametrize('atomic', [False, True])
+def test_an_empty_or_undeclared_name_is_refused_naming_it(client, atomic):
+    """Neither a parameter with an empty name nor an undeclared one is
+    created; the reason names the parameter."""
+    for name in ('', 'no_such.parameter'):
+        results = client.set_params({name: 1.5}, atomic=atomic)
+        assert not any(r.successful for r in results), (name, results)
+        assert all(repr(name) in r.reason for r in results), (name, results)
+    names = client.call('list', ListParameters.Request(depth=0)).result.names
+    assert '' not in names and 'no_such.parameter' not in names
+
+
+def test_a_dump_of_every_parameter_loads_back(client):
+    """What `ros2 param load` sends with a `ros2 param dump`: every parameter
+    at its current value, read-only QoS overrides included. The writable ones
+    are applied; only the read-only ones fail, each saying so."""
+    from rcl_interfaces.srv import GetParameters
+    names = list(client.call('list', ListParameters.Request(depth=0)).result.names)
+    values = client.call('get', GetParameters.Request(names=names)).values
+    request = SetParameters.Request(parameters=[RclParameter(name=n, value=v)
+                                                for n, v in zip(names, values)])
+    read_only = {d.name for d in client.call('describe', DescribeParameters.Request(
+        names=names)).descriptors if d.read_only}
+    results = client.call('set', request, timeout=10.0).results
+    assert len(results) == len(names)
+    for name, result in zip(names, results):
+        if name in read_only:
+            assert not result.successful and 'read-only' in result.reason, (name, result)
+        else:
+            assert result.successful, (name, result.reason)
+    assert any(n.startswith('qos_overrides.') for n in read_only)
+
+
+@pytest.mark.parametrize('name, value', [('bodies.platform.mass', -1.0),   # its own range
+                                         ('limits.stroke_max', -0.5)])     # below stroke_min
+def test_a_rejected_set_is_logged_once(client, node, name, value):
+    before = node.output().count('parameter change rejected')
+    [result] = client.set_params({name: value})
+    assert not result.successful and name in result.reason
+    assert client.spin_until(
+        lambda: node.output().count('parameter change rejected') > before, 5.0)
+    assert not client.spin_until(
+        lambda: node.output().count('parameter change rejected') > before + 1, 0.5)

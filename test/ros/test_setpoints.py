@@ -513,3 +513,27 @@ def test_setpoint_helpers_do_not_import_rclpy():
     out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                          check=True, cwd=root)
     assert out.stdout.strip() == '[]'
+
+
+def test_sync_a_lagging_second_input_is_no_restart():
+    """Three-topic setpoints 2 s behind the platform_setpoint points of the same
+    planner: refused as backwards, never a restart (outputs stay in stamp
+    order); a restart is told only from the input that carried the last
+    answered stamp."""
+    second = 1_000_000_000
+    sync = StampSynchroniser(wait=10.0, restart_jump=0.5)
+    out = []
+    for k in range(10):     # the inputs interleave in bursts: one platform point, then 3
+        t = 100 * second + k * 30_000_000
+        released, _ = sync.add_complete(t, 'p', 't', 'a', now=0.0)
+        out += released
+        for j in range(3):
+            for kind in (POSE, TWIST, ACCEL):
+                released, _ = sync.add(kind, t - 2 * second + j * 10_000_000, kind, now=0.0)
+                out += released
+    assert sync.restarts == 0
+    assert stamps(out) == sorted(stamps(out))
+    # the same input rewound: a restart after the confirmations
+    rewound = [stamps(sync.add_complete(50 * second + k, 'p', 't', 'a', now=0.0)[0])
+               for k in range(3)]
+    assert sync.restarts == 1 and rewound[-1] == [50 * second + 2]
