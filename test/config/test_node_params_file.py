@@ -7,7 +7,6 @@ import math
 import subprocess
 import sys
 import textwrap
-import time
 
 import pytest
 
@@ -30,14 +29,12 @@ def _start(params_file) -> subprocess.CompletedProcess:
 def test_unknown_name_in_params_file_refuses_to_start(tmp_path):
     path = tmp_path / 'typo.yaml'
     path.write_text(HEADER + '    geometry:\n      d7: 0.4\n')
-    t0 = time.monotonic()
     proc = _start(path)
     out = proc.stdout + proc.stderr
     assert proc.returncode == 2, out
     assert "'geometry.d7'" in out and "did you mean 'geometry.d5'?" in out
     assert str(path) in out
     assert 'Traceback' not in out
-    assert time.monotonic() - t0 < 30
 
 
 @pytest.mark.parametrize('value, words', [('1:30', 'expected a number'),

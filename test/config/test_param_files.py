@@ -2,7 +2,6 @@
 safe YAML reader: every bad file is one ParameterError naming it (issue 12
 #10, issue 14 #5)."""
 import os
-import threading
 import time
 from pathlib import Path
 
@@ -25,6 +24,11 @@ def _file(tmp_path, body: str, name: str = 'p.yaml') -> Path:
     path = tmp_path / name
     path.write_text(HEADER + ''.join(f'    {line}\n' for line in body.splitlines()))
     return path
+
+
+#: A bound that only a hang exceeds (a read that waits for a writer or reads without
+#: end), not a speed target.
+HANG = 10.0
 
 
 def _raises(path, *words):
@@ -143,7 +147,7 @@ def test_bad_file_is_one_parameter_error_naming_it(tmp_path, content, words):
     (path.write_bytes if isinstance(content, bytes) else path.write_text)(content)
     error, elapsed = _raises(path, *words)
     assert str(path) in str(error) or error.key in str(error)
-    assert elapsed < 1.0, elapsed
+    assert elapsed < HANG, elapsed
 
 
 @pytest.mark.parametrize('inertia', ['1.0e308', '1.0e+300', '.inf', '.nan', '-1.0e308'])
@@ -176,20 +180,19 @@ def test_fifo_without_writer_is_not_waited_for(tmp_path):
     fifo = tmp_path / 'fifo.yaml'
     os.mkfifo(fifo)
     _, elapsed = _raises(fifo, 'expected a map')      # no writer: empty
-    assert elapsed < 1.0
+    assert elapsed < HANG
 
 
 def test_fifo_with_a_writer_is_read(tmp_path):
     fifo = tmp_path / 'fifo.yaml'
     os.mkfifo(fifo)
     text = HEADER + '    gravity: 9.5\n'
-    writer = threading.Thread(target=lambda: fifo.write_text(text))
-    writer.start()
-    time.sleep(0.2)         # the writer has opened the FIFO
+    keep = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)   # a reader: opening to write won't block
     try:
+        fifo.write_text(text)        # into the pipe, which keeps it while a reader is open
         assert fsd.load_model(fifo).gravity == 9.5
     finally:
-        writer.join(5)
+        os.close(keep)
 
 
 # -- values the library and the node (rcl) would read differently ---------------------
