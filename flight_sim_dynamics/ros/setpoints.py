@@ -32,7 +32,7 @@ ABSURD_ACCELERATION = 'absurd_acceleration'  # beyond input.max_*_acceleration
 UNREACHABLE = 'unreachable'                # the loops cannot close at this pose
 SOLVER_ERROR = 'solver_error'              # any other solver failure, internal errors
 NON_FINITE_OUTPUT = 'non_finite_output'    # the solver returned NaN/inf (never published)
-BAD_SETPOINT = 'bad_setpoint'              # a malformed platform_setpoint message or point
+BAD_SETPOINT = 'bad_setpoint'              # a malformed message or point, or one too large
 WARMING_UP = 'warming_up'                  # its estimate needs history the node lacks
 INACTIVE = 'inactive'                      # received while the node is not active
 JOINING = 'joining'                        # a stream joined mid-way
@@ -1007,6 +1007,6 @@ def _solve(model: Model, q: Sequence[float], qd: Sequence[float], qdd: Sequence[
         raise SetpointError(SOLVER_ERROR, f'{type(exc).__name__}: {exc}') from None
     if sol.status is Status.UNREACHABLE:
         raise SetpointError(UNREACHABLE, f'unreachable pose: {sol.detail}')
-    if sol.status is Status.INVALID_INPUT:
-        raise SetpointError(SOLVER_ERROR, f'invalid input: {sol.detail}')
+    if sol.status is Status.INVALID_INPUT:     # finite numbers whose results overflow
+        raise SetpointError(BAD_SETPOINT, f'input too large: {sol.detail}')
     return sol
