@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+import warnings
 from typing import Any, Callable
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -473,6 +474,8 @@ class DynamicsNode(LifecycleNode):
     def _create_endpoints(self, runtime: Runtime) -> None:
         config = runtime.config
         options = QoSOverridingOptions(QOS_POLICIES, callback=check_qos)
+        # rclpy warns of a zero depth before check_qos refuses it with the reason
+        warnings.filterwarnings('ignore', 'A zero depth', UserWarning)
         try:
             self._actuator_pub = self.create_lifecycle_publisher(
                 JointState, 'actuator_states', default_qos(), qos_overriding_options=options)

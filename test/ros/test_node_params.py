@@ -335,6 +335,8 @@ def test_invalid_qos_override_refuses_to_start(override, message):
     assert proc.returncode == 2, proc.stderr + proc.stdout
     assert 'invalid QoS override' in proc.stderr + proc.stdout
     assert message in proc.stderr + proc.stdout
+    # one error line: no Python warning (with its site-packages path) before it
+    assert proc.stderr.count('\n') == 1 and proc.stderr.startswith('error:'), proc.stderr
 
 
 def test_invalid_params_file_refuses_to_start(tmp_path):
