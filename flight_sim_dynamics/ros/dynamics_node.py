@@ -33,6 +33,7 @@ from ..config import parameters as prm
 from ..core.model import JOINT_NAMES, LEG_NAMES
 from ..core.solver import solve
 from .markers import MarkerBuilder
+from .process import stop_requested
 from .setpoints import (ACCEL, BAD_SETPOINT, ERROR, INACTIVE, LEVEL_NAMES, PLATFORM, POSE,
                         TWIST, WARN, Outcome, Runtime, SetpointError, SetpointIntake,
                         diagnostic_name)
@@ -523,6 +524,8 @@ class DynamicsNode(LifecycleNode):
     # -- setpoints in, answers out -------------------------------------------------
     def _on_setpoint(self, kind: str, msg: Any) -> None:
         # nothing escapes a callback (it would stop the executor)
+        if stop_requested():    # stopping: a backlog drains at once, the spin loop sees the stop
+            return
         try:
             # taken after deactivate or cleanup (queued before): counted inactive
             active = self._active and self._runtime is not None
@@ -533,6 +536,8 @@ class DynamicsNode(LifecycleNode):
             self._internal_error(exc)
 
     def _on_platform(self, data: bytes) -> None:
+        if stop_requested():
+            return
         try:
             if self._runtime is None or not self._active:
                 self._on_setpoint(PLATFORM, None)       # counted inactive, not decoded
