@@ -59,8 +59,6 @@ BAD_INPUTS = [
      lambda c, s, last: c.send(s, Q, QD, (0.0, 1000.0, 0.0))),
     ('absurd roll acceleration (1e6 rad/s^2)', 'absurd_acceleration',
      lambda c, s, last: c.send(s, Q, QD, (0.0, 0.0, 1e6))),
-    ('a twist so large that the results overflow (1e150)', 'bad_setpoint',
-     lambda c, s, last: c.send(s, Q, (0.0, 1e150, 0.0), QDD)),
 ]
 
 
@@ -220,6 +218,8 @@ PLATFORM_BAD_INPUTS = [
     ('repeated stamp', 'stamp_repeated', lambda c, s, last: c.send_platform(last, PLATFORM)),
     ('stamp going backwards', 'stamp_backwards',
      lambda c, s, last: c.send_platform(last - 10 * STEP, PLATFORM)),
+    ('a rate so large that the results overflow (1e150)', 'bad_setpoint',
+     lambda c, s, last: c.send_platform(s, [(Q, (0.0, 1e150, 0.0), QDD)])),
 ]
 
 
