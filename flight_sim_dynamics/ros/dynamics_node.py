@@ -48,7 +48,8 @@ MAX_MESSAGE_OVERHEAD = 65536
 MAX_PARAMETERS_PER_REQUEST = 256
 MAX_VALIDATIONS_PER_REQUEST = 12  # model validations, ~1.5 ms each
 MAX_STRING_LENGTH = 4096
-ROS_PARAMETERS = prm.ROS_PARAMETERS
+# rclpy warns of a zero QoS depth before check_qos refuses it with the reason
+warnings.filterwarnings('ignore', 'A zero depth', UserWarning)
 QOS_POLICIES = (QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY)
 _KNOWN_TYPES = frozenset(t.value for t in Parameter.Type) - {ParameterType.PARAMETER_NOT_SET}
 _COERCIONS = {(Parameter.Type.DOUBLE, Parameter.Type.INTEGER),
@@ -157,6 +158,7 @@ class DynamicsNode(LifecycleNode):
         self._actuator_pub = self._joint_pub = self._markers_pub = self._diag_pub = None
         self._diag_timer = self._poll_timer = self._markers_timer = None
         self._markers: MarkerBuilder | None = None
+        self._home = None                        # the solution at home of the running model
         self._actuator_msg = JointState(name=list(LEG_NAMES))
         self._joint_msg = JointState(name=list(JOINT_NAMES))
         self._diag_name = diagnostic_name(self.get_fully_qualified_name())
@@ -172,7 +174,7 @@ class DynamicsNode(LifecycleNode):
         """Declare the schema at the given values, else the defaults. A refused
         given value keeps the default and fails every configure until set.
         """
-        names = set(self.list_parameters([], 0).names) - ROS_PARAMETERS
+        names = set(self.list_parameters([], 0).names) - prm.ROS_PARAMETERS
         given = {name: self.get_parameter(name) for name in names}
         for name in names:
             self.undeclare_parameter(name)
@@ -475,8 +477,6 @@ class DynamicsNode(LifecycleNode):
     def _create_endpoints(self, runtime: Runtime) -> None:
         config = runtime.config
         options = QoSOverridingOptions(QOS_POLICIES, callback=check_qos)
-        # rclpy warns of a zero depth before check_qos refuses it with the reason
-        warnings.filterwarnings('ignore', 'A zero depth', UserWarning)
         try:
             self._actuator_pub = self.create_lifecycle_publisher(
                 JointState, 'actuator_states', default_qos(), qos_overriding_options=options)
@@ -618,9 +618,11 @@ class DynamicsNode(LifecycleNode):
             if self._intake.last_solution is not None:
                 sol, header = self._intake.last_solution, self._intake.last_header
             else:
-                zero = (0.0, 0.0, 0.0)
-                sol = solve(self._runtime.model, zero, zero, zero)
-                header = self.get_clock().now().seconds_nanoseconds()
+                model = self._runtime.model
+                if self._home is None or self._home.model is not model:
+                    zero = (0.0, 0.0, 0.0)
+                    self._home = solve(model, zero, zero, zero)
+                sol, header = self._home, self.get_clock().now().seconds_nanoseconds()
             self._markers_pub.publish(self._markers.update(sol, *header))
         except Exception as exc:  # noqa: BLE001
             self._internal_error(exc)

@@ -28,7 +28,7 @@ from ..config.schema import SIM_NODE_NAME, SIM_PARAMETERS
 from ..core.model import LEG_NAMES, Model
 from ..core.simulation import Servo
 from ..core.twin import TwinStepper
-from .dynamics_node import ROS_PARAMETERS, _declared, default_qos, descriptor_for, plain
+from .dynamics_node import _declared, default_qos, descriptor_for, plain
 from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, STAMP_BACKWARDS, STAMP_REPEATED,
                         WARN, LogThrottle, SetpointError, Vec3, diagnostic_name, number,
                         rpy_to_quaternion)
@@ -233,7 +233,7 @@ class PlatformSim(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(SIM_NODE_NAME, automatically_declare_parameters_from_overrides=True,
                          **kwargs)
-        given = set(self.list_parameters([], 0).names) - ROS_PARAMETERS
+        given = set(self.list_parameters([], 0).names) - prm.ROS_PARAMETERS
         for name in given:
             self.undeclare_parameter(name)      # re-declared below with our descriptors
         self.declare_parameters('', [(spec.name, _declared(spec, spec.default).value,
