@@ -150,6 +150,7 @@ class Client:
             'types': n.create_client(GetParameterTypes, f'{target}/get_parameter_types'),
         }
         self.watch: NodeProcess | None = None
+        self._answered: set[str] = set()     # services that answered this client
 
     # -- waiting ---------------------------------------------------------------
     def spin_until(self, predicate: Callable[[], bool], timeout: float) -> bool:
@@ -237,11 +238,29 @@ class Client:
                          f'{found[-1] if found else None}'
         return matching[0]
 
+    #: requests whose repetition changes nothing (sent again, see :meth:`call`)
+    IDEMPOTENT = frozenset({'get', 'set', 'atomic', 'list', 'describe', 'types', 'get_state',
+                            'get_available_transitions', 'reset'})
+
     def call(self, name: str, request: Any, timeout: float = 5.0) -> Any:
+        """``request`` to the service ``name``, its response (``timeout`` s each way).
+
+        A service drops its response to a client whose response reader it has
+        not matched yet (rmw_fastrtps waits only its writer's max_blocking_time
+        for that match, which discovery on a loaded host can exceed), so until
+        a client's first answer an idempotent request is sent again every second."""
         client = self.srv[name]
         assert self.spin_until(client.service_is_ready, timeout), f'{name} service not ready'
+        deadline = time.monotonic() + timeout
+        resend = name in self.IDEMPOTENT and name not in self._answered
         future = client.call_async(request)
-        assert self.spin_until(future.done, timeout), f'{name} call timed out'
+        while not self.spin_until(future.done, max(0.0, deadline - time.monotonic())
+                                  if not resend else 1.0):
+            if not resend or time.monotonic() >= deadline:
+                raise AssertionError(f'{name} call timed out')
+            client.remove_pending_request(future)
+            future = client.call_async(request)
+        self._answered.add(name)
         return future.result()
 
     # -- parameters --------------------------------------------------------------

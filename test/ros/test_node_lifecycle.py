@@ -141,11 +141,9 @@ def test_failing_configure_stays_unconfigured_and_up():
 def test_autostart_answers_at_once_and_reports_active(client):
     """The default (autostart true): active from the start."""
     assert client.wait_diagnostics(lambda v: v['lifecycle state'] == 'active')
-    srv = client.node.create_client(GetState, f'{NODE_NAME}/get_state')
-    assert client.spin_until(srv.service_is_ready, 10.0)
-    future = srv.call_async(GetState.Request())
-    assert client.spin_until(future.done, 5.0)
-    assert future.result().current_state.id == State.PRIMARY_STATE_ACTIVE
+    client.srv['get_state'] = client.node.create_client(GetState, f'{NODE_NAME}/get_state')
+    response = client.call('get_state', GetState.Request(), timeout=10.0)
+    assert response.current_state.id == State.PRIMARY_STATE_ACTIVE
 
 
 def test_invalid_transitions_are_refused_and_the_node_keeps_running():

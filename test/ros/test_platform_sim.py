@@ -347,11 +347,9 @@ def test_out_of_reach_command_stops_the_plant_and_a_reset_runs_it_again(tmp_path
         assert twin.all_finite()
         assert sim.poll() is None
 
-        reset = client.node.create_client(Trigger, '/lost/platform_sim/reset')
-        assert client.spin_until(reset.service_is_ready, 10.0), 'no reset service'
-        future = reset.call_async(Trigger.Request())
-        assert client.spin_until(future.done, 10.0)
-        assert future.result().success, future.result().message
+        client.srv['reset'] = client.node.create_client(Trigger, '/lost/platform_sim/reset')
+        response = client.call('reset', Trigger.Request(), timeout=10.0)
+        assert response.success, response.message
         values = twin.diagnostics(lambda v: v['message'] == 'waiting for commands')
         assert values['outcome'] == 'ok' and values['status'] == 'OK'
         count = len(twin.poses)
