@@ -1,0 +1,262 @@
+"""The hexapod's solve: inverse kinematics and dynamics of one sample or a
+batch (docs/design/stewart.md, (S1)-(S23)), judged by the status rule of
+:mod:`flight_sim_dynamics.core.status` (never a NaN, never an exception for
+a bad pose or bad numbers).
+
+One implementation: :func:`solve_batch` on numpy arrays (N, 6);
+:func:`solve` is the batch of one.
+
+>>> sol = solve(model, [0] * 6, [0] * 6, [0] * 6)
+>>> sol.force, sol.status                 # six forces (N), 'ok'
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ...core.status import BY_SEVERITY, SEVERITY, SINGULAR, Status
+from .dynamics import actuator_forces, friction_forces, generalised_wrench
+from .kinematics import (actuator_jacobian, degenerate_legs, jacobian_condition,
+                         leg_accelerations, leg_positions, leg_velocities, platform_motion,
+                         pose_jacobian, six_numbers, spherical_joint_angles)
+from .model import StewartModel
+
+#: The pose coordinates, in the order of q, qd, qdd.
+COORDINATES = ('surge', 'sway', 'heave', 'roll', 'pitch', 'yaw')
+_INPUTS = ('q', 'qd', 'qdd')
+
+#: ``info`` of a sample whose results overflow (as in core.status).
+RESULTS_NOT_FINITE = -1
+
+
+@dataclass(frozen=True)
+class StewartSolution:
+    """Result of a solve (S1)-(S23). Leg quantities are ordered 1-6; for
+    :func:`solve_batch` every field has a leading axis of N samples.
+    """
+
+    length: np.ndarray               # (6,) leg length, joint centre to joint centre, m
+    stroke: np.ndarray               # (6,) L - L_home, m
+    rate: np.ndarray                 # (6,) dL/dt, m/s
+    acceleration: np.ndarray         # (6,) d2L/dt2, m/s^2
+    force: np.ndarray                # (6,) actuator force along the leg, + extends, N
+    power: np.ndarray                # (6,) force x rate, W
+    joints: np.ndarray               # (6, 3) per leg theta_1, theta_2 (rad), L (m) (S5)
+    joint_rates: np.ndarray          # (6, 3) their rates (S7)-(S8)
+    joint_accelerations: np.ndarray  # (6, 3) their accelerations (S11)-(S12)
+    spherical_angles: np.ndarray     # (6,) angle of each leg from the platform's z axis, rad
+    jacobian: np.ndarray             # (6, 6) dL/dq: leg rates = jacobian @ qd (S22)
+    twist_jacobian: np.ndarray       # (6, 6) J: leg rates = J @ (v, omega) (S21)
+    jacobian_condition: np.ndarray | float  # 2-norm condition of J
+    status: Status | np.ndarray      # ok, limit, near_singular, unreachable, invalid_input
+    detail: str | tuple              # why the status is not ok ('' when ok)
+    model: StewartModel = field(repr=False, compare=False)
+    pose: np.ndarray = field(repr=False, compare=False)   # the q solved for
+
+
+#: Fields that are zero for a void sample and checked for finiteness.
+_FIELDS = ('length', 'stroke', 'rate', 'acceleration', 'force', 'power', 'joints',
+           'joint_rates', 'joint_accelerations', 'spherical_angles', 'jacobian',
+           'twist_jacobian')
+_STATUS_ARRAY = np.array(BY_SEVERITY, dtype=object)
+
+
+def _evaluate(model: StewartModel, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> dict:
+    """Every result of (S1)-(S23) for finite inputs (IEEE values where degenerate)."""
+    platform = platform_motion(model, q, qd, qdd)                    # (S1)-(S3)
+    legs = leg_positions(model, platform.p, platform.R)              # (S4)-(S5)
+    rates = leg_velocities(model, legs, platform)                    # (S6)-(S9)
+    acc = leg_accelerations(model, legs, rates, platform)            # (S10)-(S13)
+    J = actuator_jacobian(legs)                                      # (S21)
+    condition = jacobian_condition(J)
+    degenerate = degenerate_legs(legs)
+    effects = model.effects
+    if effects.any_inertia and not effects.velocity_products:
+        # the forces of the same accelerations from rest: no velocity products
+        dyn_platform = platform_motion(model, q, np.zeros_like(qd), qdd)
+        dyn_rates = leg_velocities(model, legs, dyn_platform)
+        dyn_acc = leg_accelerations(model, legs, dyn_rates, dyn_platform)
+    else:
+        dyn_platform, dyn_rates, dyn_acc = platform, rates, acc
+    wrench = generalised_wrench(model, dyn_platform, legs, dyn_rates, dyn_acc)  # (S14)-(S20)
+    solvable = ~degenerate.any(axis=1) & (condition < SINGULAR)
+    force = actuator_forces(np.where(solvable[:, None, None], J, np.eye(6)), wrench)  # (S21)
+    if effects.friction:
+        force = force + friction_forces(model, rates.Ld)             # (S23)
+    return dict(
+        length=legs.L, stroke=legs.L - model.home_lengths, rate=rates.Ld,
+        acceleration=acc.Ldd, force=force, power=force * rates.Ld,
+        joints=np.stack([legs.theta1, legs.theta2, legs.L], axis=-1),
+        joint_rates=np.stack([rates.theta1d, rates.theta2d, rates.Ld], axis=-1),
+        joint_accelerations=np.stack([acc.theta1dd, acc.theta2dd, acc.Ldd], axis=-1),
+        spherical_angles=spherical_joint_angles(platform.R, legs.u),
+        jacobian=pose_jacobian(J, platform.E), twist_jacobian=J,
+        jacobian_condition=condition, degenerate=degenerate, solvable=solvable)
+
+
+def _first_bad_input(arrays: tuple) -> np.ndarray:
+    """(N,) index 0-17 of the first non-finite component of (q, qd, qdd), or -1."""
+    finite = np.isfinite(np.concatenate(arrays, axis=1))
+    return np.where(finite.all(axis=1), -1, np.argmin(finite, axis=1))
+
+
+def _limit_reasons(model: StewartModel, r: dict, i: int) -> list[str]:
+    """What sample i exceeds (S: "Actuators, limits, effects"); empty if nothing."""
+    lim = model.limits
+    out = []
+    for k in range(6):
+        L, Ld, f = r['length'][i, k], r['rate'][i, k], r['force'][i, k]
+        if not lim.length_min <= L <= lim.length_max:
+            out.append(f'leg {k + 1} length {L:.4g} m outside '
+                       f'[{lim.length_min:g}, {lim.length_max:g}] m')
+        if abs(Ld) > lim.max_speed:
+            out.append(f'leg {k + 1} speed {abs(Ld):.4g} m/s > {lim.max_speed:g} m/s')
+        if abs(f) > lim.max_force:
+            out.append(f'leg {k + 1} force {abs(f):.4g} N > {lim.max_force:g} N')
+        if lim.u_joint_max_angle is not None:
+            angle = np.abs(r['joints'][i, k, :2]).max()
+            if angle > lim.u_joint_max_angle:
+                out.append(f'leg {k + 1} U-joint angle {math.degrees(angle):.4g} deg > '
+                           f'{math.degrees(lim.u_joint_max_angle):g} deg')
+        if lim.spherical_joint_max_angle is not None:
+            angle = r['spherical_angles'][i, k]
+            if angle > lim.spherical_joint_max_angle:
+                out.append(f'leg {k + 1} spherical joint angle {math.degrees(angle):.4g} deg '
+                           f'> {math.degrees(lim.spherical_joint_max_angle):g} deg')
+    return out
+
+
+def _over_limits(model: StewartModel, r: dict) -> np.ndarray:
+    """(N,) True where a length, speed, force or enabled joint-angle limit is exceeded."""
+    lim = model.limits
+    over = ((r['length'] < lim.length_min) | (r['length'] > lim.length_max)
+            | (np.abs(r['rate']) > lim.max_speed) | (np.abs(r['force']) > lim.max_force))
+    if lim.u_joint_max_angle is not None:
+        over |= (np.abs(r['joints'][..., :2]) > lim.u_joint_max_angle).any(axis=-1)
+    if lim.spherical_joint_max_angle is not None:
+        over |= r['spherical_angles'] > lim.spherical_joint_max_angle
+    return over.any(axis=1)
+
+
+def _detail(model: StewartModel, code: int, info: int, r: dict, i: int,
+            inputs: tuple) -> str:
+    """Why sample i has status ``code`` ('' for ok)."""
+    status = BY_SEVERITY[code]
+    if status is Status.INVALID_INPUT:
+        if info == RESULTS_NOT_FINITE:
+            return 'results are not finite: input too large'
+        value = inputs[info // 6][i, info % 6]
+        return (f'{_INPUTS[info // 6]}[{info % 6}] ({COORDINATES[info % 6]}) '
+                f'is not finite ({value})')
+    if status is Status.UNREACHABLE:
+        leg = info
+        if not r['length'][i, leg] > 1e-9:
+            return f'leg {leg + 1}: degenerate length ({r["length"][i, leg]:.3g} m)'
+        return (f'leg {leg + 1}: along its U-joint\'s first axis '
+                '(theta_2 = +-90 deg, singular joint)')
+    if status is Status.NEAR_SINGULAR:
+        if not info:
+            return 'exact singularity: the actuator Jacobian is singular, forces set to 0'
+        return (f'actuator Jacobian condition {r["jacobian_condition"][i]:.3g} > '
+                f'{model.limits.max_jacobian_condition:g}')
+    if status is Status.LIMIT:
+        return '; '.join(_limit_reasons(model, r, i))
+    return ''
+
+
+def _status(model: StewartModel, r: dict, bad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(code, info) per sample by the rule of core.status, worst first:
+    invalid_input (input) > unreachable > near_singular > invalid_input
+    (results overflow) > limit > ok.
+    """
+    cond = r['jacobian_condition']
+    finite = np.ones(bad.shape, dtype=bool)
+    for name in _FIELDS:
+        v = r[name]
+        finite &= np.isfinite(v).reshape(v.shape[0], -1).all(axis=1)
+    code = np.where(_over_limits(model, r), SEVERITY[Status.LIMIT], SEVERITY[Status.OK])
+    info = np.zeros(bad.shape, dtype=int)
+    code = np.where(finite, code, SEVERITY[Status.INVALID_INPUT])
+    info = np.where(finite, info, RESULTS_NOT_FINITE)
+    near = ~(cond <= model.limits.max_jacobian_condition)
+    code = np.where(near, SEVERITY[Status.NEAR_SINGULAR], code)
+    info = np.where(near, np.where(r['solvable'] & finite, 1, 0), info)
+    degenerate = r['degenerate'].any(axis=1)
+    code = np.where(degenerate, SEVERITY[Status.UNREACHABLE], code)
+    info = np.where(degenerate, np.argmax(r['degenerate'], axis=1), info)
+    code = np.where(bad >= 0, SEVERITY[Status.INVALID_INPUT], code)
+    info = np.where(bad >= 0, bad, info)
+    return code.astype(np.int8), info
+
+
+def _clean(r: dict, code: np.ndarray) -> dict:
+    """No NaN or infinity: a void sample's numbers (unreachable, invalid input)
+    and any non-finite number 0; the condition of a singular J SINGULAR.
+    """
+    void = code >= SEVERITY[Status.UNREACHABLE]
+    out = {}
+    for name in _FIELDS + ('jacobian_condition',):
+        v = r[name]
+        mask = void.reshape(void.shape + (1,) * (v.ndim - 1))
+        out[name] = np.where(mask | ~np.isfinite(v), 0.0, v)
+    return out
+
+
+def solve_batch(model: StewartModel, q: np.ndarray, qd: np.ndarray,
+                qdd: np.ndarray) -> StewartSolution:
+    """Inverse kinematics and dynamics (S1)-(S23) of N samples: q, qd, qdd are
+    (N, 6) (surge, sway, heave in m, roll, pitch, yaw in rad, their rates and
+    accelerations); every field gets a leading N axis. A bad sample gets its
+    own status; ValueError only for input that is not (N, 6) numbers.
+    """
+    Q = _as_batch('q', q, None)
+    n = Q.shape[0]
+    arrays = (Q, _as_batch('qd', qd, n), _as_batch('qdd', qdd, n))
+    bad = _first_bad_input(arrays)
+    clean = tuple(np.where(bad[:, None] < 0, a, 0.0) for a in arrays)
+    with np.errstate(all='ignore'):
+        r = _evaluate(model, *clean)
+        code, info = _status(model, r, bad)
+    fields = _clean(r, code)
+    detail = [''] * n
+    for i in np.flatnonzero(code):
+        detail[i] = _detail(model, int(code[i]), int(info[i]), r, i, arrays)
+    return StewartSolution(**fields, status=_STATUS_ARRAY[code], detail=tuple(detail),
+                           model=model, pose=arrays[0])
+
+
+def solve(model: StewartModel, q, qd, qdd) -> StewartSolution:
+    """One sample (S1)-(S23): q, qd, qdd are six numbers each. Never raises
+    for a bad pose or bad numbers (``sol.status``, ``sol.detail``); ValueError
+    only for an argument that is not six numbers.
+    """
+    rows = [six_numbers(name, v)[None, :] for name, v in zip(_INPUTS, (q, qd, qdd))]
+    batch = solve_batch(model, *rows)
+    values = {name: getattr(batch, name)[0] for name in _FIELDS}
+    return StewartSolution(**values, jacobian_condition=float(batch.jacobian_condition[0]),
+                           status=batch.status[0], detail=batch.detail[0], model=model,
+                           pose=rows[0][0])
+
+
+def _as_batch(name: str, value: object, n: int | None) -> np.ndarray:
+    """An (N, 6) float array, or ValueError naming the argument (bools,
+    strings, masked entries and wrong shapes refused; NaN and infinities are
+    numbers, judged by the status).
+    """
+    if np.ma.isMaskedArray(value) and np.ma.getmaskarray(value).any():
+        raise ValueError(f'{name} has masked entries: fill or drop them first')
+    try:
+        arr = np.asarray(value)
+    except (ValueError, TypeError):
+        raise ValueError(f'{name} must be an (N, 6) array of numbers, got {value!r:.200}') \
+            from None
+    if arr.dtype.kind not in 'fiu':
+        raise ValueError(f'{name} must be numbers ({", ".join(COORDINATES)}), '
+                         f'got {value!r:.200}')
+    if arr.ndim != 2 or arr.shape[1] != 6:
+        raise ValueError(f'{name} must have shape (N, 6), got {arr.shape}')
+    if n is not None and arr.shape[0] != n:
+        raise ValueError(f'{name} has {arr.shape[0]} rows, q has {n}')
+    return arr.astype(float)
