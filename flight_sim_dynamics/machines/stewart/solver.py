@@ -152,6 +152,8 @@ def _detail(model: StewartModel, code: int, info: int, r: dict, i: int,
                 f'is not finite ({value})')
     if status is Status.UNREACHABLE:
         leg = info
+        if not (np.isfinite(r['length'][i, leg]) and np.isfinite(r['joints'][i, leg]).all()):
+            return f'leg {leg + 1}: position not finite (pose too large)'
         if not r['length'][i, leg] > 1e-9:
             return f'leg {leg + 1}: degenerate length ({r["length"][i, leg]:.3g} m)'
         return (f'leg {leg + 1}: along its U-joint\'s first axis '
@@ -233,11 +235,15 @@ def solve(model: StewartModel, q, qd, qdd) -> StewartSolution:
     only for an argument that is not six numbers.
     """
     rows = [six_numbers(name, v)[None, :] for name, v in zip(_INPUTS, (q, qd, qdd))]
-    batch = solve_batch(model, *rows)
-    values = {name: getattr(batch, name)[0] for name in _FIELDS}
-    return StewartSolution(**values, jacobian_condition=float(batch.jacobian_condition[0]),
-                           status=batch.status[0], detail=batch.detail[0], model=model,
-                           pose=rows[0][0])
+    return sample(solve_batch(model, *rows), 0)
+
+
+def sample(batch: StewartSolution, i: int) -> StewartSolution:
+    """Sample i of a batch's solution, as :func:`solve` gives it."""
+    values = {name: getattr(batch, name)[i] for name in _FIELDS}
+    return StewartSolution(**values, jacobian_condition=float(batch.jacobian_condition[i]),
+                           status=batch.status[i], detail=batch.detail[i], model=batch.model,
+                           pose=batch.pose[i])
 
 
 def _as_batch(name: str, value: object, n: int | None) -> np.ndarray:
