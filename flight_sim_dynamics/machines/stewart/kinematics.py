@@ -288,6 +288,8 @@ def forward_kinematics(model: StewartModel, lengths: Sequence[float],
                                'initial pose is degenerate (a leg of zero length or a '
                                'singular U-joint)')
     r = L - target
+    if np.abs(r).max() <= tolerance:
+        return ForwardSolution(q, Status.OK, float(np.abs(r).max()), 0)
     for k in range(1, max_iterations + 1):
         with np.errstate(all='ignore'):
             step = np.linalg.lstsq(J_L, -r, rcond=1e-12)[0]
