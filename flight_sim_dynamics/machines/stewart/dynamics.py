@@ -30,11 +30,11 @@ def axisymmetric_product(body: LegBody, u: np.ndarray, x: np.ndarray) -> np.ndar
     return body.inertia_across * (x - along) + body.inertia_along * along
 
 
-def leg_forces(model: StewartModel, legs: LegPositions, rates: LegVelocities | None,
-               acc: LegAccelerations | None) -> tuple[np.ndarray | None, np.ndarray | None]:
+def leg_forces(model: StewartModel, legs: LegPositions, rates: LegVelocities,
+               acc: LegAccelerations) -> tuple[np.ndarray, np.ndarray]:
     """F_1, F_2 of the cylinder and rod (S14)-(S15): m_k c_k'' (leg_inertia, with
-    c_1'' = l_c u'', c_2'' = a_P - l_r u'') and - m_k g (gravity); None, None if
-    neither effect is on.
+    c_1'' = l_c u'', c_2'' = a_P - l_r u'') and - m_k g (gravity); one of the
+    two effects must be on.
     """
     F1 = F2 = None
     cyl, rod = model.cylinder, model.rod
@@ -122,8 +122,8 @@ def generalised_wrench(model: StewartModel, platform: PlatformMotion, legs: LegP
     """
     w = platform_wrench(model, platform)
     total = np.zeros((legs.L.shape[0], 6)) if w is None else w
-    F1, F2 = leg_forces(model, legs, rates, acc)
-    if F1 is not None:
+    if model.effects.leg_inertia or model.effects.gravity:
+        F1, F2 = leg_forces(model, legs, rates, acc)
         N = leg_moment(model, legs, rates, acc) if model.effects.leg_inertia else None
         G = carried_force(model, legs, F1, F2, N)
         total = total + np.concatenate([G.sum(axis=1), cross(legs.r, G).sum(axis=1)], axis=-1)
