@@ -131,8 +131,20 @@ def generalised_wrench(model: StewartModel, platform: PlatformMotion, legs: LegP
 
 
 def actuator_forces(J: np.ndarray, wrench: np.ndarray) -> np.ndarray:
-    """Forces f = J^-T (w_0 + sum_i (G_i, r_i x G_i)) (S21), (N, 6); J regular."""
-    return np.linalg.solve(np.swapaxes(J, -1, -2), wrench[..., None])[..., 0]
+    """Forces f = J^-T (w_0 + sum_i (G_i, r_i x G_i)) (S21), (N, 6); NaN for a
+    sample whose J LAPACK finds exactly singular.
+    """
+    JT = np.swapaxes(J, -1, -2)
+    try:
+        return np.linalg.solve(JT, wrench[..., None])[..., 0]
+    except np.linalg.LinAlgError:       # one singular J fails the whole batch: sample by sample
+        out = np.full(wrench.shape, np.nan)
+        for i in range(J.shape[0]):
+            try:
+                out[i] = np.linalg.solve(JT[i], wrench[i])
+            except np.linalg.LinAlgError:
+                pass
+        return out
 
 
 def friction_forces(model: StewartModel, Ld: np.ndarray) -> np.ndarray:

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...core.status import BY_SEVERITY, SEVERITY, SINGULAR, Status
+from ...core.status import BY_SEVERITY, SEVERITY, Status
 from .dynamics import actuator_forces, friction_forces, generalised_wrench
 from .kinematics import (actuator_jacobian, degenerate_legs, jacobian_condition,
                          leg_accelerations, leg_positions, leg_velocities, platform_motion,
@@ -29,6 +29,10 @@ _INPUTS = ('q', 'qd', 'qdd')
 
 #: ``info`` of a sample whose results overflow (as in core.status).
 RESULTS_NOT_FINITE = -1
+
+#: Condition of J from which J^-T is not formed (S21): an exact singularity
+#: to working precision (status near_singular, forces 0).
+MAX_SOLVED_CONDITION = 1e15
 
 
 @dataclass(frozen=True)
@@ -81,8 +85,9 @@ def _evaluate(model: StewartModel, q: np.ndarray, qd: np.ndarray, qdd: np.ndarra
     else:
         dyn_platform, dyn_rates, dyn_acc = platform, rates, acc
     wrench = generalised_wrench(model, dyn_platform, legs, dyn_rates, dyn_acc)  # (S14)-(S20)
-    solvable = ~degenerate.any(axis=1) & (condition < SINGULAR)
+    solvable = ~degenerate.any(axis=1) & (condition < MAX_SOLVED_CONDITION)
     force = actuator_forces(np.where(solvable[:, None, None], J, np.eye(6)), wrench)  # (S21)
+    force = np.where(solvable[:, None], force, np.nan)   # no forces through a singular J
     if effects.friction:
         force = force + friction_forces(model, rates.Ld)             # (S23)
     return dict(
@@ -151,11 +156,11 @@ def _detail(model: StewartModel, code: int, info: int, r: dict, i: int,
         return (f'{_INPUTS[info // 6]}[{info % 6}] ({COORDINATES[info % 6]}) '
                 f'is not finite ({value})')
     if status is Status.UNREACHABLE:
-        leg = info
-        if not (np.isfinite(r['length'][i, leg]) and np.isfinite(r['joints'][i, leg]).all()):
+        leg, L = info, r['length'][i, info]
+        if np.isfinite(L) and L <= 1e-9:
+            return f'leg {leg + 1}: degenerate length ({L:.3g} m)'
+        if not (np.isfinite(L) and np.isfinite(r['joints'][i, leg]).all()):
             return f'leg {leg + 1}: position not finite (pose too large)'
-        if not r['length'][i, leg] > 1e-9:
-            return f'leg {leg + 1}: degenerate length ({r["length"][i, leg]:.3g} m)'
         return (f'leg {leg + 1}: along its U-joint\'s first axis '
                 '(theta_2 = +-90 deg, singular joint)')
     if status is Status.NEAR_SINGULAR:
@@ -195,7 +200,7 @@ def _status(model: StewartModel, r: dict, bad: np.ndarray) -> tuple[np.ndarray, 
 
 def _clean(r: dict, code: np.ndarray) -> dict:
     """No NaN or infinity: a void sample's numbers (unreachable, invalid input)
-    and any non-finite number 0; the condition of a singular J SINGULAR.
+    and any non-finite number 0.
     """
     void = code >= SEVERITY[Status.UNREACHABLE]
     out = {}
