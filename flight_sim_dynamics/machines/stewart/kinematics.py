@@ -8,6 +8,7 @@ numpy carries IEEE values and the solver's status rule judges them.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -269,8 +270,9 @@ def forward_kinematics(model: StewartModel, lengths: Sequence[float],
     """The pose whose leg lengths are ``lengths`` (m, legs 1-6): Newton's method
     on L(q) = L* with J_L (S22) from ``initial``, each step halved until the
     residual decreases on a regular pose. ok when max |L - L*| <= tolerance;
-    unreachable when the iteration stalls with J_L^T (L - L*) ~ 0 (no pose has
-    these lengths nearby); not_converged otherwise. Never raises for bad
+    unreachable when the iteration stalls at a minimum of |L - L*| > 0
+    (J_L^T (L - L*) ~ 0: no pose has these lengths nearby); not_converged
+    otherwise (e.g. stalled against a singular or degenerate pose). Never raises for bad
     numbers; ValueError for arguments that are not six numbers each.
     """
     target, start = six_numbers('lengths', lengths), six_numbers('initial', initial)
@@ -303,12 +305,14 @@ def forward_kinematics(model: StewartModel, lengths: Sequence[float],
                 break
             t *= 0.5
         else:
-            gradient = float(np.abs(J_L.T @ r).max())
-            status = Status.UNREACHABLE if gradient < 1e-9 * max(1.0, norm) else \
-                Status.NOT_CONVERGED
+            # a minimum of |L - L*| away from zero: J_L^T r ~ 0 relative to |J_L| |r|
+            gradient = float(np.linalg.norm(J_L.T @ r))
+            minimum = gradient <= 1e-8 * float(np.linalg.norm(J_L, 2)) * math.sqrt(norm)
+            status = Status.UNREACHABLE if minimum else Status.NOT_CONVERGED
             return ForwardSolution(zero, status, float(np.abs(r).max()), k,
                                    'no pose nearby has these leg lengths' if status is
-                                   Status.UNREACHABLE else 'the line search stalled')
+                                   Status.UNREACHABLE else 'the line search stalled at a '
+                                   'singular or degenerate pose')
         q, r, J_L = trial, r_t, J_t
         if np.abs(r).max() <= tolerance:
             return ForwardSolution(q, Status.OK, float(np.abs(r).max()), k)
