@@ -145,6 +145,19 @@ def test_actuator_jacobian_maps_the_twist_to_the_leg_rates(name):
     np.testing.assert_allclose(np.einsum('nij,nj->ni', J_L, qd), rates.Ld, atol=1e-12)
 
 
+def test_spherical_joint_angle_is_the_legs_tilt_from_the_platform_normal():
+    """The default machine's platform joints lie in the platform's z = 0 plane:
+    its normal is (P_2 - P_1) x (P_3 - P_1), up at home."""
+    model = model_of('stewart_6dof')
+    q = random_motion(6, 'violent', 10)[0]
+    platform, legs, _, _ = _state(model, q, q * 0, q * 0)
+    n = np.cross(legs.P[:, 1] - legs.P[:, 0], legs.P[:, 2] - legs.P[:, 0])
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    expected = np.arccos(np.einsum('nkj,nj->nk', legs.u, n))
+    np.testing.assert_allclose(kin.spherical_joint_angles(platform.R, legs.u), expected,
+                               atol=1e-12)
+
+
 def test_home_u_joint_angles_and_conditions_are_the_documented_ones():
     model = model_of('stewart_6dof')
     zero = np.zeros((1, 6))
