@@ -15,6 +15,12 @@ from .kinematics import (LegAccelerations, LegPositions, LegVelocities, Platform
 from .model import LegBody, RigidBody, StewartModel
 
 
+def has_inertia(model: StewartModel) -> bool:
+    """True when the scene moves some body of the hexapod (platform, payload, legs)."""
+    e = model.effects
+    return e.platform_inertia or e.leg_inertia or (e.payload and model.payload.mass > 0.0)
+
+
 def gravity_vector(model: StewartModel) -> np.ndarray:
     """The gravity vector (0, 0, -g), base frame."""
     return np.array([0.0, 0.0, -model.gravity])

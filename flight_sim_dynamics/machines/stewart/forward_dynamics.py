@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...core.status import SEVERITY, Status
+from .dynamics import has_inertia
 from .kinematics import six_numbers
 from .model import StewartModel
 from .solver import StewartSolution, sample, solve_batch
@@ -61,7 +62,7 @@ def forward_dynamics(model: StewartModel, q, qd, force) -> ForwardDynamics:
     (pitch at +-90 deg: the Euler rates cannot carry the motion). ValueError
     for arguments that are not six numbers and for a scene without inertia.
     """
-    if not model.effects.any_inertia:
+    if not has_inertia(model):
         raise ValueError(f"scene '{model.scene}' computes no inertia, so forces do not "
                          'determine accelerations; forward dynamics needs a scene with inertia')
     f = six_numbers('force', force)

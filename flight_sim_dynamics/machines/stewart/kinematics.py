@@ -324,7 +324,8 @@ def six_numbers(name: str, value: object) -> np.ndarray:
     """Six real numbers as a float array, or ValueError naming the argument
     (NaN and infinities are numbers: a status judges them).
     """
-    if isinstance(value, (str, bytes)) or np.ma.isMaskedArray(value):
+    if isinstance(value, (str, bytes)) or np.ma.isMaskedArray(value) or (
+            not isinstance(value, np.ndarray) and has_bool(value)):
         raise ValueError(f'{name} must be 6 numbers, got {value!r:.200}')
     try:
         arr = np.asarray(value)
@@ -333,3 +334,12 @@ def six_numbers(name: str, value: object) -> np.ndarray:
     if arr.shape != (6,) or arr.dtype.kind not in 'fiu':
         raise ValueError(f'{name} must be 6 numbers, got {value!r:.200}')
     return arr.astype(float)
+
+
+def has_bool(value: object) -> bool:
+    """True if a (nested) list holds a bool, which numpy would read as 0 or 1."""
+    if isinstance(value, (bool, np.bool_)):
+        return True
+    if isinstance(value, (list, tuple)):
+        return any(has_bool(v) for v in value)
+    return False

@@ -232,9 +232,10 @@ def _friction(d: object) -> Friction:
 
 def from_dict(params: Mapping, effects: Effects | None = None) -> StewartModel:
     """The model of a parameter-file dict (the file's whole dict or its
-    ``ros__parameters``). ``payload`` and ``friction`` may be left out (zero);
-    ``effects`` is the scene's effects (the file's ``scene`` names it; the
-    caller resolves the name; default :class:`Effects`' defaults).
+    ``ros__parameters``). ``payload`` and ``friction`` may be left out (zero).
+    ``effects`` are the effects of the scene the file names (the caller
+    resolves the name); left out, they are scene full's, :class:`Effects`'
+    defaults, and any other scene name is a ValueError.
     """
     if isinstance(params, Mapping) and 'flight_sim_dynamics' in params:
         params = params['flight_sim_dynamics']
@@ -248,6 +249,8 @@ def from_dict(params: Mapping, effects: Effects | None = None) -> StewartModel:
     scene = params.get('scene', 'full')
     if not isinstance(scene, str) or not scene:
         raise ValueError(f'scene must be a name, got {scene!r:.100}')
+    if effects is None and scene != 'full':
+        raise ValueError(f"scene '{scene}': pass its effects (scene full's are the defaults)")
     geo = _section('geometry', params['geometry'], _GEOMETRY)
     base = _points('geometry.base_joints', geo['base_joints'])
     plat = _points('geometry.platform_joints', geo['platform_joints'])

@@ -17,10 +17,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...core.status import BY_SEVERITY, SEVERITY, Status
-from .dynamics import actuator_forces, friction_forces, generalised_wrench
+from .dynamics import actuator_forces, friction_forces, generalised_wrench, has_inertia
 from .kinematics import (actuator_jacobian, degenerate_legs, jacobian_condition,
                          leg_accelerations, leg_positions, leg_velocities, platform_motion,
-                         pose_jacobian, six_numbers, spherical_joint_angles)
+                         has_bool, pose_jacobian, six_numbers, spherical_joint_angles)
 from .model import StewartModel
 
 #: The pose coordinates, in the order of q, qd, qdd.
@@ -77,7 +77,7 @@ def _evaluate(model: StewartModel, q: np.ndarray, qd: np.ndarray, qdd: np.ndarra
     condition = jacobian_condition(J)
     degenerate = degenerate_legs(legs)
     effects = model.effects
-    if effects.any_inertia and not effects.velocity_products:
+    if not effects.velocity_products and has_inertia(model):
         # the forces of the same accelerations from rest: no velocity products
         dyn_platform = platform_motion(model, q, np.zeros_like(qd), qdd)
         dyn_rates = leg_velocities(model, legs, dyn_platform)
@@ -258,6 +258,8 @@ def _as_batch(name: str, value: object, n: int | None) -> np.ndarray:
     """
     if np.ma.isMaskedArray(value) and np.ma.getmaskarray(value).any():
         raise ValueError(f'{name} has masked entries: fill or drop them first')
+    if not isinstance(value, np.ndarray) and has_bool(value):
+        raise ValueError(f'{name} must be numbers, got a bool in {value!r:.200}')
     try:
         arr = np.asarray(value)
     except (ValueError, TypeError):

@@ -92,8 +92,12 @@ def test_pitch_at_ninety_degrees_cannot_resolve_euler_accelerations():
     assert fd.status is Status.NEAR_SINGULAR and np.all(fd.acceleration == 0.0)
 
 
-def test_a_scene_without_inertia_is_refused():
-    model = model_of('stewart_6dof').with_effects(Effects().only('gravity'), 'quasi_static')
+@pytest.mark.parametrize('effects', [Effects().only('gravity'),
+                                     Effects().only('gravity', 'crank_inertia', 'payload')],
+                         ids=['gravity', 'no_hexapod_body_moves'])
+def test_a_scene_without_inertia_is_refused(effects):
+    """A hexapod has no cranks, and the default payload has no mass."""
+    model = model_of('stewart_6dof').with_effects(effects, 'quasi_static')
     with pytest.raises(ValueError, match='quasi_static'):
         fdyn.forward_dynamics(model, np.zeros(6), np.zeros(6), np.zeros(6))
 

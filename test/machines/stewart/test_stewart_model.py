@@ -148,3 +148,12 @@ def test_a_home_on_a_singular_u_joint_is_refused():
     with pytest.raises(ValueError, match='leg 3'):
         sm.from_dict(params)
 
+
+
+def test_a_scene_other_than_full_needs_its_effects():
+    params = _params()
+    params['scene'] = 'payload'
+    with pytest.raises(ValueError, match="scene 'payload'"):
+        sm.from_dict(params)
+    m = sm.from_dict(params, Effects(payload=True))
+    assert m.scene == 'payload' and m.effects.payload

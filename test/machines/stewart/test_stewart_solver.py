@@ -231,7 +231,8 @@ def test_any_numbers_give_a_status_and_finite_results(values):
 
 
 @pytest.mark.parametrize('value', [[0.0] * 5, 'abcdef', [[0.0] * 6], [True] * 6, None,
-                                   [0.0] * 5 + ['x'], [10 ** 400] + [0] * 5])
+                                   [0.0] * 5 + ['x'], [10 ** 400] + [0] * 5,
+                                   [True] + [0.0] * 5])
 def test_solve_refuses_what_is_not_six_numbers(value):
     with pytest.raises(ValueError, match='qd'):
         solver.solve(MODEL, Z, value, Z)
@@ -240,6 +241,7 @@ def test_solve_refuses_what_is_not_six_numbers(value):
 @pytest.mark.parametrize('q, match', [
     (np.zeros((3, 5)), r'shape \(N, 6\)'), (np.zeros(6), r'shape \(N, 6\)'),
     (np.zeros((3, 6), dtype=bool), 'numbers'), ([['a'] * 6], 'numbers'),
+    ([[0.0] * 6, [0.0] * 5 + [False], [0.0] * 6], 'bool'),
     (np.ma.masked_array(np.zeros((2, 6)), mask=[[1] + [0] * 5, [0] * 6]), 'masked')])
 def test_solve_batch_refuses_what_is_not_n_by_six_numbers(q, match):
     with pytest.raises(ValueError, match=match):
