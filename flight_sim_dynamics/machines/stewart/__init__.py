@@ -2,7 +2,9 @@
 kinematics and dynamics by the recursive per-leg relations (S1)-(S23),
 forward kinematics and forward dynamics.
 
->>> from flight_sim_dynamics.machines.stewart import model, solver
->>> m = model.from_dict(params)                        # the parameter-file layout
->>> sol = solver.solve(m, q, qd, qdd)                  # six numbers each
+Use::
+
+    from flight_sim_dynamics.machines.stewart import model, solver
+    m = model.from_dict(params)              # a parameter file's dict (stewart.md)
+    sol = solver.solve(m, q, qd, qdd)        # six numbers each; solve_batch: (N, 6)
 """

@@ -36,7 +36,7 @@ def axisymmetric_product(body: LegBody, u: np.ndarray, x: np.ndarray) -> np.ndar
     return body.inertia_across * (x - along) + body.inertia_along * along
 
 
-def leg_forces(model: StewartModel, legs: LegPositions, rates: LegVelocities,
+def leg_forces(model: StewartModel, legs: LegPositions,
                acc: LegAccelerations) -> tuple[np.ndarray, np.ndarray]:
     """F_1, F_2 of the cylinder and rod (S14)-(S15): m_k c_k'' (leg_inertia, with
     c_1'' = l_c u'', c_2'' = a_P - l_r u'') and - m_k g (gravity); one of the
@@ -129,7 +129,7 @@ def generalised_wrench(model: StewartModel, platform: PlatformMotion, legs: LegP
     w = platform_wrench(model, platform)
     total = np.zeros((legs.L.shape[0], 6)) if w is None else w
     if model.effects.leg_inertia or model.effects.gravity:
-        F1, F2 = leg_forces(model, legs, rates, acc)
+        F1, F2 = leg_forces(model, legs, acc)
         N = leg_moment(model, legs, rates, acc) if model.effects.leg_inertia else None
         G = carried_force(model, legs, F1, F2, N)
         total = total + np.concatenate([G.sum(axis=1), cross(legs.r, G).sum(axis=1)], axis=-1)

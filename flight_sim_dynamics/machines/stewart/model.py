@@ -186,6 +186,8 @@ def _rigid(name: str, d: object, allow_zero_mass: bool = False) -> RigidBody:
     if eig[0] < -1e-12 * scale or eig[2] > eig[0] + eig[1] + 1e-9 * scale:
         raise ValueError(f'{name}.inertia is not a body\'s inertia (principal moments '
                          f'{eig.tolist()}: each must be >= 0 and at most the sum of the others)')
+    if mass == 0.0 and np.any(inertia != 0.0):
+        raise ValueError(f'{name}.inertia must be zero for a body of no mass')
     return RigidBody(mass, _numbers(f'{name}.com', d['com'], 3), inertia)
 
 

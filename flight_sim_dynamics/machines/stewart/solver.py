@@ -4,10 +4,10 @@ batch (docs/design/stewart.md, (S1)-(S23)), judged by the status rule of
 a bad pose or bad numbers).
 
 One implementation: :func:`solve_batch` on numpy arrays (N, 6);
-:func:`solve` is the batch of one.
+:func:`solve` is the batch of one::
 
->>> sol = solve(model, [0] * 6, [0] * 6, [0] * 6)
->>> sol.force, sol.status                 # six forces (N), 'ok'
+    sol = solve(model, q, qd, qdd)       # six numbers each
+    sol.force, sol.status, sol.detail    # six forces (N), ok ... invalid_input, why
 """
 from __future__ import annotations
 
@@ -18,9 +18,9 @@ import numpy as np
 
 from ...core.status import BY_SEVERITY, SEVERITY, Status
 from .dynamics import actuator_forces, friction_forces, generalised_wrench, has_inertia
-from .kinematics import (actuator_jacobian, degenerate_legs, jacobian_condition,
+from .kinematics import (actuator_jacobian, degenerate_legs, has_bool, jacobian_condition,
                          leg_accelerations, leg_positions, leg_velocities, platform_motion,
-                         has_bool, pose_jacobian, six_numbers, spherical_joint_angles)
+                         pose_jacobian, six_numbers, spherical_joint_angles)
 from .model import StewartModel
 
 #: The pose coordinates, in the order of q, qd, qdd.
@@ -108,7 +108,7 @@ def _first_bad_input(arrays: tuple) -> np.ndarray:
 
 
 def _limit_reasons(model: StewartModel, r: dict, i: int) -> list[str]:
-    """What sample i exceeds (S: "Actuators, limits, effects"); empty if nothing."""
+    """What sample i exceeds (stewart.md, "Actuators, limits, effects"), or nothing."""
     lim = model.limits
     out = []
     for k in range(6):

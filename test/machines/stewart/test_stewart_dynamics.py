@@ -235,3 +235,11 @@ def test_the_payload_is_computed_only_when_its_effect_is_on(monkeypatch):
     bodies.clear()
     solver.solve_batch(model, q, qd, qdd)
     assert bodies == [model.platform, model.payload]
+
+
+def test_one_singular_jacobian_does_not_fail_the_batch():
+    J = np.stack([np.eye(6), np.zeros((6, 6)), 2.0 * np.eye(6)])
+    f = dynamics.actuator_forces(J, np.ones((3, 6)))
+    np.testing.assert_array_equal(f[0], 1.0)
+    assert np.all(np.isnan(f[1]))
+    np.testing.assert_array_equal(f[2], 0.5)

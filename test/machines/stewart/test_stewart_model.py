@@ -115,6 +115,7 @@ BAD = [
     ('bodies.rod.inertia_along', math.inf, 'bodies.rod.inertia_along'),
     ('bodies.rod', KeyError, 'bodies: missing key'),
     ('payload.mass', -1.0, 'payload.mass'),
+    ('payload.inertia', [1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0], 'payload.inertia'),
     ('friction.viscous', [1.0] * 5, 'friction.viscous'),
     ('friction.coulomb', [-1.0] * 6, r'friction.coulomb\[0\]'),
     ('friction.smoothing_velocity', 0.0, 'friction.smoothing_velocity'),
