@@ -111,7 +111,8 @@ class LegPositions:
 
 def leg_positions(model: StewartModel, p: np.ndarray, R: np.ndarray) -> LegPositions:
     """r_i = R p_i, P_i = p + r_i, d_i = P_i - B_i, L_i = |d_i|, u_i = d_i / L_i (S4);
-    theta_2 = asin(a_1 . u), theta_1 = atan2(-e2 . u, e3 . u) (S5).
+    theta_2 = asin(a_1 . u) (as atan2(s2, c2), exact near +-90 deg),
+    theta_1 = atan2(-e2 . u, e3 . u) (S5).
     """
     r = np.einsum('nij,kj->nki', R, model.platform_joints)
     P = p[:, None, :] + r
