@@ -210,6 +210,15 @@ def test_forward_kinematics_from_the_answer_is_the_answer(name):
     np.testing.assert_array_equal(fk.pose, np.zeros(6))
 
 
+def test_forward_kinematics_from_a_far_start():
+    """Full Newton steps from here overshoot and wander (not converged in 50
+    iterations); the halved steps that must reduce the residual arrive."""
+    model = model_of('stewart_6dof')
+    fk = kin.forward_kinematics(model, model.home_lengths, [0.5] * 6)
+    assert fk.status is Status.OK
+    np.testing.assert_allclose(fk.pose, 0.0, atol=1e-9)
+
+
 def test_forward_kinematics_from_a_start_near_the_answer():
     model = model_of('stewart_6dof')
     q = np.array([0.1, -0.05, 0.2, 0.1, -0.2, 1.2])
