@@ -23,6 +23,14 @@ LEG_NAMES = tuple(f'leg_{i}' for i in range(1, 7))
 U_JOINT_TOLERANCE = 1e-6
 
 
+def _freeze(obj: object, *names: str) -> None:
+    """Replace the array fields ``names`` of a frozen dataclass by read-only copies."""
+    for name in names:
+        a = np.array(getattr(obj, name), dtype=float)
+        a.setflags(write=False)
+        object.__setattr__(obj, name, a)
+
+
 @dataclass(frozen=True)
 class RigidBody:
     """A body fixed to the platform (platform frame): mass, centre of mass,
@@ -32,6 +40,9 @@ class RigidBody:
     mass: float          # kg
     com: np.ndarray      # (3,) m, platform frame
     inertia: np.ndarray  # (3, 3) kg m^2, platform frame
+
+    def __post_init__(self) -> None:
+        _freeze(self, 'com', 'inertia')
 
 
 @dataclass(frozen=True)
@@ -53,6 +64,9 @@ class Friction:
     viscous: np.ndarray = field(default_factory=lambda: np.zeros(6))   # N s/m
     coulomb: np.ndarray = field(default_factory=lambda: np.zeros(6))   # N
     smoothing_velocity: float = 1e-3                                   # m/s
+
+    def __post_init__(self) -> None:
+        _freeze(self, 'viscous', 'coulomb')
 
 
 @dataclass(frozen=True)
@@ -99,9 +113,8 @@ class StewartModel:
         object.__setattr__(self, 'leg_frames', u_joint_frames(self.base_axes))
         d = self.home + self.platform_joints - self.base_joints
         object.__setattr__(self, 'home_lengths', np.linalg.norm(d, axis=1))
-        for a in (self.base_joints, self.platform_joints, self.base_axes, self.home,
-                  self.leg_frames, self.home_lengths):
-            a.setflags(write=False)
+        _freeze(self, 'base_joints', 'platform_joints', 'base_axes', 'home', 'leg_frames',
+                'home_lengths')
 
     def with_effects(self, effects: Effects, scene: str | None = None) -> 'StewartModel':
         """The same hexapod simulating another set of effects."""

@@ -158,3 +158,11 @@ def test_a_scene_other_than_full_needs_its_effects():
         sm.from_dict(params)
     m = sm.from_dict(params, Effects(payload=True))
     assert m.scene == 'payload' and m.effects.payload
+
+
+def test_the_model_cannot_be_changed_in_place():
+    m = model_of('stewart_6dof')
+    for array in (m.base_joints, m.platform_joints, m.base_axes, m.home, m.platform.com,
+                  m.platform.inertia, m.payload.inertia, m.friction.viscous, m.home_lengths):
+        with pytest.raises(ValueError, match='read-only'):
+            array[0] = 1.0
