@@ -10,16 +10,22 @@ package_name = 'flight_sim_dynamics'
 
 # The compiled kernel (docs/kernel.md); optional: without a C compiler the Python code
 # solves (same results, slower). -ffp-contract=off: no fused multiply-add, as in Python.
+KERNEL_FLAGS = ['-O2', '-ffp-contract=off', '-fno-math-errno']
 kernel = Extension(
     f'{package_name}.core._kernel', sources=['src/kernel.c'], optional=True,
-    extra_compile_args=['-O2', '-ffp-contract=off', '-fno-math-errno'])
+    extra_compile_args=KERNEL_FLAGS)
+# the hexapod's part of the kernel, in the machine's own folder (same rules)
+stewart_kernel = Extension(
+    f'{package_name}.machines.stewart._kernel',
+    sources=[f'{package_name}/machines/stewart/kernel.c'], optional=True,
+    extra_compile_args=KERNEL_FLAGS)
 
 setup(
     name=package_name,
     version='0.1.0',
     packages=find_packages(exclude=['test', 'test.*', 'benchmarks', 'benchmarks.*',
                                     'scripts', 'scripts.*']),
-    ext_modules=[kernel],
+    ext_modules=[kernel, stewart_kernel],
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),

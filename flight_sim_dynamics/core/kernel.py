@@ -87,7 +87,8 @@ else:   # the Python code runs without any of them
 _choice = os.environ.get('FSD_KERNEL', '1')
 if _choice not in ('0', '1'):
     raise ImportError(f'FSD_KERNEL={_choice!r}: expected 0 (the Python code) or 1 (the kernel)')
-_enabled = _kernel is not None and _choice == '1'
+_wanted = _choice == '1'
+_enabled = _kernel is not None and _wanted
 
 
 def available() -> bool:
@@ -100,18 +101,26 @@ def enabled() -> bool:
     return _enabled
 
 
+def wanted() -> bool:
+    """True unless FSD_KERNEL=0 or :func:`use_kernel` (False) asks for the
+    Python code: every machine's compiled kernel is then used where built.
+    """
+    return _wanted
+
+
 @contextmanager
 def use_kernel(on: bool) -> Iterator[None]:
     """Within the block, solve with the kernel (True, if built) or with the
-    Python reference code (False).
+    Python reference code (False); every machine's kernel alike.
     """
-    global _enabled
-    before = _enabled
-    _enabled = bool(on) and _kernel is not None
+    global _enabled, _wanted
+    before = _enabled, _wanted
+    _wanted = bool(on)
+    _enabled = _wanted and _kernel is not None
     try:
         yield
     finally:
-        _enabled = before
+        _enabled, _wanted = before
 
 
 def _body_row(body: Body | None) -> np.ndarray:

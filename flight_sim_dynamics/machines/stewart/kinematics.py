@@ -15,7 +15,7 @@ from typing import Sequence
 import numpy as np
 
 from ...core.status import SINGULAR, Status
-from .model import U_JOINT_TOLERANCE, StewartModel
+from .model import MIN_LENGTH, U_JOINT_TOLERANCE, StewartModel
 
 
 def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -146,7 +146,7 @@ def degenerate_legs(legs: LegPositions) -> np.ndarray:
     """(N, 6) True where a leg cannot be solved: length ~0 (S4) or its U-joint
     singular, u_i along a_1,i (S5), or not finite ("Singular cases").
     """
-    ok = (legs.L > 1e-9) & (legs.c2 >= U_JOINT_TOLERANCE)
+    ok = (legs.L > MIN_LENGTH) & (legs.c2 >= U_JOINT_TOLERANCE)
     return ~ok
 
 

@@ -21,6 +21,14 @@ LEG_NAMES = tuple(f'leg_{i}' for i in range(1, 7))
 
 #: |cos theta_2| below which a U-joint is singular (S5, "Singular cases"): unreachable.
 U_JOINT_TOLERANCE = 1e-6
+#: Leg length at or below which u_i is undefined (S4, "Singular cases"): unreachable, m.
+MIN_LENGTH = 1e-9
+#: Why a leg makes a solve unreachable (its status info = leg + 6 x the reason's index).
+UNREACHABLE_REASONS = ('degenerate_length', 'not_finite', 'u_joint')
+#: Condition of J from which J^-T is not formed (S21): singular to working
+#: precision (status near_singular, forces 0). Well below 1 / eps: the condition
+#: an exactly singular J shows is round-off, 1e13 to 1e17 depending on the method.
+MAX_SOLVED_CONDITION = 1e12
 
 
 def _freeze(obj: object, *names: str) -> None:
@@ -295,7 +303,7 @@ def _check_home(model: StewartModel) -> None:
     d = model.home + model.platform_joints - model.base_joints
     L = np.linalg.norm(d, axis=1)
     for i in range(6):
-        if L[i] < 1e-9:
+        if L[i] <= MIN_LENGTH:
             raise ValueError(f'geometry.home: leg {i + 1} has zero length at home')
         s2 = float(model.base_axes[i] @ d[i] / L[i])
         if 1.0 - s2 * s2 < U_JOINT_TOLERANCE ** 2:

@@ -3,8 +3,10 @@ batch (docs/design/stewart.md, (S1)-(S23)), judged by the status rule of
 :mod:`flight_sim_dynamics.core.status` (never a NaN, never an exception for
 a bad pose or bad numbers).
 
-One implementation: :func:`solve_batch` on numpy arrays (N, 6);
-:func:`solve` is the batch of one::
+:func:`solve` (one sample) and :func:`solve_batch` (N samples) run the
+compiled kernel (:mod:`.kernel`, ``kernel.c``) when it is built, else the numpy
+code below, the reference: :func:`solve_batch` on arrays (N, 6), :func:`solve`
+its batch of one::
 
     sol = solve(model, q, qd, qdd)       # six numbers each
     sol.force, sol.status, sol.detail    # six forces (N), ok ... invalid_input, why
@@ -13,26 +15,21 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 
-from ...core.status import BY_SEVERITY, SEVERITY, Status
+from ...core.status import BY_SEVERITY, RESULTS_NOT_FINITE, SEVERITY, Status
+from . import kernel
 from .dynamics import actuator_forces, friction_forces, generalised_wrench, has_inertia
 from .kinematics import (actuator_jacobian, degenerate_legs, has_bool, jacobian_condition,
                          leg_accelerations, leg_positions, leg_velocities, platform_motion,
                          pose_jacobian, six_numbers, spherical_joint_angles)
-from .model import StewartModel
+from .model import MAX_SOLVED_CONDITION, MIN_LENGTH, UNREACHABLE_REASONS, StewartModel
 
 #: The pose coordinates, in the order of q, qd, qdd.
 COORDINATES = ('surge', 'sway', 'heave', 'roll', 'pitch', 'yaw')
 _INPUTS = ('q', 'qd', 'qdd')
-
-#: ``info`` of a sample whose results overflow (as in core.status).
-RESULTS_NOT_FINITE = -1
-
-#: Condition of J from which J^-T is not formed (S21): an exact singularity
-#: to working precision (status near_singular, forces 0).
-MAX_SOLVED_CONDITION = 1e15
 
 
 @dataclass(frozen=True)
@@ -107,12 +104,12 @@ def _first_bad_input(arrays: tuple) -> np.ndarray:
     return np.where(finite.all(axis=1), -1, np.argmin(finite, axis=1))
 
 
-def _limit_reasons(model: StewartModel, r: dict, i: int) -> list[str]:
-    """What sample i exceeds (stewart.md, "Actuators, limits, effects"), or nothing."""
+def _limit_reasons(model: StewartModel, sol: SimpleNamespace) -> list[str]:
+    """What one sample's values exceed (stewart.md, "Actuators, limits, effects"), or nothing."""
     lim = model.limits
     out = []
     for k in range(6):
-        L, Ld, f = r['length'][i, k], r['rate'][i, k], r['force'][i, k]
+        L, Ld, f = sol.length[k], sol.rate[k], sol.force[k]
         if not lim.length_min <= L <= lim.length_max:
             out.append(f'leg {k + 1} length {L:.4g} m outside '
                        f'[{lim.length_min:g}, {lim.length_max:g}] m')
@@ -121,12 +118,12 @@ def _limit_reasons(model: StewartModel, r: dict, i: int) -> list[str]:
         if abs(f) > lim.max_force:
             out.append(f'leg {k + 1} force {abs(f):.4g} N > {lim.max_force:g} N')
         if lim.u_joint_max_angle is not None:
-            angle = np.abs(r['joints'][i, k, :2]).max()
+            angle = np.abs(sol.joints[k, :2]).max()
             if angle > lim.u_joint_max_angle:
                 out.append(f'leg {k + 1} U-joint angle {math.degrees(angle):.4g} deg > '
                            f'{math.degrees(lim.u_joint_max_angle):g} deg')
         if lim.spherical_joint_max_angle is not None:
-            angle = r['spherical_angles'][i, k]
+            angle = sol.spherical_angles[k]
             if angle > lim.spherical_joint_max_angle:
                 out.append(f'leg {k + 1} spherical joint angle {math.degrees(angle):.4g} deg '
                            f'> {math.degrees(lim.spherical_joint_max_angle):g} deg')
@@ -145,32 +142,47 @@ def _over_limits(model: StewartModel, r: dict) -> np.ndarray:
     return over.any(axis=1)
 
 
-def _detail(model: StewartModel, code: int, info: int, r: dict, i: int,
+def _detail(model: StewartModel, code: int, info: int, sol: SimpleNamespace,
             inputs: tuple) -> str:
-    """Why sample i has status ``code`` ('' for ok)."""
+    """Why a sample has status ``code`` ('' for ok): ``sol`` its cleaned values
+    (length, rate, force, joints, spherical_angles, jacobian_condition),
+    ``inputs`` its (q, qd, qdd).
+    """
     status = BY_SEVERITY[code]
     if status is Status.INVALID_INPUT:
         if info == RESULTS_NOT_FINITE:
             return 'results are not finite: input too large'
-        value = inputs[info // 6][i, info % 6]
+        value = inputs[info // 6][info % 6]
         return (f'{_INPUTS[info // 6]}[{info % 6}] ({COORDINATES[info % 6]}) '
                 f'is not finite ({value})')
     if status is Status.UNREACHABLE:
-        leg, L = info, r['length'][i, info]
-        if np.isfinite(L) and L <= 1e-9:
-            return f'leg {leg + 1}: degenerate length ({L:.3g} m)'
-        if not (np.isfinite(L) and np.isfinite(r['joints'][i, leg]).all()):
-            return f'leg {leg + 1}: position not finite (pose too large)'
-        return (f'leg {leg + 1}: along its U-joint\'s first axis '
-                '(theta_2 = +-90 deg, singular joint)')
+        leg, reason = info % 6 + 1, UNREACHABLE_REASONS[info // 6]
+        if reason == 'degenerate_length':
+            return f'leg {leg}: degenerate length (<= {MIN_LENGTH:g} m)'
+        if reason == 'not_finite':
+            return f'leg {leg}: position not finite (pose too large)'
+        return f'leg {leg}: along its U-joint\'s first axis (theta_2 = +-90 deg, singular joint)'
     if status is Status.NEAR_SINGULAR:
         if not info:
             return 'exact singularity: the actuator Jacobian is singular, forces set to 0'
-        return (f'actuator Jacobian condition {r["jacobian_condition"][i]:.3g} > '
+        return (f'actuator Jacobian condition {sol.jacobian_condition:.3g} > '
                 f'{model.limits.max_jacobian_condition:g}')
     if status is Status.LIMIT:
-        return '; '.join(_limit_reasons(model, r, i))
+        return '; '.join(_limit_reasons(model, sol))
     return ''
+
+
+def _unreachable_info(r: dict) -> np.ndarray:
+    """(N,) info of an unreachable sample: its first degenerate leg + 6 x the
+    reason (UNREACHABLE_REASONS): a length <= MIN_LENGTH, a position not
+    finite, else a U-joint along its first axis.
+    """
+    leg = np.argmax(r['degenerate'], axis=1)
+    rows = np.arange(leg.size)
+    L, joints = r['length'][rows, leg], r['joints'][rows, leg]
+    reason = np.where(np.isfinite(L) & (L <= MIN_LENGTH), 0,
+                      np.where(np.isfinite(joints).all(axis=1), 2, 1))
+    return leg + 6 * reason
 
 
 def _status(model: StewartModel, r: dict, bad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -192,7 +204,7 @@ def _status(model: StewartModel, r: dict, bad: np.ndarray) -> tuple[np.ndarray, 
     info = np.where(near, np.where(r['solvable'] & finite, 1, 0), info)
     degenerate = r['degenerate'].any(axis=1)
     code = np.where(degenerate, SEVERITY[Status.UNREACHABLE], code)
-    info = np.where(degenerate, np.argmax(r['degenerate'], axis=1), info)
+    info = np.where(degenerate, _unreachable_info(r), info)
     code = np.where(bad >= 0, SEVERITY[Status.INVALID_INPUT], code)
     info = np.where(bad >= 0, bad, info)
     return code.astype(np.int8), info
@@ -221,6 +233,17 @@ def solve_batch(model: StewartModel, q: np.ndarray, qd: np.ndarray,
     Q = _as_batch('q', q, None)
     n = Q.shape[0]
     arrays = (Q, _as_batch('qd', qd, n), _as_batch('qdd', qdd, n))
+    if kernel.enabled():
+        rows = kernel.solve_rows(model, *arrays)
+        return _new_kernel_solution(_rows=rows, model=model, pose=Q, _inputs=arrays,
+                                    status=_KERNEL_STATUS_ARRAY[
+                                        rows[:, kernel.O_STATUS].astype(np.intp)])
+    return _solve_arrays(model, *arrays)
+
+
+def _solve_arrays(model: StewartModel, *arrays: np.ndarray) -> StewartSolution:
+    """N samples on numpy arrays (IEEE, no exceptions); the rule judges each."""
+    n = arrays[0].shape[0]
     bad = _first_bad_input(arrays)
     clean = tuple(np.where(bad[:, None] < 0, a, 0.0) for a in arrays)
     with np.errstate(all='ignore'):
@@ -229,7 +252,9 @@ def solve_batch(model: StewartModel, q: np.ndarray, qd: np.ndarray,
     fields = _clean(r, code)
     detail = [''] * n
     for i in np.flatnonzero(code):
-        detail[i] = _detail(model, int(code[i]), int(info[i]), r, i, arrays)
+        values = SimpleNamespace(**{name: value[i] for name, value in fields.items()})
+        detail[i] = _detail(model, int(code[i]), int(info[i]), values,
+                            tuple(a[i] for a in arrays))
     return StewartSolution(**fields, status=_STATUS_ARRAY[code], detail=tuple(detail),
                            model=model, pose=arrays[0])
 
@@ -239,8 +264,28 @@ def solve(model: StewartModel, q, qd, qdd) -> StewartSolution:
     for a bad pose or bad numbers (``sol.status``, ``sol.detail``); ValueError
     only for an argument that is not six numbers.
     """
+    if kernel.enabled():
+        params, bits = kernel.prepared(model)
+        out = np.empty(kernel.OUT_SIZE)
+        inputs = (_as_list(q), _as_list(qd), _as_list(qdd))
+        try:        # the kernel reads lists and tuples of six floats
+            code, info, cond = kernel.solve_one(params, bits, out, *inputs)
+        except TypeError:   # anything else: six numbers as floats, or ValueError
+            inputs = tuple(tuple(six_numbers(name, v).tolist())
+                           for name, v in zip(_INPUTS, (q, qd, qdd)))
+            code, info, cond = kernel.solve_one(params, bits, out, *inputs)
+        return _new_kernel_solution(_rows=out, jacobian_condition=cond,
+                                    status=kernel.STATUS_BY_CODE[code], _info=info,
+                                    _inputs=inputs, model=model)
     rows = [six_numbers(name, v)[None, :] for name, v in zip(_INPUTS, (q, qd, qdd))]
-    return sample(solve_batch(model, *rows), 0)
+    return sample(_solve_arrays(model, *rows), 0)
+
+
+def _as_list(value: object) -> object:
+    """A (6,) float64 array as a list of floats (which the kernel reads); else the value."""
+    if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (6,):
+        return value.tolist()
+    return value
 
 
 def sample(batch: StewartSolution, i: int) -> StewartSolution:
@@ -249,6 +294,85 @@ def sample(batch: StewartSolution, i: int) -> StewartSolution:
     return StewartSolution(**values, jacobian_condition=float(batch.jacobian_condition[i]),
                            status=batch.status[i], detail=batch.detail[i], model=batch.model,
                            pose=batch.pose[i])
+
+
+# ---------------------------------------------------------------------------
+# The kernel's solutions: fields made from its result rows on first access
+# ---------------------------------------------------------------------------
+
+class _Lazy:
+    """A field computed on first access and kept (cached_property without its lock)."""
+
+    def __init__(self, compute) -> None:
+        self.compute = compute
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    def __get__(self, sol: StewartSolution | None, owner: type | None = None) -> object:
+        if sol is None:
+            return self
+        value = sol.__dict__[self.name] = self.compute(sol)
+        return value
+
+
+def _row_view(name: str):
+    """The field ``name`` as a view of the result row(s), in its shape."""
+    offset, size = kernel.OUT[name]
+    shape = {'joints': (6, 3), 'joint_rates': (6, 3), 'joint_accelerations': (6, 3),
+             'jacobian': (6, 6), 'twist_jacobian': (6, 6)}.get(name, (size,) if size > 1 else ())
+
+    def view(sol: StewartSolution) -> np.ndarray:
+        rows = sol.__dict__['_rows']
+        return rows[..., offset:offset + size].reshape(rows.shape[:-1] + shape)
+    return view
+
+
+def _kernel_detail(sol: StewartSolution) -> str | tuple:
+    """The detail of a kernel solution: one string, or one per sample of a batch."""
+    rows = sol.__dict__['_rows']
+    if rows.ndim == 1:
+        if sol.status is Status.OK:
+            return ''
+        return _detail(sol.model, SEVERITY[sol.status], sol.__dict__['_info'], sol,
+                       sol.__dict__['_inputs'])
+    code = rows[:, kernel.O_STATUS].astype(np.intp)
+    info = rows[:, kernel.O_INFO].astype(np.intp)
+    detail = [''] * len(rows)
+    for i in np.flatnonzero(code):
+        values = SimpleNamespace(**{name: getattr(sol, name)[i] for name in
+                                    ('length', 'rate', 'force', 'joints', 'spherical_angles',
+                                     'jacobian_condition')})
+        detail[i] = _detail(sol.model, int(code[i]), int(info[i]), values,
+                            tuple(a[i] for a in sol.__dict__['_inputs']))
+    return tuple(detail)
+
+
+class _KernelSolution(StewartSolution):
+    """A :class:`StewartSolution` whose arrays are views of the kernel's result
+    row(s), made on first access, as are its detail and (one sample) its pose.
+    """
+
+    detail = _Lazy(_kernel_detail)
+    pose = _Lazy(lambda sol: np.array(sol.__dict__['_inputs'][0], dtype=float))
+
+
+if kernel.OUT:
+    for _name in _FIELDS + ('jacobian_condition',):
+        _lazy = _Lazy(_row_view(_name))
+        _lazy.__set_name__(_KernelSolution, _name)
+        setattr(_KernelSolution, _name, _lazy)
+_KernelSolution.__qualname__ = _KernelSolution.__name__ = 'StewartSolution'
+_KERNEL_STATUS_ARRAY = np.array(kernel.STATUS_BY_CODE if kernel.OUT else (), dtype=object)
+
+
+def _new_kernel_solution(**values: object) -> StewartSolution:
+    """A solution without the frozen dataclass's __init__: the rest of its
+    fields come from ``_rows`` on first access.
+    """
+    sol = object.__new__(_KernelSolution)
+    sol.__dict__.update(values)
+    return sol
 
 
 def _as_batch(name: str, value: object, n: int | None) -> np.ndarray:

@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 
 import stewart_reference as sr
 from flight_sim_dynamics.core.effects import Effects
+from flight_sim_dynamics.core.kernel import use_kernel
 from flight_sim_dynamics.machines.stewart import dynamics, solver
 from flight_sim_dynamics.machines.stewart import model as sm
 
@@ -214,26 +215,30 @@ def _refuse(name):
     (Effects(payload=False), ()),
 ], ids=['no_leg_inertia', 'no_leg_terms', 'nothing', 'no_payload'])
 def test_a_disabled_effect_is_skipped_not_multiplied_by_zero(monkeypatch, effects, skipped):
+    """The numpy code (the kernel's: test_stewart_kernel.py)."""
     model = _payload_model('stewart_6dof')[0].with_effects(effects)
     for name in skipped:
         monkeypatch.setattr(dynamics, name, _refuse(name))
     monkeypatch.setattr(solver, 'friction_forces', _refuse('friction_forces'))
     q, qd, qdd = random_motion(10, 'gentle', n=4)
-    sol = solver.solve_batch(model, q, qd, qdd)
+    with use_kernel(False):
+        sol = solver.solve_batch(model, q, qd, qdd)
     assert np.all(np.isfinite(sol.force))
 
 
 def test_the_payload_is_computed_only_when_its_effect_is_on(monkeypatch):
+    """The numpy code (the kernel's: test_stewart_kernel.py)."""
     model = _payload_model('stewart_6dof')[0]
     bodies = []
     original = dynamics.rigid_body_wrench
     monkeypatch.setattr(dynamics, 'rigid_body_wrench',
                         lambda body, *a: bodies.append(body) or original(body, *a))
     q, qd, qdd = random_motion(10, 'gentle', n=4)
-    solver.solve_batch(model.with_effects(Effects(payload=False)), q, qd, qdd)
-    assert bodies == [model.platform]
-    bodies.clear()
-    solver.solve_batch(model, q, qd, qdd)
+    with use_kernel(False):
+        solver.solve_batch(model.with_effects(Effects(payload=False)), q, qd, qdd)
+        assert bodies == [model.platform]
+        bodies.clear()
+        solver.solve_batch(model, q, qd, qdd)
     assert bodies == [model.platform, model.payload]
 
 

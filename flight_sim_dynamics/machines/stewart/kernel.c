@@ -1,0 +1,755 @@
+/*
+ * flight_sim_dynamics.machines.stewart._kernel: the hexapod's solve
+ * (docs/design/stewart.md, (S1)-(S23)) for one sample (solve) or a batch
+ * (solve_batch), writing into caller-provided float64 buffers. A transcription
+ * of kinematics.py, dynamics.py and the status rule of solver.py, in the same
+ * order of operations; the numpy code is the reference
+ * (test/machines/stewart/test_stewart_kernel.py checks the two agree). Function
+ * names follow the Python ones.
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <float.h>
+#include <math.h>
+#include <string.h>
+
+/* The contracts with the Python side, as X-macro lists: the C enum and the
+   exported table (PyInit__kernel) come from one line; kernel.py checks them. */
+#define AS_ENUM(id, name) id,
+#define AS_NAME(id, name) name,
+/* id, id_END = id + size - 1: the next id follows the last double of this one */
+#define AS_OFFSET(id, name, size) id, id##_END = id + (size) - 1,
+#define AS_FIELD(id, name, size) {name, id, size},
+
+/* a body fixed to the platform (model.RigidBody) and a leg body (model.LegBody) */
+#define RIGID_ROW(X) X(R_MASS, "mass", 1) X(R_COM, "com", 3) X(R_INERTIA, "inertia", 9)
+enum { RIGID_ROW(AS_OFFSET) RIGID_SIZE };
+#define LEG_ROW(X) \
+    X(K_MASS, "mass", 1) X(K_COM, "com_distance", 1) X(K_ACROSS, "inertia_across", 1) \
+    X(K_ALONG, "inertia_along", 1)
+enum { LEG_ROW(AS_OFFSET) LEG_SIZE };
+
+/* the packed model (kernel.pack_model): attribute paths of StewartModel, sizes;
+   a joint-angle limit that is off (None) is packed as +inf */
+#define PACKED_MODEL(X) \
+    X(P_BASE, "base_joints", 18) X(P_JOINTS, "platform_joints", 18) \
+    X(P_AXES, "base_axes", 18) X(P_FRAMES, "leg_frames", 54) X(P_HOME, "home", 3) \
+    X(P_HOME_LENGTHS, "home_lengths", 6) X(P_GRAVITY, "gravity", 1) \
+    X(P_PLATFORM, "platform", RIGID_SIZE) X(P_PAYLOAD, "payload", RIGID_SIZE) \
+    X(P_CYLINDER, "cylinder", LEG_SIZE) X(P_ROD, "rod", LEG_SIZE) \
+    X(P_VISCOUS, "friction.viscous", 6) X(P_COULOMB, "friction.coulomb", 6) \
+    X(P_SMOOTHING, "friction.smoothing_velocity", 1) \
+    X(P_LENGTH_MIN, "limits.length_min", 1) X(P_LENGTH_MAX, "limits.length_max", 1) \
+    X(P_MAX_SPEED, "limits.max_speed", 1) X(P_MAX_FORCE, "limits.max_force", 1) \
+    X(P_MAX_COND, "limits.max_jacobian_condition", 1) \
+    X(P_U_MAX, "limits.u_joint_max_angle", 1) \
+    X(P_S_MAX, "limits.spherical_joint_max_angle", 1)
+enum { PACKED_MODEL(AS_OFFSET) P_SIZE };
+
+/* effects bits (effects.EFFECT_NAMES, any order) */
+#define EFFECT_LIST(X) \
+    X(E_GRAVITY, "gravity") X(E_PLATFORM, "platform_inertia") X(E_PAYLOAD, "payload") \
+    X(E_LEG, "leg_inertia") X(E_CRANK, "crank_inertia") /* no cranks: no terms */ \
+    X(E_VP, "velocity_products") X(E_FRICTION, "friction")
+#define AS_INDEX(id, name) id##_INDEX,
+#define AS_BIT(id, name) id = 1 << id##_INDEX,
+enum { EFFECT_LIST(AS_INDEX) N_EFFECTS };
+enum { EFFECT_LIST(AS_BIT) E_ALL = (1 << N_EFFECTS) - 1 };
+
+/* one result row: the StewartSolution fields (the checked ones first, O_LENGTH
+   to O_TWIST_JACOBIAN_END), then the status code and its info */
+#define RESULT_ROW(X) \
+    X(O_LENGTH, "length", 6) X(O_STROKE, "stroke", 6) X(O_RATE, "rate", 6) \
+    X(O_ACCELERATION, "acceleration", 6) X(O_FORCE, "force", 6) X(O_POWER, "power", 6) \
+    X(O_JOINTS, "joints", 18) X(O_JOINT_RATES, "joint_rates", 18) \
+    X(O_JOINT_ACCELERATIONS, "joint_accelerations", 18) \
+    X(O_SPHERICAL, "spherical_angles", 6) X(O_JACOBIAN, "jacobian", 36) \
+    X(O_TWIST_JACOBIAN, "twist_jacobian", 36) X(O_COND, "jacobian_condition", 1) \
+    X(O_STATUS, "status", 1) X(O_INFO, "info", 1)
+enum { RESULT_ROW(AS_OFFSET) OUT_SIZE };
+
+/* status codes, by severity (core.status: SEVERITY) */
+#define STATUS_LIST(X) \
+    X(S_OK, "ok") X(S_LIMIT, "limit") X(S_NEAR_SINGULAR, "near_singular") \
+    X(S_UNREACHABLE, "unreachable") X(S_INVALID, "invalid_input")
+enum { STATUS_LIST(AS_ENUM) N_STATUS };
+
+/* info of an unreachable sample: leg + 6 x why (solver.py, UNREACHABLE_*) */
+#define UNREACHABLE_LIST(X) \
+    X(U_LENGTH, "degenerate_length") X(U_NOT_FINITE, "not_finite") X(U_JOINT, "u_joint")
+enum { UNREACHABLE_LIST(AS_ENUM) N_UNREACHABLE };
+
+#define RESULTS_NOT_FINITE (-1)     /* info of results that overflow (core.status) */
+#define U_JOINT_TOLERANCE 1e-6      /* model.U_JOINT_TOLERANCE */
+#define MIN_LENGTH 1e-9             /* model.MIN_LENGTH */
+#define MAX_SOLVED_CONDITION 1e12   /* model.MAX_SOLVED_CONDITION */
+#define SINGULAR DBL_MAX            /* core.status.SINGULAR */
+
+typedef struct { double x, y, z; } v3;
+
+static inline v3 vec(double x, double y, double z) { v3 r = {x, y, z}; return r; }
+static inline v3 load(const double *p) { return vec(p[0], p[1], p[2]); }
+static inline v3 add(v3 a, v3 b) { return vec(a.x + b.x, a.y + b.y, a.z + b.z); }
+static inline v3 sub(v3 a, v3 b) { return vec(a.x - b.x, a.y - b.y, a.z - b.z); }
+static inline v3 scale(double s, v3 a) { return vec(s * a.x, s * a.y, s * a.z); }
+static inline v3 divide(v3 a, double s) { return vec(a.x / s, a.y / s, a.z / s); }
+static inline double dot(v3 a, v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline v3 cross(v3 a, v3 b)
+{ return vec(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x); }
+static inline v3 mat_vec(const double m[3][3], v3 c)
+{
+    return vec(m[0][0] * c.x + m[0][1] * c.y + m[0][2] * c.z,
+               m[1][0] * c.x + m[1][1] * c.y + m[1][2] * c.z,
+               m[2][0] * c.x + m[2][1] * c.y + m[2][2] * c.z);
+}
+static const v3 ZERO = {0.0, 0.0, 0.0};
+
+/* ---- The platform (S1)-(S3): kinematics.platform_motion ---- */
+typedef struct {
+    v3 p, v, omega, a, eps;
+    double R[3][3], E[3][3];
+} platform_motion;
+
+/* rates 0: the motion of the same accelerations from rest (qd = 0) */
+static void platform_motion_of(const double *P, const double *q, const double *qd,
+                               const double *qdd, int rates, platform_motion *pm)
+{
+    double cr = cos(q[3]), sr = sin(q[3]), cp = cos(q[4]), sp = sin(q[4]);
+    double cy = cos(q[5]), sy = sin(q[5]);
+    double R[3][3] = {{cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr},   /* (S1) */
+                      {sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr},
+                      {-sp, cp * sr, cp * cr}};
+    double E[3][3] = {{cy * cp, -sy, 0.0}, {sy * cp, cy, 0.0}, {-sp, 0.0, 1.0}};   /* (S2) */
+    memcpy(pm->R, R, sizeof R);
+    memcpy(pm->E, E, sizeof E);
+    pm->p = add(load(P + P_HOME), load(q));
+    v3 ang_dd = load(qdd + 3);
+    pm->a = load(qdd);
+    if (rates) {
+        double pd = qd[4], yd = qd[5];
+        double Ed[3][3] = {{-sy * cp * yd - cy * sp * pd, -cy * yd, 0.0},           /* (S3) */
+                           {cy * cp * yd - sy * sp * pd, -sy * yd, 0.0},
+                           {-cp * pd, 0.0, 0.0}};
+        v3 ang_d = load(qd + 3);
+        pm->v = load(qd);
+        pm->omega = mat_vec(E, ang_d);
+        pm->eps = add(mat_vec(E, ang_dd), mat_vec(Ed, ang_d));
+    } else {
+        pm->v = ZERO;
+        pm->omega = ZERO;
+        pm->eps = mat_vec(E, ang_dd);
+    }
+}
+
+/* ---- Leg i (S4)-(S13) ---- */
+typedef struct {
+    v3 r, u, a1, a1xu;                   /* (S4)-(S5) */
+    double L, s2, c2, theta1, theta2;
+} leg_position;
+
+typedef struct {
+    v3 vP, ud, omega;                    /* (S6)-(S9) */
+    double Ld, theta1d, theta2d, sigma;
+} leg_velocity;
+
+typedef struct {
+    v3 aP, udd, eps;                     /* (S10)-(S13) */
+    double Ldd, theta1dd, theta2dd;
+} leg_acceleration;
+
+/* kinematics.leg_positions: r = R p_i, d = p + r - B_i, L = |d|, u = d / L (S4);
+   theta_2 = atan2(a_1 . u, |a_1 x u|), theta_1 = atan2(-e2 . u, e3 . u) (S5) */
+static void leg_position_of(const double *P, int i, const platform_motion *pm,
+                            leg_position *g)
+{
+    g->r = mat_vec(pm->R, load(P + P_JOINTS + 3 * i));
+    v3 d = sub(add(pm->p, g->r), load(P + P_BASE + 3 * i));
+    g->L = sqrt(dot(d, d));
+    g->u = divide(d, g->L);
+    g->a1 = load(P + P_AXES + 3 * i);
+    g->s2 = dot(g->u, g->a1);
+    g->a1xu = cross(g->a1, g->u);
+    g->c2 = sqrt(dot(g->a1xu, g->a1xu));
+    const double *C = P + P_FRAMES + 9 * i;      /* C_i = [e1 e2 e3], row-major */
+    double local1 = C[1] * g->u.x + C[4] * g->u.y + C[7] * g->u.z;
+    double local2 = C[2] * g->u.x + C[5] * g->u.y + C[8] * g->u.z;
+    g->theta1 = atan2(-local1, local2);
+    g->theta2 = atan2(g->s2, g->c2);
+}
+
+/* kinematics.leg_velocities: (S6)-(S9) */
+static void leg_velocity_of(const leg_position *g, const platform_motion *pm, leg_velocity *w)
+{
+    w->vP = add(pm->v, cross(pm->omega, g->r));
+    w->Ld = dot(g->u, w->vP);
+    w->ud = divide(sub(w->vP, scale(w->Ld, g->u)), g->L);
+    w->theta1d = dot(g->a1xu, w->ud) / (g->c2 * g->c2);
+    w->theta2d = dot(g->a1, w->ud) / g->c2;
+    w->sigma = g->s2 * w->theta1d;
+    w->omega = add(cross(g->u, w->ud), scale(w->sigma, g->u));
+}
+
+/* kinematics.leg_accelerations: (S10)-(S13) */
+static void leg_acceleration_of(const leg_position *g, const leg_velocity *w,
+                                const platform_motion *pm, leg_acceleration *k)
+{
+    v3 o = pm->omega;
+    k->aP = add(add(pm->a, cross(pm->eps, g->r)), cross(o, cross(o, g->r)));
+    v3 u = g->u, ud = w->ud;
+    double L = g->L;
+    k->Ldd = dot(u, k->aP) + L * dot(ud, ud);
+    k->udd = divide(sub(sub(k->aP, scale(k->Ldd, u)), scale(2.0 * w->Ld, ud)), L);
+    double c2sq = g->c2 * g->c2;
+    double a1ud = dot(g->a1, ud);
+    k->theta1dd = (dot(g->a1xu, k->udd) + 2.0 * g->s2 * a1ud * w->theta1d) / c2sq;
+    k->theta2dd = (dot(g->a1, k->udd) + g->s2 * a1ud * a1ud / c2sq) / g->c2;
+    double sigma_d = g->s2 * k->theta1dd + a1ud * w->theta1d;
+    k->eps = add(add(cross(u, k->udd), scale(sigma_d, u)), scale(w->sigma, ud));
+}
+
+/* ---- Dynamics (S14)-(S23): dynamics.py ---- */
+
+/* I_k x with I_k = I_across Pi + I_along u u^T (S15) */
+static inline v3 axisymmetric_product(const double *body, v3 u, v3 x)
+{
+    v3 along = scale(dot(u, x), u);
+    return add(scale(body[K_ACROSS], sub(x, along)), scale(body[K_ALONG], along));
+}
+
+/* G_i, the leg's inertia and weight carried to P_i (S14), (S15), (S20):
+   dynamics.leg_forces, leg_moment, carried_force */
+static v3 carried_force(const double *P, int fx, const leg_position *g, const leg_velocity *w,
+                        const leg_acceleration *k)
+{
+    const double *cyl = P + P_CYLINDER, *rod = P + P_ROD;
+    v3 F1 = ZERO, F2 = ZERO;
+    if (fx & E_LEG) {                                                  /* (S14) */
+        F1 = scale(cyl[K_MASS] * cyl[K_COM], k->udd);
+        F2 = scale(rod[K_MASS], sub(k->aP, scale(rod[K_COM], k->udd)));
+    }
+    if (fx & E_GRAVITY) {                   /* - m_k g, g = (0, 0, -gravity) */
+        double g_z = -P[P_GRAVITY];
+        F1.z = F1.z - cyl[K_MASS] * g_z;
+        F2.z = F2.z - rod[K_MASS] * g_z;
+    }
+    v3 u = g->u;
+    v3 m = sub(scale(cyl[K_COM], F1), scale(rod[K_COM], F2));
+    v3 T = sub(m, scale(dot(u, m), u));                                /* Pi_i (...) */
+    if (fx & E_LEG) {                                                  /* N_i (S15) */
+        v3 N = ZERO;
+        for (int b = 0; b < 2; b++) {
+            const double *body = b == 0 ? cyl : rod;
+            N = add(N, add(axisymmetric_product(body, u, k->eps),
+                           cross(w->omega, axisymmetric_product(body, u, w->omega))));
+        }
+        T = add(add(T, cross(N, u)), scale(g->s2 * dot(u, N) / (g->c2 * g->c2), g->a1xu));
+    }
+    return add(F2, divide(T, g->L));
+}
+
+/* (F_0, N_0 + rho x F_0) of a body on the platform about its origin (S16):
+   dynamics.rigid_body_wrench; the inertia terms only if `inertia`, the weight
+   only if `weight` */
+static void rigid_body_wrench(const double *body, const double *P, const platform_motion *pm,
+                              int weight, int inertia, v3 *F, v3 *M)
+{
+    v3 rho = mat_vec(pm->R, load(body + R_COM));
+    v3 g = vec(0.0, 0.0, -P[P_GRAVITY]);
+    double m = body[R_MASS];
+    v3 moment = ZERO;
+    v3 force;
+    if (inertia) {
+        v3 o = pm->omega, e = pm->eps;
+        v3 a_c = add(add(pm->a, cross(e, rho)), cross(o, cross(o, rho)));
+        force = scale(m, weight ? sub(a_c, g) : a_c);
+        double Ib[3][3], RI[3][3];                               /* R I_c R^T */
+        const double *I = body + R_INERTIA;
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                RI[i][j] = pm->R[i][0] * I[j] + pm->R[i][1] * I[3 + j] + pm->R[i][2] * I[6 + j];
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                Ib[i][j] = RI[i][0] * pm->R[j][0] + RI[i][1] * pm->R[j][1]
+                    + RI[i][2] * pm->R[j][2];
+        moment = add(mat_vec(Ib, e), cross(o, mat_vec(Ib, o)));
+    } else {
+        force = scale(-m, g);
+    }
+    *F = add(*F, force);
+    *M = add(*M, add(moment, cross(rho, force)));
+}
+
+/* dynamics.has_inertia: the scene moves some body */
+static inline int has_inertia(const double *P, int fx)
+{
+    return (fx & (E_PLATFORM | E_LEG)) || ((fx & E_PAYLOAD) && P[P_PAYLOAD + R_MASS] > 0.0);
+}
+
+/* Solve A x = b (6x6, row-major, destroyed) by LU with partial pivoting
+   (LAPACK's gesv, as numpy.linalg.solve); 0 if A is exactly singular. */
+static int solve6(double A[6][6], double *b)
+{
+    for (int c = 0; c < 6; c++) {
+        int p = c;
+        for (int r = c + 1; r < 6; r++)
+            if (fabs(A[r][c]) > fabs(A[p][c]))
+                p = r;
+        if (A[p][c] == 0.0)
+            return 0;
+        if (p != c) {
+            for (int j = 0; j < 6; j++) {
+                double t = A[c][j]; A[c][j] = A[p][j]; A[p][j] = t;
+            }
+            double t = b[c]; b[c] = b[p]; b[p] = t;
+        }
+        for (int r = c + 1; r < 6; r++) {
+            double l = A[r][c] / A[c][c];
+            for (int j = c + 1; j < 6; j++)
+                A[r][j] -= l * A[c][j];
+            b[r] -= l * b[c];
+        }
+    }
+    for (int c = 5; c >= 0; c--) {
+        double s = b[c];
+        for (int j = c + 1; j < 6; j++)
+            s -= A[c][j] * b[j];
+        b[c] = s / A[c][c];
+    }
+    return 1;
+}
+
+/* One Jacobi rotation of the columns x, y (length 6) that makes them
+   orthogonal, unless it would change their squared norms by less than
+   1e-16 of the smaller one (the singular values are then final); 1 if it
+   rotated. Norms and product are computed afresh each time (updated norms
+   lose the small singular values' relative accuracy). */
+static inline int rotate(double *x, double *y)
+{
+    double xx = 0.0, yy = 0.0, xy = 0.0;
+    for (int r = 0; r < 6; r++) {
+        xx += x[r] * x[r];
+        yy += y[r] * y[r];
+        xy += x[r] * y[r];
+    }
+    if (xy == 0.0)
+        return 0;
+    double zeta = (yy - xx) / (2.0 * xy);
+    double t = fabs(zeta) < 1e100
+        ? copysign(1.0, zeta) / (fabs(zeta) + sqrt(1.0 + zeta * zeta)) : 0.5 / zeta;
+    if (!(fabs(t * xy) > 1e-16 * (xx < yy ? xx : yy)))   /* t xy: the norms' change */
+        return 0;
+    double c = 1.0 / sqrt(1.0 + t * t), s = c * t;
+    for (int r = 0; r < 6; r++) {
+        double a = x[r], b = y[r];
+        x[r] = c * a - s * b;
+        y[r] = s * a + c * b;
+    }
+    return 1;
+}
+
+/* The pairs of a Jacobi sweep in rounds of three disjoint pairs (a round-robin
+   tournament): the three rotations of a round are independent of each other. */
+static const int ROUNDS[5][3][2] = {
+    {{0, 5}, {1, 4}, {2, 3}}, {{0, 4}, {5, 3}, {1, 2}}, {{0, 3}, {4, 2}, {5, 1}},
+    {{0, 2}, {3, 1}, {4, 5}}, {{0, 1}, {2, 5}, {3, 4}}};
+
+/* 2-norm condition sigma_max / sigma_min of the 6x6 J (row-major) by one-sided
+   Jacobi (Hestenes): plane rotations make J's columns orthogonal, the singular
+   values are then their norms, to high relative accuracy (numpy's SVD in
+   kinematics.jacobian_condition has J's 2-norm error). SINGULAR where J is
+   singular or not finite. */
+static double jacobian_condition(const double *J)
+{
+    double a[6][6];             /* a[c]: column c */
+    for (int c = 0; c < 6; c++)
+        for (int r = 0; r < 6; r++) {
+            if (!isfinite(J[6 * r + c]))
+                return SINGULAR;
+            a[c][r] = J[6 * r + c];
+        }
+    for (int sweep = 0; sweep < 30; sweep++) {
+        int rotated = 0;
+        for (int k = 0; k < 5; k++)
+            for (int m = 0; m < 3; m++)
+                rotated |= rotate(a[ROUNDS[k][m][0]], a[ROUNDS[k][m][1]]);
+        if (!rotated)
+            break;
+    }
+    double hi = 0.0, lo = INFINITY;
+    for (int c = 0; c < 6; c++) {
+        double s = 0.0;
+        for (int r = 0; r < 6; r++)
+            s += a[c][r] * a[c][r];
+        hi = s > hi ? s : hi;
+        lo = s < lo ? s : lo;
+    }
+    double cond = sqrt(hi) / sqrt(lo);
+    return isfinite(cond) ? cond : SINGULAR;
+}
+
+/* ---- One sample: solver._evaluate, _status, _clean ---- */
+
+static void void_row(double *out, int code, int info)
+{
+    memset(out, 0, OUT_SIZE * sizeof(double));
+    out[O_STATUS] = code;
+    out[O_INFO] = info;
+}
+
+static void solve_one(const double *P, int fx, const double *q, const double *qd,
+                      const double *qdd, double *out)
+{
+    for (int j = 0; j < 18; j++) {          /* solver._first_bad_input */
+        double x = j < 6 ? q[j] : j < 12 ? qd[j - 6] : qdd[j - 12];
+        if (!isfinite(x)) {
+            void_row(out, S_INVALID, j);
+            return;
+        }
+    }
+    platform_motion pm;
+    platform_motion_of(P, q, qd, qdd, 1, &pm);                        /* (S1)-(S3) */
+    leg_position g[6];
+    leg_velocity w[6];
+    leg_acceleration k[6];
+    double *J = out + O_TWIST_JACOBIAN, *JL = out + O_JACOBIAN;
+    int degenerate = -1;
+    for (int i = 0; i < 6; i++) {
+        leg_position_of(P, i, &pm, &g[i]);                             /* (S4)-(S5) */
+        leg_velocity_of(&g[i], &pm, &w[i]);                            /* (S6)-(S9) */
+        leg_acceleration_of(&g[i], &w[i], &pm, &k[i]);                 /* (S10)-(S13) */
+        out[O_LENGTH + i] = g[i].L;
+        out[O_STROKE + i] = g[i].L - P[P_HOME_LENGTHS + i];
+        out[O_RATE + i] = w[i].Ld;
+        out[O_ACCELERATION + i] = k[i].Ldd;
+        double *jt = out + O_JOINTS + 3 * i, *jr = out + O_JOINT_RATES + 3 * i,
+               *ja = out + O_JOINT_ACCELERATIONS + 3 * i;
+        jt[0] = g[i].theta1; jt[1] = g[i].theta2; jt[2] = g[i].L;
+        jr[0] = w[i].theta1d; jr[1] = w[i].theta2d; jr[2] = w[i].Ld;
+        ja[0] = k[i].theta1dd; ja[1] = k[i].theta2dd; ja[2] = k[i].Ldd;
+        double c = dot(g[i].u, vec(pm.R[0][2], pm.R[1][2], pm.R[2][2]));
+        c = c < -1.0 ? -1.0 : c > 1.0 ? 1.0 : c;
+        out[O_SPHERICAL + i] = acos(c);          /* kinematics.spherical_joint_angles */
+        v3 m = cross(g[i].r, g[i].u);            /* (S21): J row i = [u^T (r x u)^T] */
+        double row[6] = {g[i].u.x, g[i].u.y, g[i].u.z, m.x, m.y, m.z};
+        for (int j = 0; j < 3; j++) {            /* (S22): J_L = [J[:, :3] J[:, 3:] E] */
+            J[6 * i + j] = row[j];
+            J[6 * i + 3 + j] = row[3 + j];
+            JL[6 * i + j] = row[j];
+            JL[6 * i + 3 + j] = row[3] * pm.E[0][j] + row[4] * pm.E[1][j] + row[5] * pm.E[2][j];
+        }
+        if (degenerate < 0 && !(g[i].L > MIN_LENGTH && g[i].c2 >= U_JOINT_TOLERANCE))
+            degenerate = i;                      /* kinematics.degenerate_legs */
+    }
+    double cond = jacobian_condition(J);
+    int solvable = degenerate < 0 && cond < MAX_SOLVED_CONDITION;
+
+    /* the wrench the actuators balance (S14)-(S21): dynamics.generalised_wrench */
+    double wrench[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+    if (solvable) {
+        platform_motion rest;                    /* no velocity products: from rest */
+        const platform_motion *dyn = &pm;
+        leg_velocity *dw = w;
+        leg_acceleration *dk = k;
+        leg_velocity w0[6];
+        leg_acceleration k0[6];
+        if (!(fx & E_VP) && has_inertia(P, fx)) {
+            platform_motion_of(P, q, qd, qdd, 0, &rest);
+            dyn = &rest;
+            for (int i = 0; i < 6; i++) {
+                leg_velocity_of(&g[i], dyn, &w0[i]);
+                leg_acceleration_of(&g[i], &w0[i], dyn, &k0[i]);
+            }
+            dw = w0;
+            dk = k0;
+        }
+        v3 F = ZERO, M = ZERO;                                          /* w_0 (S16) */
+        int weight = (fx & E_GRAVITY) != 0;
+        if ((fx & E_PLATFORM) || weight)
+            rigid_body_wrench(P + P_PLATFORM, P, dyn, weight, (fx & E_PLATFORM) != 0, &F, &M);
+        if ((fx & E_PAYLOAD) && P[P_PAYLOAD + R_MASS] > 0.0)
+            rigid_body_wrench(P + P_PAYLOAD, P, dyn, weight, 1, &F, &M);
+        if (fx & (E_LEG | E_GRAVITY)) {                                 /* (S20)-(S21) */
+            v3 sG = ZERO, sM = ZERO;
+            for (int i = 0; i < 6; i++) {
+                v3 G = carried_force(P, fx, &g[i], &dw[i], &dk[i]);
+                sG = add(sG, G);
+                sM = add(sM, cross(g[i].r, G));
+            }
+            F = add(F, sG);
+            M = add(M, sM);
+        }
+        wrench[0] = F.x; wrench[1] = F.y; wrench[2] = F.z;
+        wrench[3] = M.x; wrench[4] = M.y; wrench[5] = M.z;
+        double JT[6][6];                         /* f = J^-T wrench (S21) */
+        for (int r = 0; r < 6; r++)
+            for (int c = 0; c < 6; c++)
+                JT[r][c] = J[6 * c + r];
+        if (!solve6(JT, wrench))
+            solvable = 0;
+    }
+    for (int i = 0; i < 6; i++) {
+        double f = solvable ? wrench[i] : NAN;   /* no forces through a singular J */
+        if (fx & E_FRICTION)                                            /* (S23) */
+            f = f + (P[P_VISCOUS + i] * w[i].Ld
+                     + P[P_COULOMB + i] * tanh(w[i].Ld / P[P_SMOOTHING]));
+        out[O_FORCE + i] = f;
+        out[O_POWER + i] = f * w[i].Ld;
+    }
+
+    /* the status rule, worst first (solver._status) */
+    int finite = 1;
+    for (int j = O_LENGTH; j <= O_TWIST_JACOBIAN_END; j++)
+        finite &= isfinite(out[j]) != 0;
+    int over = 0;                                /* solver._over_limits */
+    for (int i = 0; i < 6; i++) {
+        double L = out[O_LENGTH + i];
+        over |= (L < P[P_LENGTH_MIN]) | (L > P[P_LENGTH_MAX])
+            | (fabs(out[O_RATE + i]) > P[P_MAX_SPEED])
+            | (fabs(out[O_FORCE + i]) > P[P_MAX_FORCE])
+            | (fabs(g[i].theta1) > P[P_U_MAX]) | (fabs(g[i].theta2) > P[P_U_MAX])
+            | (out[O_SPHERICAL + i] > P[P_S_MAX]);
+    }
+    int code = over ? S_LIMIT : S_OK, info = 0;
+    if (!finite) {
+        code = S_INVALID;
+        info = RESULTS_NOT_FINITE;
+    }
+    if (!(cond <= P[P_MAX_COND])) {
+        code = S_NEAR_SINGULAR;
+        info = solvable && finite;
+    }
+    if (degenerate >= 0) {                       /* solver._unreachable_info */
+        double L = g[degenerate].L;
+        int why = (isfinite(L) && L <= MIN_LENGTH) ? U_LENGTH
+            : !(isfinite(L) && isfinite(g[degenerate].theta1) && isfinite(g[degenerate].theta2))
+            ? U_NOT_FINITE : U_JOINT;
+        code = S_UNREACHABLE;
+        info = degenerate + 6 * why;
+    }
+    if (code >= S_UNREACHABLE) {                 /* solver._clean: a void sample is 0 */
+        void_row(out, code, info);
+        return;
+    }
+    for (int j = O_LENGTH; j <= O_TWIST_JACOBIAN_END; j++)   /* and what is not finite */
+        if (!isfinite(out[j]))
+            out[j] = 0.0;
+    out[O_COND] = cond;
+    out[O_STATUS] = code;
+    out[O_INFO] = info;
+}
+
+/* ---- Python bindings ---- */
+
+/* a C-contiguous float64 buffer of exactly n doubles (writable if asked) */
+static int get_doubles(PyObject *obj, Py_buffer *view, Py_ssize_t n, int writable,
+                       const char *name)
+{
+    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT
+                           | (writable ? PyBUF_WRITABLE : 0)) < 0)
+        return -1;
+    if (view->len != n * (Py_ssize_t)sizeof(double) || view->format == NULL
+            || strcmp(view->format, "d") != 0) {
+        PyErr_Format(PyExc_ValueError, "%s must be %zd float64 numbers", name, n);
+        PyBuffer_Release(view);
+        return -1;
+    }
+    return 0;
+}
+
+/* six numbers of a list or tuple of exactly six Python floats (TypeError
+   otherwise: solver.solve then checks and converts them) */
+static int six_floats(PyObject *t, const char *name, double *x)
+{
+    if (!(PyTuple_CheckExact(t) || PyList_CheckExact(t)) || PySequence_Fast_GET_SIZE(t) != 6) {
+        PyErr_Format(PyExc_TypeError, "%s must be a list or tuple of 6 floats", name);
+        return -1;
+    }
+    PyObject **items = PySequence_Fast_ITEMS(t);
+    for (int i = 0; i < 6; i++) {
+        if (!PyFloat_CheckExact(items[i])) {
+            PyErr_Format(PyExc_TypeError, "%s must be a list or tuple of 6 floats", name);
+            return -1;
+        }
+        x[i] = PyFloat_AS_DOUBLE(items[i]);
+    }
+    return 0;
+}
+
+static int effect_bits(PyObject *obj, int *fx)
+{
+    long bits = PyLong_AsLong(obj);
+    if (bits == -1 && PyErr_Occurred())
+        return -1;
+    if (bits < 0 || bits > E_ALL) {
+        PyErr_SetString(PyExc_ValueError, "unknown effect bits");
+        return -1;
+    }
+    *fx = (int)bits;
+    return 0;
+}
+
+PyDoc_STRVAR(solve_doc,
+"solve(params, effects, out, q, qd, qdd) -> (status, info, jacobian_condition)\n\n"
+"One sample: q, qd, qdd lists or tuples of 6 floats; fills the writable buffer `out`\n"
+"(OUT_SIZE float64) and returns the row's scalars. params: the packed model\n"
+"(kernel.pack_model); effects: the bit set (EFFECTS).");
+
+static PyObject *py_solve(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    double x[18];
+    int fx;
+    if (nargs != 6) {
+        PyErr_SetString(PyExc_TypeError, "solve() takes 6 arguments");
+        return NULL;
+    }
+    if (effect_bits(args[1], &fx) < 0 || six_floats(args[3], "q", x) < 0
+            || six_floats(args[4], "qd", x + 6) < 0 || six_floats(args[5], "qdd", x + 12) < 0)
+        return NULL;
+    Py_buffer pv, ov;
+    if (get_doubles(args[0], &pv, P_SIZE, 0, "packed model") < 0)
+        return NULL;
+    if (get_doubles(args[2], &ov, OUT_SIZE, 1, "out") < 0) {
+        PyBuffer_Release(&pv);
+        return NULL;
+    }
+    double *out = (double *)ov.buf;
+    solve_one((const double *)pv.buf, fx, x, x + 6, x + 12, out);
+    PyBuffer_Release(&pv);
+    PyBuffer_Release(&ov);
+    return Py_BuildValue("(iid)", (int)out[O_STATUS], (int)out[O_INFO], out[O_COND]);
+}
+
+PyDoc_STRVAR(solve_batch_doc,
+"solve_batch(params, effects, q, qd, qdd, out) -> None\n\n"
+"N samples: q, qd, qdd C-contiguous (N, 6) float64 buffers, out a writable\n"
+"C-contiguous (N, OUT_SIZE) float64 buffer; each row as solve's. Releases the GIL.");
+
+static PyObject *py_solve_batch(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 6) {
+        PyErr_SetString(PyExc_TypeError, "solve_batch() takes 6 arguments");
+        return NULL;
+    }
+    int fx;
+    if (effect_bits(args[1], &fx) < 0)
+        return NULL;
+    Py_buffer views[5];     /* q (its size gives N), params, qd, qdd, out */
+    int got = 0;
+    PyObject *result = NULL;
+    if (PyObject_GetBuffer(args[2], &views[0], PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0)
+        return NULL;
+    Py_ssize_t n = views[0].len / (Py_ssize_t)(6 * sizeof(double));
+    if (views[0].len != 6 * n * (Py_ssize_t)sizeof(double) || views[0].format == NULL
+            || strcmp(views[0].format, "d") != 0) {
+        PyErr_SetString(PyExc_ValueError, "q must be (N, 6) float64 numbers");
+        PyBuffer_Release(&views[0]);
+        return NULL;
+    }
+    static const int arg[5] = {2, 0, 3, 4, 5};
+    static const char *const names[5] = {"q", "packed model", "qd", "qdd", "out"};
+    const Py_ssize_t sizes[5] = {6 * n, P_SIZE, 6 * n, 6 * n, OUT_SIZE * n};
+    for (got = 1; got < 5; got++)
+        if (get_doubles(args[arg[got]], &views[got], sizes[got], got == 4, names[got]) < 0)
+            goto done;
+    {
+        const double *P = (const double *)views[1].buf;
+        const double *q = (const double *)views[0].buf, *qd = (const double *)views[2].buf,
+                     *qdd = (const double *)views[3].buf;
+        double *out = (double *)views[4].buf;
+        Py_BEGIN_ALLOW_THREADS
+        for (Py_ssize_t i = 0; i < n; i++)
+            solve_one(P, fx, q + 6 * i, qd + 6 * i, qdd + 6 * i, out + OUT_SIZE * i);
+        Py_END_ALLOW_THREADS
+    }
+    Py_INCREF(Py_None);
+    result = Py_None;
+done:
+    for (int i = 0; i < got; i++)
+        PyBuffer_Release(&views[i]);
+    return result;
+}
+
+static PyMethodDef methods[] = {
+    {"solve", (PyCFunction)(void (*)(void))py_solve, METH_FASTCALL, solve_doc},
+    {"solve_batch", (PyCFunction)(void (*)(void))py_solve_batch, METH_FASTCALL,
+     solve_batch_doc},
+    {NULL, NULL, 0, NULL}
+};
+
+static struct PyModuleDef module = {
+    PyModuleDef_HEAD_INIT, "_kernel",
+    "Compiled solve of the 6-UPS hexapod (see kernel.py).", -1, methods
+};
+
+/* the declarations at the top, as Python objects (read by kernel.py) */
+typedef struct { const char *name; int offset, size; } field;
+#define AS_BIT_FIELD(id, name) {name, id, 1},
+static const field PACKED_FIELDS[] = { PACKED_MODEL(AS_FIELD) };
+static const field RIGID_FIELDS[] = { RIGID_ROW(AS_FIELD) };
+static const field LEG_FIELDS[] = { LEG_ROW(AS_FIELD) };
+static const field RESULT_FIELDS[] = { RESULT_ROW(AS_FIELD) };
+static const field EFFECT_FIELDS[] = { EFFECT_LIST(AS_BIT_FIELD) };
+static const char *const STATUS_NAMES[] = { STATUS_LIST(AS_NAME) };
+static const char *const UNREACHABLE_NAMES[] = { UNREACHABLE_LIST(AS_NAME) };
+#define COUNT(a) (sizeof (a) / sizeof (a)[0])
+
+/* {name: (offset, size)}, or with bits_only {name: bit} */
+static PyObject *fields_dict(const field *f, size_t n, int bits_only)
+{
+    PyObject *d = PyDict_New();
+    for (size_t i = 0; d != NULL && i < n; i++) {
+        PyObject *v = bits_only ? PyLong_FromLong(f[i].offset)
+                                : Py_BuildValue("(ii)", f[i].offset, f[i].size);
+        if (v == NULL || PyDict_SetItemString(d, f[i].name, v) < 0)
+            Py_CLEAR(d);
+        Py_XDECREF(v);
+    }
+    return d;
+}
+
+static PyObject *names_tuple(const char *const *names, size_t n)
+{
+    PyObject *t = PyTuple_New((Py_ssize_t)n);
+    for (size_t i = 0; t != NULL && i < n; i++) {
+        PyObject *v = PyUnicode_FromString(names[i]);
+        if (v == NULL)
+            Py_CLEAR(t);
+        else
+            PyTuple_SET_ITEM(t, (Py_ssize_t)i, v);
+    }
+    return t;
+}
+
+static int add_object(PyObject *m, const char *name, PyObject *value)
+{
+    int rc = value == NULL ? -1 : PyModule_AddObjectRef(m, name, value);
+    Py_XDECREF(value);
+    return rc;
+}
+
+PyMODINIT_FUNC PyInit__kernel(void)
+{
+    PyObject *m = PyModule_Create(&module);
+    if (m == NULL)
+        return NULL;
+    if (PyModule_AddIntConstant(m, "P_SIZE", P_SIZE) < 0
+            || PyModule_AddIntConstant(m, "OUT_SIZE", OUT_SIZE) < 0
+            || PyModule_AddIntConstant(m, "RIGID_SIZE", RIGID_SIZE) < 0
+            || PyModule_AddIntConstant(m, "LEG_SIZE", LEG_SIZE) < 0
+            || PyModule_AddIntConstant(m, "RESULTS_NOT_FINITE", RESULTS_NOT_FINITE) < 0
+            || add_object(m, "U_JOINT_TOLERANCE", PyFloat_FromDouble(U_JOINT_TOLERANCE)) < 0
+            || add_object(m, "MIN_LENGTH", PyFloat_FromDouble(MIN_LENGTH)) < 0
+            || add_object(m, "MAX_SOLVED_CONDITION", PyFloat_FromDouble(MAX_SOLVED_CONDITION)) < 0
+            || add_object(m, "PACKED", fields_dict(PACKED_FIELDS, COUNT(PACKED_FIELDS), 0)) < 0
+            || add_object(m, "RIGID_ROW", fields_dict(RIGID_FIELDS, COUNT(RIGID_FIELDS), 0)) < 0
+            || add_object(m, "LEG_ROW", fields_dict(LEG_FIELDS, COUNT(LEG_FIELDS), 0)) < 0
+            || add_object(m, "OUT", fields_dict(RESULT_FIELDS, COUNT(RESULT_FIELDS), 0)) < 0
+            || add_object(m, "EFFECTS", fields_dict(EFFECT_FIELDS, COUNT(EFFECT_FIELDS), 1)) < 0
+            || add_object(m, "STATUS", names_tuple(STATUS_NAMES, COUNT(STATUS_NAMES))) < 0
+            || add_object(m, "UNREACHABLE",
+                          names_tuple(UNREACHABLE_NAMES, COUNT(UNREACHABLE_NAMES))) < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}

@@ -1,0 +1,150 @@
+"""The hexapod's compiled solve (``kernel.c`` here, built as ``_kernel``;
+docs/kernel.md): (S1)-(S23) and the status rule of :mod:`.solver` in C, one
+sample or a batch. :mod:`.solver` uses it when it is built, unless FSD_KERNEL=0
+or :func:`flight_sim_dynamics.core.kernel.use_kernel` (False) asks for the
+numpy code, the reference it is tested against. The layouts are declared once,
+in the C source; this module checks them against the package's own lists.
+"""
+from __future__ import annotations
+
+import os
+from operator import attrgetter
+from types import ModuleType
+
+import numpy as np
+
+from ...core import kernel as core_kernel
+from ...core.effects import EFFECT_NAMES
+from ...core.status import BY_SEVERITY, RESULTS_NOT_FINITE, Status
+from .model import (MAX_SOLVED_CONDITION, MIN_LENGTH, U_JOINT_TOLERANCE, UNREACHABLE_REASONS,
+                    LegBody, RigidBody, StewartModel)
+
+try:
+    from . import _kernel
+except ImportError as exc:      # not built (no compiler at install time)
+    _kernel = None
+    IMPORT_ERROR: str | None = str(exc)
+else:
+    IMPORT_ERROR = None
+
+def contract_problems(module: ModuleType) -> list[str]:
+    """How a built kernel's declarations disagree with this package ([] if not)."""
+    problems = []
+    for what, theirs, ours in (('effects', set(module.EFFECTS), set(EFFECT_NAMES)),
+                               ('statuses', tuple(module.STATUS),
+                                tuple(s.value for s in BY_SEVERITY)),
+                               ('unreachable reasons', tuple(module.UNREACHABLE),
+                                UNREACHABLE_REASONS)):
+        if theirs != ours:
+            problems.append(f'{what}: the kernel has {theirs}, the Python code {ours}')
+    for name, theirs, ours in (('RESULTS_NOT_FINITE', module.RESULTS_NOT_FINITE,
+                                RESULTS_NOT_FINITE),
+                               ('U_JOINT_TOLERANCE', module.U_JOINT_TOLERANCE,
+                                U_JOINT_TOLERANCE),
+                               ('MIN_LENGTH', module.MIN_LENGTH, MIN_LENGTH),
+                               ('MAX_SOLVED_CONDITION', module.MAX_SOLVED_CONDITION,
+                                MAX_SOLVED_CONDITION)):
+        if theirs != ours:
+            problems.append(f'{name}: the kernel has {theirs}, the Python code {ours}')
+    for name, table, size in (('PACKED', module.PACKED, module.P_SIZE),
+                              ('RIGID_ROW', module.RIGID_ROW, module.RIGID_SIZE),
+                              ('LEG_ROW', module.LEG_ROW, module.LEG_SIZE),
+                              ('OUT', module.OUT, module.OUT_SIZE)):
+        spans = sorted(table.values())
+        if [o for o, _ in spans] != [0] + [o + n for o, n in spans[:-1]] or sum(
+                n for _, n in spans) != size:
+            problems.append(f'{name} does not cover its {size} doubles exactly once')
+    return problems
+
+
+try:
+    _problems = contract_problems(_kernel) if _kernel is not None else []
+except AttributeError as exc:       # built before the kernel exported its declarations
+    _problems = [str(exc)]
+if _problems:
+    IMPORT_ERROR = ('flight_sim_dynamics.machines.stewart._kernel was built from another '
+                    'version of kernel.c (' + '; '.join(_problems) + '); rebuild it')
+    _kernel = None
+    if os.environ.get('FSD_KERNEL') != '0':
+        raise ImportError(IMPORT_ERROR + ', or set FSD_KERNEL=0 to use the numpy code')
+
+#: FSD_REQUIRE_KERNEL=1: a missing kernel is an error at import (CI, benchmarks).
+if _kernel is None and os.environ.get('FSD_REQUIRE_KERNEL') == '1':
+    raise ImportError('flight_sim_dynamics.machines.stewart._kernel is required '
+                      f'(FSD_REQUIRE_KERNEL=1) but cannot be imported: {IMPORT_ERROR}; build '
+                      'it with `python setup.py build_ext --inplace` or `pip install .`')
+
+if _kernel is not None:
+    OUT_SIZE = _kernel.OUT_SIZE
+    #: Result row layout: field -> (offset, size).
+    OUT = dict(_kernel.OUT)
+    O_COND, O_STATUS, O_INFO = (OUT[name][0] for name in ('jacobian_condition', 'status',
+                                                          'info'))
+    #: Status of each kernel code.
+    STATUS_BY_CODE = tuple(Status(name) for name in _kernel.STATUS)
+    solve_one = _kernel.solve       # (params, bits, out, q, qd, qdd) -> (code, info, cond)
+else:   # the numpy code runs without any of them
+    OUT = {}
+
+
+def available() -> bool:
+    """True when the hexapod's compiled kernel is built and importable."""
+    return _kernel is not None
+
+
+def enabled() -> bool:
+    """True when the hexapod's solve and solve_batch use the compiled kernel."""
+    return _kernel is not None and core_kernel._wanted
+
+
+def _packed(value: object, rows: dict) -> np.ndarray:
+    """A body as the kernel reads it (``rows``: RIGID_ROW or LEG_ROW)."""
+    out = np.zeros(sum(n for _, n in rows.values()))
+    for name, (offset, size) in rows.items():
+        out[offset:offset + size] = np.ravel(getattr(value, name))
+    return out
+
+
+def pack_model(model: StewartModel) -> np.ndarray:
+    """The model as the kernel reads it: each attribute path of PACKED at its
+    offset (bodies by RIGID_ROW, LEG_ROW; a limit that is off as +inf).
+    """
+    packed = np.zeros(_kernel.P_SIZE)
+    for path, (offset, size) in _kernel.PACKED.items():
+        value = attrgetter(path)(model)
+        if isinstance(value, RigidBody):
+            value = _packed(value, _kernel.RIGID_ROW)
+        elif isinstance(value, LegBody):
+            value = _packed(value, _kernel.LEG_ROW)
+        elif value is None:
+            value = np.inf
+        value = np.ravel(np.asarray(value, dtype=np.float64))
+        if value.shape != (size,):
+            raise ValueError(f'model.{path} has {value.size} numbers, the kernel reads {size}')
+        packed[offset:offset + size] = value
+    packed.flags.writeable = False
+    return packed
+
+
+def effect_bits(model: StewartModel) -> int:
+    """The scene's effects as the kernel's bit set (EFFECTS)."""
+    return sum(bit for name, bit in _kernel.EFFECTS.items() if getattr(model.effects, name))
+
+
+def prepared(model: StewartModel) -> tuple[np.ndarray, int]:
+    """(packed model, effect bits), computed once per model and kept on it."""
+    cached = model.__dict__.get('_kernel_input')
+    if cached is None:
+        cached = (pack_model(model), effect_bits(model))
+        object.__setattr__(model, '_kernel_input', cached)
+    return cached
+
+
+def solve_rows(model: StewartModel, q: np.ndarray, qd: np.ndarray,
+               qdd: np.ndarray) -> np.ndarray:
+    """N samples ((N, 6) float64 arrays) through the kernel: (N, OUT_SIZE) rows."""
+    params, bits = prepared(model)
+    arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in (q, qd, qdd)]
+    out = np.empty((arrays[0].shape[0], OUT_SIZE))
+    _kernel.solve_batch(params, bits, *arrays, out)
+    return out
