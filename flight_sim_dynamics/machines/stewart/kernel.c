@@ -2,8 +2,9 @@
  * flight_sim_dynamics.machines.stewart._kernel: the hexapod's solve
  * (docs/design/stewart.md, (S1)-(S23)) for one sample (solve) or a batch
  * (solve_batch), writing into caller-provided float64 buffers. A transcription
- * of kinematics.py, dynamics.py and the status rule of solver.py, in the same
- * order of operations; the numpy code is the reference
+ * of kinematics.py, dynamics.py and the status rule of solver.py, equation by
+ * equation (divisions by L_i and c theta_2 as products with their reciprocals,
+ * computed once per leg); the numpy code is the reference
  * (test/machines/stewart/test_stewart_kernel.py checks the two agree). Function
  * names follow the Python ones.
  */
@@ -67,6 +68,8 @@ enum { EFFECT_LIST(AS_BIT) E_ALL = (1 << N_EFFECTS) - 1 };
     X(O_TWIST_JACOBIAN, "twist_jacobian", 36) X(O_COND, "jacobian_condition", 1) \
     X(O_STATUS, "status", 1) X(O_INFO, "info", 1)
 enum { RESULT_ROW(AS_OFFSET) OUT_SIZE };
+_Static_assert((O_TWIST_JACOBIAN_END + 1 - O_LENGTH) % 4 == 0,
+               "the checked fields are read four at a time");
 
 /* status codes, by severity (core.status: SEVERITY) */
 #define STATUS_LIST(X) \
@@ -92,7 +95,6 @@ static inline v3 load(const double *p) { return vec(p[0], p[1], p[2]); }
 static inline v3 add(v3 a, v3 b) { return vec(a.x + b.x, a.y + b.y, a.z + b.z); }
 static inline v3 sub(v3 a, v3 b) { return vec(a.x - b.x, a.y - b.y, a.z - b.z); }
 static inline v3 scale(double s, v3 a) { return vec(s * a.x, s * a.y, s * a.z); }
-static inline v3 divide(v3 a, double s) { return vec(a.x / s, a.y / s, a.z / s); }
 static inline double dot(v3 a, v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 static inline v3 cross(v3 a, v3 b)
 { return vec(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x); }
@@ -145,6 +147,7 @@ static void platform_motion_of(const double *P, const double *q, const double *q
 typedef struct {
     v3 r, u, a1, a1xu;                   /* (S4)-(S5) */
     double L, s2, c2, theta1, theta2;
+    double inv_L, inv_c2;                /* 1 / L, 1 / c theta_2 */
 } leg_position;
 
 typedef struct {
@@ -165,11 +168,13 @@ static void leg_position_of(const double *P, int i, const platform_motion *pm,
     g->r = mat_vec(pm->R, load(P + P_JOINTS + 3 * i));
     v3 d = sub(add(pm->p, g->r), load(P + P_BASE + 3 * i));
     g->L = sqrt(dot(d, d));
-    g->u = divide(d, g->L);
+    g->inv_L = 1.0 / g->L;
+    g->u = scale(g->inv_L, d);
     g->a1 = load(P + P_AXES + 3 * i);
     g->s2 = dot(g->u, g->a1);
     g->a1xu = cross(g->a1, g->u);
     g->c2 = sqrt(dot(g->a1xu, g->a1xu));
+    g->inv_c2 = 1.0 / g->c2;
     const double *C = P + P_FRAMES + 9 * i;      /* C_i = [e1 e2 e3], row-major */
     double local1 = C[1] * g->u.x + C[4] * g->u.y + C[7] * g->u.z;
     double local2 = C[2] * g->u.x + C[5] * g->u.y + C[8] * g->u.z;
@@ -182,9 +187,9 @@ static void leg_velocity_of(const leg_position *g, const platform_motion *pm, le
 {
     w->vP = add(pm->v, cross(pm->omega, g->r));
     w->Ld = dot(g->u, w->vP);
-    w->ud = divide(sub(w->vP, scale(w->Ld, g->u)), g->L);
-    w->theta1d = dot(g->a1xu, w->ud) / (g->c2 * g->c2);
-    w->theta2d = dot(g->a1, w->ud) / g->c2;
+    w->ud = scale(g->inv_L, sub(w->vP, scale(w->Ld, g->u)));
+    w->theta1d = dot(g->a1xu, w->ud) * (g->inv_c2 * g->inv_c2);
+    w->theta2d = dot(g->a1, w->ud) * g->inv_c2;
     w->sigma = g->s2 * w->theta1d;
     w->omega = add(cross(g->u, w->ud), scale(w->sigma, g->u));
 }
@@ -198,11 +203,11 @@ static void leg_acceleration_of(const leg_position *g, const leg_velocity *w,
     v3 u = g->u, ud = w->ud;
     double L = g->L;
     k->Ldd = dot(u, k->aP) + L * dot(ud, ud);
-    k->udd = divide(sub(sub(k->aP, scale(k->Ldd, u)), scale(2.0 * w->Ld, ud)), L);
-    double c2sq = g->c2 * g->c2;
+    k->udd = scale(g->inv_L, sub(sub(k->aP, scale(k->Ldd, u)), scale(2.0 * w->Ld, ud)));
+    double inv_c2sq = g->inv_c2 * g->inv_c2;
     double a1ud = dot(g->a1, ud);
-    k->theta1dd = (dot(g->a1xu, k->udd) + 2.0 * g->s2 * a1ud * w->theta1d) / c2sq;
-    k->theta2dd = (dot(g->a1, k->udd) + g->s2 * a1ud * a1ud / c2sq) / g->c2;
+    k->theta1dd = (dot(g->a1xu, k->udd) + 2.0 * g->s2 * a1ud * w->theta1d) * inv_c2sq;
+    k->theta2dd = (dot(g->a1, k->udd) + g->s2 * a1ud * a1ud * inv_c2sq) * g->inv_c2;
     double sigma_d = g->s2 * k->theta1dd + a1ud * w->theta1d;
     k->eps = add(add(cross(u, k->udd), scale(sigma_d, u)), scale(w->sigma, ud));
 }
@@ -242,9 +247,10 @@ static v3 carried_force(const double *P, int fx, const leg_position *g, const le
             N = add(N, add(axisymmetric_product(body, u, k->eps),
                            cross(w->omega, axisymmetric_product(body, u, w->omega))));
         }
-        T = add(add(T, cross(N, u)), scale(g->s2 * dot(u, N) / (g->c2 * g->c2), g->a1xu));
+        T = add(add(T, cross(N, u)),
+                scale(g->s2 * dot(u, N) * (g->inv_c2 * g->inv_c2), g->a1xu));
     }
-    return add(F2, divide(T, g->L));
+    return add(F2, scale(g->inv_L, T));
 }
 
 /* (F_0, N_0 + rho x F_0) of a body on the platform about its origin (S16):
@@ -497,9 +503,11 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
     }
 
     /* the status rule, worst first (solver._status) */
-    int finite = 1;
-    for (int j = O_LENGTH; j <= O_TWIST_JACOBIAN_END; j++)
-        finite &= isfinite(out[j]) != 0;
+    double zero[4] = {0.0, 0.0, 0.0, 0.0};       /* x * 0: NaN unless x is finite */
+    for (int j = O_LENGTH; j + 3 <= O_TWIST_JACOBIAN_END; j += 4)
+        for (int m = 0; m < 4; m++)
+            zero[m] += out[j + m] * 0.0;
+    int finite = (zero[0] + zero[1]) + (zero[2] + zero[3]) == 0.0;
     int over = 0;                                /* solver._over_limits */
     for (int i = 0; i < 6; i++) {
         double L = out[O_LENGTH + i];
@@ -530,8 +538,8 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
         void_row(out, code, info);
         return;
     }
-    for (int j = O_LENGTH; j <= O_TWIST_JACOBIAN_END; j++)   /* and what is not finite */
-        if (!isfinite(out[j]))
+    for (int j = O_LENGTH; !finite && j <= O_TWIST_JACOBIAN_END; j++)  /* and what is not */
+        if (!isfinite(out[j]))                                          /* finite */
             out[j] = 0.0;
     out[O_COND] = cond;
     out[O_STATUS] = code;

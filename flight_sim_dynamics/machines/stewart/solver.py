@@ -267,25 +267,21 @@ def solve(model: StewartModel, q, qd, qdd) -> StewartSolution:
     if kernel.enabled():
         params, bits = kernel.prepared(model)
         out = np.empty(kernel.OUT_SIZE)
-        inputs = (_as_list(q), _as_list(qd), _as_list(qdd))
-        try:        # the kernel reads lists and tuples of six floats
+        # the kernel reads lists and tuples of six floats (an array's tolist())
+        inputs = (q.tolist() if type(q) is np.ndarray else q,
+                  qd.tolist() if type(qd) is np.ndarray else qd,
+                  qdd.tolist() if type(qdd) is np.ndarray else qdd)
+        try:
             code, info, cond = kernel.solve_one(params, bits, out, *inputs)
         except TypeError:   # anything else: six numbers as floats, or ValueError
             inputs = tuple(tuple(six_numbers(name, v).tolist())
                            for name, v in zip(_INPUTS, (q, qd, qdd)))
             code, info, cond = kernel.solve_one(params, bits, out, *inputs)
-        return _new_kernel_solution(_rows=out, jacobian_condition=cond,
-                                    status=kernel.STATUS_BY_CODE[code], _info=info,
-                                    _inputs=inputs, model=model)
+        return _new_kernel_solution(_rows=out, jacobian_condition=cond, _info=info,
+                                    _inputs=inputs, status=kernel.STATUS_BY_CODE[code],
+                                    model=model)
     rows = [six_numbers(name, v)[None, :] for name, v in zip(_INPUTS, (q, qd, qdd))]
     return sample(_solve_arrays(model, *rows), 0)
-
-
-def _as_list(value: object) -> object:
-    """A (6,) float64 array as a list of floats (which the kernel reads); else the value."""
-    if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (6,):
-        return value.tolist()
-    return value
 
 
 def sample(batch: StewartSolution, i: int) -> StewartSolution:
