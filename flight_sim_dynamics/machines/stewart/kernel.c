@@ -337,12 +337,13 @@ static inline int rotate(double *x, double *y)
         yy += y[r] * y[r];
         xy += x[r] * y[r];
     }
-    if (xy == 0.0)
+    double d = yy - xx, small = 1e-16 * (xx < yy ? xx : yy);
+    if (xy * xy <= small * fabs(d))     /* |t xy| <= xy^2 / |d|: settled, no division */
         return 0;
-    double zeta = (yy - xx) / (2.0 * xy);
+    double zeta = d / (2.0 * xy);
     double t = fabs(zeta) < 1e100
         ? copysign(1.0, zeta) / (fabs(zeta) + sqrt(1.0 + zeta * zeta)) : 0.5 / zeta;
-    if (!(fabs(t * xy) > 1e-16 * (xx < yy ? xx : yy)))   /* t xy: the norms' change */
+    if (!(fabs(t * xy) > small))        /* t xy: the change of the squared norms */
         return 0;
     double c = 1.0 / sqrt(1.0 + t * t), s = c * t;
     for (int r = 0; r < 6; r++) {
