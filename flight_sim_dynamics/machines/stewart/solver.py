@@ -268,18 +268,24 @@ def solve(model: StewartModel, q, qd, qdd) -> StewartSolution:
         params, bits = kernel.prepared(model)
         out = np.empty(kernel.OUT_SIZE)
         # the kernel reads lists and tuples of six floats (an array's tolist())
-        inputs = (q.tolist() if type(q) is np.ndarray else q,
-                  qd.tolist() if type(qd) is np.ndarray else qd,
-                  qdd.tolist() if type(qdd) is np.ndarray else qdd)
+        if type(q) is np.ndarray:
+            q = q.tolist()
+        if type(qd) is np.ndarray:
+            qd = qd.tolist()
+        if type(qdd) is np.ndarray:
+            qdd = qdd.tolist()
         try:
-            code, info, cond = kernel.solve_one(params, bits, out, *inputs)
+            code, info, cond = kernel.solve_one(params, bits, out, q, qd, qdd)
         except TypeError:   # anything else: six numbers as floats, or ValueError
-            inputs = tuple(tuple(six_numbers(name, v).tolist())
-                           for name, v in zip(_INPUTS, (q, qd, qdd)))
-            code, info, cond = kernel.solve_one(params, bits, out, *inputs)
-        return _new_kernel_solution(_rows=out, jacobian_condition=cond, _info=info,
-                                    _inputs=inputs, status=kernel.STATUS_BY_CODE[code],
-                                    model=model)
+            q, qd, qdd = (tuple(six_numbers(name, v).tolist())
+                          for name, v in zip(_INPUTS, (q, qd, qdd)))
+            code, info, cond = kernel.solve_one(params, bits, out, q, qd, qdd)
+        sol = object.__new__(_KernelSolution)      # its fields come from the row
+        values = sol.__dict__
+        values['_rows'], values['jacobian_condition'], values['_info'] = out, cond, info
+        values['status'], values['model'] = kernel.STATUS_BY_CODE[code], model
+        values['_inputs'] = (q, qd, qdd)
+        return sol
     rows = [six_numbers(name, v)[None, :] for name, v in zip(_INPUTS, (q, qd, qdd))]
     return sample(_solve_arrays(model, *rows), 0)
 
