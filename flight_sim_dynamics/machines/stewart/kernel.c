@@ -325,10 +325,13 @@ static int solve6(double A[6][6], double *b)
 }
 
 /* One Jacobi rotation of the columns x, y (length 6) that makes them
-   orthogonal, unless it would change their squared norms by less than
-   1e-16 of the smaller one (the singular values are then final); 1 if it
-   rotated. Norms and product are computed afresh each time (updated norms
-   lose the small singular values' relative accuracy). */
+   orthogonal, unless it would change their squared norms by less than 1e-16
+   of the smaller one (the singular values are then final); 1 if it rotated.
+   Norms and product are computed afresh each time (updated norms lose the
+   small singular values' relative accuracy). The angle's tangent
+   t = sign(d) 2 xy / (|d| + hypot(d, 2 xy)), d = yy - xx (Rutishauser's
+   t = sign(zeta) / (|zeta| + sqrt(1 + zeta^2)), zeta = d / (2 xy)), with
+   cos = 1 / sqrt(1 + t^2): two square roots and one division. */
 static inline int rotate(double *x, double *y)
 {
     double xx = 0.0, yy = 0.0, xy = 0.0;
@@ -338,14 +341,14 @@ static inline int rotate(double *x, double *y)
         xy += x[r] * y[r];
     }
     double d = yy - xx, small = 1e-16 * (xx < yy ? xx : yy);
-    if (xy * xy <= small * fabs(d))     /* |t xy| <= xy^2 / |d|: settled, no division */
+    if (xy * xy <= small * fabs(d))     /* |t xy| <= xy^2 / |d|: settled */
         return 0;
-    double zeta = d / (2.0 * xy);
-    double t = fabs(zeta) < 1e100
-        ? copysign(1.0, zeta) / (fabs(zeta) + sqrt(1.0 + zeta * zeta)) : 0.5 / zeta;
-    if (!(fabs(t * xy) > small))        /* t xy: the change of the squared norms */
+    double e = d >= 0.0 ? 2.0 * xy : -2.0 * xy;     /* t = e / D */
+    double D = fabs(d) + sqrt(d * d + e * e);
+    if (!(fabs(e * xy) > small * D))    /* |t xy|: the change of the squared norms */
         return 0;
-    double c = 1.0 / sqrt(1.0 + t * t), s = c * t;
+    double inv = 1.0 / sqrt(D * D + e * e);
+    double c = D * inv, s = e * inv;
     for (int r = 0; r < 6; r++) {
         double a = x[r], b = y[r];
         x[r] = c * a - s * b;
