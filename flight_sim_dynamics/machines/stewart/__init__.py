@@ -7,4 +7,7 @@ Use::
     from flight_sim_dynamics.machines.stewart import model, solver
     m = model.from_dict(params)              # a parameter file's dict (stewart.md)
     sol = solver.solve(m, q, qd, qdd)        # six numbers each; solve_batch: (N, 6)
+
+The solver runs the compiled kernel (``kernel.c``, built as ``_kernel``) when it
+is built, else the numpy code, the reference it is tested against.
 """

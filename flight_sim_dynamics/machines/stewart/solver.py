@@ -194,7 +194,7 @@ def _status(model: StewartModel, r: dict, bad: np.ndarray) -> tuple[np.ndarray, 
     finite = np.ones(bad.shape, dtype=bool)
     for name in _FIELDS:
         v = r[name]
-        finite &= np.isfinite(v).reshape(v.shape[0], -1).all(axis=1)
+        finite &= np.isfinite(v).all(axis=tuple(range(1, v.ndim)))
     code = np.where(_over_limits(model, r), SEVERITY[Status.LIMIT], SEVERITY[Status.OK])
     info = np.zeros(bad.shape, dtype=int)
     code = np.where(finite, code, SEVERITY[Status.INVALID_INPUT])

@@ -290,6 +290,14 @@ def test_batch_is_the_single_solve_bit_for_bit(name):
         assert_same(batch, slow, index=i)
 
 
+@pytest.mark.parametrize('on', [True, False], ids=['kernel', 'numpy'])
+def test_an_empty_batch_is_an_empty_solution(on):
+    with use_kernel(on):
+        sol = solver.solve_batch(MODEL, np.zeros((0, 6)), np.zeros((0, 6)), np.zeros((0, 6)))
+    assert sol.force.shape == (0, 6) and sol.joints.shape == (0, 6, 3)
+    assert sol.jacobian.shape == (0, 6, 6) and sol.status.shape == (0,) and sol.detail == ()
+
+
 @needs_kernel
 def test_long_batch_equals_one_by_one():
     """The rows of a long batch are the rows one by one (bitwise)."""
