@@ -450,7 +450,8 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
         if (degenerate < 0 && !(g[i].L > MIN_LENGTH && g[i].c2 >= U_JOINT_TOLERANCE))
             degenerate = i;                      /* kinematics.degenerate_legs */
     }
-    double cond = jacobian_condition(J);
+    /* an unreachable sample is void whatever its condition */
+    double cond = degenerate < 0 ? jacobian_condition(J) : SINGULAR;
     int solvable = degenerate < 0 && cond < MAX_SOLVED_CONDITION;
 
     /* the wrench the actuators balance (S14)-(S21): dynamics.generalised_wrench */
