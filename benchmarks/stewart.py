@@ -61,6 +61,11 @@ def per_call_us(fn, rows: list, calls: int) -> float:
 
 
 def per_sample_us(hexapod: model.StewartModel, states: tuple) -> float:
+    """The second of two calls: the first brings the allocator to its steady
+    state for N (the other figures' large arrays in between return its memory
+    to the system, and a fresh page costs microseconds on a virtual machine).
+    """
+    solver.solve_batch(hexapod, *states)
     start = time.perf_counter()
     solver.solve_batch(hexapod, *states)
     return (time.perf_counter() - start) / len(states[0]) * 1e6
