@@ -58,7 +58,8 @@ enum { EFFECT_LIST(AS_INDEX) N_EFFECTS };
 enum { EFFECT_LIST(AS_BIT) E_ALL = (1 << N_EFFECTS) - 1 };
 
 /* one result row: the StewartSolution fields (the checked ones first, O_LENGTH
-   to O_TWIST_JACOBIAN_END), then the status code and its info */
+   to O_TWIST_JACOBIAN_END), the status code and its info, the pose solved for
+   (as given: kept in a void row) */
 #define RESULT_ROW(X) \
     X(O_LENGTH, "length", 6) X(O_STROKE, "stroke", 6) X(O_RATE, "rate", 6) \
     X(O_ACCELERATION, "acceleration", 6) X(O_FORCE, "force", 6) X(O_POWER, "power", 6) \
@@ -66,7 +67,7 @@ enum { EFFECT_LIST(AS_BIT) E_ALL = (1 << N_EFFECTS) - 1 };
     X(O_JOINT_ACCELERATIONS, "joint_accelerations", 18) \
     X(O_SPHERICAL, "spherical_angles", 6) X(O_JACOBIAN, "jacobian", 36) \
     X(O_TWIST_JACOBIAN, "twist_jacobian", 36) X(O_COND, "jacobian_condition", 1) \
-    X(O_STATUS, "status", 1) X(O_INFO, "info", 1)
+    X(O_STATUS, "status", 1) X(O_INFO, "info", 1) X(O_POSE, "pose", 6)
 enum { RESULT_ROW(AS_OFFSET) OUT_SIZE };
 _Static_assert((O_TWIST_JACOBIAN_END + 1 - O_LENGTH) % 4 == 0,
                "the checked fields are read four at a time");
@@ -405,7 +406,7 @@ static double jacobian_condition(const double *J)
 
 static void void_row(double *out, int code, int info)
 {
-    memset(out, 0, OUT_SIZE * sizeof(double));
+    memset(out, 0, O_POSE * sizeof(double));
     out[O_STATUS] = code;
     out[O_INFO] = info;
 }
@@ -413,6 +414,7 @@ static void void_row(double *out, int code, int info)
 static void solve_one(const double *P, int fx, const double *q, const double *qd,
                       const double *qdd, double *out)
 {
+    memcpy(out + O_POSE, q, 6 * sizeof(double));
     for (int j = 0; j < 18; j++) {          /* solver._first_bad_input */
         double x = j < 6 ? q[j] : j < 12 ? qd[j - 6] : qdd[j - 12];
         if (!isfinite(x)) {

@@ -235,7 +235,7 @@ def solve_batch(model: StewartModel, q: np.ndarray, qd: np.ndarray,
     arrays = (Q, _as_batch('qd', qd, n), _as_batch('qdd', qdd, n))
     if kernel.enabled():
         rows = kernel.solve_rows(model, *arrays)
-        return _new_kernel_solution(_rows=rows, model=model, pose=Q, _inputs=arrays,
+        return _new_kernel_solution(_rows=rows, model=model, _inputs=arrays,
                                     status=_KERNEL_STATUS_ARRAY[
                                         rows[:, kernel.O_STATUS].astype(np.intp)])
     return _solve_arrays(model, *arrays)
@@ -284,7 +284,8 @@ def solve(model: StewartModel, q, qd, qdd) -> StewartSolution:
         values = sol.__dict__
         values['_rows'], values['jacobian_condition'], values['_info'] = out, cond, info
         values['status'], values['model'] = kernel.STATUS_BY_CODE[code], model
-        values['_inputs'] = (q, qd, qdd)
+        if code:    # the detail's inputs, copied (the caller may reuse its lists)
+            values['_inputs'] = (tuple(q), tuple(qd), tuple(qdd))
         return sol
     rows = [six_numbers(name, v)[None, :] for name, v in zip(_INPUTS, (q, qd, qdd))]
     return sample(_solve_arrays(model, *rows), 0)
@@ -352,15 +353,14 @@ def _kernel_detail(sol: StewartSolution) -> str | tuple:
 
 class _KernelSolution(StewartSolution):
     """A :class:`StewartSolution` whose arrays are views of the kernel's result
-    row(s), made on first access, as are its detail and (one sample) its pose.
+    row(s), made on first access, as is its detail.
     """
 
     detail = _Lazy(_kernel_detail)
-    pose = _Lazy(lambda sol: np.array(sol.__dict__['_inputs'][0], dtype=float))
 
 
 if kernel.OUT:
-    for _name in _FIELDS + ('jacobian_condition',):
+    for _name in _FIELDS + ('jacobian_condition', 'pose'):
         _lazy = _Lazy(_row_view(_name))
         _lazy.__set_name__(_KernelSolution, _name)
         setattr(_KernelSolution, _name, _lazy)

@@ -409,6 +409,20 @@ def test_a_kernel_solution_is_one_row():
     assert solver.sample(batch, 1).status is Status.OK
 
 
+@pytest.mark.parametrize('on', [True, False], ids=['kernel', 'numpy'])
+def test_a_solution_keeps_its_inputs(on):
+    """The pose and the detail are those of the call, even if the caller then
+    changes its lists; a void sample keeps its pose as given."""
+    q = [0.0, math.nan, 0.0, 0.0, 0.0, 0.0]
+    with use_kernel(on):
+        sol = solver.solve(MODEL, q, list(Z), list(Z))
+        q[1] = 0.0
+        assert sol.detail.startswith('q[1] (sway) is not finite (nan)')
+        assert math.isnan(sol.pose[1]) and sol.pose[0] == 0.0
+        batch = solver.solve_batch(MODEL, np.array([q, Z]), np.zeros((2, 6)), np.zeros((2, 6)))
+    np.testing.assert_array_equal(batch.pose, [q, Z])
+
+
 def test_numpy_code_runs_without_the_extension(monkeypatch):
     """With the extension missing, solve and solve_batch run the numpy code;
     use_kernel(False) switches the kernel off."""
