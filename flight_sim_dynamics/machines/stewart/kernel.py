@@ -27,6 +27,13 @@ except ImportError as exc:      # not built (no compiler at install time)
 else:
     IMPORT_ERROR = None
 
+#: A result row's fields, as the solver reads them: the StewartSolution's
+#: arrays and condition, the status code and its info, the pose solved for.
+ROW_FIELDS = ('length', 'stroke', 'rate', 'acceleration', 'force', 'power', 'joints',
+              'joint_rates', 'joint_accelerations', 'spherical_angles', 'jacobian',
+              'twist_jacobian', 'jacobian_condition', 'status', 'info', 'pose')
+
+
 def contract_problems(module: ModuleType) -> list[str]:
     """How a built kernel's declarations disagree with this package ([] if not)."""
     problems = []
@@ -34,7 +41,8 @@ def contract_problems(module: ModuleType) -> list[str]:
                                ('statuses', tuple(module.STATUS),
                                 tuple(s.value for s in BY_SEVERITY)),
                                ('unreachable reasons', tuple(module.UNREACHABLE),
-                                UNREACHABLE_REASONS)):
+                                UNREACHABLE_REASONS),
+                              ('result row fields', set(module.OUT), set(ROW_FIELDS))):
         if theirs != ours:
             problems.append(f'{what}: the kernel has {theirs}, the Python code {ours}')
     for name, theirs, ours in (('RESULTS_NOT_FINITE', module.RESULTS_NOT_FINITE,

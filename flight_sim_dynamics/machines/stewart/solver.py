@@ -360,7 +360,7 @@ class _KernelSolution(StewartSolution):
 
 
 if kernel.OUT:
-    for _name in _FIELDS + ('jacobian_condition', 'pose'):
+    for _name in set(kernel.ROW_FIELDS) - {'status', 'info'}:
         _lazy = _Lazy(_row_view(_name))
         _lazy.__set_name__(_KernelSolution, _name)
         setattr(_KernelSolution, _name, _lazy)

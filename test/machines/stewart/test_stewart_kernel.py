@@ -470,6 +470,11 @@ def test_the_kernel_declares_the_contracts_and_python_reads_them():
     assert [Status(name) for name in kernel._kernel.STATUS] == list(kernel.STATUS_BY_CODE)
 
 
+def test_a_result_row_holds_every_array_of_a_solution():
+    fields = {f.name for f in dataclasses.fields(solver.StewartSolution)}
+    assert fields - {'status', 'detail', 'model'} <= set(kernel.ROW_FIELDS)
+
+
 @needs_kernel
 @pytest.mark.parametrize('change, words', [
     (lambda d: d['EFFECTS'].pop('friction'), 'effects'),
@@ -477,6 +482,7 @@ def test_the_kernel_declares_the_contracts_and_python_reads_them():
     (lambda d: d.update(STATUS=d['STATUS'] + ('broken',)), 'statuses'),
     (lambda d: d.update(UNREACHABLE=d['UNREACHABLE'][::-1]), 'unreachable'),
     (lambda d: d['OUT'].update(force=(13, 6)), 'OUT'),
+    (lambda d: d['OUT'].pop('pose'), 'result row fields'),
     (lambda d: d.update(P_SIZE=d['P_SIZE'] + 1), 'PACKED'),
     (lambda d: d['LEG_ROW'].pop('mass'), 'LEG_ROW'),
     (lambda d: d.update(RESULTS_NOT_FINITE=-2), 'RESULTS_NOT_FINITE'),
@@ -506,6 +512,6 @@ def test_a_kernel_that_disagrees_is_refused(change, words):
 def test_the_binding_refuses_bad_arguments(args, error):
     """The C binding checks what it is given: no crash, a Python error."""
     params, bits = kernel.prepared(MODEL)
-    out = np.empty(kernel.OUT_SIZE)
+    out = np.zeros(kernel.OUT_SIZE)
     with pytest.raises(error):
         kernel._kernel.solve(*args(params, bits, out))
