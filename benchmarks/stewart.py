@@ -138,6 +138,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     for label, _ in paths:
         names = [f'solve_batch ({label}) N={n}' for n in sizes]
         rows.append([f'{label}, us/sample', *(f'{us[name]:.3f}' for name in names)])
+        rows.append([f'{label}: x pin.rnea', *(f'{ratio(name, rnea_name):.2f}x'
+                                                for name in names)])
         rows.append([f'{label}: solve / this',
                      *(f'{ratio(f"solve ({label})", name):.1f}x' for name in names)])
     print(table(['solve_batch', *(f'N={n:,}' for n in sizes)], rows))
