@@ -33,7 +33,7 @@ from ..config import parameters as prm
 from ..core.model import JOINT_NAMES, LEG_NAMES
 from ..core.solver import solve
 from .markers import MarkerBuilder
-from .process import stop_requested
+from .process import end_spins, stop_requested
 from .setpoints import (ACCEL, BAD_SETPOINT, ERROR, INACTIVE, LEVEL_NAMES, PLATFORM, POSE,
                         TWIST, WARN, Outcome, Runtime, SetpointError, SetpointIntake,
                         diagnostic_name)
@@ -433,10 +433,21 @@ class DynamicsNode(LifecycleNode):
         return SUCCESS
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._drop_queued()
         self._intake.reset()                  # nothing from before counts as history
         self._active = True
         self.get_logger().info('active: answering setpoints')
         return super().on_activate(state)     # enables the lifecycle publishers
+
+    def _drop_queued(self) -> None:
+        """Setpoints still queued at activation were published while inactive
+        (a busy node, or an executor that serves the request first): taken now
+        and counted inactive, not answered late. The executor's events for them
+        then take nothing."""
+        for sub in self._endpoints[2:]:
+            with sub.handle:
+                while (taken := sub.handle.take_message(sub.msg_type, sub.raw)) is not None:
+                    sub.callback(taken[0])
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
         self._active = False
@@ -524,7 +535,8 @@ class DynamicsNode(LifecycleNode):
     # -- setpoints in, answers out -------------------------------------------------
     def _on_setpoint(self, kind: str, msg: Any) -> None:
         # nothing escapes a callback (it would stop the executor)
-        if stop_requested():    # stopping: a backlog drains at once, the spin loop sees the stop
+        if stop_requested():    # stopping: the spin returns after this callback
+            end_spins()
             return
         try:
             # taken after deactivate or cleanup (queued before): counted inactive
@@ -537,6 +549,7 @@ class DynamicsNode(LifecycleNode):
 
     def _on_platform(self, data: bytes) -> None:
         if stop_requested():
+            end_spins()
             return
         try:
             if self._runtime is None or not self._active:

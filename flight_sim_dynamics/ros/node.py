@@ -24,7 +24,7 @@ from rclpy.signals import SignalHandlerOptions
 from ..config import parameters as prm
 from ..config.files import params_files_in, read_params_file
 from .dynamics_node import DynamicsNode
-from .process import stop_on_signals, stop_requested
+from .process import ending_spin, stop_on_signals, stop_requested
 
 SPIN_STEP = 0.1                  # s between two looks at a requested stop
 N = TypeVar('N', bound=Node)
@@ -134,11 +134,12 @@ def spin_until(executor: Any, predicate: Callable[[], bool], timeout: float | No
     always with a timeout: rclpy 7.1.6's EventsExecutor busy-loops in ``spin()``.
     """
     deadline = None if timeout is None else time.monotonic() + timeout
-    never = rclpy.task.Future()
-    while rclpy.ok(context=executor.context) and not predicate() and not stop_requested():
-        if deadline is not None and time.monotonic() >= deadline:
-            break
-        executor.spin_until_future_complete(never, timeout_sec=step)
+    never = rclpy.task.Future()      # done only by a stop request (end_spins)
+    with ending_spin(never):
+        while rclpy.ok(context=executor.context) and not predicate() and not stop_requested():
+            if deadline is not None and time.monotonic() >= deadline:
+                break
+            executor.spin_until_future_complete(never, timeout_sec=step)
     return bool(predicate())
 
 
