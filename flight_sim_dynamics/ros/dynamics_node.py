@@ -9,13 +9,14 @@ import math
 import sys
 import time
 import warnings
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 ParameterType, SetParametersResult)
-from rcl_interfaces.srv import SetParameters, SetParametersAtomically
+from rcl_interfaces.srv import (DescribeParameters, GetParameters, GetParameterTypes,
+                                ListParameters, SetParameters, SetParametersAtomically)
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
@@ -34,6 +35,7 @@ from ..core.model import JOINT_NAMES, LEG_NAMES
 from ..core.solver import solve
 from .markers import MarkerBuilder
 from .process import end_spins, stop_requested
+from .service_thread import ServiceThread
 from .setpoints import (ACCEL, BAD_SETPOINT, ERROR, INACTIVE, LEVEL_NAMES, PLATFORM, POSE,
                         TWIST, WARN, Outcome, Runtime, SetpointError, SetpointIntake,
                         diagnostic_name)
@@ -46,6 +48,8 @@ MAX_POINT_BYTES = 128
 MAX_MESSAGE_OVERHEAD = 65536
 # bounds of one parameter set request (the node's only thread validates it)
 MAX_PARAMETERS_PER_REQUEST = 256
+PARAMETER_SERVICES = (DescribeParameters, GetParameters, GetParameterTypes, ListParameters,
+                      SetParameters, SetParametersAtomically)
 MAX_VALIDATIONS_PER_REQUEST = 12  # model validations, ~1.5 ms each
 MAX_STRING_LENGTH = 4096
 # rclpy warns of a zero QoS depth before check_qos refuses it with the reason
@@ -165,6 +169,7 @@ class DynamicsNode(LifecycleNode):
         # timers on the steady clock: they tick with use_sim_time and no /clock
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._given, self._refused = self._declare_parameters()
+        self._apart: ServiceThread | None = None
         self._guard_services()
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._on_parameters_set)
@@ -283,6 +288,25 @@ class DynamicsNode(LifecycleNode):
             service.callback = self._guarded(service.srv_name,
                                              own.get(service.srv_type, service.callback))
 
+    def serve_parameters_apart(self, executor: Any) -> None:
+        """The parameter services taken on a thread of their own (decoding a
+        request of 100,000 parameters takes seconds), each request then handled
+        on ``executor``; call before ``executor.add_node(self)``.
+        """
+        services = [s for s in self._services if s.srv_type in PARAMETER_SERVICES]
+        self._apart = ServiceThread(self.context, services, executor, self._too_many)
+
+    @property
+    def services(self) -> Iterator[Any]:
+        """What an executor takes: not the services taken apart."""
+        apart = self._apart.services if self._apart is not None else frozenset()
+        return (s for s in self._services if s not in apart)
+
+    def destroy_node(self) -> None:
+        if self._apart is not None:
+            self._apart.stop()
+        super().destroy_node()
+
     def _guarded(self, name: str, handler: Callable[[Any, Any], Any]) -> Callable[[Any, Any], Any]:
         def guarded(request: Any, response: Any) -> Any:
             try:
@@ -325,26 +349,41 @@ class DynamicsNode(LifecycleNode):
         except ParameterException as exc:
             return _failed(str(exc))
 
+    @staticmethod
+    def _too_many(request: Any, response: Any) -> Any:
+        """The refusal of a SetParameters(Atomically) request of more than
+        :data:`MAX_PARAMETERS_PER_REQUEST` parameters; None for any other.
+        """
+        count = len(getattr(request, 'parameters', ()))
+        if count <= MAX_PARAMETERS_PER_REQUEST:
+            return None
+        result = _failed(f'{count} parameters in one request, more than '
+                         f'{MAX_PARAMETERS_PER_REQUEST}: refused whole')
+        if isinstance(response, SetParametersAtomically.Response):
+            response.result = result
+        else:
+            response.results = [result] * count
+        return response
+
     def _set_request(self, request: Any, response: Any, atomic: bool) -> Any:
         """Applied as one change; a failed SetParameters is sorted out."""
         msgs = list(request.parameters)
-        if len(msgs) > MAX_PARAMETERS_PER_REQUEST:
-            result = _failed(f'{len(msgs)} parameters in one request, more than '
-                             f'{MAX_PARAMETERS_PER_REQUEST}: refused whole')
-        else:
-            parsed = [self._parse(m) for m in msgs]
-            params = [p for p, _, _ in parsed]
-            notes = [n for _, n, _ in parsed]
-            problems = [r for _, _, r in parsed]
-            problem = next(filter(None, problems), None)
-            if problem:     # refused before the on-set callback, which logs the others
-                self.get_logger().warn(f'parameter change rejected, model unchanged: {problem}')
-            result = _failed(problem) if problem else self._apply(params)
-            if result.successful:
-                result.reason = '; '.join(filter(None, notes))
-            elif not atomic and len(msgs) > 1:
-                response.results = self._sort_out(params, notes, problems, problem is None)
-                return response
+        refusal = self._too_many(request, response)
+        if refusal is not None:
+            return refusal
+        parsed = [self._parse(m) for m in msgs]
+        params = [p for p, _, _ in parsed]
+        notes = [n for _, n, _ in parsed]
+        problems = [r for _, _, r in parsed]
+        problem = next(filter(None, problems), None)
+        if problem:     # refused before the on-set callback, which logs the others
+            self.get_logger().warn(f'parameter change rejected, model unchanged: {problem}')
+        result = _failed(problem) if problem else self._apply(params)
+        if result.successful:
+            result.reason = '; '.join(filter(None, notes))
+        elif not atomic and len(msgs) > 1:
+            response.results = self._sort_out(params, notes, problems, problem is None)
+            return response
         if atomic:
             response.result = result
         else:
@@ -443,7 +482,8 @@ class DynamicsNode(LifecycleNode):
         """Setpoints still queued at activation were published while inactive
         (a busy node, or an executor that serves the request first): taken now
         and counted inactive, not answered late. The executor's events for them
-        then take nothing."""
+        then take nothing.
+        """
         for sub in self._endpoints[2:]:
             with sub.handle:
                 while (taken := sub.handle.take_message(sub.msg_type, sub.raw)) is not None:

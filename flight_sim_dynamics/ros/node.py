@@ -123,6 +123,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         elif not node.start():
             refuse(node.failure)
         executor = make_executor(args.executor)
+        node.serve_parameters_apart(executor)
         executor.add_node(node)
         spin(executor, until=[node.finalized])
     return 0

@@ -119,7 +119,8 @@ _spins: list[Any] = []          # futures whose completion ends a spin (see end_
 @contextlib.contextmanager
 def ending_spin(future: Any) -> Iterator[None]:
     """While in this block, ``future`` (an rclpy Future a spin waits for) is
-    completed by :func:`end_spins`."""
+    completed by :func:`end_spins`.
+    """
     _spins.append(future)
     try:
         yield
@@ -132,8 +133,9 @@ def end_spins() -> None:
     """From a callback that saw the stop request: the spins waiting for the
     futures of :func:`ending_spin` return after this callback. rclpy's
     EventsExecutor returns from a timed spin only once its queue is empty,
-    which a backlog arriving faster than it is taken never is. (Not from the
-    signal handler: it may interrupt the future's own lock.)"""
+    which a backlog arriving faster than it is taken never is. Not called
+    from the signal handler, which may interrupt the future's own lock.
+    """
     while _spins:
         future = _spins.pop()
         if not future.done():
