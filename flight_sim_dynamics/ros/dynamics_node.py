@@ -48,6 +48,8 @@ MAX_POINT_BYTES = 128
 MAX_MESSAGE_OVERHEAD = 65536
 # bounds of one parameter set request (the node's only thread validates it)
 MAX_PARAMETERS_PER_REQUEST = 256
+MAX_NAMES_PER_REQUEST = 4096         # of a get, describe, types or list request
+MAX_DROPPED_AT_ACTIVATION = 100_000  # queued messages per keep-all subscription
 PARAMETER_SERVICES = (DescribeParameters, GetParameters, GetParameterTypes, ListParameters,
                       SetParameters, SetParametersAtomically)
 MAX_VALIDATIONS_PER_REQUEST = 12  # model validations, ~1.5 ms each
@@ -144,6 +146,8 @@ class DynamicsNode(LifecycleNode):
     and activates it. :attr:`failure`: why configure failed.
     """
 
+    _apart: ServiceThread | None = None      # the parameter services' own thread
+
     def __init__(self, **kwargs: Any) -> None:
         # every given parameter declared: typos can be told apart with public API
         super().__init__(prm.NODE_NAME, automatically_declare_parameters_from_overrides=True,
@@ -169,7 +173,6 @@ class DynamicsNode(LifecycleNode):
         # timers on the steady clock: they tick with use_sim_time and no /clock
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._given, self._refused = self._declare_parameters()
-        self._apart: ServiceThread | None = None
         self._guard_services()
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._on_parameters_set)
@@ -294,7 +297,8 @@ class DynamicsNode(LifecycleNode):
         on ``executor``; call before ``executor.add_node(self)``.
         """
         services = [s for s in self._services if s.srv_type in PARAMETER_SERVICES]
-        self._apart = ServiceThread(self.context, services, executor, self._too_many)
+        self._apart = ServiceThread(self.context, services, executor, self._request_problem,
+                                    self._refusal, self.get_logger())
 
     @property
     def services(self) -> Iterator[Any]:
@@ -350,27 +354,37 @@ class DynamicsNode(LifecycleNode):
             return _failed(str(exc))
 
     @staticmethod
-    def _too_many(request: Any, response: Any) -> Any:
-        """The refusal of a SetParameters(Atomically) request of more than
-        :data:`MAX_PARAMETERS_PER_REQUEST` parameters; None for any other.
+    def _request_problem(request: Any) -> str | None:
+        """Why a parameter request is refused whole before the node reads it: more
+        than :data:`MAX_PARAMETERS_PER_REQUEST` parameters or
+        :data:`MAX_NAMES_PER_REQUEST` names or prefixes (None: it is not).
         """
-        count = len(getattr(request, 'parameters', ()))
-        if count <= MAX_PARAMETERS_PER_REQUEST:
-            return None
-        result = _failed(f'{count} parameters in one request, more than '
-                         f'{MAX_PARAMETERS_PER_REQUEST}: refused whole')
+        for field, limit in (('parameters', MAX_PARAMETERS_PER_REQUEST),
+                             ('names', MAX_NAMES_PER_REQUEST),
+                             ('prefixes', MAX_NAMES_PER_REQUEST)):
+            count = len(getattr(request, field, ()))
+            if count > limit:
+                return f'{count} {field} in one request, more than {limit}: refused whole'
+        return None
+
+    @staticmethod
+    def _refusal(request: Any, response: Any, reason: str) -> Any:
+        """``response`` refusing ``request``: a failed result per parameter (the
+        reason in the first); a query's lists left empty.
+        """
         if isinstance(response, SetParametersAtomically.Response):
-            response.result = result
-        else:
-            response.results = [result] * count
+            response.result = _failed(reason)
+        elif isinstance(response, SetParameters.Response) and request.parameters:
+            response.results = [_failed(reason)] + [_failed('refused whole')] * (
+                len(request.parameters) - 1)
         return response
 
     def _set_request(self, request: Any, response: Any, atomic: bool) -> Any:
         """Applied as one change; a failed SetParameters is sorted out."""
         msgs = list(request.parameters)
-        refusal = self._too_many(request, response)
-        if refusal is not None:
-            return refusal
+        problem = self._request_problem(request)
+        if problem is not None:
+            return self._refusal(request, response, problem)
         parsed = [self._parse(m) for m in msgs]
         params = [p for p, _, _ in parsed]
         notes = [n for _, n, _ in parsed]
@@ -485,8 +499,13 @@ class DynamicsNode(LifecycleNode):
         then take nothing.
         """
         for sub in self._endpoints[2:]:
+            qos = sub.qos_profile       # at most a queue's worth: a fast stream never ends
             with sub.handle:
-                while (taken := sub.handle.take_message(sub.msg_type, sub.raw)) is not None:
+                for _ in range(qos.depth if qos.history == HistoryPolicy.KEEP_LAST
+                               else MAX_DROPPED_AT_ACTIVATION):
+                    taken = sub.handle.take_message(sub.msg_type, sub.raw)
+                    if taken is None:
+                        break
                     sub.callback(taken[0])
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:

@@ -17,7 +17,7 @@ import rclpy
 import rclpy.task
 from rclpy.node import Node
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
 from rclpy.signals import SignalHandlerOptions
 
@@ -140,7 +140,12 @@ def spin_until(executor: Any, predicate: Callable[[], bool], timeout: float | No
         while rclpy.ok(context=executor.context) and not predicate() and not stop_requested():
             if deadline is not None and time.monotonic() >= deadline:
                 break
-            executor.spin_until_future_complete(never, timeout_sec=step)
+            if isinstance(executor, Executor):
+                # rclpy's Python executors add a done callback to the future at every
+                # spin_until_future_complete and keep it: one callback at a time instead
+                executor.spin_once(timeout_sec=step)
+            else:
+                executor.spin_until_future_complete(never, timeout_sec=step)
     return bool(predicate())
 
 

@@ -6,17 +6,20 @@ that thread for seconds. Taken here, on a thread with a wait-set executor of
 its own, the conversion leaves the node's executor answering setpoints (the
 two threads share the GIL, which Python hands over every few milliseconds).
 Each request is then handled on the node's executor, where all of the node's
-state lives, unless ``answer_here`` answers it at once (a refusal that reads
-nothing of the node).
+state lives, unless ``check`` refuses it at once (a check that reads nothing
+of the node).
 """
 from __future__ import annotations
 
 import threading
 from typing import Any, Callable, Sequence
 
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
 Handler = Callable[[Any, Any], Any]
+#: (request, response, reason) -> the response refusing the request
+Refuse = Callable[[Any, Any, str], Any]
 
 
 class _Host:
@@ -31,37 +34,49 @@ class _Host:
 
 class ServiceThread:
     """Takes ``services`` on its own thread; hands each request to ``executor``
-    (the node's), or answers it with ``answer_here`` when that returns a response.
+    (the node's), unless ``check(request)`` gives a reason to refuse it
+    (answered by ``refuse`` at once).
     """
 
     #: s between two looks at a stop request (a request waiting for its answer too)
     STEP = 0.1
 
     def __init__(self, context: Any, services: Sequence[Any], executor: Any,
-                 answer_here: Handler) -> None:
+                 check: Callable[[Any], str | None], refuse: Refuse, logger: Any) -> None:
         self.services = frozenset(services)
         self._executor = executor
-        self._answer_here = answer_here
+        self._check, self._refuse, self._logger = check, refuse, logger
         self._stopping = threading.Event()
+        # a group of their own: a wait-set executor on the node holds the node's
+        # default group while a callback runs (this one waits for the node's executor)
+        group = MutuallyExclusiveCallbackGroup()
         for service in services:
-            service.callback = self._forwarding(service.callback)
+            service.callback = self._forwarding(service)
+            service.callback_group = group
+            group.add_entity(service)
         self._own = SingleThreadedExecutor(context=context)
         self._own.add_node(_Host(context, services))
         self._thread = threading.Thread(target=self._spin, name='services', daemon=True)
         self._thread.start()
 
     def _spin(self) -> None:
-        try:
-            while not self._stopping.is_set() and self._own.context.ok():
+        while not self._stopping.is_set() and self._own.context.ok():
+            try:
                 self._own.spin_once(timeout_sec=self.STEP)
-        except (ExternalShutdownException, KeyboardInterrupt):
-            pass
+            except (ExternalShutdownException, KeyboardInterrupt):
+                return
+            except Exception as exc:  # noqa: BLE001 - the services must outlive one request
+                self._logger.error(f'parameter services: {type(exc).__name__}: {exc}',
+                                   throttle_duration_sec=2.0)
 
-    def _forwarding(self, handler: Handler) -> Handler:
+    def _forwarding(self, service: Any) -> Handler:
+        handler = service.callback
+
         def forward(request: Any, response: Any) -> Any:
-            answer = self._answer_here(request, response)
-            if answer is not None:
-                return answer
+            problem = self._check(request)
+            if problem is not None:
+                self._logger.warn(f'{service.srv_name}: {problem}', throttle_duration_sec=2.0)
+                return self._refuse(request, response, problem)
             done = threading.Event()
             answers: list[Any] = []
 
@@ -73,15 +88,17 @@ class ServiceThread:
             self._executor.create_task(run)
             while not done.wait(self.STEP):
                 if self._stopping.is_set():     # the node's executor no longer runs
-                    return response
+                    return self._refuse(request, response, 'the node is stopping')
             return answers[0] if answers else response
         return forward
 
-    def stop(self, timeout: float = 2.0) -> None:
-        """End the thread (before the node is destroyed)."""
+    def stop(self) -> None:
+        """End the thread, once it has sent what it is sending (before the node
+        is destroyed; the executable bounds the whole teardown).
+        """
         self._stopping.set()
-        self._thread.join(timeout)
-        self._own.shutdown(timeout_sec=timeout)
+        self._thread.join()
+        self._own.shutdown()
 
 
 __all__ = ['ServiceThread']
