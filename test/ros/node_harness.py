@@ -372,6 +372,10 @@ class Client:
         return msg
 
     def close(self) -> None:
+        # the executor first: while it holds the node, the context keeps its DDS
+        # participant, and 32 participants on the host hide newcomers from each
+        # other (rmw_fastrtps' localhost discovery probes participant ids 0-31)
+        self.executor.shutdown(timeout_sec=5.0)
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
 
