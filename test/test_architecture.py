@@ -21,8 +21,8 @@ ALLOWED = {
     'cli': {'core', 'config', 'ros'},
 }
 #: modules of ros/ that talk to rclpy (the rest of ros/ is plain Python)
-RCLPY_MODULES = {'ros/dynamics_node.py', 'ros/node.py', 'ros/planner.py',
-                 'ros/platform_sim.py', 'ros/sim_node.py', 'cli/demo.py'}
+RCLPY_MODULES = {'ros/dynamics_node.py', 'ros/node.py', 'ros/planner.py', 'ros/platform_sim.py',
+                 'ros/service_thread.py', 'ros/sim_node.py', 'cli/demo.py'}
 #: modules that import matplotlib (an optional extra): imported lazily, by the
 #: commands that plot, so that nothing else ever needs matplotlib
 LAZY = {'flight_sim_dynamics.cli.plotting', 'flight_sim_dynamics.cli.workspace',

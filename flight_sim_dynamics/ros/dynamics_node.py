@@ -9,13 +9,14 @@ import math
 import sys
 import time
 import warnings
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 ParameterType, SetParametersResult)
-from rcl_interfaces.srv import SetParameters, SetParametersAtomically
+from rcl_interfaces.srv import (DescribeParameters, GetParameters, GetParameterTypes,
+                                ListParameters, SetParameters, SetParametersAtomically)
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
@@ -33,7 +34,8 @@ from ..config import parameters as prm
 from ..core.model import JOINT_NAMES, LEG_NAMES
 from ..core.solver import solve
 from .markers import MarkerBuilder
-from .process import stop_requested
+from .process import end_spins, stop_requested
+from .service_thread import ServiceThread
 from .setpoints import (ACCEL, BAD_SETPOINT, ERROR, INACTIVE, LEVEL_NAMES, PLATFORM, POSE,
                         TWIST, WARN, Outcome, Runtime, SetpointError, SetpointIntake,
                         diagnostic_name)
@@ -46,6 +48,10 @@ MAX_POINT_BYTES = 128
 MAX_MESSAGE_OVERHEAD = 65536
 # bounds of one parameter set request (the node's only thread validates it)
 MAX_PARAMETERS_PER_REQUEST = 256
+MAX_NAMES_PER_REQUEST = 4096         # of a get, describe, types or list request
+MAX_DROPPED_AT_ACTIVATION = 100_000  # queued messages per keep-all subscription
+PARAMETER_SERVICES = (DescribeParameters, GetParameters, GetParameterTypes, ListParameters,
+                      SetParameters, SetParametersAtomically)
 MAX_VALIDATIONS_PER_REQUEST = 12  # model validations, ~1.5 ms each
 MAX_STRING_LENGTH = 4096
 # rclpy warns of a zero QoS depth before check_qos refuses it with the reason
@@ -139,6 +145,8 @@ class DynamicsNode(LifecycleNode):
     """Starts unconfigured; :meth:`start` (or a lifecycle manager) configures
     and activates it. :attr:`failure`: why configure failed.
     """
+
+    _apart: ServiceThread | None = None      # the parameter services' own thread
 
     def __init__(self, **kwargs: Any) -> None:
         # every given parameter declared: typos can be told apart with public API
@@ -283,6 +291,26 @@ class DynamicsNode(LifecycleNode):
             service.callback = self._guarded(service.srv_name,
                                              own.get(service.srv_type, service.callback))
 
+    def serve_parameters_apart(self, executor: Any) -> None:
+        """The parameter services taken on a thread of their own (decoding a
+        request of 100,000 parameters takes seconds), each request then handled
+        on ``executor``; call before ``executor.add_node(self)``.
+        """
+        services = [s for s in self._services if s.srv_type in PARAMETER_SERVICES]
+        self._apart = ServiceThread(self.context, services, executor, self._request_problem,
+                                    self._refusal, self.get_logger())
+
+    @property
+    def services(self) -> Iterator[Any]:
+        """What an executor takes: not the services taken apart."""
+        apart = self._apart.services if self._apart is not None else frozenset()
+        return (s for s in self._services if s not in apart)
+
+    def destroy_node(self) -> None:
+        if self._apart is not None:
+            self._apart.stop()
+        super().destroy_node()
+
     def _guarded(self, name: str, handler: Callable[[Any, Any], Any]) -> Callable[[Any, Any], Any]:
         def guarded(request: Any, response: Any) -> Any:
             try:
@@ -325,26 +353,51 @@ class DynamicsNode(LifecycleNode):
         except ParameterException as exc:
             return _failed(str(exc))
 
+    @staticmethod
+    def _request_problem(request: Any) -> str | None:
+        """Why a parameter request is refused whole before the node reads it: more
+        than :data:`MAX_PARAMETERS_PER_REQUEST` parameters or
+        :data:`MAX_NAMES_PER_REQUEST` names or prefixes (None: it is not).
+        """
+        for field, limit in (('parameters', MAX_PARAMETERS_PER_REQUEST),
+                             ('names', MAX_NAMES_PER_REQUEST),
+                             ('prefixes', MAX_NAMES_PER_REQUEST)):
+            count = len(getattr(request, field, ()))
+            if count > limit:
+                return f'{count} {field} in one request, more than {limit}: refused whole'
+        return None
+
+    @staticmethod
+    def _refusal(request: Any, response: Any, reason: str) -> Any:
+        """``response`` refusing ``request``: a failed result per parameter (the
+        reason in the first); a query's lists left empty.
+        """
+        if isinstance(response, SetParametersAtomically.Response):
+            response.result = _failed(reason)
+        elif isinstance(response, SetParameters.Response) and request.parameters:
+            response.results = [_failed(reason)] + [_failed('refused whole')] * (
+                len(request.parameters) - 1)
+        return response
+
     def _set_request(self, request: Any, response: Any, atomic: bool) -> Any:
         """Applied as one change; a failed SetParameters is sorted out."""
         msgs = list(request.parameters)
-        if len(msgs) > MAX_PARAMETERS_PER_REQUEST:
-            result = _failed(f'{len(msgs)} parameters in one request, more than '
-                             f'{MAX_PARAMETERS_PER_REQUEST}: refused whole')
-        else:
-            parsed = [self._parse(m) for m in msgs]
-            params = [p for p, _, _ in parsed]
-            notes = [n for _, n, _ in parsed]
-            problems = [r for _, _, r in parsed]
-            problem = next(filter(None, problems), None)
-            if problem:     # refused before the on-set callback, which logs the others
-                self.get_logger().warn(f'parameter change rejected, model unchanged: {problem}')
-            result = _failed(problem) if problem else self._apply(params)
-            if result.successful:
-                result.reason = '; '.join(filter(None, notes))
-            elif not atomic and len(msgs) > 1:
-                response.results = self._sort_out(params, notes, problems, problem is None)
-                return response
+        problem = self._request_problem(request)
+        if problem is not None:
+            return self._refusal(request, response, problem)
+        parsed = [self._parse(m) for m in msgs]
+        params = [p for p, _, _ in parsed]
+        notes = [n for _, n, _ in parsed]
+        problems = [r for _, _, r in parsed]
+        problem = next(filter(None, problems), None)
+        if problem:     # refused before the on-set callback, which logs the others
+            self.get_logger().warn(f'parameter change rejected, model unchanged: {problem}')
+        result = _failed(problem) if problem else self._apply(params)
+        if result.successful:
+            result.reason = '; '.join(filter(None, notes))
+        elif not atomic and len(msgs) > 1:
+            response.results = self._sort_out(params, notes, problems, problem is None)
+            return response
         if atomic:
             response.result = result
         else:
@@ -433,10 +486,27 @@ class DynamicsNode(LifecycleNode):
         return SUCCESS
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._drop_queued()
         self._intake.reset()                  # nothing from before counts as history
         self._active = True
         self.get_logger().info('active: answering setpoints')
         return super().on_activate(state)     # enables the lifecycle publishers
+
+    def _drop_queued(self) -> None:
+        """Setpoints still queued at activation were published while inactive
+        (a busy node, or an executor that serves the request first): taken now
+        and counted inactive, not answered late. The executor's events for them
+        then take nothing.
+        """
+        for sub in self._endpoints[2:]:
+            qos = sub.qos_profile       # at most a queue's worth: a fast stream never ends
+            with sub.handle:
+                for _ in range(qos.depth if qos.history == HistoryPolicy.KEEP_LAST
+                               else MAX_DROPPED_AT_ACTIVATION):
+                    taken = sub.handle.take_message(sub.msg_type, sub.raw)
+                    if taken is None:
+                        break
+                    sub.callback(taken[0])
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
         self._active = False
@@ -524,7 +594,8 @@ class DynamicsNode(LifecycleNode):
     # -- setpoints in, answers out -------------------------------------------------
     def _on_setpoint(self, kind: str, msg: Any) -> None:
         # nothing escapes a callback (it would stop the executor)
-        if stop_requested():    # stopping: a backlog drains at once, the spin loop sees the stop
+        if stop_requested():    # stopping: the spin returns after this callback
+            end_spins()
             return
         try:
             # taken after deactivate or cleanup (queued before): counted inactive
@@ -537,6 +608,7 @@ class DynamicsNode(LifecycleNode):
 
     def _on_platform(self, data: bytes) -> None:
         if stop_requested():
+            end_spins()
             return
         try:
             if self._runtime is None or not self._active:

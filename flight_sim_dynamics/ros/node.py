@@ -17,14 +17,14 @@ import rclpy
 import rclpy.task
 from rclpy.node import Node
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.experimental import EventsExecutor
 from rclpy.signals import SignalHandlerOptions
 
 from ..config import parameters as prm
 from ..config.files import params_files_in, read_params_file
 from .dynamics_node import DynamicsNode
-from .process import stop_on_signals, stop_requested
+from .process import ending_spin, stop_on_signals, stop_requested
 
 SPIN_STEP = 0.1                  # s between two looks at a requested stop
 N = TypeVar('N', bound=Node)
@@ -123,6 +123,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         elif not node.start():
             refuse(node.failure)
         executor = make_executor(args.executor)
+        node.serve_parameters_apart(executor)
         executor.add_node(node)
         spin(executor, until=[node.finalized])
     return 0
@@ -134,11 +135,17 @@ def spin_until(executor: Any, predicate: Callable[[], bool], timeout: float | No
     always with a timeout: rclpy 7.1.6's EventsExecutor busy-loops in ``spin()``.
     """
     deadline = None if timeout is None else time.monotonic() + timeout
-    never = rclpy.task.Future()
-    while rclpy.ok(context=executor.context) and not predicate() and not stop_requested():
-        if deadline is not None and time.monotonic() >= deadline:
-            break
-        executor.spin_until_future_complete(never, timeout_sec=step)
+    never = rclpy.task.Future()      # done only by a stop request (end_spins)
+    with ending_spin(never):
+        while rclpy.ok(context=executor.context) and not predicate() and not stop_requested():
+            if deadline is not None and time.monotonic() >= deadline:
+                break
+            if isinstance(executor, Executor):
+                # rclpy's Python executors add a done callback to the future at every
+                # spin_until_future_complete and keep it: one callback at a time instead
+                executor.spin_once(timeout_sec=step)
+            else:
+                executor.spin_until_future_complete(never, timeout_sec=step)
     return bool(predicate())
 
 

@@ -29,6 +29,7 @@ from ..core.model import LEG_NAMES, Model
 from ..core.simulation import Servo
 from ..core.twin import TwinStepper
 from .dynamics_node import _declared, default_qos, descriptor_for, plain
+from .process import end_spins, stop_requested
 from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, STAMP_BACKWARDS, STAMP_REPEATED,
                         WARN, LogThrottle, SetpointError, Vec3, diagnostic_name, number,
                         rpy_to_quaternion)
@@ -316,6 +317,9 @@ class PlatformSim(Node):
 
     def _on_command(self, data: bytes) -> None:
         """Decode and check a command; keep it for the next tick."""
+        if stop_requested():        # stopping: the spin returns after this callback
+            end_spins()
+            return
         stats = self.stats
         try:
             now = time.monotonic()

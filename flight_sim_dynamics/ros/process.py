@@ -6,13 +6,14 @@ handlers raise inside a callback or shut the context down under a publish.
 from __future__ import annotations
 
 import atexit
+import contextlib
 import os
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
-from typing import IO, Any, Sequence
+from typing import IO, Any, Iterator, Sequence
 
 NODE_MODULE = 'flight_sim_dynamics.ros.node'
 SIM_MODULE = 'flight_sim_dynamics.ros.sim_node'
@@ -110,3 +111,32 @@ def stop_on_signals() -> None:
 
 def stop_requested() -> bool:
     return bool(_stop)
+
+
+_spins: list[Any] = []          # futures whose completion ends a spin (see end_spins)
+
+
+@contextlib.contextmanager
+def ending_spin(future: Any) -> Iterator[None]:
+    """While in this block, ``future`` (an rclpy Future a spin waits for) is
+    completed by :func:`end_spins`.
+    """
+    _spins.append(future)
+    try:
+        yield
+    finally:
+        if future in _spins:
+            _spins.remove(future)
+
+
+def end_spins() -> None:
+    """From a callback that saw the stop request: the spins waiting for the
+    futures of :func:`ending_spin` return after this callback. rclpy's
+    EventsExecutor returns from a timed spin only once its queue is empty,
+    which a backlog arriving faster than it is taken never is. Not called
+    from the signal handler, which may interrupt the future's own lock.
+    """
+    while _spins:
+        future = _spins.pop()
+        if not future.done():
+            future.set_result(True)

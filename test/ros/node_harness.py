@@ -150,7 +150,7 @@ class Client:
             'types': n.create_client(GetParameterTypes, f'{target}/get_parameter_types'),
         }
         self.watch: NodeProcess | None = None
-        self._answered: set[str] = set()     # services that answered this client
+        self._answered: set[Any] = set()     # service clients answered once
 
     # -- waiting ---------------------------------------------------------------
     def spin_until(self, predicate: Callable[[], bool], timeout: float) -> bool:
@@ -238,7 +238,7 @@ class Client:
                          f'{found[-1] if found else None}'
         return matching[0]
 
-    #: requests whose repetition changes nothing (sent again, see :meth:`call`)
+    #: requests whose repetition leaves the node as one does (sent again, see :meth:`call`)
     IDEMPOTENT = frozenset({'get', 'set', 'atomic', 'list', 'describe', 'types', 'get_state',
                             'get_available_transitions', 'reset'})
 
@@ -252,15 +252,17 @@ class Client:
         client = self.srv[name]
         assert self.spin_until(client.service_is_ready, timeout), f'{name} service not ready'
         deadline = time.monotonic() + timeout
-        resend = name in self.IDEMPOTENT and name not in self._answered
+        resend = name in self.IDEMPOTENT and client not in self._answered
         future = client.call_async(request)
-        while not self.spin_until(future.done, max(0.0, deadline - time.monotonic())
-                                  if not resend else 1.0):
+        while True:
+            remaining = max(0.0, deadline - time.monotonic())
+            if self.spin_until(future.done, min(1.0, remaining) if resend else remaining):
+                break
             if not resend or time.monotonic() >= deadline:
                 raise AssertionError(f'{name} call timed out')
             client.remove_pending_request(future)
             future = client.call_async(request)
-        self._answered.add(name)
+        self._answered.add(client)
         return future.result()
 
     # -- parameters --------------------------------------------------------------
@@ -370,6 +372,10 @@ class Client:
         return msg
 
     def close(self) -> None:
+        # the executor first: while it holds the node, the context keeps its DDS
+        # participant, and 32 participants on the host hide newcomers from each
+        # other (rmw_fastrtps' localhost discovery probes participant ids 0-31)
+        self.executor.shutdown(timeout_sec=5.0)
         self.node.destroy_node()
         rclpy.try_shutdown(context=self.context)
 

@@ -7,6 +7,8 @@ are counted, never answered; shutdown ends the process with exit 0.
 """
 from __future__ import annotations
 
+import os
+import signal
 import time
 
 import pytest
@@ -56,9 +58,11 @@ class LifecycleClient(Client):
             and self.actuator_sub.get_publisher_count() > 0, 10.0)
 
 
-def managed(namespace: str, *ros_args: str) -> tuple[NodeProcess, LifecycleClient]:
+def managed(namespace: str, *ros_args: str, executor: str | None = None
+            ) -> tuple[NodeProcess, LifecycleClient]:
     proc = NodeProcess('-p', 'autostart:=false', '-p', 'diagnostics.period:=0.2',
-                       '-r', f'__ns:={namespace}', *ros_args, params_file=PARAMS_FILE)
+                       '-r', f'__ns:={namespace}', *ros_args, params_file=PARAMS_FILE,
+                       executor=executor)
     client = LifecycleClient(namespace)
     client.watch = proc
     assert client.spin_until(lambda: client.srv['get_state'].service_is_ready(), 20.0), \
@@ -197,3 +201,39 @@ def test_cleanup_under_a_stream_is_quiet():
     log = proc.output()
     assert 'ERROR' not in log and 'internal error' not in log, log[-3000:]
     assert int(values.get('rejected solver_error', 0)) == 0, values
+
+
+@pytest.mark.parametrize('executor', ['events', 'single'])
+def test_setpoints_queued_while_inactive_are_not_answered_after_activation(executor):
+    """Setpoints published while the node is inactive and still queued when
+    it activates (a busy or stalled node: here stopped with SIGSTOP) are
+    dropped and counted inactive, not answered late; the next one is answered.
+    The wait-set executor takes one message per subscription before serving
+    the activate request, then the queue."""
+    proc, client = managed(f'/lcq{executor}', executor=executor)
+    count = 100
+    try:
+        assert client.change(Transition.TRANSITION_CONFIGURE)
+        client.wait_matched()
+        base = time.time_ns() - 10 ** 9
+        os.kill(proc.proc.pid, signal.SIGSTOP)
+        try:
+            for i in range(count):
+                client.send(base + i * 1_000_000, Q, QD, QDD)
+            request = ChangeState.Request(transition=Transition(
+                id=Transition.TRANSITION_ACTIVATE))
+            future = client.srv['change_state'].call_async(request)
+            client.spin_until(lambda: False, 0.3)     # the request is out
+        finally:
+            os.kill(proc.proc.pid, signal.SIGCONT)
+        assert client.spin_until(future.done, 10.0) and future.result().success
+        fresh = time.time_ns()
+        assert client.answered(fresh, 10.0)
+        values = client.wait_diagnostics(
+            lambda v: int(v.get('received pose', 0)) >= count + 1)
+    finally:
+        client.close()
+        proc.stop()
+    stale = [stamp_ns(m) for _, m in client.actuator if stamp_ns(m) < fresh]
+    assert stale == []
+    assert int(values['rejected inactive']) == 3 * count, values

@@ -10,6 +10,8 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -27,6 +29,7 @@ from flight_sim_dynamics.core.model import JOINT_NAMES, LEG_NAMES
 from flight_sim_dynamics.core.trajectories import paper_example
 from flight_sim_dynamics.ros.dynamics_node import (MAX_PARAMETERS_PER_REQUEST,
                                                    MAX_VALIDATIONS_PER_REQUEST, default_qos)
+from flight_sim_dynamics.ros.process import node_env
 from node_harness import ROOT, Client, NodeProcess, stamp_ns
 
 pytestmark = pytest.mark.ros
@@ -388,6 +391,74 @@ def test_a_huge_request_is_refused_whole_and_the_node_keeps_answering(client):
     assert not any(r.successful for r in response.results)
     assert 'refused whole' in response.results[0].reason
     np.testing.assert_allclose(answer(client), reference, rtol=0, atol=1e-9)
+
+
+SENDER = """
+import sys, time, rclpy
+from rcl_interfaces.msg import Parameter, ParameterValue
+from rcl_interfaces.srv import SetParameters
+rclpy.init()
+node = rclpy.create_node('huge_request_sender')
+client = node.create_client(SetParameters, sys.argv[2])
+assert client.wait_for_service(timeout_sec=20.0)
+value = ParameterValue(type=3, double_value=1.0)
+request = SetParameters.Request(parameters=[Parameter(name=f'p{i}', value=value)
+                                            for i in range(int(sys.argv[1]))])
+print('sending', flush=True)
+future = client.call_async(request)
+rclpy.spin_until_future_complete(node, future, timeout_sec=120.0)
+print('answered', len(future.result().results), flush=True)
+"""
+
+
+@pytest.mark.parametrize('executor', ['events', 'single'])
+def test_setpoints_are_answered_while_a_huge_request_is_decoded(executor):
+    """rclpy decodes a request before any callback sees it: 300,000 parameters
+    take seconds. Sent by another process while a 200 Hz stream runs, the
+    request is refused whole, and the answers never pause for more than a
+    third of the time it took (decoded on the node's own executor, they
+    paused for three quarters of it), with either executor."""
+    count = 300_000
+    namespace = f'/huge_{executor}'
+    node = NodeProcess('-r', f'__ns:={namespace}', '-p', 'sync.wait:=0.5', params_file=None,
+                       executor=executor)
+    client = Client(namespace=namespace)
+    try:
+        client.wait_for_node(node)
+        client.round_trip(Stamp.next)
+        sender = subprocess.Popen(
+            [sys.executable, '-c', SENDER, str(count),
+             f'{namespace}/flight_sim_dynamics/set_parameters'],
+            stdout=subprocess.PIPE, text=True, env=node_env())
+        try:
+            lines: list[str] = []
+            reader = threading.Thread(target=lambda: lines.extend(sender.stdout), daemon=True)
+            reader.start()
+            zero = (0.0, 0.0, 0.0)
+            deadline = time.monotonic() + 120.0
+            sent_at = answered_at = None
+            while answered_at is None and time.monotonic() < deadline and (
+                    sender.poll() is None or reader.is_alive()):
+                client.send(Stamp.next(), zero, zero, zero)
+                client.spin_until(lambda: False, 0.005)
+                if sent_at is None and any(line.startswith('sending') for line in lines):
+                    sent_at = time.monotonic()
+                if any(line.startswith('answered') for line in lines):
+                    answered_at = time.monotonic()
+        finally:
+            sender.kill()
+            sender.wait()
+        arrivals = [t for t, _ in client.actuator]
+    finally:
+        client.close()
+        node.stop()
+    assert sent_at is not None and answered_at is not None, lines
+    assert f'answered {count}' in ''.join(lines)
+    took = answered_at - sent_at
+    during = [t for t in arrivals if sent_at <= t <= answered_at]
+    longest = max(b - a for a, b in zip([sent_at, *during], [*during, answered_at]))
+    assert took > 1.0, f'the request took {took:.2f} s: too small to tell'
+    assert longest < took / 3, f'answers paused {longest:.2f} s of {took:.2f} s'
 
 
 def test_a_set_request_is_one_change_when_it_all_holds(client):
