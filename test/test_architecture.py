@@ -16,9 +16,10 @@ MODULES = sorted(p for p in PACKAGE.rglob('*.py'))
 #: subpackage -> the package's subpackages it may import (besides itself)
 ALLOWED = {
     'core': set(),
-    'config': {'core'},
-    'ros': {'core', 'config'},
-    'cli': {'core', 'config', 'ros'},
+    'machines': {'core'},
+    'config': {'core', 'machines'},
+    'ros': {'core', 'config', 'machines'},
+    'cli': {'core', 'config', 'ros', 'machines'},
 }
 #: modules of ros/ that talk to rclpy (the rest of ros/ is plain Python)
 RCLPY_MODULES = {'ros/dynamics_node.py', 'ros/node.py', 'ros/planner.py', 'ros/platform_sim.py',

@@ -9,12 +9,14 @@ that names its field (reading the file is the configuration's job).
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field, replace
 from typing import Mapping
 
 import numpy as np
 
 from ...core.effects import Effects
+from ...core.machine import ModelValueError
 
 #: Legs, in the order of the parameter file's joints.
 LEG_NAMES = tuple(f'leg_{i}' for i in range(1, 7))
@@ -162,37 +164,54 @@ _FRICTION = {'viscous', 'coulomb', 'smoothing_velocity'}
 _LIMITS_REQUIRED = ('length_min', 'length_max', 'max_speed', 'max_force')
 _LIMITS_OPTIONAL = ('max_jacobian_condition', 'u_joint_max_angle',
                     'spherical_joint_max_angle', 'warn_fraction')
+#: The names a hexapod's parameter file may give, dotted as ROS 2 flattens them.
+PARAMETER_NAMES = frozenset(
+    {'machine', 'gravity', 'scene'} | {f'geometry.{k}' for k in _GEOMETRY}
+    | {f'{body}.{k}' for body in ('bodies.platform', 'payload') for k in _RIGID}
+    | {f'bodies.{leg}.{k}' for leg in ('cylinder', 'rod') for k in _LEG}
+    | {f'friction.{k}' for k in _FRICTION}
+    | {f'limits.{k}' for k in _LIMITS_REQUIRED + _LIMITS_OPTIONAL})
+
+
+def _error(name: str, message: str) -> ModelValueError:
+    """The error of field ``name`` (an element's index dropped from its key)."""
+    return ModelValueError(re.sub(r'\[\d+\]$', '', name), message)
+
+
+def _key(section: str, name: str) -> str:
+    """The dotted name of ``name`` in ``section`` ('parameters': the top level)."""
+    return name if section == 'parameters' else f'{section}.{name}'
 
 
 def _section(name: str, value: object, keys: set, required: set | None = None) -> Mapping:
     if not isinstance(value, Mapping):
-        raise ValueError(f'{name} must be a mapping, got {value!r:.100}')
-    unknown = set(value) - keys
+        raise _error(name, f'{name} must be a mapping, got {value!r:.100}')
+    unknown = sorted(map(str, set(value) - keys))
     if unknown:
-        raise ValueError(f'{name}: unknown key(s) {", ".join(sorted(map(str, unknown)))}')
-    missing = (keys if required is None else required) - set(value)
+        raise _error(_key(name, unknown[0]), f'{name}: unknown key(s) {", ".join(unknown)}')
+    missing = sorted((keys if required is None else required) - set(value))
     if missing:
-        raise ValueError(f'{name}: missing key(s) {", ".join(sorted(missing))}')
+        raise _error(_key(name, missing[0]), f'{name}: missing key(s) {", ".join(missing)}')
     return value
 
 
 def _number(name: str, value: object, low: float = -math.inf, *, strict: bool = False) -> float:
     """A finite real number >= low (> low if strict), or ValueError naming the field."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise ValueError(f'{name} must be a number, got {value!r:.100}')
+        raise _error(name, f'{name} must be a number, got {value!r:.100}')
     x = float(value)
     if not math.isfinite(x):
-        raise ValueError(f'{name} must be finite, got {x}')
+        raise _error(name, f'{name} must be finite, got {x}')
     if x < low or (strict and x == low):
-        raise ValueError(f'{name} must be {">" if strict else ">="} {low:g}, got {x:g}')
+        raise _error(name, f'{name} must be {">" if strict else ">="} {low:g}, got {x:g}')
     return x
 
 
 def _numbers(name: str, value: object, n: int, low: float = -math.inf) -> np.ndarray:
     if isinstance(value, (str, bytes, Mapping)) or not hasattr(value, '__len__'):
-        raise ValueError(f'{name} must be a list of {n} numbers, got {value!r:.100}')
+        raise _error(name, f'{name} must be a list of {n} numbers, got {value!r:.100}')
     if len(value) != n:
-        raise ValueError(f'{name} must be a list of {n} numbers, got {len(value)}')
+        raise _error(name, f'{name} must be a list of {n} numbers, got {len(value)}')
     return np.array([_number(f'{name}[{i}]', v, low) for i, v in enumerate(value)])
 
 
@@ -202,13 +221,15 @@ def _rigid(name: str, d: object, allow_zero_mass: bool = False) -> RigidBody:
     inertia = _numbers(f'{name}.inertia', d['inertia'], 9).reshape(3, 3)
     scale = max(1.0, float(np.abs(inertia).max()))
     if not np.allclose(inertia, inertia.T, rtol=0.0, atol=1e-12 * scale):
-        raise ValueError(f'{name}.inertia must be symmetric, got {inertia.ravel().tolist()}')
+        raise _error(f'{name}.inertia',
+                     f'{name}.inertia must be symmetric, got {inertia.ravel().tolist()}')
     eig = np.linalg.eigvalsh(inertia)
     if eig[0] < -1e-12 * scale or eig[2] > eig[0] + eig[1] + 1e-9 * scale:
-        raise ValueError(f'{name}.inertia is not a body\'s inertia (principal moments '
-                         f'{eig.tolist()}: each must be >= 0 and at most the sum of the others)')
+        raise _error(f'{name}.inertia', f'{name}.inertia is not a body\'s inertia (principal '
+                     f'moments {eig.tolist()}: each must be >= 0 and at most the sum of the '
+                     'others)')
     if mass == 0.0 and np.any(inertia != 0.0):
-        raise ValueError(f'{name}.inertia must be zero for a body of no mass')
+        raise _error(f'{name}.inertia', f'{name}.inertia must be zero for a body of no mass')
     return RigidBody(mass, _numbers(f'{name}.com', d['com'], 3), inertia)
 
 
@@ -236,12 +257,14 @@ def _limits(d: object) -> Limits:
         if d.get(key) is not None:
             out[key] = _number(f'limits.{key}', d[key], 0.0, strict=True)
             if out[key] > math.pi:
-                raise ValueError(f'limits.{key} must be <= pi rad, got {out[key]:g}')
+                raise _error(f'limits.{key}',
+                             f'limits.{key} must be <= pi rad, got {out[key]:g}')
     if 'warn_fraction' in d:
         out['warn_fraction'] = _number('limits.warn_fraction', d['warn_fraction'], 0.0,
                                        strict=True)
         if out['warn_fraction'] > 1.0:
-            raise ValueError(f'limits.warn_fraction must be <= 1, got {out["warn_fraction"]:g}')
+            raise _error('limits.warn_fraction',
+                         f'limits.warn_fraction must be <= 1, got {out["warn_fraction"]:g}')
     return Limits(**out)
 
 
@@ -263,24 +286,26 @@ def from_dict(params: Mapping, effects: Effects | None = None) -> StewartModel:
     if isinstance(params, Mapping) and 'flight_sim_dynamics' in params:
         params = params['flight_sim_dynamics']
         if not isinstance(params, Mapping) or 'ros__parameters' not in params:
-            raise ValueError('flight_sim_dynamics: missing ros__parameters')
+            raise _error('flight_sim_dynamics', 'flight_sim_dynamics: missing ros__parameters')
         params = params['ros__parameters']
     params = _section('parameters', params, _TOP, _TOP - {'payload', 'friction', 'scene'})
     name = params['machine']
     if not isinstance(name, str) or not name:
-        raise ValueError(f'machine must be a name, got {name!r:.100}')
+        raise _error('machine', f'machine must be a name, got {name!r:.100}')
     scene = params.get('scene', 'full')
     if not isinstance(scene, str) or not scene:
-        raise ValueError(f'scene must be a name, got {scene!r:.100}')
+        raise _error('scene', f'scene must be a name, got {scene!r:.100}')
     if effects is None and scene != 'full':
-        raise ValueError(f"scene '{scene}': pass its effects (scene full's are the defaults)")
+        raise _error('scene', f"scene '{scene}': pass its effects (scene full's are the "
+                     'defaults)')
     geo = _section('geometry', params['geometry'], _GEOMETRY)
     base = _points('geometry.base_joints', geo['base_joints'])
     plat = _points('geometry.platform_joints', geo['platform_joints'])
     axes = _points('geometry.base_axes', geo['base_axes'])
     norms = np.linalg.norm(axes, axis=1)
     if np.any(norms < 1e-9):
-        raise ValueError(f'geometry.base_axes: axis of leg {int(np.argmin(norms)) + 1} is zero')
+        raise _error('geometry.base_axes',
+                     f'geometry.base_axes: axis of leg {int(np.argmin(norms)) + 1} is zero')
     home = _numbers('geometry.home', geo['home'], 3)
     bodies = _section('bodies', params['bodies'], {'platform', 'cylinder', 'rod'})
     payload = params.get('payload', {'mass': 0.0, 'com': [0.0] * 3, 'inertia': [0.0] * 9})
@@ -304,9 +329,9 @@ def _check_home(model: StewartModel) -> None:
     L = np.linalg.norm(d, axis=1)
     for i in range(6):
         if L[i] <= MIN_LENGTH:
-            raise ValueError(f'geometry.home: leg {i + 1} has zero length at home')
+            raise _error('geometry.home', f'geometry.home: leg {i + 1} has zero length at home')
         s2 = float(model.base_axes[i] @ d[i] / L[i])
         if 1.0 - s2 * s2 < U_JOINT_TOLERANCE ** 2:
-            raise ValueError(f'geometry.base_axes: leg {i + 1} lies along its U-joint\'s '
-                             'first axis at home (singular joint)')
+            raise _error('geometry.base_axes', f'geometry.base_axes: leg {i + 1} lies along '
+                         'its U-joint\'s first axis at home (singular joint)')
 

@@ -1,0 +1,75 @@
+"""What the shared layer (the public API, configuration, command line) needs
+from a machine: :class:`Machine`, one per kind of model, and the error a
+machine's model builder raises for a bad parameter.
+
+Each machine implements the same calls on its own model type, with vectors of
+``len(coordinates)`` pose numbers and ``len(legs)`` actuator numbers:
+
+=================================================  ===============================
+``solve(model, q, qd, qdd)``                       one sample: lengths, forces, status
+``solve_batch(model, Q, Qd, Qdd)``                 N samples, arrays (N, dof)
+``forward_kinematics(model, lengths, initial=0)``  the pose of given leg lengths
+``forward_dynamics(model, q, qd, force)``          accelerations of given forces
+``actuator_limits(model)``                         strokes, speed and force allowed
+=================================================  ===============================
+
+The home pose is q = 0 for every machine (poses are measured from it).
+The 3-DOF machine's parameters are the configuration's schema
+(:mod:`flight_sim_dynamics.config.schema`); a machine whose parameter files
+name it brings its own (:attr:`Machine.parameters`, :attr:`Machine.from_params`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+
+class ModelValueError(ValueError):
+    """A machine's model builder refuses a parameter: ``key`` is its dotted
+    name (``bodies.rod.mass``; an element's index dropped), the message says why.
+    """
+
+    def __init__(self, key: str, message: str) -> None:
+        super().__init__(message)
+        self.key = key
+
+
+@dataclass(frozen=True)
+class ActuatorLimits:
+    """What each actuator may do without the status ``limit``, per leg."""
+
+    stroke_min: np.ndarray   # (legs,) m, lowest stroke (length - length at home)
+    stroke_max: np.ndarray   # (legs,) m, highest stroke
+    max_speed: float         # m/s, largest |dL/dt|
+    max_force: float         # N, largest |f|
+
+
+@dataclass(frozen=True)
+class Machine:
+    """One kind of machine: its names and its calls (module docstring)."""
+
+    name: str                            # the machine's kind, e.g. 'stewart'
+    model_type: type                     # the model class its calls take
+    coordinates: tuple[str, ...]         # pose coordinates, in the order of q
+    units: tuple[str, ...]               # their units ('m' or 'rad')
+    legs: tuple[str, ...]                # actuated legs, in the order of forces
+    joints: tuple[str, ...]              # joint variables, in the order of joint_states
+    solve: Callable[..., Any]
+    solve_batch: Callable[..., Any]
+    forward_kinematics: Callable[..., Any]
+    forward_dynamics: Callable[..., Any]
+    actuator_limits: Callable[[Any], ActuatorLimits]
+    # A machine whose parameter files name it (``machine: <name>``): the names
+    # they may give (dotted) and the model of a file's nested parameters with a
+    # scene's effects, ``from_params(params, effects) -> model`` (ModelValueError);
+    # the packaged files (config/<name>.yaml) of its kind.
+    parameters: frozenset[str] = frozenset()
+    from_params: Callable[..., Any] | None = None
+    parameter_files: tuple[str, ...] = ()
+
+    @property
+    def dof(self) -> int:
+        """Number of pose coordinates (and of actuated legs)."""
+        return len(self.coordinates)

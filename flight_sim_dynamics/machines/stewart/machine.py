@@ -1,0 +1,30 @@
+"""The hexapod as the shared layer sees it (:class:`flight_sim_dynamics.core.machine.Machine`)."""
+from __future__ import annotations
+
+from ...core.machine import ActuatorLimits, Machine
+from .forward_dynamics import forward_dynamics
+from .kinematics import forward_kinematics
+from .model import LEG_NAMES, PARAMETER_NAMES, StewartModel, from_dict
+from .solver import COORDINATES, solve, solve_batch
+
+#: The joint variables of each leg, in the order of a solution's ``joints``
+#: (U-joint angles theta_1, theta_2 (S5), the prismatic joint's length L).
+JOINT_NAMES = tuple(f'{leg}_{variable}' for leg in LEG_NAMES
+                    for variable in ('theta_1', 'theta_2', 'length'))
+
+
+def actuator_limits(model: StewartModel) -> ActuatorLimits:
+    """Strokes from the length limits and each leg's length at home."""
+    lim = model.limits
+    return ActuatorLimits(stroke_min=lim.length_min - model.home_lengths,
+                          stroke_max=lim.length_max - model.home_lengths,
+                          max_speed=lim.max_speed, max_force=lim.max_force)
+
+
+MACHINE = Machine(
+    name='stewart', model_type=StewartModel, coordinates=COORDINATES,
+    units=('m', 'm', 'm', 'rad', 'rad', 'rad'), legs=LEG_NAMES, joints=JOINT_NAMES,
+    solve=solve, solve_batch=solve_batch, forward_kinematics=forward_kinematics,
+    forward_dynamics=forward_dynamics, actuator_limits=actuator_limits,
+    parameters=PARAMETER_NAMES, from_params=from_dict,
+    parameter_files=('stewart_6dof', 'stewart_tsai2000'))
