@@ -1,6 +1,7 @@
 """flight_sim_dynamics: inverse kinematics and dynamics of the 3-DOF parallel
 flight simulator of Staicu, Ocnarescu and Ungureanu (2013), by the paper's
-recursive matrix method, with a ROS 2 node around it.
+recursive matrix method, and of 6-UPS Stewart-Gough hexapods, with a ROS 2
+node around the 3-DOF machine.
 
 Python API (model/data style)::
 
@@ -11,6 +12,10 @@ Python API (model/data style)::
     fd = fsd.forward_dynamics(model, q, qd, force)   # fd.acceleration, fd.status
     sim = fsd.simulate(model, reference=motion, feedforward=model)   # the twin
 
+    hexa = fsd.load_model('config/stewart_6dof.yaml')   # a file naming its machine
+    sol = fsd.solve(hexa, q6, qd6, qdd6)     # the same calls, six numbers each
+    fsd.machine_of(hexa).coordinates         # surge, sway, heave, roll, pitch, yaw
+
 The numerical core imports numpy only; rclpy is needed by the node alone.
 """
 import importlib
@@ -19,15 +24,16 @@ from typing import Any
 #: The public API, name -> module: imported on first use, so that importing
 #: the package is quick (the command line's Ctrl-C handler is in place before numpy loads).
 _API = {'trajectories': '.core.trajectories',
-        'ForwardDynamics': '.core.forward_dynamics', 'forward_dynamics': '.core.forward_dynamics',
+        'ForwardDynamics': '.core.forward_dynamics', 'forward_dynamics': '.machines.api',
         'ForwardSolution': '.core.forward_kinematics',
-        'forward_kinematics': '.core.forward_kinematics',
+        'forward_kinematics': '.machines.api', 'machine_of': '.machines.api',
+        'Machine': '.core.machine',
         'UnreachablePoseError': '.core.kinematics', 'JOINT_NAMES': '.core.model',
         'LEG_NAMES': '.core.model', 'Model': '.core.model', 'ParameterError': '.config.parameters',
         'load_model': '.config.parameters', 'Servo': '.core.simulation',
         'Simulation': '.core.simulation', 'simulate': '.core.simulation',
-        'Solution': '.core.solver', 'solve': '.core.solver', 'solve_batch': '.core.solver',
-        'Status': '.core.status'}
+        'Solution': '.core.solver', 'solve': '.machines.api', 'solve_batch': '.machines.api',
+        'StewartModel': '.machines.stewart.model', 'Status': '.core.status'}
 
 __all__ = list(_API)
 __version__ = '0.1.0'

@@ -1,0 +1,94 @@
+"""The public calls on a model of any machine.
+
+Each finds the model's machine (:data:`.BY_MODEL_TYPE`, by the model's type)
+and calls its function, with the machine's vectors (three numbers for the
+3-DOF machine, six for a hexapod)::
+
+    import flight_sim_dynamics as fsd
+    hexa = fsd.load_model('config/stewart_6dof.yaml')
+    sol = fsd.solve(hexa, q, qd, qdd)                # sol.length, .force, .status
+    fd = fsd.forward_dynamics(hexa, q, qd, sol.force)
+    fsd.machine_of(hexa).coordinates                 # ('surge', 'sway', 'heave', ...)
+
+The dispatch is one dictionary look-up by type (its cost: ``python -m
+benchmarks.dispatch``); results are the machine's own, bit for bit.
+"""
+from __future__ import annotations
+
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..core.machine import Machine
+from . import BY_MODEL_TYPE, MACHINES
+
+# the machines' functions by model type, one look-up per call
+_SOLVE = {machine.model_type: machine.solve for machine in MACHINES}
+_SOLVE_BATCH = {machine.model_type: machine.solve_batch for machine in MACHINES}
+_FORWARD_KINEMATICS = {machine.model_type: machine.forward_kinematics for machine in MACHINES}
+_FORWARD_DYNAMICS = {machine.model_type: machine.forward_dynamics for machine in MACHINES}
+
+
+def machine_of(model: object) -> Machine:
+    """The machine ``model`` belongs to; TypeError for anything that is not a
+    model of :func:`flight_sim_dynamics.load_model`.
+    """
+    machine = BY_MODEL_TYPE.get(type(model))
+    if machine is not None:
+        return machine
+    for machine in MACHINES:        # a subclass of a machine's model
+        if isinstance(model, machine.model_type):
+            return machine
+    raise TypeError(f'expected a model of load_model() (one of '
+                    f'{", ".join(m.model_type.__name__ for m in MACHINES)}), '
+                    f'got {type(model).__name__}')
+
+
+def solve(model: Any, q: Sequence[float], qd: Sequence[float], qdd: Sequence[float]) -> Any:
+    """One sample of the model's machine: pose ``q``, its rates ``qd`` and
+    accelerations ``qdd`` (one number per coordinate of
+    ``machine_of(model).coordinates``); per leg length, stroke, rate,
+    acceleration, force, power, and the status. Never raises for a bad pose or
+    bad numbers; ValueError for arguments of the wrong size
+    (:func:`flight_sim_dynamics.core.solver.solve`,
+    :func:`flight_sim_dynamics.machines.stewart.solver.solve`).
+    """
+    try:
+        call = _SOLVE[type(model)]
+    except KeyError:
+        call = machine_of(model).solve
+    return call(model, q, qd, qdd)
+
+
+def solve_batch(model: Any, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> Any:
+    """N samples (arrays (N, coordinates)); every field gets a leading N axis."""
+    try:
+        call = _SOLVE_BATCH[type(model)]
+    except KeyError:
+        call = machine_of(model).solve_batch
+    return call(model, q, qd, qdd)
+
+
+def forward_kinematics(model: Any, lengths: Sequence[float], *args: Any, **kwargs: Any) -> Any:
+    """The pose whose leg lengths are ``lengths`` (one per leg), by Newton's
+    method from ``initial`` (default: home); ``tolerance``, ``max_iterations``
+    as the machine's function takes them. Never raises for bad numbers.
+    """
+    try:
+        call = _FORWARD_KINEMATICS[type(model)]
+    except KeyError:
+        call = machine_of(model).forward_kinematics
+    return call(model, lengths, *args, **kwargs)
+
+
+def forward_dynamics(model: Any, q: Sequence[float], qd: Sequence[float],
+                     force: Sequence[float]) -> Any:
+    """The accelerations that actuator forces ``force`` (one per leg) produce
+    at ``q``, ``qd``: ``solve(model, q, qd, fd.acceleration).force == force``.
+    ValueError for arguments of the wrong size and for a scene without inertia.
+    """
+    try:
+        call = _FORWARD_DYNAMICS[type(model)]
+    except KeyError:
+        call = machine_of(model).forward_dynamics
+    return call(model, q, qd, force)
