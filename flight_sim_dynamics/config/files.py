@@ -79,8 +79,19 @@ def section_applies(section: str, node: str) -> bool:
 def read_params_file(path: str | os.PathLike[str],
                      node: str = '/' + NODE_NAME) -> dict[str, Any]:
     """The parameters of the node ``node`` in a ROS 2 parameter YAML file, as
-    flat dotted names: the sections that apply, merged in file order (names
-    are checked by :func:`.parameters.read_params`).
+    flat dotted names: the sections that apply, merged in file order, each
+    value of a 3-DOF parameter checked (names are checked by
+    :func:`.parameters.read_params`).
+    """
+    flat = read_params_sections(path, node)
+    check_file_values(flat, str(Path(path)))
+    return flat
+
+
+def read_params_sections(path: str | os.PathLike[str],
+                         node: str = '/' + NODE_NAME) -> dict[str, Any]:
+    """As :func:`read_params_file`, no value checked (a file that names its
+    machine is checked by that machine's rules).
     """
     source = str(Path(path))
     doc = read_yaml(path, 'params_file')
@@ -104,7 +115,6 @@ def read_params_file(path: str | os.PathLike[str],
     if not found:
         raise ParameterError('params_file', source,
                              f"no section for node '{NODE_NAME}' (or '/**')")
-    check_file_values(flat, source)
     return flat
 
 

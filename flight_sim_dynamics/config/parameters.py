@@ -15,15 +15,19 @@ from __future__ import annotations
 
 import os
 from dataclasses import make_dataclass
+from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
 
 from ..core.kinematics import GeometryError, central_configuration
 from ..core.model import BODY_NAMES, GEOMETRY_KEYS, Body, Friction, Geometry, Limits, Model
+from ..machines.stewart.model import StewartModel
 from .errors import ParameterError
-from .files import (DEFAULT_PARAMS_FILE, NODE_NAME, PACKAGE_NAME, default_params_path, flatten,
-                    params_files_in, read_params_file)
+from .files import (DEFAULT_PARAMS_FILE, NODE_NAME, PACKAGE_NAME, check_file_values,
+                    default_params_path, flatten, params_files_in, read_params_file,
+                    read_params_sections)
+from .machine_files import load_named_model
 from .scenes import Scene, SceneError, load_scene
 from .schema import (ALL_PARAMETERS, MODEL_PARAMETERS, NODE_PARAMETERS, SPECS, ParamSpec,
                      defaults)
@@ -47,10 +51,15 @@ def read_params(path: str | os.PathLike[str], node: str = '/' + NODE_NAME
     parameters, its ``qos_overrides.*``), flat dicts of dotted names; each value
     of a known name checked, the whole when a model is built from them.
     """
-    flat = read_params_file(path, node)
+    return _schema_values(read_params_file(path, node), str(path))
+
+
+def _schema_values(flat: Mapping[str, Any], source: str
+                   ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(schema parameters, ``qos_overrides.*``) of a file's flat parameters."""
     qos = {k: v for k, v in flat.items() if k.startswith(QOS_OVERRIDES)}
     values = {k: v for k, v in flat.items() if k not in qos and k not in ROS_PARAMETERS}
-    check_names(values, str(path))
+    check_names(values, source)
     return values, qos
 
 
@@ -105,16 +114,22 @@ def packaged_values() -> dict[str, Any]:
 
 
 def load_model(path: str | os.PathLike[str] | None = None,
-               scene: str | os.PathLike[str] | None = None) -> Model:
+               scene: str | os.PathLike[str] | None = None) -> Model | StewartModel:
     """Load and validate a parameter file (None: the packaged defaults; by the
     rule of the module docstring, node parameters accepted) and a scene (a name
     from config/scenes or a path; None: the file's ``scene`` parameter, else
-    ``full``, the paper's model). Raises :class:`ParameterError` for any bad
+    ``full``, the paper's model). A file that names its machine (``machine:
+    stewart_6dof``) gives that machine's model (:mod:`.machine_files`); the
+    others, the 3-DOF machine's. Raises :class:`ParameterError` for any bad
     file or value.
     """
     values = packaged_values()
     if path is not None:
-        values.update(read_params(path)[0])
+        flat = read_params_sections(path)
+        if 'machine' in flat:
+            return load_named_model(flat, path, scene)
+        check_file_values(flat, str(Path(path)))
+        values.update(_schema_values(flat, str(path))[0])
     return model_from_values(values, require_all=True, scene=scene)
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Collection, Mapping
 
 from ..core.effects import EFFECT_NAMES, Effects
 from .errors import ParameterError, did_you_mean
@@ -47,9 +47,13 @@ def available_scenes() -> list[str]:
     return sorted(p.stem for p in folder.glob('*.yaml')) if folder.is_dir() else []
 
 
-def load_scene(scene: str | os.PathLike[str] | None = None) -> Scene:
+def load_scene(scene: str | os.PathLike[str] | None = None,
+               names: Collection[str] | None = None) -> Scene:
     """Read and validate a scene: a name of the packaged scenes folder or the
     path of a YAML file (None: the ``full`` scene, the paper's model).
+    ``names``: the parameters its overrides may name, those of the machine it
+    is for (None: the 3-DOF machine's, each value checked here; else the
+    values are checked when the model is built).
     """
     text = os.fspath(DEFAULT_SCENE if scene is None else scene)
     path = Path(text) if text.endswith(('.yaml', '.yml')) or os.sep in text else (
@@ -97,14 +101,16 @@ def load_scene(scene: str | os.PathLike[str] | None = None) -> Scene:
     if not isinstance(description, str):
         raise SceneError(name, "'description' must be a string")
     parameters = flatten(overrides)
+    known = _MODEL_NAMES if names is None else names
     for key in parameters:
-        if key not in _MODEL_NAMES:
+        if key not in known:
             raise SceneError(name, f"parameter '{key}' is not a model parameter"
-                             + did_you_mean(key, _MODEL_NAMES))
-    try:
-        check_file_values(parameters, str(path))
-    except ParameterError as exc:
-        raise SceneError(name, str(exc)) from None
+                             + did_you_mean(key, known))
+    if names is None:
+        try:
+            check_file_values(parameters, str(path))
+        except ParameterError as exc:
+            raise SceneError(name, str(exc)) from None
     packaged = path.resolve().parent == scenes_dir().resolve()
     return Scene(name=name, description=description, effects=Effects(**effects),
                  parameters=parameters, path=None if packaged else path)

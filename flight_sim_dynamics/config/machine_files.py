@@ -1,0 +1,117 @@
+"""Parameter files that name their machine (``machine: stewart_6dof``), by the
+one rule of the 3-DOF files (:mod:`.parameters`): a packaged machine's file
+(``config/<machine>.yaml``) gives the defaults a partial file overrides; a
+machine of one's own (any name not packaged) is given whole; an unknown name
+is an error ("did you mean", naming the file); a scene (the file's ``scene``
+or the caller's) switches effects and overrides parameters as for the 3-DOF
+machine. The machine's own builder checks the values; every bad file is one
+:class:`ParameterError` naming the file and the key.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any, Mapping
+
+from ..core.machine import Machine, ModelValueError
+from ..machines import MACHINES, PACKAGED, machine_named
+from .errors import ParameterError, did_you_mean
+from .files import default_params_path, read_params_sections
+from .scenes import DEFAULT_SCENE, Scene, SceneError, load_scene, scenes_dir
+from .schema import SPECS
+
+#: Names a parameter file may give that belong to ROS, not to the model
+#: (rclpy's own parameters, QoS overrides): ignored, as for the 3-DOF files.
+_ROS_NAMES = frozenset({'use_sim_time', 'start_type_description_service'})
+_QOS_OVERRIDES = 'qos_overrides.'
+
+
+def packaged_path(name: str) -> Path:
+    """The packaged parameter file of the machine ``name`` (config/<name>.yaml)."""
+    return default_params_path().parent / f'{name}.yaml'
+
+
+def _model_names(flat: Mapping[str, Any]) -> dict[str, Any]:
+    return {k: v for k, v in flat.items()
+            if k not in _ROS_NAMES and not k.startswith(_QOS_OVERRIDES)}
+
+
+def _check_names(values: Mapping[str, Any], machine: Machine, name: str, source: str) -> None:
+    """Every name of a file must be one of its machine's parameters."""
+    for key in values:
+        if key not in machine.parameters:
+            other = ' (a parameter of the 3-DOF machine, whose files name no machine)' \
+                if key in SPECS else ''
+            raise ParameterError(key, values[key], f"unknown parameter of machine '{name}'"
+                                 f'{other} in {source}' + did_you_mean(key, machine.parameters))
+
+
+def _nested(flat: Mapping[str, Any]) -> dict[str, Any]:
+    """Dotted names back to nested maps, as the parameter file writes them."""
+    tree: dict[str, Any] = {}
+    for key, value in flat.items():
+        *groups, leaf = key.split('.')
+        node = tree
+        for group in groups:
+            node = node.setdefault(group, {})
+        node[leaf] = value
+    return tree
+
+
+def _scene(scene: Scene | str | os.PathLike[str] | None, values: Mapping[str, Any],
+           machine: Machine, source: str) -> Scene:
+    """The scene asked for (else the file's ``scene``, else full), its overrides
+    checked against the machine's parameter names.
+    """
+    if isinstance(scene, Scene):
+        return scene
+    if scene is None:
+        scene = values.get('scene', DEFAULT_SCENE)
+        if not isinstance(scene, str) or not scene:
+            raise ParameterError('scene', scene, f'expected a scene name or a file path in '
+                                                 f'{source}')
+    return load_scene(scene, names=machine.parameters)
+
+
+def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
+                     scene: Scene | str | os.PathLike[str] | None = None) -> Any:
+    """The model of the parameter file ``path`` whose parameters ``flat``
+    (dotted names) name its machine, with ``scene`` (None: the file's).
+    """
+    source = str(Path(path))
+    own = _model_names(flat)
+    name = own['machine']
+    if not isinstance(name, str) or not name:
+        raise ParameterError('machine', name, f'expected the name of a machine in {source}')
+    file_kinds = {m.name for m in MACHINES if m.from_params is None}
+    if name in file_kinds:
+        raise ParameterError('machine', name, f'the {name} machine\'s files name no machine: '
+                                              f'leave this line out in {source}')
+    machine = machine_named(name)
+    _check_names(own, machine, name, source)
+    packaged = name in PACKAGED
+    origin = {key: source for key in own}
+    values = {}
+    if packaged:
+        defaults = packaged_path(name)
+        values = _model_names(read_params_sections(defaults))
+        origin = {**{key: str(defaults) for key in values}, **origin}
+    values.update(own)
+    chosen = _scene(scene, values, machine, source)
+    values.update(chosen.parameters)
+    values['scene'] = chosen.name
+    try:
+        return machine.from_params(_nested(values), effects=chosen.effects)
+    except ModelValueError as exc:
+        key = exc.key
+        if key in chosen.parameters:
+            where = chosen.path or scenes_dir() / f'{chosen.name}.yaml'
+            raise SceneError(chosen.name, f"{where}: key '{key}': {exc}") from None
+        reason = f'{exc} in {origin.get(key, source)}'
+        if key not in values and not packaged:
+            reason += (f"; '{name}' is no packaged machine ({', '.join(sorted(PACKAGED))}): "
+                       f'a machine of your own gives every section'
+                       + did_you_mean(name, PACKAGED))
+        raise ParameterError(key, values.get(key), reason) from None
+    except ValueError as exc:       # a builder's error without a key
+        raise ParameterError('params_file', source, str(exc)) from None
