@@ -110,7 +110,10 @@ def read_params_sections(path: str | os.PathLike[str],
         if not isinstance(params, Mapping):
             raise ParameterError(f'{section}.ros__parameters', params, f'expected a map in '
                                                                        f'{source}')
-        flat.update(flatten(params))
+        try:
+            flat.update(flatten(params))
+        except ParameterError as exc:
+            raise ParameterError(exc.key, exc.value, f'{exc.reason} in {source}') from None
         found = True
     if not found:
         raise ParameterError('params_file', source,

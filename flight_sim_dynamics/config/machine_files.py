@@ -90,7 +90,7 @@ def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
     machine = machine_named(name)
     _check_names(own, machine, name, source)
     packaged = name in PACKAGED
-    origin = {key: source for key in own}
+    origin = {key: source for key in own}   # the file each value comes from
     values = {}
     if packaged:
         defaults = packaged_path(name)
@@ -107,7 +107,11 @@ def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
         if key in chosen.parameters:
             where = chosen.path or scenes_dir() / f'{chosen.name}.yaml'
             raise SceneError(chosen.name, f"{where}: key '{key}': {exc}") from None
-        reason = f'{exc} in {origin.get(key, source)}'
+        # the packaged file is valid alone: a value of it is refused for the
+        # user's file (e.g. a length_max below the file's length_min)
+        given = origin.get(key, source)
+        reason = f'{exc} in {source}' if given == source else \
+            f'{exc} (the value of {given}) with {source}'
         if key not in values and not packaged:
             reason += (f"; '{name}' is no packaged machine ({', '.join(sorted(PACKAGED))}): "
                        f'a machine of your own gives every section'

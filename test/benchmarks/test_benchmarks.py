@@ -52,6 +52,15 @@ def test_solve_prints_kernel_and_python_figures():
         assert all(v > 0 for v in numbers(t[path]))
 
 
+def test_dispatch_prints_both_machines_direct_and_through_fsd():
+    t = {k: v for k, v in table(run('benchmarks.dispatch', '--quick'), 'machine').items()
+         if not k.startswith(':')}
+    assert set(t) in ({'3-DOF (kernel)', 'hexapod'}, {'3-DOF (Python)', 'hexapod'})
+    for cells in t.values():
+        direct, dispatched, _, ratio = numbers(cells)
+        assert direct > 0 and dispatched > 0 and ratio > 0
+
+
 def test_csv_prints_the_end_to_end_times():
     t = table(run('benchmarks.csv', '--quick'), 'flight-sim-dynamics solve')
     assert all(v > 0 for v in numbers(t['CSV in, CSV out']))
