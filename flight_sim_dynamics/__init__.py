@@ -30,7 +30,7 @@ _API = {'trajectories': '.core.trajectories',
         'Machine': '.core.machine',
         'UnreachablePoseError': '.core.kinematics', 'JOINT_NAMES': '.core.model',
         'LEG_NAMES': '.core.model', 'Model': '.core.model', 'ParameterError': '.config.parameters',
-        'load_model': '.config.parameters', 'Servo': '.core.simulation',
+        'load_model': '.config.machine_files', 'Servo': '.core.simulation',
         'Simulation': '.core.simulation', 'simulate': '.core.simulation',
         'Solution': '.core.solver', 'solve': '.machines.api', 'solve_batch': '.machines.api',
         'StewartModel': '.machines.stewart.model', 'Status': '.core.status'}

@@ -71,6 +71,9 @@ def load_model(params: str | None, scene: str | None = None, option: str = '--pa
         raise CliError(f'{scene_option}: {exc}') from None
     except fsd.ParameterError as exc:
         raise CliError(f"{option} {params or '(packaged defaults)'}: {exc}") from None
+    if not isinstance(model, Model):
+        raise CliError(f"{option} {params}: machine '{fsd.machine_of(model).name}' "
+                       f"({model.name}): the command line serves the 3-DOF machine")
     unused = [k for k, v in model.values.items() if k.split('.')[0] in ('payload', 'friction')
               and not getattr(model.effects, k.split('.')[0]) and v != packaged_values().get(k)]
     if unused:

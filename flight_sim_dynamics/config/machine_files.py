@@ -1,5 +1,8 @@
-"""Parameter files that name their machine (``machine: stewart_6dof``), by the
-one rule of the 3-DOF files (:mod:`.parameters`): a packaged machine's file
+"""The model of any machine's parameter file (:func:`load_model`, the public
+``fsd.load_model``): a file without a ``machine`` line is the 3-DOF
+machine's (:func:`.parameters.load_model`); a file that names its machine
+(``machine: stewart_6dof``) is read here, by the one rule of the 3-DOF files
+(:mod:`.parameters`): a packaged machine's file
 (``config/<machine>.yaml``) gives the defaults a partial file overrides; a
 machine of one's own (any name not packaged) is given whole; an unknown name
 is an error ("did you mean", naming the file); a scene (the file's ``scene``
@@ -15,6 +18,9 @@ from typing import Any, Mapping
 
 from ..core.machine import Machine, ModelValueError
 from ..machines import MACHINES, PACKAGED, machine_named
+from ..core.model import Model
+from ..machines.stewart.model import StewartModel
+from . import parameters
 from .errors import ParameterError, did_you_mean
 from .files import default_params_path, read_params_sections
 from .scenes import DEFAULT_SCENE, Scene, SceneError, load_scene, scenes_dir
@@ -24,6 +30,20 @@ from .schema import SPECS
 #: (rclpy's own parameters, QoS overrides): ignored, as for the 3-DOF files.
 _ROS_NAMES = frozenset({'use_sim_time', 'start_type_description_service'})
 _QOS_OVERRIDES = 'qos_overrides.'
+
+
+def load_model(path: str | os.PathLike[str] | None = None,
+               scene: Scene | str | os.PathLike[str] | None = None) -> Model | StewartModel:
+    """The model of a parameter file (None: the packaged 3-DOF machine) and a
+    scene (a name from config/scenes or a path; None: the file's ``scene``
+    parameter, else ``full``): the machine the file names (``machine: <name>``),
+    else the 3-DOF machine (:func:`.parameters.load_model`). Raises
+    :class:`ParameterError` for any bad file or value.
+    """
+    flat = None if path is None else read_params_sections(path)    # read once (a FIFO)
+    if flat is not None and 'machine' in flat:
+        return load_named_model(flat, path, scene)
+    return parameters.model_of_params(flat, path, scene)
 
 
 def packaged_path(name: str) -> Path:

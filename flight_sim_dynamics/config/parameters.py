@@ -15,19 +15,16 @@ from __future__ import annotations
 
 import os
 from dataclasses import make_dataclass
-from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
 
 from ..core.kinematics import GeometryError, central_configuration
 from ..core.model import BODY_NAMES, GEOMETRY_KEYS, Body, Friction, Geometry, Limits, Model
-from ..machines.stewart.model import StewartModel
 from .errors import ParameterError
 from .files import (DEFAULT_PARAMS_FILE, NODE_NAME, PACKAGE_NAME, check_file_values,
                     default_params_path, flatten, params_files_in, read_params_file,
                     read_params_sections)
-from .machine_files import load_named_model
 from .scenes import Scene, SceneError, load_scene
 from .schema import (ALL_PARAMETERS, MODEL_PARAMETERS, NODE_PARAMETERS, SPECS, ParamSpec,
                      defaults)
@@ -51,15 +48,22 @@ def read_params(path: str | os.PathLike[str], node: str = '/' + NODE_NAME
     parameters, its ``qos_overrides.*``), flat dicts of dotted names; each value
     of a known name checked, the whole when a model is built from them.
     """
-    return _schema_values(read_params_file(path, node), str(path))
+    return params_of(read_params_sections(path, node), path)
 
 
-def _schema_values(flat: Mapping[str, Any], source: str
-                   ) -> tuple[dict[str, Any], dict[str, Any]]:
-    """(schema parameters, ``qos_overrides.*``) of a file's flat parameters."""
+def params_of(flat: Mapping[str, Any], path: str | os.PathLike[str]
+              ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """:func:`read_params` of the parameters ``flat`` read from ``path``
+    (:func:`.files.read_params_sections`).
+    """
+    if 'machine' in flat:       # another machine's file (config/stewart_6dof.yaml)
+        raise ParameterError('machine', flat['machine'], f'the file names a machine: the 3-DOF '
+                             f"machine's files name none (fsd.load_model loads any machine's "
+                             f'file; the node serves the 3-DOF machine) in {path}')
+    check_file_values(flat, str(path))
     qos = {k: v for k, v in flat.items() if k.startswith(QOS_OVERRIDES)}
     values = {k: v for k, v in flat.items() if k not in qos and k not in ROS_PARAMETERS}
-    check_names(values, source)
+    check_names(values, str(path))
     return values, qos
 
 
@@ -114,22 +118,27 @@ def packaged_values() -> dict[str, Any]:
 
 
 def load_model(path: str | os.PathLike[str] | None = None,
-               scene: str | os.PathLike[str] | None = None) -> Model | StewartModel:
-    """Load and validate a parameter file (None: the packaged defaults; by the
-    rule of the module docstring, node parameters accepted) and a scene (a name
-    from config/scenes or a path; None: the file's ``scene`` parameter, else
-    ``full``, the paper's model). A file that names its machine (``machine:
-    stewart_6dof``) gives that machine's model (:mod:`.machine_files`); the
-    others, the 3-DOF machine's. Raises :class:`ParameterError` for any bad
-    file or value.
+               scene: str | os.PathLike[str] | None = None) -> Model:
+    """Load and validate a 3-DOF parameter file (None: the packaged defaults;
+    by the rule of the module docstring, node parameters accepted) and a scene
+    (a name from config/scenes or a path; None: the file's ``scene``
+    parameter, else ``full``, the paper's model). Raises
+    :class:`ParameterError` for any bad file or value, and for a file that
+    names a machine (the node's and the twin's loader: they serve the 3-DOF
+    machine; :func:`.machine_files.load_model`, ``fsd.load_model``, loads any
+    machine's file).
+    """
+    return model_of_params(None if path is None else read_params_sections(path), path, scene)
+
+
+def model_of_params(flat: Mapping[str, Any] | None, path: str | os.PathLike[str] | None,
+                    scene: str | os.PathLike[str] | None = None) -> Model:
+    """:func:`load_model` of the parameters ``flat`` read from ``path``
+    (:func:`.files.read_params_sections`; None: the packaged defaults alone).
     """
     values = packaged_values()
-    if path is not None:
-        flat = read_params_sections(path)
-        if 'machine' in flat:
-            return load_named_model(flat, path, scene)
-        check_file_values(flat, str(Path(path)))
-        values.update(_schema_values(flat, str(path))[0])
+    if flat is not None:
+        values.update(params_of(flat, path)[0])
     return model_from_values(values, require_all=True, scene=scene)
 
 

@@ -15,6 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import flight_sim_dynamics as fsd
+from flight_sim_dynamics.config import parameters
 from flight_sim_dynamics.config.errors import ParameterError
 from flight_sim_dynamics.config.scenes import SceneError, load_scene
 from flight_sim_dynamics.core.effects import Effects
@@ -311,3 +312,17 @@ def test_any_value_of_any_hexapod_parameter_is_a_model_or_a_parameter_error(
 @pytest.mark.parametrize('first', ['machine: stewart_6dof\n', ''])
 def test_an_empty_group_names_the_file(tmp_path, first):
     _raises(_file(tmp_path, first + 'bodies:\n  rod: {}'), 'bodies.rod', 'empty group')
+
+
+# -- the node and the twin serve the 3-DOF machine ----------------------------------------
+@pytest.mark.parametrize('name', sorted(PACKAGED))
+def test_the_3dof_loader_refuses_a_file_naming_a_machine(tmp_path, name):
+    """config.parameters.load_model (the node's and the twin's) and the node's
+    --params-file check: one ParameterError of 'machine' naming the file."""
+    path = CONFIG / f'{name}.yaml'
+    for call in (lambda: parameters.load_model(path),
+                 lambda: parameters.check_params_files(['n', '--ros-args', '--params-file',
+                                                        str(path)])):
+        with pytest.raises(ParameterError) as info:
+            call()
+        assert info.value.key == 'machine' and str(path) in str(info.value)
