@@ -17,8 +17,8 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from ..core.machine import Machine, ModelValueError
-from ..machines import MACHINES, PACKAGED, machine_named
 from ..core.model import Model
+from ..machines import MACHINES, PACKAGED, machine_named
 from ..machines.stewart.model import StewartModel
 from . import parameters
 from .errors import ParameterError, did_you_mean
@@ -90,7 +90,7 @@ def _scene(scene: Scene | str | os.PathLike[str] | None, values: Mapping[str, An
         if not isinstance(scene, str) or not scene:
             raise ParameterError('scene', scene, f'expected a scene name or a file path in '
                                                  f'{source}')
-    return load_scene(scene, names=machine.parameters)
+    return load_scene(scene, names=machine.parameters - {'machine', 'scene'})
 
 
 def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
@@ -103,8 +103,8 @@ def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
     name = own['machine']
     if not isinstance(name, str) or not name:
         raise ParameterError('machine', name, f'expected the name of a machine in {source}')
-    file_kinds = {m.name for m in MACHINES if m.from_params is None}
-    if name in file_kinds:
+    unnamed = {m.name for m in MACHINES if m.from_params is None}   # the 3-DOF machine
+    if name in unnamed:
         raise ParameterError('machine', name, f'the {name} machine\'s files name no machine: '
                                               f'leave this line out in {source}')
     machine = machine_named(name)

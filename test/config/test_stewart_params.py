@@ -252,6 +252,7 @@ def test_a_scene_files_overrides_apply_to_a_hexapod(tmp_path):
     ('payload:\n    mass: -1.0', ['payload.mass', '>= 0']),
     ('friction:\n    viscous: [1.0, 2.0, 3.0]', ['friction.viscous', '6 numbers']),
     ('geometry:\n    d1: 0.4', ["'geometry.d1' is not a model parameter"]),
+    ('machine: stewart_tsai2000', ["'machine' is not a model parameter"]),
 ])
 def test_a_bad_scene_override_for_a_hexapod_names_the_scene_file(tmp_path, parameters, words):
     scene = tmp_path / 'bad_scene.yaml'
