@@ -66,9 +66,9 @@ def assert_same(a: object, b: object) -> None:
 
 
 # -- the user story ---------------------------------------------------------------
-def test_the_user_story_of_the_hexapod():
-    hexa = fsd.load_model('config/stewart_6dof.yaml') if Path('config').is_dir() \
-        else hexapod()
+def test_the_user_story_of_the_hexapod(monkeypatch):
+    monkeypatch.chdir(CONFIG.parent)
+    hexa = fsd.load_model('config/stewart_6dof.yaml')
     assert isinstance(hexa, StewartModel) and hexa.name == 'stewart_6dof'
     zero = [0.0] * 6
     sol = fsd.solve(hexa, zero, zero, zero)
