@@ -12,7 +12,8 @@ package_name = 'flight_sim_dynamics'
 # solves (same results, slower). -ffp-contract=off: no fused multiply-add, as in Python.
 KERNEL_FLAGS = ['-O2', '-ffp-contract=off', '-fno-math-errno']
 kernel = Extension(
-    f'{package_name}.core._kernel', sources=['src/kernel.c'], optional=True,
+    f'{package_name}.machines.staicu._kernel',
+    sources=[f'{package_name}/machines/staicu/kernel.c'], optional=True,
     extra_compile_args=KERNEL_FLAGS)
 # the hexapod's part of the kernel, in the machine's own folder (same rules)
 stewart_kernel = Extension(

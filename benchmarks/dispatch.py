@@ -14,7 +14,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.core import solver
+from flight_sim_dynamics.machines.staicu import solver
 from flight_sim_dynamics.machines.stewart import solver as stewart_solver
 
 from ._common import ROOT, header, table
@@ -45,7 +45,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument('--quick', action='store_true', help='3 runs of 2,000 calls')
     args = p.parse_args(argv)
     repeats, calls = (3, 2000) if args.quick else (args.repeats, args.calls)
-    cases = [('3-DOF (kernel)' if solver.kernel._enabled else '3-DOF (Python)',
+    cases = [('3-DOF (kernel)' if solver.kernel.enabled() else '3-DOF (Python)',
               fsd.load_model(), solver.solve, motions(3)),
              ('hexapod', fsd.load_model(ROOT / 'config' / 'stewart_6dof.yaml'),
               stewart_solver.solve, motions(6))]

@@ -13,7 +13,8 @@ from typing import Sequence
 import numpy as np
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.core import kernel
+from flight_sim_dynamics.core import kernel as core_kernel
+from flight_sim_dynamics.machines.staicu import kernel
 
 from ._common import header, table
 
@@ -50,7 +51,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     paths = [('kernel', True), ('Python', False)] if kernel.available() else [('Python', False)]
     figures: dict[str, list[float]] = {}
     for label, on in paths:
-        with kernel.use_kernel(on):
+        with core_kernel.use_kernel(on):
             fsd.solve_batch(model, *states(10))                  # warm-up
             row = [statistics.median(per_call_us(model, calls) for _ in range(repeats))]
             for n in sizes:

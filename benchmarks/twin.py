@@ -17,9 +17,10 @@ import numpy as np
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config.scenes import available_scenes
-from flight_sim_dynamics.core import kernel
-from flight_sim_dynamics.core.motions import TEST_MOTIONS, get
-from flight_sim_dynamics.core.simulation import Reference, Servo, simulate
+from flight_sim_dynamics.core import kernel as core_kernel
+from flight_sim_dynamics.machines.staicu import kernel
+from flight_sim_dynamics.machines.staicu.motions import TEST_MOTIONS, get
+from flight_sim_dynamics.machines.staicu.simulation import Reference, Servo, simulate
 
 from ._common import header, table
 
@@ -44,7 +45,7 @@ def speed(plant: fsd.Model, motion: str, repeats: int, python_s: float) -> list[
         ref = reference if on else replace(Reference.from_motion(reference), end=python_s)
         f = forces if on else (t[:rows], forces[1][:rows])
         n = repeats if on else min(repeats, 3)
-        with kernel.use_kernel(on):
+        with core_kernel.use_kernel(on):
             closed = real_time_factor(lambda: simulate(plant, reference=ref, feedforward=plant), n)
             opened = real_time_factor(lambda: simulate(plant, forces=f), n)
         span = 'whole motion' if on else f'first {python_s:g} s'

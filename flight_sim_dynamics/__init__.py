@@ -23,17 +23,19 @@ from typing import Any
 
 #: The public API, name -> module: imported on first use, so that importing
 #: the package is quick (the command line's Ctrl-C handler is in place before numpy loads).
-_API = {'trajectories': '.core.trajectories',
-        'ForwardDynamics': '.core.forward_dynamics', 'forward_dynamics': '.machines.api',
-        'ForwardSolution': '.core.forward_kinematics',
+_API = {'trajectories': '.machines.staicu.trajectories',
+        'ForwardDynamics': '.machines.staicu.forward_dynamics',
+        'forward_dynamics': '.machines.api',
+        'ForwardSolution': '.machines.staicu.forward_kinematics',
         'forward_kinematics': '.machines.api', 'machine_of': '.machines.api',
-        'Machine': '.core.machine',
-        'UnreachablePoseError': '.core.kinematics', 'JOINT_NAMES': '.core.model',
-        'LEG_NAMES': '.core.model', 'Model': '.core.model', 'ParameterError': '.config.parameters',
-        'load_model': '.config.machine_files', 'Servo': '.core.simulation',
-        'Simulation': '.core.simulation', 'simulate': '.core.simulation',
-        'Solution': '.core.solver', 'solve': '.machines.api', 'solve_batch': '.machines.api',
-        'StewartModel': '.machines.stewart.model', 'Status': '.core.status'}
+        'Machine': '.core.machine', 'UnreachablePoseError': '.machines.staicu.kinematics',
+        'JOINT_NAMES': '.machines.staicu.model', 'LEG_NAMES': '.machines.staicu.model',
+        'Model': '.machines.staicu.model', 'ParameterError': '.config.parameters',
+        'load_model': '.config.machine_files', 'Servo': '.machines.staicu.simulation',
+        'Simulation': '.machines.staicu.simulation', 'simulate': '.machines.staicu.simulation',
+        'Solution': '.machines.staicu.solver', 'solve': '.machines.api',
+        'solve_batch': '.machines.api', 'StewartModel': '.machines.stewart.model',
+        'Status': '.core.status'}
 
 __all__ = list(_API)
 __version__ = '0.1.0'

@@ -9,7 +9,7 @@ from typing import Sequence
 
 from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.config.schema import SIM_PARAMETERS
-from flight_sim_dynamics.core.model import BODY_NAMES
+from flight_sim_dynamics.machines.staicu.model import BODY_NAMES
 
 from . import DOCS, replace_block
 

@@ -15,7 +15,7 @@ import numpy as np
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.cli import csv_io
 from flight_sim_dynamics.cli import main as cli
-from flight_sim_dynamics.core.trajectories import PAPER_EXAMPLES
+from flight_sim_dynamics.machines.staicu.trajectories import PAPER_EXAMPLES
 
 from . import replace_block
 

@@ -20,13 +20,13 @@ import numpy as np
 
 import flight_sim_dynamics as fsd
 
+from ..core.vectors import backend
+from ..machines.staicu.forward_kinematics import poses_along
+from ..machines.staicu.kinematics import UnreachablePoseError, inverse_geometry
+from ..machines.staicu.mechanism import JOINTS, PLATE_OUTLINE, SEGMENTS, Point3, mechanism_points
 from .csv_io import atomic_output, read_table
 from .main import LENGTH_COLUMNS, CliError, load_model
 from .plotting import ACTUATORS, LEG_COLOURS
-from ..core.forward_kinematics import poses_along
-from ..core.kinematics import UnreachablePoseError, inverse_geometry
-from ..core.mechanism import JOINTS, PLATE_OUTLINE, SEGMENTS, Point3, mechanism_points
-from ..core.vectors import backend
 
 POSE_COLUMNS = ('surge', 'heave', 'roll')
 FORCE_COLUMNS = ('force_a', 'force_b', 'force_c')

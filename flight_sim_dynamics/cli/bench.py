@@ -21,11 +21,11 @@ import numpy as np
 import flight_sim_dynamics as fsd
 
 from ..config.scenes import available_scenes
-from ..core import kernel
 from ..core.effects import EFFECT_NAMES
-from ..core.model import Model
-from ..core.motions import TEST_MOTIONS, duration, motion, sample_times
 from ..core.estimator import ESTIMATORS, estimate_rows
+from ..machines.staicu import kernel
+from ..machines.staicu.model import Model
+from ..machines.staicu.motions import TEST_MOTIONS, duration, motion, sample_times
 
 DOCS_DIR = 'docs'
 DEFAULT_OUT_DIR = 'out'

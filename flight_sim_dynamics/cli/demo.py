@@ -21,14 +21,14 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 
-from ..core.motions import PLANNER_MOTIONS as MOTIONS
-from ..core.motions import PlannerSequence
 from ..config.parameters import default_params_path
+from ..machines.staicu.motions import PLANNER_MOTIONS as MOTIONS
+from ..machines.staicu.motions import PlannerSequence
+from ..ros.dynamics_node import default_qos
 from ..ros.node import spin_until
 from ..ros.planner import PlannerNode
-from ..ros.dynamics_node import default_qos
-from ..ros.setpoints import DIAGNOSTIC_TASK, LEVEL_NAMES, quaternion_to_rpy
 from ..ros.process import SIM_MODULE, start_node, stop_node, stop_on_signals, stop_requested
+from ..ros.setpoints import DIAGNOSTIC_TASK, LEVEL_NAMES, quaternion_to_rpy
 
 
 class Monitor(Node):

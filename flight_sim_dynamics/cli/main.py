@@ -19,13 +19,13 @@ import numpy as np
 import flight_sim_dynamics as fsd
 
 from . import csv_io
-from .csv_io import TRAJECTORY_COLUMNS, CsvError
 from ..config.parameters import packaged_values
 from ..config.scenes import SceneError
-from ..core.forward_kinematics import poses_along
-from ..core.model import JOINT_NAMES, Model
-from ..core.trajectories import DURATION, PAPER_EXAMPLES, paper_example, sample_times
 from ..core.estimator import estimate_rows
+from ..machines.staicu.forward_kinematics import poses_along
+from ..machines.staicu.model import JOINT_NAMES, Model
+from ..machines.staicu.trajectories import DURATION, PAPER_EXAMPLES, paper_example, sample_times
+from .csv_io import TRAJECTORY_COLUMNS, CsvError
 
 PROG = 'flight-sim-dynamics'
 DEFAULT_RATE_HZ = 100.0

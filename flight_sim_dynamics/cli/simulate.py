@@ -11,9 +11,9 @@ import numpy as np
 
 import flight_sim_dynamics as fsd
 
-from ..core.motions import MOTIONS
-from ..core.simulation import (DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, DEFAULT_STEP,
-                               ForceHistory, Reference, Servo, simulate)
+from ..machines.staicu.motions import MOTIONS
+from ..machines.staicu.simulation import (DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, DEFAULT_STEP,
+                                          ForceHistory, Reference, Servo, simulate)
 from .csv_io import TRAJECTORY_COLUMNS, read_table, write_csv
 from .main import LEGS, load_model, read_trajectory, report_not_ok
 

@@ -1,5 +1,5 @@
 """``flight-sim-dynamics workspace``: per roll angle a panel of the (surge,
-heave) plane at rest (:mod:`..core.workspace`), reachable cells coloured by
+heave) plane at rest (:mod:`..machines.staicu.workspace`), reachable cells coloured by
 condition, unreachable ones hatched by cause, with the stroke limits, singular
 curves and the paper's motions (eq. 6); the summary on stdout (``--markdown``:
 a page). matplotlib is imported by :func:`plot` only.
@@ -16,12 +16,13 @@ from typing import Sequence
 
 import numpy as np
 
-from ..core.model import Model
-from ..core.trajectories import paper_example, sample_times
-from ..core.workspace import (DEFAULT_RANGE, DEFAULT_ZOOM, DEGENERATE, E2_OFF_ROD, INVALID,
-                              KINDS, LEGS, LOOP_D, LOOP_E, REACHABLE, LineRanges, MotionReport,
-                              RollMap, RollResult, boundary_shares, general_pose_at_roll,
-                              near_singular_share, paper_motions, sample_roll)
+from ..machines.staicu.model import Model
+from ..machines.staicu.trajectories import paper_example, sample_times
+from ..machines.staicu.workspace import (DEFAULT_RANGE, DEFAULT_ZOOM, DEGENERATE, E2_OFF_ROD,
+                                         INVALID, KINDS, LEGS, LOOP_D, LOOP_E, REACHABLE,
+                                         LineRanges, MotionReport, RollMap, RollResult,
+                                         boundary_shares, general_pose_at_roll,
+                                         near_singular_share, paper_motions, sample_roll)
 from .bench import table
 from .csv_io import atomic_output
 from .main import load_model

@@ -17,8 +17,8 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from ..core.machine import Machine, ModelValueError
-from ..core.model import Model
 from ..machines import MACHINES, PACKAGED, machine_named
+from ..machines.staicu.model import Model
 from ..machines.stewart.model import StewartModel
 from . import parameters
 from .errors import ParameterError, did_you_mean

@@ -19,15 +19,15 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..core.kinematics import GeometryError, central_configuration
-from ..core.model import BODY_NAMES, GEOMETRY_KEYS, Body, Friction, Geometry, Limits, Model
+from ..machines.staicu.kinematics import GeometryError, central_configuration
+from ..machines.staicu.model import (BODY_NAMES, GEOMETRY_KEYS, Body, Friction, Geometry, Limits,
+                                     Model)
 from .errors import ParameterError
 from .files import (DEFAULT_PARAMS_FILE, NODE_NAME, PACKAGE_NAME, check_file_values,
                     default_params_path, flatten, params_files_in, read_params_file,
                     read_params_sections)
 from .scenes import Scene, SceneError, load_scene
-from .schema import (ALL_PARAMETERS, MODEL_PARAMETERS, NODE_PARAMETERS, SPECS, ParamSpec,
-                     defaults)
+from .schema import (ALL_PARAMETERS, MODEL_PARAMETERS, NODE_PARAMETERS, SPECS, ParamSpec, defaults)
 from .validation import check_inertia, check_names, check_value, validate
 
 __all__ = ['ALL_PARAMETERS', 'DEFAULT_PARAMS_FILE', 'MODEL_PARAMETERS', 'NODE_NAME',

@@ -5,14 +5,15 @@ Model parameters are the paper's application data (Section 3; geometry of
 eq. 7-8, mass properties of eq. 18-19, gravity); node parameters tune the
 ROS 2 node. Every number is bounded to a physical or sensible range (a
 centre of mass at 1e300 m is not a mechanism), every string in length. Bodies
-and geometry keys: :data:`core.model.BODY_NAMES`, :data:`core.model.GEOMETRY_KEYS`.
+and geometry keys: :data:`machines.staicu.model.BODY_NAMES`,
+:data:`machines.staicu.model.GEOMETRY_KEYS`.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-from ..core.model import BODY_NAMES, GEOMETRY_KEYS
+from ..machines.staicu.model import BODY_NAMES, GEOMETRY_KEYS
 
 #: Physical bounds shared by every body (and the payload).
 MAX_MASS = 1.0e5            # kg
@@ -99,8 +100,8 @@ _BODY_DATA = {
     'cylinder_c': (1.0, 'l3', 1.0), 'piston_c': (1.2, 'l4', -1.0),
     'crank_d': (1.5, 'l5', 1.0), 'crank_e': (1.4, 'l6', 1.0),
 }
-if set(_BODY_DATA) != set(BODY_NAMES):      # one list of bodies: core.model's
-    raise ImportError(f'schema bodies {sorted(_BODY_DATA)} != core.model.BODY_NAMES')
+if set(_BODY_DATA) != set(BODY_NAMES):      # one list of bodies: the model's
+    raise ImportError(f'schema bodies {sorted(_BODY_DATA)} != staicu.model.BODY_NAMES')
 
 
 def _platform_inertia(mass: float) -> list[float]:
@@ -281,8 +282,8 @@ def defaults() -> dict[str, Any]:
             for spec in ALL_PARAMETERS}
 
 
-if set(_GEOMETRY_DEFAULTS) != set(GEOMETRY_KEYS):   # one list of lengths: core.model's
-    raise ImportError(f'schema geometry {sorted(_GEOMETRY_DEFAULTS)} != core.model.GEOMETRY_KEYS')
+if set(_GEOMETRY_DEFAULTS) != set(GEOMETRY_KEYS):   # one list of lengths: the model's
+    raise ImportError(f'schema geometry {sorted(_GEOMETRY_DEFAULTS)} != staicu.model.GEOMETRY_KEYS')
 
 # Parameters of the twin node platform_sim (docs/twin.md): the plant is load_model of a
 # params file and a scene.

@@ -10,7 +10,7 @@ from typing import Any, Iterable, Mapping
 
 import numpy as np
 
-from ..core.model import BODY_NAMES
+from ..machines.staicu.model import BODY_NAMES
 from .errors import ParameterError, did_you_mean
 from .schema import ALL_PARAMETERS, MODEL_PARAMETERS, SPECS, ParamSpec, defaults
 

@@ -1,104 +1,19 @@
-"""The compiled kernel (``src/kernel.c``, built as ``core._kernel``; docs/kernel.md):
-the solver's scalar path (eq. 5-23) and the twin's RK4 loop in C. Used when
-built, else the Python code (the reference); ``use_kernel(False)`` or
-FSD_KERNEL=0 forces the Python code. The layouts are declared once, in the C
-source; this module checks them against the package's own lists.
+"""The switch between each machine's compiled kernel (docs/kernel.md) and its
+Python code, the reference it is tested against. A machine's kernel is used
+where built unless FSD_KERNEL=0 or :func:`use_kernel` (False) asks for the
+Python code; the switch is one for every machine.
 """
 from __future__ import annotations
 
 import os
 from contextlib import contextmanager
-from operator import attrgetter
-from types import ModuleType
 from typing import Iterator
 
-import numpy as np
-
-from .effects import EFFECT_NAMES
-from .kinematics import LOOPS
-from .model import BODY_NAMES, Body, Model
-from .status import RESULTS_NOT_FINITE, Status
-
-try:
-    from . import _kernel
-except ImportError as exc:      # not built (no compiler at install time)
-    _kernel = None
-    IMPORT_ERROR: str | None = str(exc)
-else:
-    IMPORT_ERROR = None
-
-
-def contract_problems(module: ModuleType) -> list[str]:
-    """How a built kernel's declarations disagree with this package ([] if not)."""
-    problems = []
-    for what, theirs, ours in (('effects', set(module.EFFECTS), set(EFFECT_NAMES)),
-                               ('bodies', set(module.BODIES), set(BODY_NAMES) | {'payload'}),
-                               ('statuses', set(module.STATUS), {s.value for s in Status})):
-        if theirs - ours or (ours - theirs and what != 'statuses'):
-            problems.append(f'{what}: the kernel has {sorted(theirs - ours)} more and '
-                            f'{sorted(ours - theirs)} fewer than the Python code')
-    if tuple(module.LOOPS) != LOOPS:
-        problems.append(f'loop order {module.LOOPS} != kinematics.LOOPS {LOOPS}')
-    if module.RESULTS_NOT_FINITE != RESULTS_NOT_FINITE:
-        problems.append('status.RESULTS_NOT_FINITE differs')
-    for name, table, size in (('PACKED', module.PACKED, module.P_SIZE),
-                              ('BODY_ROW', module.BODY_ROW, module.BODY_SIZE),
-                              ('OUT', module.OUT, module.OUT_SIZE)):
-        spans = sorted(table.values())
-        if [o for o, _ in spans] != [0] + [o + n for o, n in spans[:-1]] or sum(
-                n for _, n in spans) != size:
-            problems.append(f'{name} does not cover its {size} doubles exactly once')
-    return problems
-
-
-try:
-    _problems = contract_problems(_kernel) if _kernel is not None else []
-except AttributeError as exc:       # built before the kernel exported its declarations
-    _problems = [str(exc)]
-if _problems:
-    IMPORT_ERROR = ('flight_sim_dynamics.core._kernel was built from another version of '
-                    'src/kernel.c (' + '; '.join(_problems) + '); rebuild it')
-    _kernel = None
-    if os.environ.get('FSD_KERNEL') != '0':
-        raise ImportError(IMPORT_ERROR + ', or set FSD_KERNEL=0 to use the Python code')
-
-#: Set FSD_REQUIRE_KERNEL=1 to make a missing kernel an error at import (CI, benchmarks).
-if _kernel is None and os.environ.get('FSD_REQUIRE_KERNEL') == '1':
-    raise ImportError(f'flight_sim_dynamics.core._kernel is required (FSD_REQUIRE_KERNEL=1) but '
-                      f'cannot be imported: {IMPORT_ERROR}; build it with '
-                      f'`python setup.py build_ext --inplace` or `pip install .`')
-
-if _kernel is not None:
-    P_SIZE, OUT_SIZE, BODY_SIZE = _kernel.P_SIZE, _kernel.OUT_SIZE, _kernel.BODY_SIZE
-    PACKED, BODY_ROW, EFFECTS, HAS_PAYLOAD = (_kernel.PACKED, _kernel.BODY_ROW, _kernel.EFFECTS,
-                                              _kernel.HAS_PAYLOAD)
-    #: The kernel's order of the bodies in the packed model.
-    BODIES = _kernel.BODIES
-    #: Result row layout: field -> slice (one number: its offset).
-    OUT = {name: slice(o, o + n) if n > 1 else o for name, (o, n) in _kernel.OUT.items()}
-    O_BETA, O_KIN, O_JAC, O_STATUS, O_INFO = (OUT[name] for name in (
-        'beta', 'kinematic_condition', 'jacobian_condition', 'status', 'info'))
-    #: Status of each kernel code.
-    STATUS_BY_CODE = tuple(Status(name) for name in _kernel.STATUS)
-else:   # the Python code runs without any of them
-    OUT = {}
-
-#: FSD_KERNEL=0: the Python code even when the kernel is built (subprocesses inherit it).
+#: FSD_KERNEL=0: the Python code even when a kernel is built (subprocesses inherit it).
 _choice = os.environ.get('FSD_KERNEL', '1')
 if _choice not in ('0', '1'):
     raise ImportError(f'FSD_KERNEL={_choice!r}: expected 0 (the Python code) or 1 (the kernel)')
 _wanted = _choice == '1'
-_enabled = _kernel is not None and _wanted
-
-
-def available() -> bool:
-    """True when the compiled kernel is built and importable."""
-    return _kernel is not None
-
-
-def enabled() -> bool:
-    """True when solve and solve_batch use the compiled kernel."""
-    return _enabled
 
 
 def wanted() -> bool:
@@ -110,95 +25,13 @@ def wanted() -> bool:
 
 @contextmanager
 def use_kernel(on: bool) -> Iterator[None]:
-    """Within the block, solve with the kernel (True, if built) or with the
-    Python reference code (False); every machine's kernel alike.
+    """Within the block, solve with each machine's kernel (True, where built)
+    or with the Python reference code (False).
     """
-    global _enabled, _wanted
-    before = _enabled, _wanted
+    global _wanted
+    before = _wanted
     _wanted = bool(on)
-    _enabled = _wanted and _kernel is not None
     try:
         yield
     finally:
-        _enabled, _wanted = before
-
-
-def _body_row(body: Body | None) -> np.ndarray:
-    """One body as the kernel reads it (:data:`BODY_ROW`); zeros for no body."""
-    row = np.zeros(BODY_SIZE)
-    if body is not None:
-        for name, (offset, size) in BODY_ROW.items():
-            row[offset:offset + size] = np.ravel(getattr(body, name))
-    return row
-
-
-def pack_model(model: Model) -> np.ndarray:
-    """The model as the kernel reads it: each attribute path of :data:`PACKED`
-    at its offset, the bodies in the order :data:`BODIES` (no payload: zeros).
-    """
-    packed = np.zeros(P_SIZE)
-    for path, (offset, size) in PACKED.items():
-        if path == 'bodies':
-            value = np.concatenate([_body_row(model.payload if name == 'payload'
-                                              else model.bodies[name]) for name in BODIES])
-        else:
-            value = np.ravel(np.asarray(attrgetter(path)(model), dtype=np.float64))
-        if value.shape != (size,):
-            raise ValueError(f'model.{path} has {value.size} numbers, the kernel reads {size}')
-        packed[offset:offset + size] = value
-    packed.flags.writeable = False
-    return packed
-
-
-def effect_bits(model: Model) -> int:
-    """The scene's effects as the kernel's bit set (:data:`EFFECTS`)."""
-    bits = sum(bit for name, bit in EFFECTS.items() if getattr(model.effects, name))
-    return bits | (HAS_PAYLOAD if model.payload is not None else 0)
-
-
-def prepared(model: Model) -> tuple[np.ndarray, int]:
-    """(packed model, effect bits), computed once per model and kept on it."""
-    cached = model.__dict__.get('_kernel_input')
-    if cached is None:
-        cached = (pack_model(model), effect_bits(model))
-        object.__setattr__(model, '_kernel_input', cached)
-    return cached
-
-
-def solve_row(model: Model, q: tuple, qd: tuple, qdd: tuple) -> tuple[np.ndarray, tuple]:
-    """One sample through the kernel: the result row and its scalars (status
-    code, detail code, beta, kinematic condition, Jacobian condition).
-    """
-    params, bits = prepared(model)
-    out = np.empty(OUT_SIZE)
-    return out, _kernel.solve(params, bits, out, *q, *qd, *qdd)
-
-
-def affine_row(model: Model, q: tuple, qd: tuple
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple]:
-    """The terms of f = M qdd + b at (q, qd) in one call: the row of solve(q, qd, 0), M, b
-    and the row's scalars (as :func:`solve_row`).
-    """
-    params, bits = prepared(model)
-    out, M, b = np.empty(OUT_SIZE), np.empty((3, 3)), np.empty(3)
-    return out, M, b, _kernel.affine(params, bits, out, M, b, *q, *qd)
-
-
-def integrate_rows(model: Model, law: tuple, step: float, k0: int, steps: int,
-                   rows: tuple) -> int:
-    """RK4 of :func:`.simulation.integrate` in the kernel, rows k0 to steps:
-    ``law`` the fields of :class:`.simulation.TabulatedLaw`, ``rows`` = (q,
-    qd, qdd, force), (steps + 1, 3) C-contiguous float64, row k0 set. Returns
-    the first row whose step it did not complete (steps + 1: all).
-    """
-    params, bits = prepared(model)
-    return _kernel.integrate(params, bits, *law, step, k0, steps, *rows)
-
-
-def solve_rows(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-    """N samples ((N, 3) float64 arrays) through the kernel: (N, OUT_SIZE) rows."""
-    params, bits = prepared(model)
-    arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in (q, qd, qdd)]
-    out = np.empty((arrays[0].shape[0], OUT_SIZE))
-    _kernel.solve_batch(params, bits, *arrays, out)
-    return out
+        _wanted = before

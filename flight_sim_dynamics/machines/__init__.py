@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core import forward_dynamics as _forward_dynamics, forward_kinematics as _forward_kinematics
-from ..core import solver as _solver
 from ..core.machine import ActuatorLimits, Machine
-from ..core.model import JOINT_NAMES, LEG_NAMES, Model
+from .staicu import forward_dynamics as _forward_dynamics, forward_kinematics as _forward_kinematics
+from .staicu import solver as _solver
+from .staicu.model import JOINT_NAMES, LEG_NAMES, Model
 from .stewart.machine import MACHINE as STEWART
 
 

@@ -50,7 +50,7 @@ def solve(model: Any, q: Sequence[float], qd: Sequence[float], qdd: Sequence[flo
     ``machine_of(model).coordinates``); per leg length, stroke, rate,
     acceleration, force, power, and the status. Never raises for a bad pose or
     bad numbers; ValueError for arguments of the wrong size
-    (:func:`flight_sim_dynamics.core.solver.solve`,
+    (:func:`flight_sim_dynamics.machines.staicu.solver.solve`,
     :func:`flight_sim_dynamics.machines.stewart.solver.solve`).
     """
     try:

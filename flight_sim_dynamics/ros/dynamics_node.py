@@ -31,14 +31,13 @@ from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
 from ..config import parameters as prm
-from ..core.model import JOINT_NAMES, LEG_NAMES
-from ..core.solver import solve
+from ..machines.staicu.model import JOINT_NAMES, LEG_NAMES
+from ..machines.staicu.solver import solve
 from .markers import MarkerBuilder
 from .process import end_spins, stop_requested
 from .service_thread import ServiceThread
-from .setpoints import (ACCEL, BAD_SETPOINT, ERROR, INACTIVE, LEVEL_NAMES, PLATFORM, POSE,
-                        TWIST, WARN, Outcome, Runtime, SetpointError, SetpointIntake,
-                        diagnostic_name)
+from .setpoints import (ACCEL, BAD_SETPOINT, ERROR, INACTIVE, LEVEL_NAMES, PLATFORM, POSE, TWIST,
+                        WARN, Outcome, Runtime, SetpointError, SetpointIntake, diagnostic_name)
 
 SUCCESS, FAILURE = TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE
 LATEST_STAMP_REUSE = 0.005       # s one clock reading serves the future-stamp check

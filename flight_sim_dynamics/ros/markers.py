@@ -12,12 +12,12 @@ from geometry_msgs.msg import Point
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ..core.kinematics import inverse_geometry
-from ..core.mechanism import JOINTS, PLATE, SEGMENTS, mechanism_points
-from ..core.model import LEG_NAMES, Model
-from ..core.solver import Solution
 from ..core.status import SEVERITY, Status
 from ..core.vectors import backend
+from ..machines.staicu.kinematics import inverse_geometry
+from ..machines.staicu.mechanism import JOINTS, PLATE, SEGMENTS, mechanism_points
+from ..machines.staicu.model import LEG_NAMES, Model
+from ..machines.staicu.solver import Solution
 
 _SCALAR = backend(False)
 

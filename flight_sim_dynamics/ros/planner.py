@@ -17,8 +17,8 @@ from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rclpy.node import Node
 from rclpy.time import Time
 
-from ..core.motions import PLANNER_MOTIONS as MOTIONS
-from ..core.motions import PlannerSequence
+from ..machines.staicu.motions import PLANNER_MOTIONS as MOTIONS
+from ..machines.staicu.motions import PlannerSequence
 from .dynamics_node import default_qos
 from .node import own_options, running, spin_until
 from .process import stop_requested

@@ -2,7 +2,7 @@
 
 A command is checked as it arrives and kept; the tick (``tick_rate``) holds
 the newest one from its arrival on, makes the RK4 steps due at ``rate``
-(:class:`..core.twin.TwinStepper`) and publishes the state. So a burst of
+(:class:`..machines.staicu.twin.TwinStepper`) and publishes the state. So a burst of
 commands costs a decode and a check each, never the loop its rate: commands
 a newer one replaced before a tick are counted, not simulated.
 """
@@ -25,13 +25,13 @@ from std_srvs.srv import Trigger
 
 from ..config import parameters as prm
 from ..config.schema import SIM_NODE_NAME, SIM_PARAMETERS
-from ..core.model import LEG_NAMES, Model
-from ..core.simulation import Servo
-from ..core.twin import TwinStepper
+from ..machines.staicu.model import LEG_NAMES, Model
+from ..machines.staicu.simulation import Servo
+from ..machines.staicu.twin import TwinStepper
 from .dynamics_node import _declared, default_qos, descriptor_for, plain
 from .process import end_spins, stop_requested
-from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, STAMP_BACKWARDS, STAMP_REPEATED,
-                        WARN, LogThrottle, SetpointError, Vec3, diagnostic_name, number,
+from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, STAMP_BACKWARDS, STAMP_REPEATED, WARN,
+                        LogThrottle, SetpointError, Vec3, diagnostic_name, number,
                         rpy_to_quaternion)
 
 #: Seconds between two log lines of one rejection reason.

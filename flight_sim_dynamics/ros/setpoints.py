@@ -15,8 +15,8 @@ import flight_sim_dynamics as fsd
 
 from ..config.parameters import NodeConfig
 from ..core.estimator import DerivativeEstimator, Vec3
-from ..core.model import Limits, Model
 from ..core.status import Status
+from ..machines.staicu.model import Limits, Model
 
 # Rejection reasons (diagnostics counters): nothing is published for them.
 NON_FINITE = 'non_finite'                  # NaN or infinity in a field

@@ -17,8 +17,8 @@ import flight_sim_dynamics as fsd
 from flight_sim_dynamics.cli import animate
 from flight_sim_dynamics.cli import csv_io
 from flight_sim_dynamics.cli.main import main
-from flight_sim_dynamics.core.mechanism import JOINTS, SEGMENTS
-from flight_sim_dynamics.core.trajectories import paper_example, sample_times
+from flight_sim_dynamics.machines.staicu.mechanism import JOINTS, SEGMENTS
+from flight_sim_dynamics.machines.staicu.trajectories import paper_example, sample_times
 
 MODEL = fsd.load_model()
 POSE = ('surge', 'heave', 'roll')
@@ -27,7 +27,7 @@ POSE = ('surge', 'heave', 'roll')
 def expected_points(q) -> dict[str, np.ndarray]:
     """The solver's joint positions of pose ``q`` (paper axes, origin A1),
     moved to the REP-103 simulator base (origin at G's central position,
-    Y = -z0, Z = y0): written here independently of core/mechanism.py."""
+    Y = -z0, Z = y0): written here independently of machines/staicu/mechanism.py."""
     sol = fsd.solve(MODEL, q, [0.0] * 3, [0.0] * 3)
     assert sol.status is fsd.Status.OK
     geom, g = MODEL.geometry, sol.geometric

@@ -21,7 +21,8 @@ import flight_sim_dynamics as fsd
 from flight_sim_dynamics.cli import main as cli
 from flight_sim_dynamics.cli import csv_io
 from flight_sim_dynamics.cli.csv_io import TRAJECTORY_COLUMNS
-from flight_sim_dynamics.core.trajectories import PAPER_EXAMPLES, paper_example, sample_times
+from flight_sim_dynamics.machines.staicu.trajectories import (PAPER_EXAMPLES, paper_example,
+                                                              sample_times)
 
 
 def formatted(data: np.ndarray, step: int = 1024) -> bytes:
@@ -681,7 +682,7 @@ def test_the_demo_twin_figure_shows_its_labels_whole(tmp_path, monkeypatch):
     from matplotlib.figure import Figure
 
     from flight_sim_dynamics.cli import demo
-    from flight_sim_dynamics.core.motions import PLANNER_MOTIONS, PlannerSequence
+    from flight_sim_dynamics.machines.staicu.motions import PLANNER_MOTIONS, PlannerSequence
     saved = []
     original = Figure.savefig
     monkeypatch.setattr(Figure, 'savefig',

@@ -9,7 +9,7 @@ import pytest
 from flight_sim_dynamics.cli import csv_io
 from flight_sim_dynamics.cli import main as cli
 from flight_sim_dynamics.cli.csv_io import TRAJECTORY_COLUMNS
-from flight_sim_dynamics.core.trajectories import paper_example, sample_times
+from flight_sim_dynamics.machines.staicu.trajectories import paper_example, sample_times
 
 
 def one_error_line(stderr: str) -> str:

@@ -8,7 +8,7 @@ import pytest
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.cli import csv_io
 from flight_sim_dynamics.cli import main as cli
-from flight_sim_dynamics.core.trajectories import paper_example, sample_times
+from flight_sim_dynamics.machines.staicu.trajectories import paper_example, sample_times
 
 POSES = ('t', 'surge', 'heave', 'roll')
 

@@ -15,7 +15,7 @@ import pytest
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.cli import main as cli
-from flight_sim_dynamics.core import workspace as ws
+from flight_sim_dynamics.machines.staicu import workspace as ws
 
 PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
 MODEL = fsd.load_model()
@@ -273,7 +273,7 @@ def test_the_legend_is_short_and_regions_are_drawn_one_by_one():
     region without its hatch. Related entries are grouped; every connected
     region is its own contourf (the largest first)."""
     from flight_sim_dynamics.cli import workspace as cli_workspace
-    from flight_sim_dynamics.core.workspace import E2_OFF_ROD, LOOP_D, LOOP_E, REACHABLE
+    from flight_sim_dynamics.machines.staicu.workspace import E2_OFF_ROD, LOOP_D, LOOP_E, REACHABLE
 
     handles, labels = cli_workspace._legend_handles(
         fsd.load_model(), {REACHABLE, LOOP_D, LOOP_E, E2_OFF_ROD})
@@ -289,7 +289,7 @@ def test_the_enclosed_disk_of_the_map_is_named_in_the_legend():
     (a disk, at about surge -0.25 m, heave -1.1 m): loop D, the same cause as
     the outer band, and the legend's loop D entry says it covers both."""
     from flight_sim_dynamics.cli import workspace as cli_workspace
-    from flight_sim_dynamics.core.workspace import LOOP_D, REACHABLE
+    from flight_sim_dynamics.machines.staicu.workspace import LOOP_D, REACHABLE
 
     model = fsd.load_model()
     surge, heave = np.meshgrid(np.linspace(-0.8, 0.2, 21), np.linspace(-1.6, -0.6, 21))

@@ -14,7 +14,7 @@ from flight_sim_dynamics.config import parameters, schema, yaml_io
 from flight_sim_dynamics.config.errors import ParameterError
 from flight_sim_dynamics.config.files import params_files_in, section_applies
 from flight_sim_dynamics.config.scenes import SceneError
-from flight_sim_dynamics.core.model import BODY_NAMES
+from flight_sim_dynamics.machines.staicu.model import BODY_NAMES
 
 CONFIG = Path(__file__).resolve().parents[2] / 'config' / 'flight_sim_dynamics.yaml'
 HEADER = 'flight_sim_dynamics:\n  ros__parameters:\n'

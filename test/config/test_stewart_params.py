@@ -19,7 +19,7 @@ from flight_sim_dynamics.config import parameters
 from flight_sim_dynamics.config.errors import ParameterError
 from flight_sim_dynamics.config.scenes import SceneError, load_scene
 from flight_sim_dynamics.core.effects import Effects
-from flight_sim_dynamics.core.model import Model
+from flight_sim_dynamics.machines.staicu.model import Model
 from flight_sim_dynamics.machines.stewart.model import PARAMETER_NAMES, StewartModel
 from test_param_files_fuzz import ODD_VALUES, mutated
 

@@ -8,10 +8,10 @@ import yaml
 
 import flight_sim_dynamics as fsd
 import reference_model as ref
-from flight_sim_dynamics.core import dynamics
-from flight_sim_dynamics.core.effects import EFFECT_NAMES, Effects
 from flight_sim_dynamics.config.scenes import SceneError, load_scene
-from flight_sim_dynamics.core.trajectories import paper_example
+from flight_sim_dynamics.core.effects import EFFECT_NAMES, Effects
+from flight_sim_dynamics.machines.staicu import dynamics
+from flight_sim_dynamics.machines.staicu.trajectories import paper_example
 
 FULL = fsd.load_model()
 GROUPS = ('gravity', 'platform_inertia', 'leg_inertia', 'crank_inertia')
@@ -138,8 +138,9 @@ def test_power_balance_inside_each_scene(scene):
 def test_disabled_effects_are_not_computed():
     """Structural check that skipped effects are skipped: no motion is computed
     for a body without inertia, no body at all without weight or inertia."""
-    from flight_sim_dynamics.core.kinematics import factorize, inverse_geometry, pose_rate_columns
-    from flight_sim_dynamics.core.kinematics import solve_connectivity
+    from flight_sim_dynamics.machines.staicu.kinematics import (factorize, inverse_geometry,
+                                                                pose_rate_columns)
+    from flight_sim_dynamics.machines.staicu.kinematics import solve_connectivity
     from flight_sim_dynamics.core.vectors import backend
 
     def states(effects):

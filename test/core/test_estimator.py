@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from flight_sim_dynamics.core.estimator import DerivativeEstimator, backward_derivative
-from flight_sim_dynamics.core.motions import motion
+from flight_sim_dynamics.machines.staicu.motions import motion
 
 
 def test_backward_derivatives_exact_on_polynomials():

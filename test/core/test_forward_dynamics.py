@@ -1,4 +1,4 @@
-"""Forward dynamics (flight_sim_dynamics.core.forward_dynamics): the
+"""Forward dynamics (flight_sim_dynamics.machines.staicu.forward_dynamics): the
 accelerations that given forces produce, from the inverse dynamics being
 affine in the accelerations (f = M qdd + b).
 
@@ -24,8 +24,8 @@ from hypothesis import strategies as st
 import flight_sim_dynamics as fsd
 import reference_model as rm
 from flight_sim_dynamics import Status
-from flight_sim_dynamics.core import forward_dynamics as fd_module
-from flight_sim_dynamics.core.model import Friction
+from flight_sim_dynamics.machines.staicu import forward_dynamics as fd_module
+from flight_sim_dynamics.machines.staicu.model import Friction
 from test_workspace_properties import batches, examples, tolerance_factor
 
 MODEL = fsd.load_model()

@@ -60,7 +60,7 @@ from hypothesis import strategies as st
 import flight_sim_dynamics as fsd
 import reference_model as rm
 from flight_sim_dynamics import Status
-from flight_sim_dynamics.core.kinematics import LOOP_REASONS
+from flight_sim_dynamics.machines.staicu.kinematics import LOOP_REASONS
 
 MODEL = fsd.load_model()
 PARAMS = rm.load_reference_params()

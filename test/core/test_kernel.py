@@ -1,4 +1,4 @@
-"""The compiled kernel (src/kernel.c) against the Python reference code.
+"""The compiled kernel (machines/staicu/kernel.c) against the Python reference code.
 
 The kernel is a transcription of kinematics.py / dynamics.py / the status
 rules of solver.py; the rest of the suite (power balance, the independent
@@ -23,9 +23,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.core import kernel
+from flight_sim_dynamics.core import kernel as core_kernel
 from flight_sim_dynamics.core.effects import EFFECT_NAMES, Effects
 from flight_sim_dynamics.core.status import Status
+from flight_sim_dynamics.machines.staicu import kernel
 
 MODEL = fsd.load_model()
 PAYLOAD_MODEL = fsd.load_model(scene='payload')
@@ -49,9 +50,9 @@ def test_the_kernel_is_built():
 
 
 def both(model, *args):
-    with kernel.use_kernel(True):
+    with core_kernel.use_kernel(True):
         fast = fsd.solve(model, *args)
-    with kernel.use_kernel(False):
+    with core_kernel.use_kernel(False):
         slow = fsd.solve(model, *args)
     return fast, slow
 
@@ -154,9 +155,9 @@ def test_every_status_single(row):
     rule (status.sample_status) in all three, the Python single solve handing a
     sample its float arithmetic refuses (e.g. 1e300 m of surge, an exact
     singularity) to the IEEE array code, as the kernel computes it."""
-    with kernel.use_kernel(True):
+    with core_kernel.use_kernel(True):
         fast = fsd.solve(MODEL, *row)
-    with kernel.use_kernel(False):
+    with core_kernel.use_kernel(False):
         slow = fsd.solve_batch(MODEL, *([r] for r in row))
         scalar = fsd.solve(MODEL, *row)
     one = SimpleNamespace(**{name: getattr(slow, name)[0]
@@ -192,9 +193,9 @@ def test_one_rule_for_any_input(q, qd, qdd):
     """Any nine floats (huge, tiny, infinite, NaN, the singular roll): the kernel's
     single solve, the Python single solve (floats) and the Python batch code
     (arrays) give the same status and the same detail, and no NaN or infinity."""
-    with kernel.use_kernel(True):
+    with core_kernel.use_kernel(True):
         fast = fsd.solve(MODEL, q, qd, qdd)
-    with kernel.use_kernel(False):
+    with core_kernel.use_kernel(False):
         scalar = fsd.solve(MODEL, q, qd, qdd)
         batch = fsd.solve_batch(MODEL, [q], [qd], [qdd])
     assert fast.status == scalar.status == batch.status[0], (fast.detail, scalar.detail)
@@ -213,14 +214,14 @@ def test_batch_kernel_equals_batch_python_and_single():
             for _ in range(200)]
     rows = good + STATUS_ROWS
     Q, Qd, Qdd = (np.array([r[k] for r in rows], dtype=float) for k in range(3))
-    with kernel.use_kernel(True):
+    with core_kernel.use_kernel(True):
         fast = fsd.solve_batch(MODEL, Q, Qd, Qdd)
-    with kernel.use_kernel(False):
+    with core_kernel.use_kernel(False):
         slow = fsd.solve_batch(MODEL, Q, Qd, Qdd)
     for i, row in enumerate(rows):
         assert_same(fast, slow, rtol=1e-12 * max(1.0, min(slow.kinematic_condition[i], 1e6)),
                     index=i)
-        with kernel.use_kernel(True):
+        with core_kernel.use_kernel(True):
             one = fsd.solve(MODEL, *row)
         assert one.status == fast.status[i] and one.detail == fast.detail[i]
         np.testing.assert_array_equal(one.force, fast.force[i])   # the same code: bitwise
@@ -235,10 +236,10 @@ def test_long_batch_equals_one_by_one():
     Qd, Qdd = rng.normal(0.0, 0.5, (n, 3)), rng.normal(0.0, 5.0, (n, 3))
     Q[5] = np.nan
     Q[n - 3] = (0.0, 5.0, 0.0)
-    with kernel.use_kernel(True):
+    with core_kernel.use_kernel(True):
         sol = fsd.solve_batch(MODEL, Q, Qd, Qdd)
     for i in (0, 5, n // 2 - 1, n // 2, n // 2 + 1, n - 3, n - 1):
-        with kernel.use_kernel(True):
+        with core_kernel.use_kernel(True):
             one = fsd.solve(MODEL, Q[i], Qd[i], Qdd[i])
         assert one.status == sol.status[i] and one.detail == sol.detail[i]
         np.testing.assert_array_equal(one.joints, sol.joints[i])
@@ -254,7 +255,7 @@ def test_diagnostics_of_a_kernel_solution():
     np.testing.assert_allclose(fast.Q, slow.Q, rtol=0, atol=1e-14)
     assert fast.cond == pytest.approx(slow.cond, rel=1e-12)
     Q = np.array([q, (0.0, 5.0, 0.0), (math.nan, 0.0, 0.0)])
-    with kernel.use_kernel(True):
+    with core_kernel.use_kernel(True):
         batch = fsd.solve_batch(MODEL, Q, np.zeros((3, 3)), np.zeros((3, 3)))
     np.testing.assert_allclose(batch.Q[0], slow.Q, rtol=0, atol=1e-14)
     assert np.all(batch.Q[1:] == 0.0) and batch.cond[0] == pytest.approx(slow.cond, rel=1e-12)
@@ -270,20 +271,21 @@ def test_python_code_runs_without_the_extension(monkeypatch):
         def __getattr__(self, name):
             raise AssertionError('the kernel was called')
     monkeypatch.setattr(kernel, '_kernel', Missing())
-    monkeypatch.setattr(kernel, '_enabled', False)
+    monkeypatch.setattr(kernel, 'enabled', lambda: False)
     sol = fsd.solve(MODEL, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     assert [round(f, 4) for f in sol.force] == [38.6066, 33.2041, 33.2041]
     batch = fsd.solve_batch(MODEL, np.zeros((2, 3)), np.zeros((2, 3)), np.zeros((2, 3)))
     np.testing.assert_allclose(batch.force[1], sol.force, rtol=1e-15)
+    monkeypatch.undo()
     monkeypatch.setattr(kernel, '_kernel', None)
-    with kernel.use_kernel(True):      # cannot switch on what is not there
+    with core_kernel.use_kernel(True):      # cannot switch on what is not there
         assert not kernel.enabled() and not kernel.available()
         assert fsd.solve(MODEL, (0.0,) * 3, (0.0,) * 3, (0.0,) * 3).status == Status.OK
 
 
 @needs_kernel
 def test_packed_model_layout():
-    """pack_model writes what the kernel's P_* offsets read (src/kernel.c)."""
+    """pack_model writes what the kernel's P_* offsets read (machines/staicu/kernel.c)."""
     packed = kernel.pack_model(PAYLOAD_MODEL)
     geom = PAYLOAD_MODEL.geometry
     assert packed.shape == (kernel.P_SIZE,) and not packed.flags.writeable
@@ -306,12 +308,12 @@ def test_packed_model_layout():
 
 @needs_kernel
 def test_the_kernel_declares_the_contracts_and_python_reads_them():
-    """Every layout, enum and list is declared once, in src/kernel.c, exported by
+    """Every layout, enum and list is declared once, in machines/staicu/kernel.c, exported by
     the extension and read here: sizes, the result row, the effect bits, the
     body, loop and status names match the package's own lists."""
-    from flight_sim_dynamics.core import _kernel
-    from flight_sim_dynamics.core.kinematics import LOOPS
-    from flight_sim_dynamics.core.model import BODY_NAMES
+    from flight_sim_dynamics.machines.staicu import _kernel
+    from flight_sim_dynamics.machines.staicu.kinematics import LOOPS
+    from flight_sim_dynamics.machines.staicu.model import BODY_NAMES
     assert kernel.contract_problems(_kernel) == []
     assert (kernel.P_SIZE, kernel.OUT_SIZE, kernel.BODY_SIZE) == (
         _kernel.P_SIZE, _kernel.OUT_SIZE, _kernel.BODY_SIZE)
@@ -361,9 +363,9 @@ def test_pack_model_follows_the_exported_layout():
     (lambda d: d.update(RESULTS_NOT_FINITE=-2), 'RESULTS_NOT_FINITE'),
 ])
 def test_a_kernel_that_disagrees_is_refused(change, words):
-    """A kernel built from another src/kernel.c (or one lacking an effect or a
+    """A kernel built from another machines/staicu/kernel.c (or one lacking an effect or a
     body the Python code has) is refused, the problem naming what differs."""
-    from flight_sim_dynamics.core import _kernel
+    from flight_sim_dynamics.machines.staicu import _kernel
     exported = {name: (dict(value) if isinstance(value, dict) else value)
                 for name, value in vars(_kernel).items() if name.isupper()}
     change(exported)

@@ -6,9 +6,9 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.core import kinematics
-from flight_sim_dynamics.core.trajectories import paper_example
 from flight_sim_dynamics.core.vectors import backend
+from flight_sim_dynamics.machines.staicu import kinematics
+from flight_sim_dynamics.machines.staicu.trajectories import paper_example
 
 MODEL = fsd.load_model()
 

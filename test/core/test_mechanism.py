@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.core.kinematics import inverse_geometry
-from flight_sim_dynamics.core.mechanism import (JOINTS, PLATE, PLATE_OUTLINE, SEGMENTS,
-                                                mechanism_points)
 from flight_sim_dynamics.core.vectors import backend
+from flight_sim_dynamics.machines.staicu.kinematics import inverse_geometry
+from flight_sim_dynamics.machines.staicu.mechanism import (JOINTS, PLATE, PLATE_OUTLINE, SEGMENTS,
+                                                           mechanism_points)
 
 MODEL = fsd.load_model()
 

@@ -1,4 +1,4 @@
-"""The one motion registry (flight_sim_dynamics.core.motions), the one
+"""The one motion registry (flight_sim_dynamics.machines.staicu.motions), the one
 sample_times, the node-process helpers (ros/process.py) and the demo's live
 summary line."""
 from __future__ import annotations
@@ -12,7 +12,7 @@ import pytest
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.cli.demo import LiveSummary
-from flight_sim_dynamics.core import motions, trajectories
+from flight_sim_dynamics.machines.staicu import motions, trajectories
 from flight_sim_dynamics.ros import process
 
 

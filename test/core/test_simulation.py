@@ -1,4 +1,4 @@
-"""The digital twin's integrator (flight_sim_dynamics.core.simulation).
+"""The digital twin's integrator (flight_sim_dynamics.machines.staicu.simulation).
 
 * energy: friction off, gravity on, the mechanism's T + V from the
   independent reference model (test/reference/reference_model.py):
@@ -25,10 +25,10 @@ import pytest
 import flight_sim_dynamics as fsd
 import reference_model as rm
 from flight_sim_dynamics import Status
-from flight_sim_dynamics.core import motions
 from flight_sim_dynamics.core.interpolation import node_slopes
-from flight_sim_dynamics.core.simulation import (ForceHistory, Reference, Servo, deliver,
-                                                 simulate)
+from flight_sim_dynamics.machines.staicu import motions
+from flight_sim_dynamics.machines.staicu.simulation import (ForceHistory, Reference, Servo,
+                                                            deliver, simulate)
 
 MODEL = fsd.load_model()
 PARAMS = rm.load_reference_params()

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.core.trajectories import paper_example
+from flight_sim_dynamics.machines.staicu.trajectories import paper_example
 
 MODEL = fsd.load_model()
 

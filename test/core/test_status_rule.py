@@ -1,4 +1,4 @@
-"""The status rule (status.sample_status), written once for floats and arrays.
+"""The status rule (status_rule.sample_status), written once for floats and arrays.
 
 The solver's three paths (kernel, Python single, Python batch) agree on real
 samples (test_kernel.py); here the rule itself: the same verdict on floats as
@@ -14,12 +14,12 @@ import math
 import numpy as np
 import pytest
 
-from flight_sim_dynamics.core.kinematics import LOOP_REASONS, LOOPS
-from flight_sim_dynamics.core.model import Limits
-from flight_sim_dynamics.core.status import (BY_SEVERITY, RESULTS_NOT_FINITE, SEVERITY, Status,
-                                             all_finite, describe, first_bad_input,
-                                             first_open_loop, sample_status)
+from flight_sim_dynamics.core.status import BY_SEVERITY, RESULTS_NOT_FINITE, SEVERITY, Status
 from flight_sim_dynamics.core.vectors import backend
+from flight_sim_dynamics.machines.staicu.kinematics import LOOP_REASONS, LOOPS
+from flight_sim_dynamics.machines.staicu.model import Limits
+from flight_sim_dynamics.machines.staicu.status_rule import (all_finite, describe, first_bad_input,
+                                                             first_open_loop, sample_status)
 
 LIMITS = Limits()
 FLOATS, ARRAYS = backend(False), backend(True)

@@ -1,4 +1,4 @@
-"""The real-time stepper of the twin (flight_sim_dynamics.core.twin).
+"""The real-time stepper of the twin (flight_sim_dynamics.machines.staicu.twin).
 
 * rest: the central configuration's leg lengths with the static
   feed-forward keep the platform at rest (to rounding);
@@ -19,9 +19,10 @@ import pytest
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics import Status
-from flight_sim_dynamics.core import kernel, motions
-from flight_sim_dynamics.core.simulation import Reference, Servo, simulate
-from flight_sim_dynamics.core.twin import TwinStepper
+from flight_sim_dynamics.core import kernel as core_kernel
+from flight_sim_dynamics.machines.staicu import kernel, motions
+from flight_sim_dynamics.machines.staicu.simulation import Reference, Servo, simulate
+from flight_sim_dynamics.machines.staicu.twin import TwinStepper
 
 STEP = 1e-3
 ZERO = np.zeros(3)
@@ -200,9 +201,9 @@ def test_compiled_steps_equal_python_steps(model, servo, far):
     ref = fsd.solve_batch(model, *motion.trajectory(t))
     push = np.array([1.0, -1.0, 1.0]) * (t[:, None] if far else 0.0)
     commands = list(zip(ref.length + push, ref.rate, ref.force))
-    with kernel.use_kernel(True):
+    with core_kernel.use_kernel(True):
         compiled = _run_stepper(plant, servo, commands, 4)
-    with kernel.use_kernel(False):
+    with core_kernel.use_kernel(False):
         python = _run_stepper(plant, servo, commands, 4)
     assert [s[5:] for s in compiled] == [s[5:] for s in python]
     if far:

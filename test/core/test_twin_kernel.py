@@ -1,4 +1,4 @@
-"""The twin's compiled path (src/kernel.c: ``affine``, ``integrate``) against
+"""The twin's compiled path (machines/staicu/kernel.c: ``affine``, ``integrate``) against
 the Python code it replaces when the kernel is built.
 
 * ``forward_dynamics.affine_terms``: the kernel's one-pass M and b equal the
@@ -25,11 +25,13 @@ from hypothesis import strategies as st
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics import Status
-from flight_sim_dynamics.core import forward_dynamics as fd
-from flight_sim_dynamics.core import kernel, motions
+from flight_sim_dynamics.core import kernel as core_kernel
 from flight_sim_dynamics.core.effects import EFFECT_NAMES, Effects
-from flight_sim_dynamics.core.model import Friction
-from flight_sim_dynamics.core.simulation import Reference, TabulatedLaw, integrate, simulate
+from flight_sim_dynamics.machines.staicu import forward_dynamics as fd
+from flight_sim_dynamics.machines.staicu import kernel, motions
+from flight_sim_dynamics.machines.staicu.model import Friction
+from flight_sim_dynamics.machines.staicu.simulation import (Reference, TabulatedLaw, integrate,
+                                                            simulate)
 from test_workspace_properties import batches, examples, tolerance_factor
 
 MODEL = fsd.load_model()
@@ -50,9 +52,9 @@ needs_kernel = pytest.mark.skipif(
 
 def both(call):
     """call() through the kernel, then through the Python code."""
-    with kernel.use_kernel(True):
+    with core_kernel.use_kernel(True):
         fast = call()
-    with kernel.use_kernel(False):
+    with core_kernel.use_kernel(False):
         slow = call()
     return fast, slow
 
@@ -206,6 +208,6 @@ def test_a_closed_loop_that_stops_early():
         np.testing.assert_allclose(value, fields(slow)[name], rtol=0,
                                    atol=1e-9 * max(np.abs(value).max(), 1.0), err_msg=name)
     for on in (True, False):
-        with kernel.use_kernel(on), pytest.raises(
+        with core_kernel.use_kernel(on), pytest.raises(
                 ValueError, match=r'the reference motion at t = 0\.9 s: unreachable'):
             simulate(MODEL, reference=held(-0.8, 0.9, 1.0), feedforward=MODEL, initial=initial)

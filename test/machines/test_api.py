@@ -11,13 +11,13 @@ import pytest
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config.machine_files import packaged_path
-from flight_sim_dynamics.core import forward_dynamics as core_fd
-from flight_sim_dynamics.core import forward_kinematics as core_fk
-from flight_sim_dynamics.core import solver as core_solver
 from flight_sim_dynamics.core.kernel import use_kernel
 from flight_sim_dynamics.core.machine import Machine
-from flight_sim_dynamics.core.model import Model
 from flight_sim_dynamics.machines import FLIGHT_SIMULATOR, MACHINES, STEWART
+from flight_sim_dynamics.machines.staicu import forward_dynamics as staicu_fd
+from flight_sim_dynamics.machines.staicu import forward_kinematics as staicu_fk
+from flight_sim_dynamics.machines.staicu import solver as staicu_solver
+from flight_sim_dynamics.machines.staicu.model import Model
 from flight_sim_dynamics.machines.stewart import forward_dynamics as stewart_fd
 from flight_sim_dynamics.machines.stewart import kinematics as stewart_kinematics
 from flight_sim_dynamics.machines.stewart import solver as stewart_solver
@@ -84,7 +84,7 @@ def test_the_user_story_of_the_hexapod(monkeypatch):
     m3 = fsd.load_model()
     assert isinstance(m3, Model)
     assert_same(fsd.solve(m3, [0, 0, 0], [0, 0, 0], [0, 0, 0]),
-                core_solver.solve(m3, [0, 0, 0], [0, 0, 0], [0, 0, 0]))
+                staicu_solver.solve(m3, [0, 0, 0], [0, 0, 0], [0, 0, 0]))
 
 
 def test_the_check_values_through_the_api():
@@ -189,8 +189,8 @@ def cases(dof: int) -> list[tuple]:
                    ([0.0] * dof, bad, [0.0] * dof)]
 
 
-DIRECT = {'3dof': (fsd.load_model, core_solver, core_fk.forward_kinematics,
-                   core_fd.forward_dynamics),
+DIRECT = {'3dof': (fsd.load_model, staicu_solver, staicu_fk.forward_kinematics,
+                   staicu_fd.forward_dynamics),
           'hexapod': (hexapod, stewart_solver, stewart_kinematics.forward_kinematics,
                       stewart_fd.forward_dynamics)}
 

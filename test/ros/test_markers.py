@@ -15,9 +15,9 @@ from hypothesis import strategies as st
 from visualization_msgs.msg import Marker, MarkerArray
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.core import kernel
-from flight_sim_dynamics.ros.markers import (JOINTS, NAMESPACES, PLATE, SEGMENTS,
-                                             MarkerBuilder, force_colour)
+from flight_sim_dynamics.core import kernel as core_kernel
+from flight_sim_dynamics.ros.markers import (JOINTS, NAMESPACES, PLATE, SEGMENTS, MarkerBuilder,
+                                             force_colour)
 
 
 MODEL = fsd.load_model()
@@ -101,7 +101,7 @@ rates = st.tuples(*[st.floats(-0.5, 0.5)] * 3)
 @settings(max_examples=60)
 @given(q=poses, qd=rates, qdd=rates)
 def test_points_are_the_solver_joint_positions(use_kernel, q, qd, qdd):
-    with kernel.use_kernel(use_kernel):
+    with core_kernel.use_kernel(use_kernel):
         sol = fsd.solve(MODEL, q, qd, qdd)
     assume(sol.status not in VOID)
     builder = MarkerBuilder(MODEL, 'simulator_base')

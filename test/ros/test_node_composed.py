@@ -14,7 +14,7 @@ import pytest
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import parameters as prm
-from flight_sim_dynamics.core.trajectories import paper_example
+from flight_sim_dynamics.machines.staicu.trajectories import paper_example
 from flight_sim_dynamics.ros.process import node_env
 from node_harness import ROOT, Client, NodeProcess, stamp_ns
 

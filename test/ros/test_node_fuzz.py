@@ -29,7 +29,7 @@ from rcl_interfaces.srv import SetParameters, SetParametersAtomically
 from rclpy.serialization import serialize_message
 
 from flight_sim_dynamics.config import parameters as prm
-from flight_sim_dynamics.core.trajectories import paper_example
+from flight_sim_dynamics.machines.staicu.trajectories import paper_example
 from node_harness import PARAMS_FILE, Client, NodeProcess, all_finite, stamp_ns
 
 pytestmark = pytest.mark.ros

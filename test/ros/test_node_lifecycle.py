@@ -16,7 +16,7 @@ from lifecycle_msgs.msg import State, Transition
 from lifecycle_msgs.srv import ChangeState, GetAvailableTransitions, GetState
 
 from flight_sim_dynamics.config.parameters import NODE_NAME
-from flight_sim_dynamics.core.trajectories import paper_example
+from flight_sim_dynamics.machines.staicu.trajectories import paper_example
 from node_harness import PARAMS_FILE, Client, NodeProcess, stamp_ns
 
 pytestmark = pytest.mark.ros

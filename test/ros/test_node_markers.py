@@ -11,7 +11,7 @@ import pytest
 from visualization_msgs.msg import MarkerArray
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.core.trajectories import paper_example
+from flight_sim_dynamics.machines.staicu.trajectories import paper_example
 from flight_sim_dynamics.ros.markers import SEGMENTS
 from node_harness import PARAMS_FILE, QOS, Client, NodeProcess, stamp_ns
 from test_markers import expected_points, xyz

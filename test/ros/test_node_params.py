@@ -25,8 +25,8 @@ from rcl_interfaces.srv import SetParameters, SetParametersAtomically
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import parameters as prm
-from flight_sim_dynamics.core.model import JOINT_NAMES, LEG_NAMES
-from flight_sim_dynamics.core.trajectories import paper_example
+from flight_sim_dynamics.machines.staicu.model import JOINT_NAMES, LEG_NAMES
+from flight_sim_dynamics.machines.staicu.trajectories import paper_example
 from flight_sim_dynamics.ros.dynamics_node import (MAX_PARAMETERS_PER_REQUEST,
                                                    MAX_VALIDATIONS_PER_REQUEST, default_qos)
 from flight_sim_dynamics.ros.process import node_env

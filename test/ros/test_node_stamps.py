@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.core.trajectories import paper_example
+from flight_sim_dynamics.machines.staicu.trajectories import paper_example
 from node_harness import PARAMS_FILE, Client, NodeProcess, all_finite, stamp_ns
 
 pytestmark = pytest.mark.ros

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.core.model import JOINT_NAMES, LEG_NAMES
-from flight_sim_dynamics.core.trajectories import paper_example
+from flight_sim_dynamics.machines.staicu.model import JOINT_NAMES, LEG_NAMES
+from flight_sim_dynamics.machines.staicu.trajectories import paper_example
 from node_harness import Client, all_finite, stamp_ns
 
 pytestmark = pytest.mark.ros

@@ -35,11 +35,11 @@ from std_srvs.srv import Trigger
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config.schema import SIM_PARAMETERS
-from flight_sim_dynamics.core.model import LEG_NAMES
-from flight_sim_dynamics.core.motions import PlannerSequence
-from flight_sim_dynamics.ros.setpoints import quaternion_to_rpy
-from flight_sim_dynamics.ros.process import SIM_MODULE, start_node, stop_node
+from flight_sim_dynamics.machines.staicu.model import LEG_NAMES
+from flight_sim_dynamics.machines.staicu.motions import PlannerSequence
 from flight_sim_dynamics.ros.platform_sim import SIM_TASK
+from flight_sim_dynamics.ros.process import SIM_MODULE, start_node, stop_node
+from flight_sim_dynamics.ros.setpoints import quaternion_to_rpy
 from node_harness import PARAMS_FILE, QOS, ROOT, Client, NodeProcess, diagnostic_values
 
 pytestmark = pytest.mark.ros
@@ -48,7 +48,7 @@ pytestmark = pytest.mark.ros
 #: (surge and heave m, roll rad). At the default 5 Hz servos with the full
 #: feed-forward of the same model, the error is the twin's lag behind the
 #: reference times the motion's rate (peak 0.05 m/s, 0.10 m/s, 0.27 rad/s):
-#: offline (core.twin, commands of 100 Hz setpoints held, delayed by d), the
+#: offline (machines.staicu.twin, commands of 100 Hz setpoints held, delayed by d), the
 #: roll error is 1.4e-3 rad at d = 0, 4.1e-3 at 10 ms, 6.9e-3 at 20 ms and
 #: 1.5e-2 at 50 ms (surge and heave 5x and 2.6x smaller). Through two Python
 #: nodes on the shared 2-core host the measured error was 8.4e-3 rad (an

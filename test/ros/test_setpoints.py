@@ -1,5 +1,5 @@
 """Unit tests of the rclpy-free setpoint rules (flight_sim_dynamics.ros.setpoints)
-and of the planner motions (flight_sim_dynamics.core.motions)."""
+and of the planner motions (flight_sim_dynamics.machines.staicu.motions)."""
 from __future__ import annotations
 
 import dataclasses
@@ -13,17 +13,17 @@ from hypothesis import strategies as st
 from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.config.parameters import NodeConfig
 from flight_sim_dynamics.core.estimator import wrap_angle
-from flight_sim_dynamics.core.model import Limits
-from flight_sim_dynamics.core.motions import PLANNER_MOTIONS as MOTIONS
-from flight_sim_dynamics.core.motions import CUEING_DURATION, PlannerSequence, motion_cueing
+from flight_sim_dynamics.machines.staicu.model import Limits
+from flight_sim_dynamics.machines.staicu.motions import PLANNER_MOTIONS as MOTIONS
+from flight_sim_dynamics.machines.staicu.motions import (CUEING_DURATION, PlannerSequence,
+                                                         motion_cueing)
 from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION,
                                                DUPLICATE, ERROR, JOINING, LATE, NO_POSE,
                                                NON_FINITE, OK, OVERFLOW, PITCH, POSE,
-                                               STAMP_BACKWARDS, STAMP_REPEATED, SWAY, TWIST,
-                                               WARN, YAW, CycleStats, LogThrottle,
-                                               SetpointError, StampSynchroniser,
-                                               check_acceleration, check_limits, pose_input,
-                                               quaternion_to_rpy, rate_input,
+                                               STAMP_BACKWARDS, STAMP_REPEATED, SWAY, TWIST, WARN,
+                                               YAW, CycleStats, LogThrottle, SetpointError,
+                                               StampSynchroniser, check_acceleration, check_limits,
+                                               pose_input, quaternion_to_rpy, rate_input,
                                                rpy_to_quaternion, unfollowable)
 
 def field_name(parameter: str) -> str:

@@ -5,9 +5,9 @@ frame: ``X = x0 - x0G``, ``Y = -z0``, ``Z = y0 - h_G``.
 """
 from __future__ import annotations
 
+from ...core.vectors import add, sub
 from .kinematics import Geometric
 from .model import Model
-from .vectors import add, sub
 
 Point3 = tuple[float, float, float]
 

@@ -13,10 +13,10 @@ from typing import Sequence
 import numpy as np
 
 from . import kernel
+from ...core.status import Status
 from .model import Model
 from .simulation import Servo, _stage, deliver, rk4_step
 from .solver import Solution
-from .status import Status
 
 
 class TwinStepper:

@@ -10,13 +10,13 @@ from typing import Sequence
 
 import numpy as np
 
+from ...core.status import Status
+from ...core.vectors import backend
 from .dynamics import actuator_jacobian
 from .kinematics import (UnreachablePoseError, factorize, inverse_geometry, pose_rate_columns,
                          solve_connectivity)
 from .model import Model
 from .solver import three_numbers
-from .status import Status
-from .vectors import backend
 
 _XP = backend(False)
 

@@ -10,11 +10,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from types import SimpleNamespace
 
-from .effects import Effects
+from ...core.effects import Effects
+from ...core.vectors import (Scalar, Vec, add, axpy, cross, dot, from_frame, mat_vec, scale, sub,
+                             to_frame, zx)
 from .kinematics import Z0, Geometric
 from .model import ACTUATED_JOINTS, BODY_NAMES, Body, Model
-from .vectors import (Scalar, Vec, add, axpy, cross, dot, from_frame, mat_vec, scale, sub,
-                      to_frame, zx)
 
 #: Bodies moved by each inertia effect (the payload is not one of BODY_NAMES).
 CRANK_BODIES = ('crank_d', 'crank_e')

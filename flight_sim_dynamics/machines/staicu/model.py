@@ -10,7 +10,7 @@ from typing import Mapping
 
 import numpy as np
 
-from .effects import Effects
+from ...core.effects import Effects
 
 #: Order of the geometry constants (paper's symbols, Section 3 application data).
 GEOMETRY_KEYS = ('d1', 'd2', 'd3', 'd4', 'd5', 'l1', 'l2', 'l3', 'l4', 'l5', 'l6',

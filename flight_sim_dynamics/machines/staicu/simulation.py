@@ -16,12 +16,12 @@ from typing import Callable
 import numpy as np
 
 from . import kernel
+from ...core.interpolation import ForceHistory, MotionLike, Reference, finite_rows
 from .forward_dynamics import affine_terms, require_inertia, solve_accelerations
-from .interpolation import ForceHistory, MotionLike, Reference, finite_rows
 
+from ...core.status import SEVERITY, Status
 from .model import Model
 from .solver import Solution, solve_batch
-from .status import SEVERITY, Status
 
 DEFAULT_STEP = 1e-3              # s: RK4 at 1 kHz
 #: Bandwidth (Hz) and damping ratio of the default servo gains.

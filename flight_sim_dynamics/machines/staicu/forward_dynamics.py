@@ -23,9 +23,9 @@ from typing import Sequence
 import numpy as np
 
 from . import kernel
+from ...core.status import SEVERITY, Status
 from .model import Model
 from .solver import Solution, kernel_solution, solve, three_numbers
-from .status import SEVERITY, Status
 
 #: Largest condition number of M solved: beyond it, qdd would not reproduce f to 1e-8.
 MAX_MASS_CONDITION = 1e8
@@ -64,7 +64,7 @@ def affine_terms(model: Model, q: Sequence[float], qd: Sequence[float]
     M by virtual power, M = J^-T sum m a_i . a_j + w_i . I w_j (eq. 23); the
     reference takes four solves.
     """
-    if kernel._enabled:
+    if kernel.enabled():
         q3, qd3 = three_numbers('q', q), three_numbers('qd', qd)
         out, M, b, scalars = kernel.affine_row(model, q3, qd3)
         return M, b, kernel_solution(model, out, scalars, (q3, qd3, _REST))

@@ -29,8 +29,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ...core.vectors import Scalar, Vec, axpy, backend, cross, dot, scale, sub, zx
 from .model import CentralConfiguration, Geometry, Model
-from .vectors import Scalar, Vec, axpy, backend, cross, dot, scale, sub, zx
 
 Z0: Vec = (0.0, 0.0, 1.0)
 _ANGLES = (0, 2, 3, 4, 6, 7, 9, 10)   # joint variables that are angles

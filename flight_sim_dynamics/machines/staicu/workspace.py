@@ -12,9 +12,9 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from ...core.status import Status
 from .model import Model
 from .solver import Solution, solve_batch
-from .status import Status
 from .trajectories import PAPER_EXAMPLES, paper_example, sample_times
 
 #: Default view: the whole reachable set with margin (surge min, max, heave min, max; m).

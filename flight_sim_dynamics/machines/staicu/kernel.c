@@ -1,5 +1,5 @@
 /*
- * flight_sim_dynamics.core._kernel: the solver's scalar path (paper eq. 5-23)
+ * flight_sim_dynamics.machines.staicu._kernel: the solver's scalar path (paper eq. 5-23)
  * for one cycle (solve) or a batch (solve_batch), and the twin's affine terms
  * and RK4 loop. A line-by-line transcription of kinematics.py, dynamics.py,
  * status.py, forward_dynamics.py and simulation.py, in the same order of
@@ -13,7 +13,7 @@
 #include <string.h>
 
 /* The contracts with the Python side, as X-macro lists: the C enum and the
-   exported table (PyInit__kernel) come from one line; core/kernel.py checks them. */
+   exported table (PyInit__kernel) come from one line; kernel.py checks them. */
 #define AS_ENUM(id, name) id,
 #define AS_NAME(id, name) name,
 /* id, id_END = id + size - 1: the next id follows the last double of this one */
@@ -1209,7 +1209,7 @@ static struct PyModuleDef module = {
     "Compiled scalar path of the flight_sim_dynamics solver (see kernel.py).", -1, methods
 };
 
-/* the declarations at the top, as Python objects (read by core/kernel.py) */
+/* the declarations at the top, as Python objects (read by kernel.py) */
 typedef struct { const char *name; int offset, size; } field;
 #define AS_BIT_FIELD(id, name) {name, id, 1},
 static const field PACKED_FIELDS[] = { PACKED_MODEL(AS_FIELD) };

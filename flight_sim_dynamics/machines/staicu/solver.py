@@ -4,7 +4,7 @@ accelerations and inverse dynamics (paper eq. 5-23) for one pose or a batch.
 :func:`solve` (one cycle) and :func:`solve_batch` (N samples) run the compiled
 kernel (:mod:`.kernel`) when built, else the Python code below, the reference
 (plain floats for one cycle, numpy columns for a batch). Every status comes
-from one rule, :func:`.status.sample_status`.
+from one rule, :func:`.status_rule.sample_status`.
 
 >>> import flight_sim_dynamics as fsd
 >>> model = fsd.load_model()
@@ -24,14 +24,15 @@ from typing import Sequence
 import numpy as np
 
 from . import kernel
+from ...core.status import BY_SEVERITY, SEVERITY, SINGULAR, Status
+from ...core.vectors import Scalar, backend
 from .dynamics import (actuator_forces, actuator_jacobian, body_states, friction_forces,
                        joint_forces, virtual_velocities)
 from .kinematics import (Connectivity, Geometric, acceleration_column, connectivity_matrix,
                          factorize, inverse_geometry, pose_rate_columns, solve_connectivity)
 from .model import ACTUATED_JOINTS, Model
-from .status import (BY_SEVERITY, SEVERITY, SINGULAR, Status, all_finite, condition_2x2,
-                     describe, first_bad_input, first_open_loop, sample_status)
-from .vectors import Scalar, backend
+from .status_rule import (all_finite, condition_2x2, describe, first_bad_input, first_open_loop,
+                          sample_status)
 
 _SCALAR, _ARRAY = backend(False), backend(True)
 
@@ -201,7 +202,7 @@ _KERNEL_STATUS_ARRAY = np.array(kernel.STATUS_BY_CODE if kernel.OUT else (), dty
 
 def _status(model: Model, r: dict, xp: SimpleNamespace, bad_input: Scalar = -1,
             open_loop: Scalar = -1) -> tuple[Scalar, Scalar]:
-    """(code, info) of the results r by the status rule (:func:`.status.sample_status`)."""
+    """(code, info) of the results r by the status rule (:func:`.status_rule.sample_status`)."""
     kin, jac = r['kinematic_condition'], r['jacobian_condition']
     finite = all_finite([v for name in _CHECKED for v in r[name]] + [kin, jac], xp)
     return sample_status(model.limits, xp, bad_input, open_loop, finite, kin, jac,
@@ -255,7 +256,7 @@ def solve(model: Model, q: Sequence[float], qd: Sequence[float],
     that is not three numbers per argument.
     """
     q3, qd3, qdd3 = three_numbers('q', q), three_numbers('qd', qd), three_numbers('qdd', qdd)
-    if kernel._enabled:
+    if kernel.enabled():
         out, scalars = kernel.solve_row(model, q3, qd3, qdd3)
         return kernel_solution(model, out, scalars, (q3, qd3, qdd3))
     return _solve_floats(model, q3, qd3, qdd3)
@@ -273,7 +274,7 @@ def kernel_solution(model: Model, out: np.ndarray, scalars: tuple, inputs: tuple
 
 def _kernel_detail(model: Model, status: Status, info: float, row: np.ndarray,
                    inputs: tuple) -> str:
-    """:func:`.status.describe` of one kernel result row."""
+    """:func:`.status_rule.describe` of one kernel result row."""
     if status is Status.OK:
         return ''
     out = kernel.OUT
@@ -325,7 +326,7 @@ def solve_batch(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) ->
     arrays = _as_batch('q', q, None), None, None
     n = arrays[0].shape[0]
     arrays = (arrays[0], _as_batch('qd', qd, n), _as_batch('qdd', qdd, n))
-    if kernel._enabled:
+    if kernel.enabled():
         return batch_from_rows(model, kernel.solve_rows(model, *arrays), arrays)
     return _solve_arrays(model, *arrays)
 
