@@ -3,37 +3,18 @@ registry of machines: which :class:`~flight_sim_dynamics.core.machine.Machine`
 a model belongs to (by its type), which one a parameter file names.
 
 Each subpackage holds what belongs to one machine: its parameters (model),
-kinematics and dynamics, and its :class:`Machine` (``<name>/machine.py``);
-what machines share (statuses, effects and scenes, the machine interface)
-lives in :mod:`flight_sim_dynamics.core`. The 3-DOF machine's physics is
-still in :mod:`flight_sim_dynamics.core`; its :class:`Machine` is built here.
-The public calls that dispatch on a model are in :mod:`.api`.
+kinematics and dynamics, its kernel and its :class:`Machine`
+(``<name>/machine.py``): :mod:`.staicu`, the paper's 3-DOF flight simulator,
+and :mod:`.stewart`, 6-UPS hexapods. What machines share (statuses, effects
+and scenes, the kernel switch, the machine interface) lives in
+:mod:`flight_sim_dynamics.core`. The public calls that dispatch on a model are
+in :mod:`.api`.
 """
 from __future__ import annotations
 
-import numpy as np
-
-from ..core.machine import ActuatorLimits, Machine
-from .staicu import forward_dynamics as _forward_dynamics, forward_kinematics as _forward_kinematics
-from .staicu import solver as _solver
-from .staicu.model import JOINT_NAMES, LEG_NAMES, Model
+from ..core.machine import Machine
+from .staicu.machine import MACHINE as FLIGHT_SIMULATOR
 from .stewart.machine import MACHINE as STEWART
-
-
-def _flight_simulator_limits(model: Model) -> ActuatorLimits:
-    """The 3-DOF machine's limits (parameters ``limits.*``), the same for every leg."""
-    lim, legs = model.limits, len(LEG_NAMES)
-    return ActuatorLimits(stroke_min=np.full(legs, lim.stroke_min),
-                          stroke_max=np.full(legs, lim.stroke_max),
-                          max_speed=lim.max_speed, max_force=lim.max_force)
-
-
-#: The 3-DOF flight simulator of Staicu, Ocnarescu and Ungureanu (the default).
-FLIGHT_SIMULATOR = Machine(
-    name='flight_simulator_3dof', model_type=Model, coordinates=('surge', 'heave', 'roll'),
-    units=('m', 'm', 'rad'), legs=LEG_NAMES, joints=JOINT_NAMES, solve=_solver.solve,
-    solve_batch=_solver.solve_batch, forward_kinematics=_forward_kinematics.forward_kinematics,
-    forward_dynamics=_forward_dynamics.forward_dynamics, actuator_limits=_flight_simulator_limits)
 
 #: Every machine, the default first.
 MACHINES = (FLIGHT_SIMULATOR, STEWART)

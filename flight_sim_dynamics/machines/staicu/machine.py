@@ -1,0 +1,28 @@
+"""The 3-DOF flight simulator as the shared layer sees it
+(:class:`flight_sim_dynamics.core.machine.Machine`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ...core.machine import ActuatorLimits, Machine
+from .forward_dynamics import forward_dynamics
+from .forward_kinematics import forward_kinematics
+from .model import JOINT_NAMES, LEG_NAMES, Model
+from .solver import solve, solve_batch
+
+
+def actuator_limits(model: Model) -> ActuatorLimits:
+    """The 3-DOF machine's limits (parameters ``limits.*``), the same for every leg."""
+    lim, legs = model.limits, len(LEG_NAMES)
+    return ActuatorLimits(stroke_min=np.full(legs, lim.stroke_min),
+                          stroke_max=np.full(legs, lim.stroke_max),
+                          max_speed=lim.max_speed, max_force=lim.max_force)
+
+
+#: The 3-DOF flight simulator of Staicu, Ocnarescu and Ungureanu (the default).
+MACHINE = Machine(
+    name='flight_simulator_3dof', model_type=Model, coordinates=('surge', 'heave', 'roll'),
+    units=('m', 'm', 'rad'), legs=LEG_NAMES, joints=JOINT_NAMES, solve=solve,
+    solve_batch=solve_batch, forward_kinematics=forward_kinematics,
+    forward_dynamics=forward_dynamics, actuator_limits=actuator_limits)
