@@ -121,7 +121,8 @@ def ros_isolation() -> None:
 #         property; ~1.5 min for the three files): a soak run before a release,
 #         or after touching the solver, e.g.
 #             FSD_HYPOTHESIS_PROFILE=long PYTHONPATH=. python -m pytest -q \
-#                 test/core/test_workspace_properties.py test/core/test_hard_cases.py \
+#                 test/machines/staicu/test_workspace_properties.py \
+#                 test/machines/staicu/test_hard_cases.py \
 #                 test/cli/test_csv_garbage.py
 #
 # Select one with the environment variable FSD_HYPOTHESIS_PROFILE (ci or
@@ -149,7 +150,7 @@ _hypothesis_settings.load_profile(_profile)
 # scripts/run_tests.sh builds it and sets FSD_REQUIRE_KERNEL=1 so that a
 # failed build fails the run) or, with FSD_KERNEL=0, the Python reference code
 # for the whole suite:  FSD_KERNEL=0 PYTHONPATH=. python -m pytest -q test
-# test/core/test_kernel.py checks the two against each other in every run.
+# test/machines/staicu/test_kernel.py checks the two against each other in every run.
 # ---------------------------------------------------------------------------
 # (read by flight_sim_dynamics.kernel itself, so the node and command-line
 # processes the tests start follow the same choice)

@@ -2,8 +2,8 @@
  * flight_sim_dynamics.machines.staicu._kernel: the solver's scalar path (paper eq. 5-23)
  * for one cycle (solve) or a batch (solve_batch), and the twin's affine terms
  * and RK4 loop. A line-by-line transcription of kinematics.py, dynamics.py,
- * status.py, forward_dynamics.py and simulation.py, in the same order of
- * operations (the Python code is the reference; test/core/test_kernel.py and
+ * status_rule.py, forward_dynamics.py and simulation.py, in the same order of
+ * operations (the Python code is the reference; test/machines/staicu/test_kernel.py and
  * test_twin_kernel.py check the two agree). Function names follow the Python ones.
  */
 #define PY_SSIZE_T_CLEAN
