@@ -486,7 +486,9 @@ class DynamicsNode(LifecycleNode):
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
         self._drop_queued()
-        self._intake.reset()                  # nothing from before counts as history
+        # nothing from before counts as history; stragglers of a stream that ran
+        # meanwhile are dropped by their stamps
+        self._intake.activate(self.get_clock().now().nanoseconds, time.monotonic())
         self._active = True
         self.get_logger().info('active: answering setpoints')
         return super().on_activate(state)     # enables the lifecycle publishers

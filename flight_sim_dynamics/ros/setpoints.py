@@ -61,6 +61,7 @@ LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR'}
 DIAGNOSTIC_TASK = 'inverse dynamics'
 RESTART_CONFIRMATIONS = 3          # setpoints in a row far behind: a planner restart
 JOIN_WINDOW = 1.0                  # s after the first message: partial setpoints are joining
+STALE_WINDOW = 2.0                 # s after an activation: setpoints stamped before it are stale
 
 _SHOWN = reprlib.Repr()
 _SHOWN.maxlist = _SHOWN.maxtuple = 6
@@ -775,6 +776,8 @@ class SetpointIntake:
         self.last_solution: Any = None
         self.last_header: tuple[int, int] = (0, 0)
         self._answered: int | None = None           # stamp of the last answered setpoint
+        self._inactive_seen = False                 # a message taken while inactive
+        self._stale: tuple[int, float] | None = None   # (activation stamp, until)
         self._answers: list[Answer] = []
         self._lines: list[tuple[int, str]] = []
 
@@ -795,6 +798,7 @@ class SetpointIntake:
         try:
             self.stats.received[kind] += 1
             if not active:
+                self._inactive_seen = True
                 self.reject(INACTIVE, f'{kind} received while inactive: not answered')
             elif kind == PLATFORM:
                 self._platform(msg, now, latest_ns)
@@ -803,6 +807,30 @@ class SetpointIntake:
         except Exception as exc:  # noqa: BLE001 - nothing escapes
             self.internal_error(exc)
         return self._flush()
+
+    def activate(self, stamp_ns: int, now: float) -> None:
+        """The node activates at ``stamp_ns`` (its clock; 0: unknown). If a stream
+        ran while it was inactive, what it published then may still arrive: for
+        :data:`STALE_WINDOW` s, setpoints stamped before the activation are
+        dropped and counted inactive.
+        """
+        self.reset()
+        armed = self._inactive_seen and stamp_ns > 0
+        self._stale = (stamp_ns, now + STALE_WINDOW) if armed else None
+        self._inactive_seen = False
+
+    def _published_while_inactive(self, kind: str, stamp_ns: int, now: float) -> bool:
+        stale = self._stale
+        if stale is None:
+            return False
+        if now >= stale[1]:
+            self._stale = None
+            return False
+        if stamp_ns >= stale[0]:
+            return False
+        self.reject(INACTIVE, f'{kind} stamped {fmt_stamp(stamp_ns)}, before the node '
+                              'activated: published while inactive, not answered')
+        return True
 
     def _motion(self, kind: str, msg: Any) -> Motion:
         config = self.runtime.config
@@ -826,6 +854,8 @@ class SetpointIntake:
             check_not_future(stamp_ns, latest_ns)
         except SetpointError as exc:     # no state: not even discarded
             self.reject(exc.reason, f'{kind} rejected: {exc}')
+            return
+        if self._published_while_inactive(kind, stamp_ns, now):
             return
         try:
             item = self._motion(kind, msg)
@@ -854,7 +884,7 @@ class SetpointIntake:
         for point in points:
             if isinstance(point, SetpointError):
                 self.reject(point.reason, f'{PLATFORM} rejected: {point}')
-            else:
+            elif not self._published_while_inactive(PLATFORM, point.stamp_ns, now):
                 self._dispatch(*self.sync.add_complete(point.stamp_ns, point.pose, point.twist,
                                                        point.accel, now, point.header))
 

@@ -91,11 +91,13 @@ def test_full_lifecycle_over_the_services():
         assert client.state() == 'active'
         assert not client.spin_until(lambda: any(stamp_ns(m) == stamp
                                                  for _, m in client.actuator), 0.5)
-        assert client.answered(stamp + 5_000_000, 5.0)
+        # stamped after the activation (one stamped before it, within a few seconds
+        # of it, is a straggler of the stream that ran while inactive: dropped)
+        assert client.answered(time.time_ns(), 5.0)
         assert client.wait_diagnostics(lambda v: v['lifecycle state'] == 'active')
         assert client.change(Transition.TRANSITION_DEACTIVATE)
         assert client.state() == 'inactive'
-        assert not client.answered(stamp + 10_000_000, 1.0)
+        assert not client.answered(time.time_ns(), 1.0)
         assert client.change(Transition.TRANSITION_CLEANUP)
         assert client.state() == 'unconfigured'
         assert client.spin_until(lambda: client.pose_pub.get_subscription_count() == 0, 5.0)
@@ -103,7 +105,7 @@ def test_full_lifecycle_over_the_services():
         assert client.change(Transition.TRANSITION_CONFIGURE)
         assert client.change(Transition.TRANSITION_ACTIVATE)
         client.wait_matched()
-        assert client.answered(stamp + 15_000_000, 5.0)
+        assert client.answered(time.time_ns(), 5.0)
         client.watch = None
         assert client.change(Transition.TRANSITION_ACTIVE_SHUTDOWN)
         proc.proc.wait(10.0)
@@ -204,12 +206,12 @@ def test_cleanup_under_a_stream_is_quiet():
 
 
 @pytest.mark.parametrize('executor', ['events', 'single'])
-def test_setpoints_queued_while_inactive_are_not_answered_after_activation(executor):
-    """Setpoints published while the node is inactive and still queued when
-    it activates (a busy or stalled node: here stopped with SIGSTOP) are
-    dropped and counted inactive, not answered late; the next one is answered.
-    The wait-set executor takes one message per subscription before serving
-    the activate request, then the queue."""
+def test_setpoints_published_while_inactive_are_not_answered_after_activation(executor):
+    """100 setpoints and the activate request sent to the inactive node while it
+    is stopped (SIGSTOP: a node too busy to take them, and a transport that
+    holds some of them back): none of them is answered after the activation,
+    all are counted inactive, and the next one is answered. (Before: the
+    wait-set executor served the request before the queue and answered 99.)"""
     proc, client = managed(f'/lcq{executor}', executor=executor)
     count = 100
     try:
@@ -220,13 +222,12 @@ def test_setpoints_queued_while_inactive_are_not_answered_after_activation(execu
         try:
             for i in range(count):
                 client.send(base + i * 1_000_000, Q, QD, QDD)
-            request = ChangeState.Request(transition=Transition(
-                id=Transition.TRANSITION_ACTIVATE))
-            future = client.srv['change_state'].call_async(request)
+            future = client.srv['change_state'].call_async(ChangeState.Request(
+                transition=Transition(id=Transition.TRANSITION_ACTIVATE)))
             client.spin_until(lambda: False, 0.3)     # the request is out
         finally:
             os.kill(proc.proc.pid, signal.SIGCONT)
-        assert client.spin_until(future.done, 10.0) and future.result().success
+        assert client.spin_until(future.done, 20.0) and future.result().success
         fresh = time.time_ns()
         assert client.answered(fresh, 10.0)
         values = client.wait_diagnostics(

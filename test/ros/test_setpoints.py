@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -18,12 +19,15 @@ from flight_sim_dynamics.machines.staicu.motions import PLANNER_MOTIONS as MOTIO
 from flight_sim_dynamics.machines.staicu.motions import (CUEING_DURATION, PlannerSequence,
                                                          motion_cueing)
 from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION,
-                                               DUPLICATE, ERROR, JOINING, LATE, NO_POSE,
+                                               DUPLICATE, ERROR, INACTIVE, JOINING, LATE,
+                                               NO_POSE, STALE_WINDOW,
                                                NON_FINITE, OK, OVERFLOW, PITCH, POSE,
-                                               STAMP_BACKWARDS, STAMP_REPEATED, SWAY, TWIST, WARN,
-                                               YAW, CycleStats, LogThrottle, SetpointError,
-                                               StampSynchroniser, check_acceleration, check_limits,
-                                               pose_input, quaternion_to_rpy, rate_input,
+                                               STAMP_BACKWARDS, STAMP_REPEATED, SWAY, TWIST,
+                                               WARN, YAW, CycleStats, LogThrottle, Runtime,
+                                               SetpointError, SetpointIntake,
+                                               StampSynchroniser,
+                                               check_acceleration, check_limits, pose_input,
+                                               quaternion_to_rpy, rate_input,
                                                rpy_to_quaternion, unfollowable)
 
 def field_name(parameter: str) -> str:
@@ -537,3 +541,42 @@ def test_sync_a_lagging_second_input_is_no_restart():
     rewound = [stamps(sync.add_complete(50 * second + k, 'p', 't', 'a', now=0.0)[0])
                for k in range(3)]
     assert sync.restarts == 1 and rewound[-1] == [50 * second + 2]
+
+
+# -- activation: what a stream published while the node was inactive ------------
+def _stamped(stamp_ns: int, **fields: float) -> SimpleNamespace:
+    """A pose/twist/accel message of the shape the intake reads."""
+    sec, nanosec = divmod(stamp_ns, 1_000_000_000)
+    vec = SimpleNamespace(x=0.0, y=0.0, z=0.0)
+    return SimpleNamespace(header=SimpleNamespace(stamp=SimpleNamespace(sec=sec, nanosec=nanosec)),
+                           pose=SimpleNamespace(position=vec, orientation=SimpleNamespace(
+                               x=0.0, y=0.0, z=0.0, w=1.0)),
+                           twist=SimpleNamespace(linear=vec, angular=vec),
+                           accel=SimpleNamespace(linear=vec, angular=vec))
+
+
+def _answered(intake: SetpointIntake, stamp_ns: int, now: float) -> bool:
+    answers = []
+    for kind in (POSE, TWIST, ACCEL):
+        answers += intake.receive(kind, _stamped(stamp_ns), now, None)[0]
+    return any(a.header == divmod(stamp_ns, 1_000_000_000) for a in answers)
+
+
+@pytest.mark.parametrize('stream_while_inactive', [True, False])
+def test_setpoints_stamped_before_an_activation_are_stale_for_a_while(stream_while_inactive):
+    """A stream that ran while the node was inactive: for STALE_WINDOW s after the
+    activation its setpoints stamped before it are dropped (counted inactive),
+    later ones answered; with no stream meanwhile, old stamps are answered."""
+    intake = SetpointIntake(Runtime(prm.load_model(), NodeConfig.from_values({})))
+    activation = 1_700_000_000 * 1_000_000_000
+    if stream_while_inactive:
+        intake.receive(POSE, _stamped(activation - 10 ** 9), 0.0, None, active=False)
+    intake.activate(activation, now=100.0)
+    stale = _answered(intake, activation - 5 * 10 ** 8, 100.5)
+    assert stale != stream_while_inactive
+    assert intake.stats.rejected.get(INACTIVE, 0) == (4 if stream_while_inactive else 0)
+    assert _answered(intake, activation + 10 ** 6, 100.6)
+    # after the window, an old stamp is judged by the usual rules only (here: it
+    # precedes the last answered one)
+    assert not _answered(intake, activation - 10 ** 8, 100.0 + STALE_WINDOW + 0.1)
+    assert intake.stats.rejected.get(INACTIVE, 0) == (4 if stream_while_inactive else 0)
