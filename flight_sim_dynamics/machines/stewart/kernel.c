@@ -12,6 +12,8 @@
 #include <Python.h>
 #include <float.h>
 #include <math.h>
+#include <pthread.h>
+#include <sched.h>
 #include <string.h>
 
 /* The contracts with the Python side, as X-macro lists: the C enum and the
@@ -638,10 +640,75 @@ static PyObject *py_solve(PyObject *self, PyObject *const *args, Py_ssize_t narg
     return Py_BuildValue("(iid)", (int)out[O_STATUS], (int)out[O_INFO], out[O_COND]);
 }
 
+/* A batch's samples are independent: they are shared out to one thread per
+   usable CPU, at least MIN_SAMPLES_PER_THREAD each (starting a thread costs
+   about as much as a few dozen samples). */
+#define MIN_SAMPLES_PER_THREAD 1024
+#define MAX_THREADS 16
+
+typedef struct {
+    const double *P, *q, *qd, *qdd;
+    double *out;
+    int fx;
+    Py_ssize_t begin, end;
+} batch_part;
+
+static void *solve_part(void *arg)
+{
+    const batch_part *b = (const batch_part *)arg;
+    for (Py_ssize_t i = b->begin; i < b->end; i++)
+        solve_one(b->P, b->fx, b->q + 6 * i, b->qd + 6 * i, b->qdd + 6 * i,
+                  b->out + OUT_SIZE * i);
+    return NULL;
+}
+
+static int usable_cpus(void)
+{
+#if defined(__linux__)
+    cpu_set_t set;
+    if (sched_getaffinity(0, sizeof set, &set) == 0)
+        return CPU_COUNT(&set);
+#endif
+    return 1;
+}
+
+/* Every sample of the batch, on as many threads as pay; the calling thread
+   takes the first part (a thread that cannot start leaves its part to it). */
+static void solve_samples(const batch_part *all)
+{
+    Py_ssize_t n = all->end;
+    Py_ssize_t parts = n / MIN_SAMPLES_PER_THREAD;
+    int cpus = usable_cpus();
+    if (parts > cpus)
+        parts = cpus;
+    if (parts > MAX_THREADS)
+        parts = MAX_THREADS;
+    if (parts < 1)
+        parts = 1;
+    batch_part part[MAX_THREADS];
+    pthread_t thread[MAX_THREADS];
+    int started[MAX_THREADS] = {0};
+    for (Py_ssize_t k = 0; k < parts; k++) {
+        part[k] = *all;
+        part[k].begin = n * k / parts;
+        part[k].end = n * (k + 1) / parts;
+        if (k > 0)
+            started[k] = pthread_create(&thread[k], NULL, solve_part, &part[k]) == 0;
+    }
+    solve_part(&part[0]);
+    for (Py_ssize_t k = 1; k < parts; k++) {
+        if (started[k])
+            pthread_join(thread[k], NULL);
+        else
+            solve_part(&part[k]);
+    }
+}
+
 PyDoc_STRVAR(solve_batch_doc,
 "solve_batch(params, effects, q, qd, qdd, out) -> None\n\n"
 "N samples: q, qd, qdd C-contiguous (N, 6) float64 buffers, out a writable\n"
-"C-contiguous (N, OUT_SIZE) float64 buffer; each row as solve's. Releases the GIL.");
+"C-contiguous (N, OUT_SIZE) float64 buffer; each row as solve's. Releases the GIL\n"
+"and shares the samples out to one thread per usable CPU (at least 1024 each).");
 
 static PyObject *py_solve_batch(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
@@ -671,13 +738,11 @@ static PyObject *py_solve_batch(PyObject *self, PyObject *const *args, Py_ssize_
         if (get_doubles(args[arg[got]], &views[got], sizes[got], got == 4, names[got]) < 0)
             goto done;
     {
-        const double *P = (const double *)views[1].buf;
-        const double *q = (const double *)views[0].buf, *qd = (const double *)views[2].buf,
-                     *qdd = (const double *)views[3].buf;
-        double *out = (double *)views[4].buf;
+        batch_part all = {(const double *)views[1].buf, (const double *)views[0].buf,
+                          (const double *)views[2].buf, (const double *)views[3].buf,
+                          (double *)views[4].buf, fx, 0, n};
         Py_BEGIN_ALLOW_THREADS
-        for (Py_ssize_t i = 0; i < n; i++)
-            solve_one(P, fx, q + 6 * i, qd + 6 * i, qdd + 6 * i, out + OUT_SIZE * i);
+        solve_samples(&all);
         Py_END_ALLOW_THREADS
     }
     Py_INCREF(Py_None);
