@@ -28,4 +28,6 @@ MACHINE = Machine(
     units=('m', 'm', 'rad'), legs=LEG_NAMES, joints=JOINT_NAMES, solve=solve,
     solve_batch=solve_batch, forward_kinematics=forward_kinematics,
     forward_dynamics=forward_dynamics, actuator_limits=actuator_limits,
-    motions=MOTIONS, examples=tuple(PAPER_EXAMPLES))
+    title='3-DOF flight simulator', leg_labels=('a', 'b', 'c'),
+    sample_fields=('beta', 'kinematic_condition', 'jacobian_condition'),
+    costly_fields=('cond',), motions=MOTIONS, examples=tuple(PAPER_EXAMPLES))

@@ -28,5 +28,6 @@ MACHINE = Machine(
     solve=solve, solve_batch=solve_batch, forward_kinematics=forward_kinematics,
     forward_dynamics=forward_dynamics, actuator_limits=actuator_limits,
     parameters=PARAMETER_NAMES, from_params=from_dict,
-    parameter_files=('stewart_6dof', 'stewart_tsai2000'), motions=MOTIONS,
-    examples=tuple(MOTIONS))
+    parameter_files=('stewart_6dof', 'stewart_tsai2000'),
+    title='6-DOF hexapod', leg_labels=tuple(str(i) for i in range(1, len(LEG_NAMES) + 1)),
+    sample_fields=('jacobian_condition',), motions=MOTIONS, examples=tuple(MOTIONS))
