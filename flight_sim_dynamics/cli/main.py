@@ -93,8 +93,7 @@ def _params_option(p: argparse.ArgumentParser) -> None:
 def _configure_example(p: argparse.ArgumentParser) -> None:
     p.add_argument('name', metavar='MOTION',
                    help='a built-in motion of the machine of --params: ' + _motions_help()
-                        + " (the 3-DOF machine's are the paper's eq. 6: vertical (Figs. 3-4), "
-                        'rectilinear (Figs. 5-6), general (Figs. 7-8))')
+                        + " (the 3-DOF machine's: the paper's eq. 6, Figs. 3-4, 5-6, 7-8)")
     p.add_argument('--rate', type=float, default=DEFAULT_RATE_HZ, metavar='HZ',
                    help=f'sampling rate in Hz (default {DEFAULT_RATE_HZ:g}); samples '
                         "t = 0, 1/HZ, ... up to the motion's duration")
