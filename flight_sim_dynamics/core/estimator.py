@@ -32,13 +32,13 @@ def backward_derivative(times: list[float], values: list[Vec], order: int) -> Ve
         return (0.0,) * len(values[-1])
     if order == 1 or n < 3:
         h = times[-1] - times[-2]
-        return tuple((a - b) / h for a, b in zip(values[-1], values[-2]))
+        return tuple([(a - b) / h for a, b in zip(values[-1], values[-2])])
     h1 = times[-1] - times[-2]
     h2 = times[-2] - times[-3]
     c0 = (2.0 * h1 + h2) / (h1 * (h1 + h2))
     c1 = -(h1 + h2) / (h1 * h2)
     c2 = h1 / (h2 * (h1 + h2))
-    return tuple(c0 * a + c1 * b + c2 * c for a, b, c in zip(values[-1], values[-2], values[-3]))
+    return tuple([c0 * a + c1 * b + c2 * c for a, b, c in zip(values[-1], values[-2], values[-3])])
 
 
 class DerivativeEstimator:
