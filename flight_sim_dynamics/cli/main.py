@@ -281,7 +281,9 @@ def _configure_forward(p: argparse.ArgumentParser) -> None:
     _params_option(p)
 
 
-_COUNT = {3: 'three', 6: 'six'}
+def number_word(n: int) -> str:
+    """``n`` in words where a sentence reads better so ('three', 'six')."""
+    return {3: 'three', 6: 'six'}.get(n, str(n))
 
 
 def cmd_forward(args: argparse.Namespace) -> int:
@@ -291,7 +293,7 @@ def cmd_forward(args: argparse.Namespace) -> int:
     if args.csv is None:
         legs = len(machine.leg_labels)
         if len(args.lengths) != legs:
-            raise CliError(f'expected {_COUNT.get(legs, legs)} leg lengths '
+            raise CliError(f'expected {number_word(legs)} leg lengths '
                            + ' '.join(f'L_{label.upper()}' for label in machine.leg_labels)
                            + f', got {len(args.lengths)}')
         result = fsd.forward_kinematics(model, args.lengths)

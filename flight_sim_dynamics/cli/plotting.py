@@ -13,13 +13,12 @@ import numpy as np
 from ..machines import MACHINES
 from .columns import DEFAULT_MACHINE, machine_of_columns, per_leg, plot_columns
 from .csv_io import CsvError, atomic_output, read_table
-from .main import CliError
+from .main import CliError, number_word
 
 #: The default machine's actuators, as figures name them.
 ACTUATORS = tuple(label.upper() for label in DEFAULT_MACHINE.leg_labels)
 #: The colour of each actuator in every figure (plot, animate), in leg order.
 LEG_COLOURS = ('tab:blue', 'tab:orange', 'tab:green', 'tab:red', 'tab:purple', 'tab:brown')
-_COUNT = {3: 'three', 6: 'six'}
 
 
 def leg_style(k: int) -> dict:
@@ -76,7 +75,7 @@ def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
                        edgecolor='0.6', linewidth=0,
                        label=f'no solution ({int(unsolved.sum())} rows)' if k == 0 else None)
     ax_f.set_ylabel('input force $f$ (N)\n+ pushes the leg\'s joints apart')
-    count = _COUNT.get(len(actuators), str(len(actuators)))
+    count = number_word(len(actuators))
     # more than three legs: the legend in rows of three, smaller
     legend = dict(loc='best') if len(actuators) <= 3 else dict(loc='best', ncol=3,
                                                                 fontsize='small')
