@@ -60,8 +60,9 @@ def load_model(params: str | None, scene: str | None = None, option: str = '--pa
         raise CliError(f"{option} {params or '(packaged defaults)'}: {exc}") from None
     machine = fsd.machine_of(model)
     if not any(machine is m for m in machines):
-        raise CliError(f"{option} {params}: machine '{machine.name}' ({model.name}): this "
-                       f"command serves the {' and the '.join(m.title for m in machines)}")
+        raise CliError(f"{option} {params or '(packaged defaults)'}: the {machine.title} "
+                       f"('{machine.name}'): this command serves the "
+                       + ' and the '.join(m.title for m in machines))
     # (the 3-DOF model keeps its file's values: the note compares them with the packaged ones)
     unused = [k for k, v in getattr(model, 'values', {}).items()
               if k.split('.')[0] in ('payload', 'friction')

@@ -269,3 +269,27 @@ def test_plot_names_the_missing_forces_of_the_machine_it_finds(tmp_path, capsys)
     line = one_error_line(capsys.readouterr().err)
     assert "'force_3'" in line and "'force_6'" in line and 'hexapod' in line
 
+
+
+@pytest.mark.parametrize('serves', ['default', 'hexapod'])
+def test_a_command_refuses_a_machine_it_does_not_serve(serves):
+    """load_model(machines=...): a one-line CliError naming the file and both machines."""
+    default = cli.DEFAULT_MACHINE
+    params, machines = ((HEXAPOD_FILE, (default,)) if serves == 'default'
+                        else (None, (MACHINE,)))
+    with pytest.raises(cli.CliError) as info:
+        cli.load_model(params, machines=machines)
+    message = str(info.value)
+    assert MACHINE.title in message and default.title in message
+    assert (params or 'packaged') in message
+
+
+def test_plot_of_forces_and_rates_computes_the_six_powers(tmp_path):
+    """A simulate-like table (forces and leg rates, no powers): P = f dL/dt."""
+    t = np.linspace(0.0, 1.0, 11)
+    force = np.column_stack([t + k for k in range(6)])
+    rate = np.column_stack([np.sin(t + k) for k in range(6)])
+    names = ('t', *(f'force_{leg}' for leg in LEGS), *(f'rate_{leg}' for leg in LEGS))
+    csv_io.write_csv(tmp_path / 'sim.csv', names, np.column_stack([t, force, rate]))
+    assert cli.main(['plot', str(tmp_path / 'sim.csv'), '-o', str(tmp_path / 'f.svg')]) == 0
+    assert 'six actuators' in (tmp_path / 'f.svg').read_text()
