@@ -1,8 +1,10 @@
-"""``flight-sim-dynamics solve`` end to end on a --rows-row trajectory CSV (the
-paper's general motion, every column): wall time of the command as a
-subprocess, CSV out and .npz out, median of --repeats.
+"""``flight-sim-dynamics solve`` end to end on a --rows-row trajectory CSV (a
+built-in motion of the machine of --params, every column; default the 3-DOF
+machine's general motion): wall time of the command as a subprocess, CSV out
+and .npz out, median of --repeats.
 
     python -m benchmarks.csv [--rows 100000] [--repeats 3] [--quick]
+    python -m benchmarks.csv --params config/stewart_6dof.yaml --motion violent
 """
 from __future__ import annotations
 
@@ -18,17 +20,18 @@ from typing import Sequence
 import numpy as np
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.cli.csv_io import TRAJECTORY_COLUMNS
+from flight_sim_dynamics.cli.columns import trajectory_columns
+from flight_sim_dynamics.core.machine import Machine
 
 from ._common import ROOT, header, table
 
 
-
-def write_trajectory(path: Path, rows: int) -> None:
-    t = np.linspace(0.0, 3.0, rows)
-    q, qd, qdd = fsd.trajectories.paper_example('general', t)
+def write_trajectory(path: Path, rows: int, machine: Machine, motion: str) -> None:
+    """``rows`` samples of ``motion`` over its duration."""
+    t = np.linspace(0.0, machine.motions[motion].duration, rows)
+    q, qd, qdd = machine.motions[motion].trajectory(t)
     np.savetxt(path, np.column_stack([t, q, qd, qdd]), fmt='%.17g', delimiter=',',
-               header=','.join(TRAJECTORY_COLUMNS), comments='')
+               header=','.join(trajectory_columns(machine)), comments='')
 
 
 def wall_s(argv: list[str]) -> float:
@@ -44,14 +47,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument('--rows', type=int, default=100_000)
     p.add_argument('--repeats', type=int, default=3, help='median of')
     p.add_argument('--quick', action='store_true', help='1,000 rows, 1 run')
+    p.add_argument('--params', default=None, help='parameter file: the machine (default 3-DOF)')
+    p.add_argument('--motion', default='general', help='a built-in motion of the machine')
     args = p.parse_args(argv)
     rows, repeats = (1_000, 1) if args.quick else (args.rows, args.repeats)
     if rows < 2 or repeats < 1:
         p.error('--rows must be >= 2 and --repeats >= 1')
+    machine = fsd.machine_of(fsd.load_model(args.params))
+    if args.motion not in machine.motions:
+        p.error(f"--motion: choose one of {', '.join(machine.motions)}")
     with tempfile.TemporaryDirectory(prefix='fsd_bench_') as tmp:
         src = Path(tmp) / 'trajectory.csv'
-        write_trajectory(src, rows)
+        write_trajectory(src, rows, machine, args.motion)
         solve = [sys.executable, '-m', 'flight_sim_dynamics', 'solve', str(src), '-o']
+        if args.params is not None:
+            solve[-1:-1] = ['--params', str(Path(args.params).resolve())]
         start = [sys.executable, '-c', 'import flight_sim_dynamics.cli.main']
         figures = []
         for label, cmd in (('CSV in, CSV out', solve + [f'{tmp}/out.csv']),
@@ -60,7 +70,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             s = statistics.median(wall_s(cmd) for _ in range(repeats))
             per_row = '-' if cmd is start else f'{1e6 * s / rows:.2f}'
             figures.append([label, f'{s:.3f}', per_row])
-    print(header(f'{rows:,} rows, median of {repeats}'))
+    print(header(f'{machine.title}, {args.motion} motion, {rows:,} rows, median of {repeats}'))
     print(table(['flight-sim-dynamics solve', 'wall s', 'us per row'], figures))
     return 0
 

@@ -21,7 +21,7 @@ import numpy as np
 import flight_sim_dynamics as fsd
 
 from ..core.vectors import backend
-from ..machines.staicu.forward_kinematics import poses_along
+from ..machines.api import poses_along
 from ..machines.staicu.kinematics import UnreachablePoseError, inverse_geometry
 from ..machines.staicu.mechanism import JOINTS, PLATE_OUTLINE, SEGMENTS, Point3, mechanism_points
 from .csv_io import atomic_output, read_table

@@ -21,10 +21,10 @@ from typing import IO, Iterator, Sequence
 
 import numpy as np
 
-#: Header of a trajectory file (input of ``solve``), in the canonical order.
-TRAJECTORY_COLUMNS = ('t', 'surge', 'heave', 'roll',
-                      'surge_rate', 'heave_rate', 'roll_rate',
-                      'surge_acc', 'heave_acc', 'roll_acc')
+# the default machine's trajectory header, in the canonical order (any machine's:
+# columns.trajectory_columns)
+from .columns import TRAJECTORY_COLUMNS  # noqa: F401
+
 #: Name of the .npz array that lists the columns in order.
 NAMES_KEY = 'names'
 

@@ -12,7 +12,7 @@ import math
 import os
 import sys
 from collections import Counter
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -22,36 +22,21 @@ from . import csv_io
 from ..config.parameters import packaged_values
 from ..config.scenes import SceneError
 from ..core.estimator import estimate_rows
-from ..machines.staicu.forward_kinematics import poses_along
-from ..machines.staicu.model import JOINT_NAMES, Model
-from ..machines.staicu.trajectories import DURATION, PAPER_EXAMPLES, paper_example, sample_times
-from .csv_io import TRAJECTORY_COLUMNS, CsvError
+from ..core.machine import Machine
+from ..core.motion import Motion
+from ..machines import MACHINES
+from ..machines.api import poses_along
+from .columns import (DEFAULT_MACHINE, PER_LEG_FIELDS, acceleration_columns, joint_columns,
+                      output_columns, per_leg, rate_columns, trajectory_columns)
+# the default machine's columns, as the commands' modules and tests name them
+from .columns import JOINT_COLUMNS, LENGTH_COLUMNS, OUTPUT_COLUMNS, PLOT_COLUMNS  # noqa: F401
+from .csv_io import CsvError
 
 PROG = 'flight-sim-dynamics'
 DEFAULT_RATE_HZ = 100.0
 MAX_SAMPLES = 10_000_000
-LEGS = ('a', 'b', 'c')
-
-
-def _per_leg(field: str) -> list[str]:
-    return [f'{field}_{leg}' for leg in LEGS]
-
-
-#: Columns of ``solve``'s output, in order (``--joints`` appends JOINT_COLUMNS).
-OUTPUT_COLUMNS: tuple[str, ...] = (
-    ('t',) + tuple(_per_leg('length') + _per_leg('stroke') + _per_leg('rate')
-                   + _per_leg('force') + _per_leg('power') + _per_leg('acceleration'))
-    + ('beta', 'kinematic_condition', 'jacobian_condition'))
-JOINT_COLUMNS: tuple[str, ...] = (tuple(JOINT_NAMES) + tuple(f'{j}_rate' for j in JOINT_NAMES)
-                                  + tuple(f'{j}_acc' for j in JOINT_NAMES))
-#: Columns ``plot`` needs (any others are ignored).
-PLOT_COLUMNS: tuple[str, ...] = ('t',) + tuple(_per_leg('force') + _per_leg('power'))
-
-
-POSE_INPUT = ('t', 'surge', 'heave', 'roll')
-RATE_COLUMNS = ('surge_rate', 'heave_rate', 'roll_rate')
-ACC_COLUMNS = ('surge_acc', 'heave_acc', 'roll_acc')
-LENGTH_COLUMNS = ('length_a', 'length_b', 'length_c')
+#: The default machine's leg labels.
+LEGS = DEFAULT_MACHINE.leg_labels
 
 
 class CliError(Exception):
@@ -59,9 +44,11 @@ class CliError(Exception):
 
 
 def load_model(params: str | None, scene: str | None = None, option: str = '--params',
-               scene_option: str = '--scene') -> Model:
-    """The model of ``--params`` and ``--scene``; a CliError names the option at
-    fault, a note the file's values of an effect the scene leaves off.
+               scene_option: str = '--scene', *,
+               machines: Sequence[Machine] = (DEFAULT_MACHINE,)) -> Any:
+    """The model of ``--params`` and ``--scene``, of one of the ``machines`` a
+    command serves; a CliError names the option at fault, a note the file's
+    values of an effect the scene leaves off.
     """
     if params is not None and not os.path.isfile(params):
         raise CliError(f"{option} {params}: no such file")
@@ -71,10 +58,14 @@ def load_model(params: str | None, scene: str | None = None, option: str = '--pa
         raise CliError(f'{scene_option}: {exc}') from None
     except fsd.ParameterError as exc:
         raise CliError(f"{option} {params or '(packaged defaults)'}: {exc}") from None
-    if not isinstance(model, Model):
-        raise CliError(f"{option} {params}: machine '{fsd.machine_of(model).name}' "
-                       f"({model.name}): the command line serves the 3-DOF machine")
-    unused = [k for k, v in model.values.items() if k.split('.')[0] in ('payload', 'friction')
+    machine = fsd.machine_of(model)
+    if not any(machine is m for m in machines):
+        raise CliError(f"{option} {params or '(packaged defaults)'}: the {machine.title} "
+                       f"('{machine.name}'): this command serves the "
+                       + ' and the '.join(m.title for m in machines))
+    # (the 3-DOF model keeps its file's values: the note compares them with the packaged ones)
+    unused = [k for k, v in getattr(model, 'values', {}).items()
+              if k.split('.')[0] in ('payload', 'friction')
               and not getattr(model.effects, k.split('.')[0]) and v != packaged_values().get(k)]
     if unused:
         print(f"note: {option} {params}: {', '.join(unused)} not simulated: scene "
@@ -90,73 +81,102 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"error: {message} (see '{self.prog} --help')\n")
 
 
+def _motions_help() -> str:
+    return '; '.join(f"the {m.title}'s {', '.join(m.examples)}" for m in MACHINES)
+
+
+def _params_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument('--params', metavar='YAML', default=None,
+                   help='parameter file (ROS 2 format), which names the machine; default: the '
+                        f'packaged parameters of the {DEFAULT_MACHINE.title}')
+
+
 def _configure_example(p: argparse.ArgumentParser) -> None:
-    p.add_argument('name', choices=tuple(PAPER_EXAMPLES),
-                   help='which of the paper\'s three motions (eq. 6): vertical (Figs. 3-4), '
-                        'rectilinear (Figs. 5-6), general (Figs. 7-8)')
+    p.add_argument('name', metavar='MOTION',
+                   help='a built-in motion of the machine of --params: ' + _motions_help()
+                        + " (the 3-DOF machine's: the paper's eq. 6, Figs. 3-4, 5-6, 7-8)")
     p.add_argument('--rate', type=float, default=DEFAULT_RATE_HZ, metavar='HZ',
                    help=f'sampling rate in Hz (default {DEFAULT_RATE_HZ:g}); samples '
-                        't = 0, 1/HZ, ..., 3 s')
+                        "t = 0, 1/HZ, ... up to the motion's duration")
     p.add_argument('-o', '--output', required=True, metavar='CSV',
                    help="trajectory CSV to write ('-' for standard output); columns "
-                        + ','.join(TRAJECTORY_COLUMNS))
+                        't, the coordinates, their <coordinate>_rate and <coordinate>_acc: '
+                        + ','.join(trajectory_columns(DEFAULT_MACHINE)) + ' for the '
+                        + DEFAULT_MACHINE.title)
+    _params_option(p)
+
+
+def example_motion(machine: Machine, name: str) -> Motion:
+    """The motion ``name`` that ``example`` offers for ``machine``, or a CliError."""
+    if name not in machine.examples:
+        raise CliError(f"unknown motion '{name}' of the {machine.title}; choose one of "
+                       + ', '.join(machine.examples))
+    return machine.motions[name]
 
 
 def cmd_example(args: argparse.Namespace) -> int:
     rate = args.rate
     if not (math.isfinite(rate) and rate > 0):
         raise CliError(f'--rate must be a positive number of Hz, got {rate:g}')
-    if DURATION * rate + 1 > MAX_SAMPLES:
+    machine = fsd.machine_of(load_model(args.params, machines=MACHINES))
+    motion = example_motion(machine, args.name)
+    if motion.duration * rate + 1 > MAX_SAMPLES:
         raise CliError(f'--rate {rate:g} Hz gives more than {MAX_SAMPLES} samples over '
-                       f'{DURATION:g} s')
-    t = sample_times(rate)
-    q, qd, qdd = paper_example(args.name, t)
-    csv_io.write_csv(args.output, TRAJECTORY_COLUMNS, np.column_stack([t, q, qd, qdd]))
+                       f'{motion.duration:g} s')
+    t, q, qd, qdd = motion.sampled(rate)
+    csv_io.write_csv(args.output, trajectory_columns(machine), np.column_stack([t, q, qd, qdd]))
     return 0
 
 
 def _configure_solve(p: argparse.ArgumentParser) -> None:
     p.add_argument('input', metavar='TRAJ_CSV',
-                   help="trajectory CSV ('-' for standard input), columns "
-                        + ','.join(TRAJECTORY_COLUMNS) + ' in any order (SI units); '
-                        'missing rates or accelerations are estimated from the poses as the '
-                        'node does')
+                   help="trajectory CSV ('-' for standard input): t, the machine's coordinates, "
+                        '<coordinate>_rate and <coordinate>_acc in any order (SI units), e.g. '
+                        + ', '.join(f"the {m.title}'s " + ','.join(trajectory_columns(m))
+                                    for m in MACHINES)
+                        + '; missing rates or accelerations are estimated from the poses as '
+                        'the node does')
     p.add_argument('-o', '--output', required=True, metavar='CSV_OR_NPZ',
                    help="results to write ('-' for standard output): "
-                        + ','.join(OUTPUT_COLUMNS) + ',status; a name ending in .npz writes '
-                        'numpy\'s .npz (a float64 array per column, status as strings, names)')
-    p.add_argument('--params', metavar='YAML', default=None,
-                   help='parameter file (ROS 2 format); default: the packaged parameters')
+                        + '; '.join(f"the {m.title}'s " + ','.join(output_columns(m))
+                                    + ',status' for m in MACHINES)
+                        + '; a name ending in .npz writes numpy\'s .npz (a float64 array per '
+                        'column, status as strings, names)')
+    _params_option(p)
     p.add_argument('--scene', metavar='NAME_OR_YAML', default=None,
                    help='effects to simulate: a scene of config/scenes or a scene file '
                         '(default full, the paper\'s model)')
     p.add_argument('--cond', action='store_true',
-                   help='also write cond, the exact condition number of Q (an SVD per row)')
+                   help='also write cond, the exact condition number of Q (an SVD per row; '
+                        'the 3-DOF machine)')
     p.add_argument('--joints', action='store_true',
-                   help='also write the 12 joint variables of eq. (13), their rates '
+                   help='also write the joint variables (the 3-DOF machine\'s 12 of eq. (13), '
+                        'a hexapod\'s U-joint angles and length per leg), their rates '
                         '(<name>_rate) and accelerations (<name>_acc)')
 
 
 def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond: bool = False
                 ) -> tuple[tuple[str, ...], np.ndarray, list[str]]:
-    """Solve every row of a trajectory table: (column names, data, statuses)."""
-    data = table.data
-    sol = fsd.solve_batch(model, *(data[:, [table.names.index(n) for n in group]] for group in (
-        POSE_INPUT[1:], RATE_COLUMNS, ACC_COLUMNS)))
+    """Solve every row of a trajectory table: (column names, data, statuses);
+    ``exact_cond``: the machine's costly fields too (the 3-DOF machine's cond).
+    """
+    machine = fsd.machine_of(model)
+    data, n = table.data, len(table.data)
+    sol = fsd.solve_batch(model, *(data[:, [table.names.index(c) for c in group]] for group in (
+        machine.coordinates, rate_columns(machine), acceleration_columns(machine))))
     report_not_ok(f'{table.path}: ', sol.status, sol.detail,
                   lambda i: f'line {int(table.lines[i])}')
-    columns = [table['t']] + [
-        np.asarray(getattr(sol, field), dtype=float).reshape(len(data), -1)
-        for field in ('length', 'stroke', 'rate', 'force', 'power', 'acceleration', 'beta',
-                      'kinematic_condition', 'jacobian_condition')]
-    names = OUTPUT_COLUMNS
-    if exact_cond:                      # an SVD per row: ~40 us each, so on request
-        columns.append(np.asarray(sol.cond, dtype=float).reshape(-1))
-        names = names + ('cond',)
+    columns = [table['t']] + [np.asarray(getattr(sol, field), dtype=float).reshape(n, -1)
+                              for field in PER_LEG_FIELDS + machine.sample_fields]
+    names = output_columns(machine)
+    if exact_cond:                      # e.g. an SVD per row: ~40 us each, so on request
+        columns += [np.asarray(getattr(sol, field), dtype=float).reshape(n)
+                    for field in machine.costly_fields]
+        names = names + machine.costly_fields
     if joints:
-        for field in ('joints', 'joint_rates', 'joint_accelerations'):
-            columns.append(np.asarray(getattr(sol, field), dtype=float))
-        names = names + JOINT_COLUMNS
+        columns += [np.asarray(getattr(sol, field), dtype=float).reshape(n, -1)
+                    for field in ('joints', 'joint_rates', 'joint_accelerations')]
+        names = names + joint_columns(machine)
     return names, np.column_stack(columns), [str(s) for s in sol.status]
 
 
@@ -171,33 +191,54 @@ def report_not_ok(prefix: str, status: Sequence, detail: Sequence,
               f'at {where(bad[0])}: {status[bad[0]]}: {detail[bad[0]]}', file=sys.stderr)
 
 
-def read_trajectory(path: str | os.PathLike[str], model: Model,
-                    limit: int | None = None) -> csv_io.Table:
-    """The trajectory table of ``path`` (at most ``limit`` bytes), rates or
-    accelerations it lacks estimated from the poses as the node does (a note).
+def other_machines_trajectory(names: set[str], machine: Machine) -> Machine | None:
+    """The machine whose trajectory columns ``names`` are, when they are not
+    ``machine``'s: its pose coordinates exactly, among all machines' coordinates.
     """
+    given = names & {c for m in MACHINES for c in m.coordinates}
+    if given == set(machine.coordinates):
+        return None
+    return next((m for m in MACHINES if set(m.coordinates) == given), None)
+
+
+def read_trajectory(path: str | os.PathLike[str], model: Any,
+                    limit: int | None = None) -> csv_io.Table:
+    """The trajectory table of ``path`` (at most ``limit`` bytes) for the
+    model's machine, rates or accelerations it lacks estimated from the poses
+    as the node does (a note). Another machine's trajectory is a CsvError.
+    """
+    machine = fsd.machine_of(model)
+    pose, rate_names, acc_names = (machine.coordinates, rate_columns(machine),
+                                   acceleration_columns(machine))
+    shown = '<stdin>' if os.fspath(path) == '-' else os.fspath(path)
     raw = csv_io.read_bytes(path, limit)
     header = raw.partition(b'\n')[0].decode('utf-8', 'replace').lstrip('\ufeff')
     named = {n.strip() for n in header.split(',')}
-    rates, accelerations = (any(n in named for n in group)
-                            for group in (RATE_COLUMNS, ACC_COLUMNS))
-    required = POSE_INPUT + (RATE_COLUMNS if rates else ()) + (ACC_COLUMNS if accelerations
-                                                                 else ())
-    table = csv_io.parse_csv(raw, '<stdin>' if os.fspath(path) == '-' else os.fspath(path),
-                             required=required, skip_extra=True)
+    other = other_machines_trajectory(named, machine)
+    if other is not None:
+        raise CsvError(f"a trajectory of the {other.title} ({', '.join(other.coordinates)}), "
+                       f"but the parameter file describes the {machine.title}, whose "
+                       f"trajectories are {','.join(trajectory_columns(machine))}",
+                       path=shown, line=1)
+    rates, accelerations = (any(n in named for n in group) for group in (rate_names, acc_names))
+    required = (('t',) + pose + (rate_names if rates else ())
+                + (acc_names if accelerations else ()))
+    table = csv_io.parse_csv(raw, shown, required=required, skip_extra=True)
     if table.skipped:
         print(f"note: {table.path}: ignoring column{'s' if len(table.skipped) > 1 else ''} "
               f"{', '.join(repr(n) for n in table.skipped)}; a trajectory has "
-              + ','.join(TRAJECTORY_COLUMNS), file=sys.stderr)
+              + ','.join(trajectory_columns(machine)), file=sys.stderr)
     if rates and accelerations:
         return table
-    method = model.values.get('estimator.method', 'backward2')
-    gap = model.values.get('estimator.max_gap', 0.5)
-    t, q = table['t'], table.data[:, [table.names.index(n) for n in POSE_INPUT[1:]]]
-    qd_in = table.data[:, [table.names.index(n) for n in RATE_COLUMNS]] if rates else None
-    qd, qdd = estimate_rows(t, q, qd_in, method, gap)
-    added = [(names, v) for names, v, given in ((RATE_COLUMNS, qd, rates),
-                                                (ACC_COLUMNS, qdd, accelerations)) if not given]
+    values = getattr(model, 'values', {})      # the 3-DOF model's estimator parameters
+    method = values.get('estimator.method', 'backward2')
+    gap = values.get('estimator.max_gap', 0.5)
+    t, q = table['t'], table.data[:, [table.names.index(n) for n in pose]]
+    qd_in = table.data[:, [table.names.index(n) for n in rate_names]] if rates else None
+    angles = tuple(j for j, unit in enumerate(machine.units) if unit == 'rad')
+    qd, qdd = estimate_rows(t, q, qd_in, method, gap, angles)
+    added = [(names, v) for names, v, given in ((rate_names, qd, rates),
+                                                (acc_names, qdd, accelerations)) if not given]
     table = dataclasses.replace(table, names=table.names + sum((n for n, _ in added), ()),
                                 data=np.column_stack([table.data] + [v for _, v in added]))
     what = ' and '.join(w for w, given in (('rates', rates), ('accelerations', accelerations))
@@ -215,7 +256,11 @@ def read_trajectory(path: str | os.PathLike[str], model: Model,
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
-    model = load_model(args.params, args.scene)
+    model = load_model(args.params, args.scene, machines=MACHINES)
+    machine = fsd.machine_of(model)
+    if args.cond and not machine.costly_fields:
+        raise CliError(f'--cond: the {machine.title} has no condition number beyond '
+                       f"{', '.join(machine.sample_fields)}, which solve always writes")
     table = read_trajectory(args.input, model)
     names, data, status = solve_table(model, table, joints=args.joints, exact_cond=args.cond)
     write = csv_io.write_npz if csv_io.is_npz(args.output) else csv_io.write_csv
@@ -225,37 +270,49 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
 def _configure_forward(p: argparse.ArgumentParser) -> None:
     p.add_argument('lengths', nargs='*', type=float, metavar='L',
-                   help='three leg lengths L_A L_B L_C (m, joint centre to joint centre)')
+                   help='one leg length per leg (m, joint centre to joint centre): '
+                        + '; '.join(f"the {m.title}'s "
+                                    + ' '.join(f'L_{label.upper()}' for label in m.leg_labels)
+                                    for m in MACHINES))
     p.add_argument('--csv', metavar='CSV', default=None,
-                   help="instead: a CSV with length_a,length_b,length_c (and t), e.g. solve's "
-                        "output; writes [t,]surge,heave,roll,status to -o")
+                   help="instead: a CSV with the machine's length_<leg> columns (and t), e.g. "
+                        "solve's output; writes [t,] the coordinates and status to -o")
     p.add_argument('-o', '--output', metavar='CSV', default=None,
                    help="output CSV for --csv ('-' for standard output)")
-    p.add_argument('--params', metavar='YAML', default=None,
-                   help='parameter file (default: the packaged parameters)')
+    _params_option(p)
+
+
+def number_word(n: int) -> str:
+    """``n`` in words where a sentence reads better so ('three', 'six')."""
+    return {3: 'three', 6: 'six'}.get(n, str(n))
 
 
 def cmd_forward(args: argparse.Namespace) -> int:
-    """Pose from measured leg lengths (safeguarded Newton, see forward_kinematics)."""
-    model = load_model(args.params)
+    """Pose from measured leg lengths (safeguarded Newton, the machine's forward_kinematics)."""
+    model = load_model(args.params, machines=MACHINES)
+    machine = fsd.machine_of(model)
     if args.csv is None:
-        if len(args.lengths) != 3:
-            raise CliError(f'expected three leg lengths L_A L_B L_C, got {len(args.lengths)}')
+        legs = len(machine.leg_labels)
+        if len(args.lengths) != legs:
+            raise CliError(f'expected {number_word(legs)} leg lengths '
+                           + ' '.join(f'L_{label.upper()}' for label in machine.leg_labels)
+                           + f', got {len(args.lengths)}')
         result = fsd.forward_kinematics(model, args.lengths)
-        surge, heave, roll = (float(v) for v in result.pose)
-        print(f'surge={surge!r} heave={heave!r} roll={roll!r} status={result.status} '
+        pose = ' '.join(f'{c}={float(v)!r}' for c, v in zip(machine.coordinates, result.pose))
+        print(f'{pose} status={result.status} '
               f'residual={result.residual:.3g} iterations={result.iterations}'
               + (f' detail={result.detail!r}' if result.detail else ''))
         return 0 if result.status == fsd.Status.OK else 1
     if args.lengths or args.output is None:
         raise CliError('--csv takes no lengths on the command line, and needs -o OUTPUT')
-    table = csv_io.read_csv(args.csv, required=LENGTH_COLUMNS, allow_extra=True,
+    lengths = per_leg(machine, 'length')
+    table = csv_io.read_csv(args.csv, required=lengths, allow_extra=True,
                             text_columns=('status',))
-    results = poses_along(model, np.column_stack([table[n] for n in LENGTH_COLUMNS]))
+    results = poses_along(model, np.column_stack([table[n] for n in lengths]))
     status = [str(r.status) for r in results]
     extra = ['t'] if 't' in table.names else []
     data = np.column_stack([table[n] for n in extra] + [np.array([r.pose for r in results])])
-    csv_io.write_csv(args.output, tuple(extra) + ('surge', 'heave', 'roll'), data,
+    csv_io.write_csv(args.output, tuple(extra) + machine.coordinates, data,
                      text=('status', status))
     bad = sum(s != 'ok' for s in status)
     if bad:
@@ -325,13 +382,13 @@ def _lazy(module: str) -> tuple[Callable[[argparse.ArgumentParser], None],
 #: name -> (help, configure(parser), handler(args) -> exit status).
 SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
                              Callable[[argparse.Namespace], int]]] = {
-    'example': ('write one of the paper\'s three example motions as a trajectory CSV',
-                _configure_example, cmd_example),
+    'example': ('write a built-in motion of the machine as a trajectory CSV (the 3-DOF '
+                'machine: the paper\'s three examples)', _configure_example, cmd_example),
     'solve': ('inverse dynamics of every row of a trajectory CSV',
               _configure_solve, cmd_solve),
     'plot': ('plot actuator forces and powers against time (like the paper\'s Figs. 3-8)',
              *_lazy('flight_sim_dynamics.cli.plotting')),
-    'forward': ('forward kinematics: the pose (surge, heave, roll) from three leg lengths',
+    'forward': ('forward kinematics: the pose from the leg lengths',
                 _configure_forward, cmd_forward),
     'bench': ('time per cycle against force error for every scene and single-effect variant, '
               'and the cost of estimating missing accelerations (writes scenes.md, scenes.png)',
@@ -355,7 +412,8 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     parser = _Parser(
         prog=PROG,
         description='Inverse dynamics of the Staicu-Ocnarescu-Ungureanu (2013) 3-DOF '
-                    'parallel flight simulator.',
+                    'parallel flight simulator and of 6-DOF hexapods (--params names the '
+                    'machine).',
         epilog=f'Example: {PROG} example vertical -o vertical.csv && '
                f'{PROG} solve vertical.csv -o out.csv && {PROG} plot out.csv -o fig.png. '
                'Errors: exit status 2 and one line "error: ..." on standard error.')

@@ -1,6 +1,7 @@
-"""``flight-sim-dynamics plot``: force and power plots of the three actuators
-(the paper's Figs. 3-8) from the output of ``solve``; matplotlib's
-object-oriented API, no pyplot, no display.
+"""``flight-sim-dynamics plot``: force and power plots of the actuators (for
+the 3-DOF machine the paper's Figs. 3-8) from the output of ``solve`` for any
+machine (told by its ``force_<leg>`` columns); matplotlib's object-oriented
+API, no pyplot, no display.
 """
 from __future__ import annotations
 
@@ -9,16 +10,26 @@ import os
 
 import numpy as np
 
+from ..machines import MACHINES
+from .columns import DEFAULT_MACHINE, machine_of_columns, per_leg, plot_columns
 from .csv_io import CsvError, atomic_output, read_table
-from .main import LENGTH_COLUMNS, PLOT_COLUMNS, CliError
+from .main import CliError, number_word
 
-ACTUATORS = ('A', 'B', 'C')
-#: The colour of each actuator in every figure (plot, animate).
-LEG_COLOURS = ('tab:blue', 'tab:orange', 'tab:green')
-# C dashed over B: they coincide in the vertical example
-_STYLES = (dict(color=LEG_COLOURS[0], linestyle='-', linewidth=1.8),
-           dict(color=LEG_COLOURS[1], linestyle='-', linewidth=3.0, alpha=0.8),
-           dict(color=LEG_COLOURS[2], linestyle='--', linewidth=1.6))
+#: The default machine's actuators, as figures name them.
+ACTUATORS = tuple(label.upper() for label in DEFAULT_MACHINE.leg_labels)
+#: The colour of each actuator in every figure (plot, animate), in leg order.
+LEG_COLOURS = ('tab:blue', 'tab:orange', 'tab:green', 'tab:red', 'tab:purple', 'tab:brown')
+
+
+def leg_style(k: int) -> dict:
+    """Line style of leg ``k`` (0-based): every second leg wide and translucent,
+    the one after it dashed on top, so that legs with equal forces (B and C of
+    the vertical example, a hexapod's symmetric pairs) both stay visible.
+    """
+    colour = LEG_COLOURS[k % len(LEG_COLOURS)]
+    if k % 2:
+        return dict(color=colour, linestyle='-', linewidth=3.0, alpha=0.8)
+    return dict(color=colour, linestyle='--' if k else '-', linewidth=1.6 if k else 1.8)
 
 
 def output_format(path: str | os.PathLike[str]) -> str:
@@ -40,9 +51,10 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 
 
 def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
-                       title: str, unsolved: np.ndarray | None = None):
-    """A two-axes figure: actuator forces (N) above, powers (W) below, vs t (s);
-    ``unsolved`` rows are shaded, not drawn as 0 N.
+                       title: str, unsolved: np.ndarray | None = None,
+                       actuators: tuple[str, ...] = ACTUATORS):
+    """A two-axes figure: the forces (N) of ``actuators`` above, their powers
+    (W) below, vs t (s); ``unsolved`` rows are shaded, not drawn as 0 N.
     """
     from matplotlib.figure import Figure
 
@@ -53,9 +65,9 @@ def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
     force[unsolved], power[unsolved] = np.nan, np.nan
     fig = Figure(figsize=(8.0, 7.0), dpi=100, layout='constrained')
     ax_f, ax_p = fig.subplots(2, 1, sharex=True)
-    for name, style, f, p in zip(ACTUATORS, _STYLES, force.T, power.T):
-        ax_f.plot(t, f, label=f'actuator {name}', **style)
-        ax_p.plot(t, p, label=f'actuator {name}', **style)
+    for k, (name, f, p) in enumerate(zip(actuators, force.T, power.T)):
+        ax_f.plot(t, f, label=f'actuator {name}', **leg_style(k))
+        ax_p.plot(t, p, label=f'actuator {name}', **leg_style(k))
     step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     for k, (first, last) in enumerate(_runs(unsolved)):
         for ax in (ax_f, ax_p):
@@ -63,13 +75,17 @@ def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
                        edgecolor='0.6', linewidth=0,
                        label=f'no solution ({int(unsolved.sum())} rows)' if k == 0 else None)
     ax_f.set_ylabel('input force $f$ (N)\n+ pushes the leg\'s joints apart')
-    ax_f.set_title('Input forces of the three actuators', fontsize='medium')
+    count = number_word(len(actuators))
+    # more than three legs: the legend in rows of three, smaller
+    legend = dict(loc='best') if len(actuators) <= 3 else dict(loc='best', ncol=3,
+                                                                fontsize='small')
+    ax_f.set_title(f'Input forces of the {count} actuators', fontsize='medium')
     ax_p.set_ylabel('power $P = f\\,\\dot{L}$ (W)\n+ the actuator drives the motion')
-    ax_p.set_title('Powers of the three actuators', fontsize='medium')
+    ax_p.set_title(f'Powers of the {count} actuators', fontsize='medium')
     ax_p.set_xlabel('time $t$ (s)')
     for ax in (ax_f, ax_p):
         ax.grid(True, alpha=0.35)
-        ax.legend(loc='best')
+        ax.legend(**legend)
         ax.margins(x=0)
     ax_p.axhline(0.0, color='0.4', linewidth=0.8)
     fig.suptitle(title)
@@ -79,8 +95,10 @@ def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
 def configure(p: argparse.ArgumentParser) -> None:
     """The options of ``plot``."""
     p.add_argument('input', metavar='OUT_CSV_OR_NPZ',
-                   help='output of solve, CSV or .npz (needs ' + ','.join(PLOT_COLUMNS) + '), or '
-                        "of simulate (its powers: force x rate)")
+                   help='output of solve, CSV or .npz (needs t, force_<leg>, power_<leg>: '
+                        + '; '.join(f"the {m.title}'s " + ','.join(plot_columns(m)[1:])
+                                    for m in MACHINES)
+                        + "), or of simulate (its powers: force x rate)")
     p.add_argument('-o', '--output', required=True, metavar='IMAGE',
                    help='image to write; the format follows the extension (.png, .svg, .pdf)')
     p.add_argument('--title', default=None,
@@ -93,13 +111,13 @@ def configure(p: argparse.ArgumentParser) -> None:
 PAPER_FIGURES = {'vertical': (3, 4), 'rectilinear': (5, 6), 'general': (7, 8)}
 
 
-def default_title(path: str) -> str:
-    """Title from the file name; the paper's examples name their figures."""
+def default_title(path: str, actuators: tuple[str, ...] = ACTUATORS) -> str:
+    """Title from the file name; the paper's examples (3-DOF) name their figures."""
     stem = os.path.splitext(os.path.basename(path))[0] if path != '-' else 'stdin'
-    if stem in PAPER_FIGURES:
+    if stem in PAPER_FIGURES and actuators == ACTUATORS:
         f, p = PAPER_FIGURES[stem]
         return f"{stem} example: actuator forces and powers (cf. the paper's Figs. {f} and {p})"
-    return f'{stem}: input forces and powers of actuators A, B, C'
+    return f"{stem}: input forces and powers of actuators {', '.join(actuators)}"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -107,28 +125,37 @@ def run(args: argparse.Namespace) -> int:
     fmt = output_format(args.output)      # fail before reading a large file
     if not 1 <= args.dpi <= 1200:
         raise CliError(f'--dpi must be between 1 and 1200, got {args.dpi}')
-    rates = tuple(f'rate_{leg}' for leg in 'abc')
-    table = read_table(args.input, required=PLOT_COLUMNS[:4],
-                       optional=LENGTH_COLUMNS + PLOT_COLUMNS[4:] + rates)
+    every = tuple({c for m in MACHINES for field in ('length', 'force', 'power', 'rate')
+                   for c in per_leg(m, field)})
+    table = read_table(args.input, required=('t',), optional=every)
+    machine = machine_of_columns(table.names, 'force')
+    forces, powers, rates = (per_leg(machine, field) for field in ('force', 'power', 'rate'))
+    missing = [n for n in forces if n not in table.names]
+    if missing:
+        raise CsvError(f"missing column{'s' if len(missing) > 1 else ''} "
+                       f"{', '.join(repr(n) for n in missing)}: the {machine.title}'s forces "
+                       f"are {','.join(forces)}", path=table.path, line=1)
 
-    def legs(field: str) -> np.ndarray:
-        return np.column_stack([table[f'{field}_{leg}'] for leg in 'abc'])
+    def legs(names: tuple[str, ...]) -> np.ndarray:
+        return np.column_stack([table[n] for n in names])
 
-    force = legs('force')
-    if set(PLOT_COLUMNS[4:]) <= set(table.names):
-        power = legs('power')
+    force = legs(forces)
+    if set(powers) <= set(table.names):
+        power = legs(powers)
     elif set(rates) <= set(table.names):       # simulate's output: P = f dL/dt
-        power = force * legs('rate')
+        power = force * legs(rates)
     else:
-        missing = ', '.join(repr(n) for n in PLOT_COLUMNS[4:] if n not in table.names)
+        missing = ', '.join(repr(n) for n in powers if n not in table.names)
         raise CsvError(f"missing {missing} (or {','.join(rates)}, to compute the powers)",
                        path=table.path, line=1)
-    title = args.title if args.title is not None else default_title(args.input)
+    actuators = tuple(label.upper() for label in machine.leg_labels)
+    title = args.title if args.title is not None else default_title(args.input, actuators)
     # solve writes the rows it cannot solve as zeros; a leg length is never 0
-    lengths = [n for n in LENGTH_COLUMNS if n in table.names]
+    lengths = [n for n in per_leg(machine, 'length') if n in table.names]
     unsolved = (np.all(np.column_stack([table[n] for n in lengths]) == 0.0, axis=1)
                 if lengths else None)
-    fig = force_power_figure(table['t'], force, power, title=title, unsolved=unsolved)
+    fig = force_power_figure(table['t'], force, power, title=title, unsolved=unsolved,
+                             actuators=actuators)
     with atomic_output(args.output) as f:
         fig.savefig(f, format=fmt, dpi=args.dpi)
     return 0

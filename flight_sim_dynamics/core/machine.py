@@ -20,10 +20,12 @@ name it brings its own (:attr:`Machine.parameters`, :attr:`Machine.from_params`)
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any, Callable
+from dataclasses import dataclass, field
+from typing import Any, Callable, Mapping
 
 import numpy as np
+
+from .motion import Motion
 
 
 class ModelValueError(ValueError):
@@ -68,6 +70,19 @@ class Machine:
     parameters: frozenset[str] = frozenset()
     from_params: Callable[..., Any] | None = None
     parameter_files: tuple[str, ...] = ()
+    # Names of the command line (cli/): a title for messages and figures; each
+    # leg's label in column names (``force_<label>``) and legends; the scalar
+    # fields of a solution that ``solve`` writes after the per-leg ones, and
+    # those it writes on request only (``--cond``: costly).
+    title: str = ''
+    leg_labels: tuple[str, ...] = ()
+    sample_fields: tuple[str, ...] = ()
+    costly_fields: tuple[str, ...] = ()
+    # Built-in motions (cli/ example and simulate --motion, benchmarks): name ->
+    # Motion (motion.trajectory(t) -> q, qd, qdd, each (N, dof); motion.duration
+    # s; motion.sampled(rate_hz) -> t, q, qd, qdd); the names ``example`` offers.
+    motions: Mapping[str, Motion] = field(default_factory=dict, hash=False)
+    examples: tuple[str, ...] = ()
 
     @property
     def dof(self) -> int:

@@ -20,6 +20,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..core.machine import Machine
+from ..core.status import Status
 from . import BY_MODEL_TYPE, MACHINES
 
 # the machines' functions by model type, one look-up per call
@@ -92,3 +93,21 @@ def forward_dynamics(model: Any, q: Sequence[float], qd: Sequence[float],
     except KeyError:
         call = machine_of(model).forward_dynamics
     return call(model, q, qd, force)
+
+
+def poses_along(model: Any, lengths: np.ndarray) -> list[Any]:
+    """Forward kinematics of every row of ``lengths`` (N, legs), each from the
+    pose of the row before (else from home): a measured stroke history read
+    back as poses, one result (pose, status, residual) per row.
+    """
+    call = machine_of(model).forward_kinematics
+    home = (0.0,) * machine_of(model).dof
+    results = []
+    initial = home
+    for row in lengths:
+        result = call(model, row, initial)
+        if result.status != Status.OK and initial != home:
+            result = call(model, row)
+        initial = tuple(result.pose) if result.status == Status.OK else home
+        results.append(result)
+    return results

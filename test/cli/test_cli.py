@@ -284,13 +284,14 @@ def test_bad_scene_blames_scene_not_params(tmp_path, capsys):
     assert '--params' not in line and not out.exists()
 
 
-def test_a_hexapods_params_file_is_refused_naming_its_machine(tmp_path, capsys):
+def test_a_3dof_trajectory_for_a_hexapods_params_file_is_refused_naming_both(tmp_path, capsys):
     write_trajectory(tmp_path / 'traj.csv', 'vertical', rate=10.0)
     out = tmp_path / 'o.csv'
     rc = cli.main(['solve', str(tmp_path / 'traj.csv'), '-o', str(out),
                    '--params', str(ROOT / 'config' / 'stewart_6dof.yaml')])
     line = one_error_line(capsys.readouterr().err)
-    assert rc == 2 and 'stewart_6dof' in line and '3-DOF' in line and not out.exists()
+    assert rc == 2 and '3-DOF' in line and 'hexapod' in line and 'line 1' in line
+    assert not out.exists()
 
 
 def test_solve_missing_params_file(tmp_path, capsys):

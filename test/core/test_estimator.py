@@ -58,3 +58,19 @@ def test_estimator_unwraps_roll():
     est.update(0.0, (0.0, 0.0, math.pi - 0.01), None, None)
     qd, _ = est.update(0.01, (0.0, 0.0, -math.pi + 0.01), None, None)
     assert qd[2] == pytest.approx(2.0)
+
+
+def test_estimator_of_six_coordinates_unwraps_the_angles_it_is_told():
+    """A hexapod's pose: six numbers, roll, pitch and yaw unwrapped, not heave."""
+    est = DerivativeEstimator('backward2', angles=(3, 4, 5))
+    near_pi = (0.0, 0.0, math.pi - 0.01, math.pi - 0.01, 0.0, math.pi - 0.01)
+    across = (0.01, 0.0, -math.pi + 0.01, -math.pi + 0.01, 0.0, -math.pi + 0.01)
+    assert est.update(0.0, near_pi, None, None) == ((0.0,) * 6, (0.0,) * 6)
+    qd, qdd = est.update(0.01, across, None, None)
+    assert len(qd) == len(qdd) == 6
+    assert qd[0] == pytest.approx(1.0) and qd[3] == pytest.approx(2.0)
+    assert qd[5] == pytest.approx(2.0) and qd[4] == 0.0
+    assert qd[2] == pytest.approx((-2.0 * math.pi + 0.02) / 0.01)   # heave is not an angle
+    t = [0.0, 0.1, 0.25]
+    quad = [(x * x,) * 6 for x in t]
+    assert backward_derivative(t, quad, 2) == pytest.approx((0.5,) * 6)

@@ -155,17 +155,3 @@ def _newton(model: Model, target: np.ndarray, start: np.ndarray, tolerance: floa
     return ForwardSolution(np.zeros(3), Status.NOT_CONVERGED, norm, max_iterations,
                            f'{max_iterations} iterations, residual {norm:.3g} m')
 
-
-def poses_along(model: Model, lengths: np.ndarray) -> list[ForwardSolution]:
-    """Forward kinematics of every row of ``lengths`` (N, 3), each from the pose
-    of the row before (else from the centre).
-    """
-    results = []
-    initial = (0.0, 0.0, 0.0)
-    for row in lengths:
-        result = forward_kinematics(model, row, initial)
-        if result.status != Status.OK and initial != (0.0, 0.0, 0.0):
-            result = forward_kinematics(model, row)
-        initial = tuple(result.pose) if result.status == Status.OK else (0.0, 0.0, 0.0)
-        results.append(result)
-    return results

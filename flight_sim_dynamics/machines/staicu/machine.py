@@ -9,7 +9,9 @@ from ...core.machine import ActuatorLimits, Machine
 from .forward_dynamics import forward_dynamics
 from .forward_kinematics import forward_kinematics
 from .model import JOINT_NAMES, LEG_NAMES, Model
+from .motions import MOTIONS
 from .solver import solve, solve_batch
+from .trajectories import PAPER_EXAMPLES
 
 
 def actuator_limits(model: Model) -> ActuatorLimits:
@@ -25,4 +27,7 @@ MACHINE = Machine(
     name='flight_simulator_3dof', model_type=Model, coordinates=('surge', 'heave', 'roll'),
     units=('m', 'm', 'rad'), legs=LEG_NAMES, joints=JOINT_NAMES, solve=solve,
     solve_batch=solve_batch, forward_kinematics=forward_kinematics,
-    forward_dynamics=forward_dynamics, actuator_limits=actuator_limits)
+    forward_dynamics=forward_dynamics, actuator_limits=actuator_limits,
+    title='3-DOF flight simulator', leg_labels=('a', 'b', 'c'),
+    sample_fields=('beta', 'kinematic_condition', 'jacobian_condition'),
+    costly_fields=('cond',), motions=MOTIONS, examples=tuple(PAPER_EXAMPLES))

@@ -5,6 +5,7 @@ from ...core.machine import ActuatorLimits, Machine
 from .forward_dynamics import forward_dynamics
 from .kinematics import forward_kinematics
 from .model import LEG_NAMES, PARAMETER_NAMES, StewartModel, from_dict
+from .motions import MOTIONS
 from .solver import COORDINATES, solve, solve_batch
 
 #: The joint variables of each leg, in the order of a solution's ``joints``
@@ -27,4 +28,6 @@ MACHINE = Machine(
     solve=solve, solve_batch=solve_batch, forward_kinematics=forward_kinematics,
     forward_dynamics=forward_dynamics, actuator_limits=actuator_limits,
     parameters=PARAMETER_NAMES, from_params=from_dict,
-    parameter_files=('stewart_6dof', 'stewart_tsai2000'))
+    parameter_files=('stewart_6dof', 'stewart_tsai2000'),
+    title='6-DOF hexapod', leg_labels=tuple(str(i) for i in range(1, len(LEG_NAMES) + 1)),
+    sample_fields=('jacobian_condition',), motions=MOTIONS, examples=tuple(MOTIONS))
