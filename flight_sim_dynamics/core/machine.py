@@ -25,6 +25,9 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .drawing import Drawing
+from .status import Status
+
 
 class ModelValueError(ValueError):
     """A machine's model builder refuses a parameter: ``key`` is its dotted
@@ -68,6 +71,24 @@ class Machine:
     parameters: frozenset[str] = frozenset()
     from_params: Callable[..., Any] | None = None
     parameter_files: tuple[str, ...] = ()
+    # What a user sees beyond numbers (animate, RViz markers):
+    # ``drawing(model) -> Drawing`` (core/drawing.py).
+    drawing: Callable[[Any], Drawing] | None = None
+
+    def poses_along(self, model: Any, lengths: np.ndarray) -> list:
+        """Forward kinematics of every row of ``lengths`` (N, legs), each from
+        the pose of the row before (else from home, q = 0).
+        """
+        home = (0.0,) * self.dof
+        results, initial = [], home
+        for row in lengths:
+            result = self.forward_kinematics(model, row, initial)
+            if result.status != Status.OK and initial != home:
+                result = self.forward_kinematics(model, row)
+            initial = tuple(float(v) for v in result.pose) if result.status == Status.OK \
+                else home
+            results.append(result)
+        return results
 
     @property
     def dof(self) -> int:
