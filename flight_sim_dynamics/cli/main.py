@@ -59,9 +59,10 @@ class CliError(Exception):
 
 
 def load_model(params: str | None, scene: str | None = None, option: str = '--params',
-               scene_option: str = '--scene') -> Model:
+               scene_option: str = '--scene', any_machine: bool = False) -> Model:
     """The model of ``--params`` and ``--scene``; a CliError names the option at
-    fault, a note the file's values of an effect the scene leaves off.
+    fault (or, unless ``any_machine``, a machine other than the 3-DOF one), a
+    note the file's values of an effect the scene leaves off.
     """
     if params is not None and not os.path.isfile(params):
         raise CliError(f"{option} {params}: no such file")
@@ -71,10 +72,11 @@ def load_model(params: str | None, scene: str | None = None, option: str = '--pa
         raise CliError(f'{scene_option}: {exc}') from None
     except fsd.ParameterError as exc:
         raise CliError(f"{option} {params or '(packaged defaults)'}: {exc}") from None
-    if not isinstance(model, Model):
+    if not any_machine and not isinstance(model, Model):
         raise CliError(f"{option} {params}: machine '{fsd.machine_of(model).name}' "
                        f"({model.name}): the command line serves the 3-DOF machine")
-    unused = [k for k, v in model.values.items() if k.split('.')[0] in ('payload', 'friction')
+    values = getattr(model, 'values', {})      # the 3-DOF model's parameters
+    unused = [k for k, v in values.items() if k.split('.')[0] in ('payload', 'friction')
               and not getattr(model.effects, k.split('.')[0]) and v != packaged_values().get(k)]
     if unused:
         print(f"note: {option} {params}: {', '.join(unused)} not simulated: scene "
