@@ -71,9 +71,13 @@ class Machine:
     parameters: frozenset[str] = frozenset()
     from_params: Callable[..., Any] | None = None
     parameter_files: tuple[str, ...] = ()
-    # What a user sees beyond numbers (animate, RViz markers):
-    # ``drawing(model) -> Drawing`` (core/drawing.py).
+    # What a user sees beyond numbers (animate, workspace; RViz markers):
+    # ``drawing(model) -> Drawing`` (core/drawing.py); ``workspace(model,
+    # resolution=, extent=, at=, yaws=, orientation_extent=) -> Survey``
+    # (machines/stewart/workspace.py: ranges and maps at rest), None: the
+    # 3-DOF machine's roll panels of cli/workspace.py.
     drawing: Callable[[Any], Drawing] | None = None
+    workspace: Callable[..., Any] | None = None
 
     def poses_along(self, model: Any, lengths: np.ndarray) -> list:
         """Forward kinematics of every row of ``lengths`` (N, legs), each from

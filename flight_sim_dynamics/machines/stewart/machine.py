@@ -7,6 +7,7 @@ from .drawing import drawing
 from .kinematics import forward_kinematics
 from .model import LEG_NAMES, PARAMETER_NAMES, StewartModel, from_dict
 from .solver import COORDINATES, solve, solve_batch
+from .workspace import survey
 
 #: The joint variables of each leg, in the order of a solution's ``joints``
 #: (U-joint angles theta_1, theta_2 (S5), the prismatic joint's length L).
@@ -30,4 +31,4 @@ MACHINE = Machine(
     parameters=PARAMETER_NAMES, from_params=from_dict,
     parameter_files=('stewart_6dof', 'stewart_tsai2000'),
     # what a user sees beyond numbers
-    drawing=drawing)
+    drawing=drawing, workspace=survey)
