@@ -20,12 +20,13 @@ name it brings its own (:attr:`Machine.parameters`, :attr:`Machine.from_params`)
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any, Callable
+from dataclasses import dataclass, field
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
 from .drawing import Drawing
+from .motion import Motion
 from .status import Status
 
 
@@ -71,6 +72,11 @@ class Machine:
     parameters: frozenset[str] = frozenset()
     from_params: Callable[..., Any] | None = None
     parameter_files: tuple[str, ...] = ()
+    # Built-in motions (cli/ example and simulate --motion, benchmarks): name ->
+    # Motion (motion.trajectory(t) -> q, qd, qdd, each (N, dof); motion.duration
+    # s; motion.sampled(rate_hz) -> t, q, qd, qdd); the names ``example`` offers.
+    motions: Mapping[str, Motion] = field(default_factory=dict, hash=False)
+    examples: tuple[str, ...] = ()
     # What a user sees beyond numbers (animate, workspace; RViz markers):
     # ``drawing(model) -> Drawing`` (core/drawing.py); ``workspace(model,
     # resolution=, extent=, at=, yaws=, orientation_extent=) -> Survey``

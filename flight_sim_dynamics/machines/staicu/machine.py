@@ -10,7 +10,9 @@ from .forward_dynamics import forward_dynamics
 from .forward_kinematics import forward_kinematics
 from .mechanism import drawing
 from .model import JOINT_NAMES, LEG_NAMES, Model
+from .motions import MOTIONS
 from .solver import solve, solve_batch
+from .trajectories import PAPER_EXAMPLES
 
 
 def actuator_limits(model: Model) -> ActuatorLimits:
@@ -27,5 +29,6 @@ MACHINE = Machine(
     units=('m', 'm', 'rad'), legs=LEG_NAMES, joints=JOINT_NAMES, solve=solve,
     solve_batch=solve_batch, forward_kinematics=forward_kinematics,
     forward_dynamics=forward_dynamics, actuator_limits=actuator_limits,
+    motions=MOTIONS, examples=tuple(PAPER_EXAMPLES),
     # what a user sees beyond numbers
     drawing=drawing)

@@ -5,19 +5,17 @@ exact). :class:`PlannerSequence` plays motions in turn, as the demo planner does
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from functools import partial
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
+from ...core.motion import Motion, Step, Trajectory, smooth_step, step_sequence
 from .trajectories import DURATION as PAPER_DURATION
-from .trajectories import PAPER_EXAMPLES, paper_example, sample_times
+from .trajectories import PAPER_EXAMPLES, paper_example
+from .trajectories import sample_times  # noqa: F401 - the one sample_times, offered here too
 
-Trajectory = tuple[np.ndarray, np.ndarray, np.ndarray]
-#: (coordinate, start s, duration s, change) of one smooth step: coordinate
-#: 0 = surge (m), 1 = heave (m), 2 = roll (rad).
-Step = tuple[int, float, float, float]
+# Steps' coordinates: 0 = surge (m), 1 = heave (m), 2 = roll (rad).
 
 #: The steps of ``cueing``. Each pulse is washed out.
 CUEING_STEPS: tuple[Step, ...] = (
@@ -54,47 +52,9 @@ VIOLENT_STEPS: tuple[Step, ...] = (
 VIOLENT_DURATION = 3.0  # s; at rest in the central configuration from 2.8 s on
 
 
-def smooth_step(u: np.ndarray) -> Trajectory:
-    """Quintic step s(u) = 10u^3 - 15u^4 + 6u^5 (clamped to [0, 1]), s' and s''."""
-    u = np.clip(u, 0.0, 1.0)
-    s = u ** 3 * (10.0 - 15.0 * u + 6.0 * u * u)
-    ds = 30.0 * u * u * (1.0 - u) ** 2
-    dds = 60.0 * u * (1.0 - u) * (1.0 - 2.0 * u)
-    return s, ds, dds
-
-
-def step_sequence(steps: Sequence[Step], t: np.ndarray | float) -> Trajectory:
-    """q, qd, qdd (each (N, 3)) at times ``t`` of a sum of smooth steps."""
-    t = np.atleast_1d(np.asarray(t, dtype=float))
-    q = np.zeros((t.size, 3))
-    qd = np.zeros_like(q)
-    qdd = np.zeros_like(q)
-    for axis, start, duration, change in steps:
-        s, ds, dds = smooth_step((t - start) / duration)
-        q[:, axis] += change * s
-        qd[:, axis] += change * ds / duration
-        qdd[:, axis] += change * dds / duration ** 2
-    return q, qd, qdd
-
-
 #: q, qd, qdd (each (N, 3)) of ``cueing`` and ``violent`` at times ``t`` (s).
 motion_cueing = partial(step_sequence, CUEING_STEPS)
 violent_motion = partial(step_sequence, VIOLENT_STEPS)
-
-
-@dataclass(frozen=True)
-class Motion:
-    """One registered motion: ``trajectory(t)`` gives q, qd, qdd (each (N, 3))."""
-
-    name: str
-    duration: float
-    trajectory: Callable[[np.ndarray | float], Trajectory]
-    description: str
-
-    def sampled(self, rate_hz: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """t, q, qd, qdd at 0, 1/rate, ..., duration."""
-        t = sample_times(rate_hz, self.duration)
-        return (t, *self.trajectory(t))
 
 
 #: The registry, by name.

@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 
+from ...core import motion
+
 DURATION = 3.0  # s, the paper's Delta t
 
 #: (x*, y*, phi*) of eq. (6) for each example: m, m, rad.
@@ -36,8 +38,5 @@ def paper_example(name: str, t: np.ndarray | float) -> tuple[np.ndarray, np.ndar
 
 
 def sample_times(rate_hz: float, duration: float = DURATION) -> np.ndarray:
-    """Sample times 0, 1/rate, ..., duration (inclusive when it falls on the grid)."""
-    if not (rate_hz > 0 and math.isfinite(rate_hz)):
-        raise ValueError(f'rate must be a positive finite number of Hz, got {rate_hz!r}')
-    n = int(math.floor(duration * rate_hz + 1e-9)) + 1
-    return np.arange(n) / rate_hz
+    """Sample times 0, 1/rate, ..., duration (default the paper's 3 s)."""
+    return motion.sample_times(rate_hz, duration)

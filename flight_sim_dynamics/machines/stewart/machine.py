@@ -2,10 +2,11 @@
 from __future__ import annotations
 
 from ...core.machine import ActuatorLimits, Machine
-from .forward_dynamics import forward_dynamics
 from .drawing import drawing
+from .forward_dynamics import forward_dynamics
 from .kinematics import forward_kinematics
 from .model import LEG_NAMES, PARAMETER_NAMES, StewartModel, from_dict
+from .motions import MOTIONS
 from .solver import COORDINATES, solve, solve_batch
 from .workspace import survey
 
@@ -29,6 +30,7 @@ MACHINE = Machine(
     solve=solve, solve_batch=solve_batch, forward_kinematics=forward_kinematics,
     forward_dynamics=forward_dynamics, actuator_limits=actuator_limits,
     parameters=PARAMETER_NAMES, from_params=from_dict,
-    parameter_files=('stewart_6dof', 'stewart_tsai2000'),
+    parameter_files=('stewart_6dof', 'stewart_tsai2000'), motions=MOTIONS,
+    examples=tuple(MOTIONS),
     # what a user sees beyond numbers
     drawing=drawing, workspace=survey)
