@@ -27,6 +27,8 @@ from ..machines import MACHINES
 from .csv_io import atomic_output, read_table
 from .main import CliError, load_model
 
+#: Sampling rate of a built-in motion (--motion), Hz.
+MOTION_RATE = 100.0
 #: Statuses whose rows hold no solution (every number 0).
 VOID = (str(fsd.Status.UNREACHABLE), str(fsd.Status.INVALID_INPUT))
 
@@ -80,6 +82,19 @@ def read_solved(path: str, machine: Machine = MACHINES[0]) -> Solved:
                   lengths=np.column_stack([table[n] for n in leg_columns(machine, 'length')]),
                   force=np.column_stack([table[n] for n in leg_columns(machine, 'force')]),
                   status=list(words), pose=pose)
+
+
+def solve_motion(model, name: str) -> Solved:
+    """The built-in motion ``name`` of the model's machine, solved at MOTION_RATE."""
+    machine = fsd.machine_of(model)
+    if name not in machine.motions:
+        raise CliError(f"--motion {name}: not a motion of machine '{machine.name}'; choose "
+                       f"one of {', '.join(machine.motions)}")
+    t, q, qd, qdd = machine.motions[name].sampled(MOTION_RATE)
+    sol = machine.solve_batch(model, q, qd, qdd)
+    return Solved(path=name, t=t, lengths=np.asarray(sol.length, dtype=float),
+                  force=np.asarray(sol.force, dtype=float),
+                  status=[str(s) for s in sol.status], pose=q)
 
 
 def frame_rows(t: np.ndarray, fps: float, every: int | None) -> np.ndarray:
@@ -155,11 +170,14 @@ STATUS_COLOURS = {'ok': 'darkgreen', 'limit': 'darkorange', 'near_singular': 'da
 
 def configure(p: argparse.ArgumentParser) -> None:
     """The options of ``animate``."""
-    p.add_argument('input', metavar='OUT_CSV_OR_NPZ',
+    p.add_argument('input', metavar='OUT_CSV_OR_NPZ', nargs='?', default=None,
                    help="output of solve, CSV ('-' for standard input) or .npz; needs t and "
                         'per leg length_* and force_* (and reads status); the pose of each '
                         'frame comes from its leg lengths (forward kinematics) unless the '
                         'file has the pose coordinates (surge,heave,roll for the 3-DOF machine)')
+    p.add_argument('--motion', metavar='NAME', default=None,
+                   help='instead of a file: a built-in motion of the machine of --params, '
+                        f'solved at {MOTION_RATE:g} Hz (e.g. violent)')
     p.add_argument('-o', '--output', required=True, metavar='GIF_MP4_OR_PNG',
                    help='animation to write: .gif, or .mp4 (needs ffmpeg); .png writes the '
                         'one frame at --at')
@@ -214,7 +232,10 @@ def run(args: argparse.Namespace) -> int:
     machine = fsd.machine_of(model)
     if machine.drawing is None:
         raise CliError(f"machine '{machine.name}' has no drawing to animate")
-    solved = read_solved(args.input, machine)
+    if (args.input is None) == (args.motion is None):
+        raise CliError('give the output of solve (a file) or --motion NAME, one of the two')
+    solved = (read_solved(args.input, machine) if args.motion is None
+              else solve_motion(model, args.motion))
     if encoder is None:
         at = 0.5 * (solved.t[0] + solved.t[-1]) if args.at is None else args.at
         row = int(np.argmin(np.abs(solved.t - at)))

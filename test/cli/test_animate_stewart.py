@@ -111,3 +111,31 @@ def test_a_3dof_file_read_as_a_hexapod_names_the_missing_column(tmp_path, capsys
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "'length_1'" in err[0]
     assert not (tmp_path / 'm.png').exists()
+
+
+def test_a_built_in_motion_is_solved_and_drawn(tmp_path, capsys):
+    solved = animate.solve_motion(MODEL, 'violent')
+    t, q, qd, qdd = MACHINE.motions['violent'].sampled(animate.MOTION_RATE)
+    np.testing.assert_array_equal(solved.t, t)
+    np.testing.assert_array_equal(solved.pose, q)
+    np.testing.assert_array_equal(solved.force, fsd.solve_batch(MODEL, q, qd, qdd).force)
+    frame = animate.frames(MODEL, solved, [40])[0]
+    np.testing.assert_allclose([frame.points[f'P{i}'] for i in range(1, 7)], joints_of(q[40]),
+                               atol=1e-12)
+    png = tmp_path / 'violent.png'
+    assert main(['animate', '--motion', 'violent', '--params', PARAMS, '-o', str(png),
+                 '--dpi', '20']) == 0
+    assert png.read_bytes().startswith(b'\x89PNG')
+
+
+@pytest.mark.parametrize('argv, expect', [
+    (['--motion', 'vertical'], "'stewart'"),            # a 3-DOF motion
+    (['out.csv', '--motion', 'violent'], 'one of the two'),
+    ([], 'one of the two')])
+def test_motion_errors_are_one_line(tmp_path, capsys, argv, expect):
+    write_solved(tmp_path / 'out.csv')
+    argv = [str(tmp_path / a) if a.endswith('.csv') else a for a in argv]
+    assert main(['animate', *argv, '--params', PARAMS, '-o', str(tmp_path / 'm.png')]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and expect in err[0]
+    assert not (tmp_path / 'm.png').exists()
