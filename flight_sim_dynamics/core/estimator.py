@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 ESTIMATORS = ('backward', 'backward2')
-Vec3 = tuple[float, float, float]
+Vec = tuple[float, ...]
 
 
 def wrap_angle(angle: float) -> float:
@@ -16,7 +16,7 @@ def wrap_angle(angle: float) -> float:
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
-def backward_derivative(times: list[float], values: list[Vec3], order: int) -> Vec3:
+def backward_derivative(times: list[float], values: list[Vec], order: int) -> Vec:
     """Derivative at ``times[-1]`` from the last samples (causal): ``order`` 1
     ``(f_k - f_k-1) / h`` (error ``h f''/2``), 2 the parabola through the last
     three, steps unequal or not (BDF2, error ``h^2 f'''/3``); order 1 with two
@@ -24,26 +24,25 @@ def backward_derivative(times: list[float], values: list[Vec3], order: int) -> V
     """
     n = len(times)
     if n < 2:
-        return (0.0, 0.0, 0.0)
+        return tuple(0.0 for _ in values[-1])
     if order == 1 or n < 3:
         h = times[-1] - times[-2]
         f1, f0 = values[-1], values[-2]
-        return ((f1[0] - f0[0]) / h, (f1[1] - f0[1]) / h, (f1[2] - f0[2]) / h)
+        return tuple((a - b) / h for a, b in zip(f1, f0))
     h1 = times[-1] - times[-2]
     h2 = times[-2] - times[-3]
     c0 = (2.0 * h1 + h2) / (h1 * (h1 + h2))
     c1 = -(h1 + h2) / (h1 * h2)
     c2 = h1 / (h2 * (h1 + h2))
     f0, f1, f2 = values[-1], values[-2], values[-3]
-    return (c0 * f0[0] + c1 * f1[0] + c2 * f2[0],
-            c0 * f0[1] + c1 * f1[1] + c2 * f2[1],
-            c0 * f0[2] + c1 * f1[2] + c2 * f2[2])
+    return tuple(c0 * a + c1 * b + c2 * c for a, b, c in zip(f0, f1, f2))
 
 
 class DerivativeEstimator:
     """Fill in missing rates and accelerations from the stream itself.
 
-    Missing rates are the backward derivative of the last poses (roll
+    Missing rates are the backward derivative of the last poses (the angles,
+    coordinates ``angles`` of q (the 3-DOF machine's roll by default),
     unwrapped across +-pi), missing accelerations that of the last rates,
     given or estimated. The history restarts on the first setpoint, after a
     gap longer than ``max_gap`` s and on :meth:`reset`; its first setpoint is
@@ -55,18 +54,19 @@ class DerivativeEstimator:
     """
 
     def __init__(self, method: str = 'backward2', max_gap: float = 0.5,
-                 warm_up: bool = False) -> None:
+                 warm_up: bool = False, angles: tuple[int, ...] = (2,)) -> None:
         if method not in ESTIMATORS:
             raise ValueError(f'unknown estimator {method!r}; choose one of {ESTIMATORS}')
         self.order = 1 if method == 'backward' else 2
         self.method = method
         self.max_gap = float(max_gap)
         self.warm_up = warm_up
+        self.angles = frozenset(angles)
         self._t: list[float] = []
-        self._q: list[Vec3] = []
-        self._qd: list[Vec3] = []
+        self._q: list[Vec] = []
+        self._qd: list[Vec] = []
         self._real: list[bool] = []        # rate given or differenced (not assumed)
-        self._staged: tuple[float, Vec3, Vec3, bool] | None = None
+        self._staged: tuple[float, Vec, Vec, bool] | None = None
 
     def reset(self) -> None:
         self._t.clear()
@@ -80,15 +80,15 @@ class DerivativeEstimator:
         """Setpoints in the history (at most 3)."""
         return len(self._t)
 
-    def update(self, t: float, q: Vec3, qd: Vec3 | None, qdd: Vec3 | None
-               ) -> tuple[Vec3, Vec3 | None]:
+    def update(self, t: float, q: Vec, qd: Vec | None, qdd: Vec | None
+               ) -> tuple[Vec, Vec | None]:
         """:meth:`estimate` then :meth:`commit`: (rates, accelerations), given or estimated."""
         rates = self.estimate(t, q, qd, qdd)
         self.commit()
         return rates
 
-    def estimate(self, t: float, q: Vec3, qd: Vec3 | None, qdd: Vec3 | None
-                 ) -> tuple[Vec3, Vec3 | None]:
+    def estimate(self, t: float, q: Vec, qd: Vec | None, qdd: Vec | None
+                 ) -> tuple[Vec, Vec | None]:
         """The (rates, accelerations) of a setpoint, as :meth:`update`, without
         recording it: :meth:`commit` does (until the next estimate).
         Accelerations None: not estimable yet (``warm_up`` only).
@@ -98,7 +98,8 @@ class DerivativeEstimator:
             ts, qs, qds, real = [], [], [], []   # a restart: the history is not used
         elif qs:
             prev = qs[-1]
-            q = (q[0], q[1], prev[2] + wrap_angle(q[2] - prev[2]))
+            q = tuple(p + wrap_angle(v - p) if i in self.angles else v
+                      for i, (v, p) in enumerate(zip(q, prev)))
         ts, qs = ts + [t], qs + [q]
         known = qd is not None or len(ts) > 1
         if qd is None:
@@ -115,7 +116,7 @@ class DerivativeEstimator:
                 ts, qds = ts[-n:], qds[-(n - 1):]
             qdd = backward_derivative(ts, qds + [qd], self.order)
         elif qdd is None:
-            qdd = (0.0, 0.0, 0.0)
+            qdd = tuple(0.0 for _ in q)
         self._staged = (t, q, qd, known)
         return qd, qdd
 
@@ -136,12 +137,13 @@ class DerivativeEstimator:
 
 
 def estimate_rows(t: np.ndarray, q: np.ndarray, qd: np.ndarray | None = None,
-                  method: str = 'backward2', max_gap: float = 0.5
-                  ) -> tuple[np.ndarray, np.ndarray]:
+                  method: str = 'backward2', max_gap: float = 0.5,
+                  angles: tuple[int, ...] = (2,)) -> tuple[np.ndarray, np.ndarray]:
     """Rates (``qd`` where given) and accelerations of the samples (t, q) as the
-    node estimates them, row by row (:meth:`DerivativeEstimator.update`).
+    node estimates them, row by row (:meth:`DerivativeEstimator.update`; the
+    coordinates ``angles`` unwrapped).
     """
-    est = DerivativeEstimator(method, max_gap)
+    est = DerivativeEstimator(method, max_gap, angles=angles)
     rates, accs = np.empty_like(q), np.empty_like(q)
     for k, (tk, qk) in enumerate(zip(np.asarray(t).tolist(), q.tolist())):
         given = None if qd is None else tuple(qd[k].tolist())

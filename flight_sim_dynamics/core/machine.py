@@ -26,6 +26,7 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from .drawing import Drawing
+from .effects import EFFECT_NAMES
 from .motion import Motion
 from .status import Status
 
@@ -84,6 +85,13 @@ class Machine:
     # 3-DOF machine's roll panels of cli/workspace.py.
     drawing: Callable[[Any], Drawing] | None = None
     workspace: Callable[..., Any] | None = None
+    # What each effect costs (cli/bench.py): the effects the machine models
+    # (core/effects.py; others have nothing to act on), the built-in motions
+    # bench measures force errors on (the most demanding last), and whether its
+    # compiled kernel runs (``kernel_enabled()``).
+    effects: tuple[str, ...] = EFFECT_NAMES
+    bench_motions: tuple[str, ...] = ()
+    kernel_enabled: Callable[[], bool] = bool
 
     def poses_along(self, model: Any, lengths: np.ndarray) -> list:
         """Forward kinematics of every row of ``lengths`` (N, legs), each from

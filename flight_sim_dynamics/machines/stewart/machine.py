@@ -1,7 +1,9 @@
 """The hexapod as the shared layer sees it (:class:`flight_sim_dynamics.core.machine.Machine`)."""
 from __future__ import annotations
 
+from ...core.effects import EFFECT_NAMES
 from ...core.machine import ActuatorLimits, Machine
+from . import kernel
 from .drawing import drawing
 from .forward_dynamics import forward_dynamics
 from .kinematics import forward_kinematics
@@ -33,4 +35,7 @@ MACHINE = Machine(
     parameter_files=('stewart_6dof', 'stewart_tsai2000'), motions=MOTIONS,
     examples=tuple(MOTIONS),
     # what a user sees beyond numbers
-    drawing=drawing, workspace=survey)
+    drawing=drawing, workspace=survey,
+    # what each effect costs: a hexapod has no cranks
+    effects=tuple(e for e in EFFECT_NAMES if e != 'crank_inertia'),
+    bench_motions=('gentle', 'cueing', 'violent'), kernel_enabled=kernel.enabled)
