@@ -8,7 +8,10 @@ import math
 import numpy as np
 
 ESTIMATORS = ('backward', 'backward2')
+#: A pose, its rates or accelerations: one number per coordinate.
 Vec = tuple[float, ...]
+#: The same, of the 3-DOF machine (the ROS node's setpoints).
+Vec3 = tuple[float, float, float]
 
 
 def wrap_angle(angle: float) -> float:
