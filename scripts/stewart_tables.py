@@ -45,7 +45,7 @@ def workspace_block() -> str:
 
 
 def effects_block(quick: bool) -> str:
-    """bench's tables on the default hexapod with the check values' payload."""
+    """The tables of ``bench`` on the default hexapod with the check values' payload."""
     cycles, rate = (500, 200.0) if quick else (10_000, 1000.0)
     with tempfile.TemporaryDirectory(prefix='fsd-stewart-') as tmp:
         params = Path(tmp) / 'stewart_6dof_payload.yaml'
