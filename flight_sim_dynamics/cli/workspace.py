@@ -337,9 +337,9 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help=f'grid points per axis of each panel (default {DEFAULT_RESOLUTION})')
     p.add_argument('--range', type=float, nargs=4, default=None,
                    metavar=('SURGE_MIN', 'SURGE_MAX', 'HEAVE_MIN', 'HEAVE_MAX'),
-                   help='extent of the overview panels and of the intervals and areas, m '
-                   '(default: the machine\'s; 3-DOF ' + ' '.join(f'{v:g}' for v in DEFAULT_RANGE)
-                   + ')')
+                   help='extent of the (surge, heave) panels, m (3-DOF machine: the overview '
+                   'panels, intervals and areas; default: the machine\'s; 3-DOF '
+                   + ' '.join(f'{v:g}' for v in DEFAULT_RANGE) + ')')
     p.add_argument('--zoom', type=float, nargs=4, default=None,
                    metavar=('SURGE_MIN', 'SURGE_MAX', 'HEAVE_MIN', 'HEAVE_MAX'),
                    help='3-DOF machine: extent of the zoomed panels, m (default '
