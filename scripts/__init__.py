@@ -1,5 +1,6 @@
 """Documentation generators (not installed), run from the repository root:
-``python -m scripts.reproduction_table`` and ``python -m scripts.node_param_table``.
+``python -m scripts.reproduction_table``, ``python -m scripts.node_param_table`` and
+``python -m scripts.stewart_tables``.
 Each writes its block between ``<!-- NAME:begin -->`` and ``<!-- NAME:end -->``
 of a page under docs/.
 """

@@ -82,3 +82,36 @@ def test_replace_block_touches_only_the_block(tmp_path):
     with pytest.raises(SystemExit):
         replace_block(page, 'x', 'new')
     assert page.read_text() == 'no markers\n'
+
+
+def test_stewart_workspace_tables_are_current():
+    from scripts import stewart_tables
+
+    assert block(DOCS / 'stewart.md', 'stewart-workspace') == stewart_tables.workspace_block(), \
+        'docs/stewart.md is stale: run python -m scripts.stewart_tables --update docs/stewart.md'
+
+
+def test_stewart_tables_regenerate_every_block_and_the_figure(tmp_path):
+    """A quick run rewrites each block of a copy of docs/stewart.md with the
+    tables its tool prints (timings differ from run to run: their rows and
+    columns are checked, not their figures) and draws the frame of animate."""
+    from flight_sim_dynamics.cli import bench
+
+    page, png = tmp_path / 'stewart.md', tmp_path / 'frame.png'
+    shutil.copy(DOCS / 'stewart.md', page)
+    proc = subprocess.run([sys.executable, '-m', 'scripts.stewart_tables', '--quick', '--update',
+                           str(page), '--figure', str(png)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert block(page, 'stewart-workspace') == block(DOCS / 'stewart.md', 'stewart-workspace')
+    effects = block(page, 'stewart-effects')
+    for variant in bench.variants('config/stewart_6dof.yaml'):
+        assert f'| `{variant.key}` |' in effects
+    committed = block(DOCS / 'stewart.md', 'stewart-effects')
+    rows = [line.split('|')[1] for line in committed.splitlines() if line.startswith('| `')]
+    assert rows == [line.split('|')[1] for line in effects.splitlines() if line.startswith('| `')]
+    speed = block(page, 'stewart-speed')
+    assert '| solve (kernel) |' in speed and '| solve_batch |' in speed
+    assert png.read_bytes()[:4] == b'\x89PNG'
+    figure = DOCS / 'stewart_animation.png'
+    assert figure.read_bytes()[:4] == b'\x89PNG' and figure.stat().st_size < 150_000

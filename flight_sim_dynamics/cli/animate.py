@@ -1,8 +1,9 @@
-"""``flight-sim-dynamics animate``: the mechanism following the output of
-``solve`` (side and front views, forces as bars, each frame's status) as .gif,
-.mp4 or a .png still. A frame's pose: the file's ``surge,heave,roll``, else
-forward kinematics of its leg lengths; its points are the solver's (eq. 5-8).
-A row without a solution repeats the last pose drawn, grey, without forces.
+"""``flight-sim-dynamics animate``: the machine following the output of
+``solve`` (its views, forces as bars, each frame's status) as .gif, .mp4 or a
+.png still, drawn from its :class:`~flight_sim_dynamics.core.drawing.Drawing`
+(``Machine.drawing``). A frame's pose: the file's pose columns, else forward
+kinematics of its leg lengths. A row without a solution repeats the last pose
+drawn, grey, without forces.
 """
 from __future__ import annotations
 
@@ -20,22 +21,27 @@ import numpy as np
 
 import flight_sim_dynamics as fsd
 
-from ..core.vectors import backend
+from ..core.drawing import Point3
+from ..core.machine import Machine
+from ..machines import MACHINES
 from ..machines.api import poses_along
-from ..machines.staicu.kinematics import UnreachablePoseError, inverse_geometry
-from ..machines.staicu.mechanism import JOINTS, PLATE_OUTLINE, SEGMENTS, Point3, mechanism_points
 from .csv_io import atomic_output, read_table
-from .main import LENGTH_COLUMNS, CliError, load_model
-from .plotting import ACTUATORS, LEG_COLOURS
+from .main import CliError, load_model
 
-POSE_COLUMNS = ('surge', 'heave', 'roll')
-FORCE_COLUMNS = ('force_a', 'force_b', 'force_c')
-#: Columns the animation needs (others are ignored).
-REQUIRED = ('t',) + LENGTH_COLUMNS + FORCE_COLUMNS
+#: Sampling rate of a built-in motion (--motion), Hz.
+MOTION_RATE = 100.0
 #: Statuses whose rows hold no solution (every number 0).
 VOID = (str(fsd.Status.UNREACHABLE), str(fsd.Status.INVALID_INPUT))
 
-_SCALAR = backend(False)
+
+def leg_columns(machine: Machine, field: str) -> tuple[str, ...]:
+    """The per-leg columns of ``field`` in solve's output (``force_a``, ``force_1``)."""
+    return tuple(f"{field}_{leg.split('_', 1)[-1]}" for leg in machine.legs)
+
+
+def required_columns(machine: Machine) -> tuple[str, ...]:
+    """Columns the animation needs (others are ignored)."""
+    return ('t',) + leg_columns(machine, 'length') + leg_columns(machine, 'force')
 
 
 @dataclass(frozen=True)
@@ -44,10 +50,10 @@ class Solved:
 
     path: str
     t: np.ndarray            # (N,) s
-    lengths: np.ndarray      # (N, 3) m, L_A, L_B, L_C
-    force: np.ndarray        # (N, 3) N, f_A, f_B, f_C
+    lengths: np.ndarray      # (N, legs) m
+    force: np.ndarray        # (N, legs) N
     status: list[str]        # one word per row ('ok' when the file has none)
-    pose: np.ndarray | None  # (N, 3) surge, heave, roll if the file has them
+    pose: np.ndarray | None  # (N, dof) the pose coordinates if the file has them
 
 
 @dataclass(frozen=True)
@@ -61,21 +67,35 @@ class Frame:
     status: str
     solved: bool
     points: dict[str, Point3]
-    force: tuple[float, float, float] | None
+    force: tuple[float, ...] | None
     note: str = ''
 
 
-def read_solved(path: str) -> Solved:
+def read_solved(path: str, machine: Machine = MACHINES[0]) -> Solved:
     """Read the output of ``solve`` (CSV, '-' for standard input, or .npz)."""
-    table = read_table(path, required=REQUIRED, optional=POSE_COLUMNS)
+    pose_columns = machine.coordinates
+    table = read_table(path, required=required_columns(machine), optional=pose_columns)
     words = table.text.get('status', ['ok'] * len(table))
     pose = None
-    if all(n in table.names for n in POSE_COLUMNS):
-        pose = np.column_stack([table[n] for n in POSE_COLUMNS])
+    if all(n in table.names for n in pose_columns):
+        pose = np.column_stack([table[n] for n in pose_columns])
     return Solved(path=table.path, t=table['t'].copy(),
-                  lengths=np.column_stack([table[n] for n in LENGTH_COLUMNS]),
-                  force=np.column_stack([table[n] for n in FORCE_COLUMNS]),
+                  lengths=np.column_stack([table[n] for n in leg_columns(machine, 'length')]),
+                  force=np.column_stack([table[n] for n in leg_columns(machine, 'force')]),
                   status=list(words), pose=pose)
+
+
+def solve_motion(model, name: str) -> Solved:
+    """The built-in motion ``name`` of the model's machine, solved at MOTION_RATE."""
+    machine = fsd.machine_of(model)
+    if name not in machine.motions:
+        raise CliError(f"--motion {name}: not a motion of machine '{machine.name}'; choose "
+                       f"one of {', '.join(machine.motions)}")
+    t, q, qd, qdd = machine.motions[name].sampled(MOTION_RATE)
+    sol = machine.solve_batch(model, q, qd, qdd)
+    return Solved(path=name, t=t, lengths=np.asarray(sol.length, dtype=float),
+                  force=np.asarray(sol.force, dtype=float),
+                  status=[str(s) for s in sol.status], pose=q)
 
 
 def frame_rows(t: np.ndarray, fps: float, every: int | None) -> np.ndarray:
@@ -93,8 +113,10 @@ def unsolved(solved: Solved) -> np.ndarray:
     return void | np.all(solved.lengths == 0.0, axis=1)
 
 
-def frames(model: fsd.Model, solved: Solved, rows: np.ndarray) -> list[Frame]:
+def frames(model, solved: Solved, rows: np.ndarray) -> list[Frame]:
     """The frames of ``rows`` (module docstring: poses, unsolved rows)."""
+    machine = fsd.machine_of(model)
+    drawing = machine.drawing(model)
     rows = np.asarray(rows, dtype=int)
     void = unsolved(solved)[rows]
     if solved.pose is not None:
@@ -109,16 +131,16 @@ def frames(model: fsd.Model, solved: Solved, rows: np.ndarray) -> list[Frame]:
             ok = r is not None and r.status == fsd.Status.OK
             poses.append(r.pose if ok else None)
             why.append('' if v or ok else f'no pose of these leg lengths ({r.status})')
-    last = mechanism_points(model, inverse_geometry(model, (0.0, 0.0, 0.0), _SCALAR))
-    shown = 'the central configuration'
+    last = drawing.points((0.0,) * machine.dof)
+    shown = drawing.home
     out = []
     for k, i in enumerate(rows):
         points = None
         if not void[k] and poses[k] is not None:
             q = tuple(float(v) for v in poses[k])
             try:
-                points = mechanism_points(model, inverse_geometry(model, q, _SCALAR))
-            except UnreachablePoseError as exc:      # a pose column of the file
+                points = drawing.points(q)
+            except ValueError as exc:      # a pose column of the file
                 why[k] = f'pose unreachable: {exc}'
         word = solved.status[i]
         if points is None:
@@ -138,24 +160,25 @@ DEFAULT_DPI = 80
 FIGSIZE = (11.0, 4.6)          # inches: 880 x 368 pixels at the default dpi
 PROGRESS_SECONDS = 5.0
 
-PART_COLOURS = {'rod': '#3f59cc', 'crank_d': '#1a9999', 'crank_e': '#1a9999'}
-PART_WIDTH = {'leg_a': 3.0, 'leg_b': 3.0, 'leg_c': 3.0, 'rod': 3.5, 'crank_d': 2.2,
-              'crank_e': 2.2}
-PLATE_COLOUR = '#9aa6bf'
+#: Leg colours, leg k the k-th (matplotlib's tab10: A, B, C as plot draws them).
+LEG_PALETTE = ('tab:blue', 'tab:orange', 'tab:green', 'tab:red', 'tab:purple', 'tab:brown',
+               'tab:pink', 'tab:gray', 'tab:olive', 'tab:cyan')
+#: A legend's sample of a part drawn in its leg's colour.
+LEGEND_GREY = '0.4'
 VOID_COLOUR = '0.6'
 STATUS_COLOURS = {'ok': 'darkgreen', 'limit': 'darkorange', 'near_singular': 'darkmagenta'}
-#: The two views: title, horizontal axis (index into X, Y, Z and its label).
-VIEWS = (('side view (from the right)', 0, 'X, m (forward)'),
-         ('front view', 1, 'Y, m (the machine\'s left)'))
 
 
 def configure(p: argparse.ArgumentParser) -> None:
     """The options of ``animate``."""
-    p.add_argument('input', metavar='OUT_CSV_OR_NPZ',
-                   help="output of solve, CSV ('-' for standard input) or .npz; needs "
-                        + ','.join(REQUIRED) + ' (and reads status); the pose of each '
+    p.add_argument('input', metavar='OUT_CSV_OR_NPZ', nargs='?', default=None,
+                   help="output of solve, CSV ('-' for standard input) or .npz; needs t and "
+                        'per leg length_* and force_* (and reads status); the pose of each '
                         'frame comes from its leg lengths (forward kinematics) unless the '
-                        'file has surge,heave,roll')
+                        'file has the pose coordinates (surge,heave,roll for the 3-DOF machine)')
+    p.add_argument('--motion', metavar='NAME', default=None,
+                   help='instead of a file: a built-in motion of the machine of --params, '
+                        f'solved at {MOTION_RATE:g} Hz (e.g. violent)')
     p.add_argument('-o', '--output', required=True, metavar='GIF_MP4_OR_PNG',
                    help='animation to write: .gif, or .mp4 (needs ffmpeg); .png writes the '
                         'one frame at --at')
@@ -173,7 +196,8 @@ def configure(p: argparse.ArgumentParser) -> None:
                         'default: the middle of the trajectory)')
     p.add_argument('--title', default=None, help='title (default: the input file name)')
     p.add_argument('--params', metavar='YAML', default=None,
-                   help='the parameter file solve used (default: the packaged parameters)')
+                   help='the parameter file solve used, which names the machine (default: '
+                        'the packaged parameters)')
 
 
 def encoder_available(name: str) -> bool:
@@ -205,8 +229,14 @@ def run(args: argparse.Namespace) -> int:
     folder = os.path.dirname(os.path.abspath(args.output))
     if not os.path.isdir(folder):        # before rendering, not after
         raise CliError(f"cannot write '{args.output}': directory '{folder}' does not exist")
-    model = load_model(args.params)
-    solved = read_solved(args.input)
+    model = load_model(args.params, machines=MACHINES)
+    machine = fsd.machine_of(model)
+    if machine.drawing is None:
+        raise CliError(f"machine '{machine.name}' has no drawing to animate")
+    if (args.input is None) == (args.motion is None):
+        raise CliError('give the output of solve (a file) or --motion NAME, one of the two')
+    solved = (read_solved(args.input, machine) if args.motion is None
+              else solve_motion(model, args.motion))
     if encoder is None:
         at = 0.5 * (solved.t[0] + solved.t[-1]) if args.at is None else args.at
         row = int(np.argmin(np.abs(solved.t - at)))
@@ -268,119 +298,180 @@ class Progress:
 class Scene:
     """The figure and its artists, made once; :meth:`draw` moves them to a frame."""
 
-    def __init__(self, model: fsd.Model, frames: Sequence[Frame], title: str) -> None:
+    def __init__(self, model, frames: Sequence[Frame], title: str) -> None:
         from matplotlib.figure import Figure
 
+        machine = fsd.machine_of(model)
+        self.drawing = d = machine.drawing(model)
+        self.colours = [LEG_PALETTE[k % len(LEG_PALETTE)] for k in range(len(d.legs))]
         self.fig = Figure(figsize=FIGSIZE, dpi=DEFAULT_DPI)
         every = np.array([p for f in frames for p in f.points.values()])
-        ground = -model.geometry.h_G          # the base joints' level (y0 = 0)
+        # the base joints' level: the first point of each leg
+        ground = min(frames[0].points[d.segments[parts[0]][0]][2] for parts in d.legs)
         lo, hi = every.min(axis=0) - 0.15, every.max(axis=0) + 0.15
         z = (min(lo[2], ground - 0.3), hi[2] + 0.2)   # room for the names below
-        widths = [hi[i] - lo[i] for _, i, _ in VIEWS]
-        grid = self.fig.add_gridspec(1, 3, width_ratios=widths + [0.32 * sum(widths)],
-                                     left=0.065, right=0.985, bottom=0.22, top=0.8, wspace=0.2)
+        widths = [hi[v.axis] - lo[v.axis] if v.axis is not None
+                  else 1.6 * max(hi[0] - lo[0], hi[1] - lo[1]) for v in d.views]
+        three_d = any(v.axis is None for v in d.views)   # wider gaps: room for its labels
+        grid = self.fig.add_gridspec(1, len(widths) + 1,
+                                     width_ratios=widths + [0.32 * sum(widths)],
+                                     left=0.065, right=0.985, bottom=0.22, top=0.8,
+                                     wspace=0.35 if three_d else 0.2)
         self.views = []
-        for k, (name, axis, label) in enumerate(VIEWS):
-            ax = self.fig.add_subplot(grid[0, k])
-            ax.set_xlim(lo[axis], hi[axis])
-            ax.set_ylim(*z)
-            ax.set_aspect('equal', adjustable='box')
-            ax.set_title(name, fontsize='medium')
-            ax.set_xlabel(label)
-            ax.axhline(ground, color='0.3', linewidth=1.0)
-            ax.axhspan(z[0], ground, facecolor='0.92', zorder=0)
-            ax.grid(True, alpha=0.3)
-            self.views.append((axis, ax, self._artists(ax)))
-        self.views[0][1].set_ylabel('Z, m (up)')
-        self._label_legs(model, frames[0])
-        self.ax_force = self.fig.add_subplot(grid[0, 2])
-        self._force_axes(model, frames)
+        for k, view in enumerate(d.views):
+            if view.axis is None:
+                ax = self.fig.add_subplot(grid[0, k], projection='3d')
+                ax.set_xlim(lo[0], hi[0])
+                ax.set_ylim(lo[1], hi[1])
+                ax.set_zlim(*z)
+                ax.set_box_aspect((hi[0] - lo[0], hi[1] - lo[1], z[1] - z[0]), zoom=1.2)
+                ax.set_xlabel('X, m')
+                ax.set_ylabel('Y, m')
+                ax.set_zlabel('Z, m')
+                ax.set_title(view.title, fontsize='medium')
+            else:
+                ax = self.fig.add_subplot(grid[0, k])
+                ax.set_xlim(lo[view.axis], hi[view.axis])
+                ax.set_ylim(*z)
+                ax.set_aspect('equal', adjustable='box')
+                ax.set_title(view.title, fontsize='medium')
+                ax.set_xlabel(view.label)
+                ax.axhline(ground, color='0.3', linewidth=1.0)
+                ax.axhspan(z[0], ground, facecolor='0.92', zorder=0)
+                ax.grid(True, alpha=0.3)
+            self.views.append((view.axis, ax, self._artists(ax, view.axis)))
+        next(ax for axis, ax, _ in self.views if axis is not None).set_ylabel('Z, m (up)')
+        self._label_legs(frames[0], ground)
+        self.ax_force = self.fig.add_subplot(grid[0, len(widths)])
+        self._force_axes(machine.actuator_limits(model).max_force, frames)
         self._legend()
         self.fig.suptitle(title, x=0.065, y=0.97, ha='left', fontsize='large')
         self.status = self.fig.text(0.065, 0.875, '', ha='left', fontsize='large',
                                     fontweight='bold')
 
-    def _artists(self, ax) -> dict:
+    def _artists(self, ax, axis: int | None) -> dict:
         from matplotlib.patches import Polygon
+        from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-        parts = {'plate': ax.add_patch(Polygon(np.zeros((4, 2)), closed=True, zorder=2))}
-        for ns in SEGMENTS:
-            # leg C dashed over leg B: in the side view they coincide at zero roll
-            style = '--' if ns == 'leg_c' else '-'
-            parts[ns], = ax.plot([], [], linestyle=style, linewidth=PART_WIDTH[ns],
-                                 solid_capstyle='round', zorder=3)
-        parts['joints'], = ax.plot([], [], linestyle='none', marker='o', markersize=4,
-                                   color='0.15', zorder=4)
-        return parts
+        d = self.drawing
+        plates = {}
+        for name, corners in d.plates.items():
+            if axis is None:
+                plates[name] = ax.add_collection3d(Poly3DCollection([np.zeros((len(corners), 3))],
+                                                                    zorder=2))
+            else:
+                plates[name] = ax.add_patch(Polygon(np.zeros((len(corners), 2)), closed=True,
+                                                    zorder=2))
+        empty = ([], [], []) if axis is None else ([], [])
+        lines = {}
+        for name, style in ((n, d.styles[n]) for n in d.segments):
+            lines[name], = ax.plot(*empty, linestyle=style.linestyle, linewidth=style.width,
+                                   solid_capstyle='round', zorder=3)
+        joints, = ax.plot(*empty, linestyle='none', marker='o', markersize=4, color='0.15',
+                          zorder=4)
+        return {'plates': plates, 'lines': lines, 'joints': joints}
 
     def _legend(self) -> None:
+        from matplotlib.legend_handler import HandlerTuple
         from matplotlib.lines import Line2D
         from matplotlib.patches import Patch
 
-        handles = [Line2D([], [], color=c, linewidth=3.0, linestyle='--' if n == 'C' else '-',
-                          label=f'leg {n}') for n, c in zip(ACTUATORS, LEG_COLOURS)]
-        handles += [Line2D([], [], color=PART_COLOURS['rod'], linewidth=3.5, label='rod A3G'),
-                    Line2D([], [], color=PART_COLOURS['crank_d'], linewidth=2.2,
-                           label='cranks D, E'),
-                    Patch(facecolor=PLATE_COLOUR, edgecolor='0.35', label='platform'),
-                    Line2D([], [], linestyle='none', marker='o', markersize=4, color='0.15',
-                           label='joints')]
-        self.fig.legend(handles=handles, loc='lower center', ncol=len(handles),
-                        frameon=False, bbox_to_anchor=(0.5, 0.0))
+        d = self.drawing
+        legs = [Line2D([], [], color=c, linewidth=3.0, linestyle=d.styles[parts[0]].linestyle,
+                       label=f'leg {n}') for n, c, parts in zip(d.leg_names, self.colours, d.legs)]
+        # more than three legs: one entry, its colours side by side, so that the legend
+        # stays one line
+        handles = legs if len(legs) <= 3 else [tuple(legs)]
+        handles += [Line2D([], [], color=d.styles[part].colour or LEGEND_GREY,
+                           linewidth=d.styles[part].width, linestyle=d.styles[part].linestyle,
+                           label=label) for label, part in d.legend]
+        handles += [Patch(facecolor=d.plate_colours[name], edgecolor='0.35', label=name)
+                    for name in d.plates]
+        handles.append(Line2D([], [], linestyle='none', marker='o', markersize=4, color='0.15',
+                              label='joints'))
+        labels = [f'legs {d.leg_names[0]}-{d.leg_names[-1]}' if isinstance(h, tuple)
+                  else h.get_label() for h in handles]
+        self.fig.legend(handles, labels, loc='lower center', ncol=len(handles),
+                        frameon=False, bbox_to_anchor=(0.5, 0.0),
+                        handler_map={tuple: HandlerTuple(ndivide=None, pad=0.0)})
 
-    def _label_legs(self, model: fsd.Model, frame: Frame) -> None:
-        """Names of the legs at their base joints (fixed), below the ground."""
+    def _label_legs(self, frame: Frame, ground: float) -> None:
+        """Names of the legs at their base joints (fixed), below the ground; legs
+        whose base joints coincide in a projection share one label.
+        """
+        d = self.drawing
+        bases = [frame.points[d.segments[parts[0]][0]] for parts in d.legs]
         for axis, ax, _ in self.views:
-            names = {'A': 'A1', 'B': 'B1', 'C': 'C1'} if axis else {'A': 'A1', 'B, C': 'B1'}
-            for text, joint in names.items():
-                leg = 'ABC'.index(text[0])
-                ax.annotate(text, (frame.points[joint][axis], -model.geometry.h_G),
-                            xytext=(0, -5), textcoords='offset points', ha='center',
-                            va='top', color=LEG_COLOURS[leg], fontweight='bold')
+            groups: dict[float, list[int]] = {}
+            for k, base in enumerate(bases):
+                key = k if axis is None else round(base[axis], 9)
+                groups.setdefault(key, []).append(k)
+            for legs in groups.values():
+                text, base = ', '.join(d.leg_names[k] for k in legs), bases[legs[0]]
+                style = dict(ha='center', va='top', color=self.colours[legs[0]],
+                             fontweight='bold')
+                if axis is None:
+                    ax.text(base[0], base[1], base[2], text, **style)
+                else:
+                    ax.annotate(text, (base[axis], ground), xytext=(0, -5),
+                                textcoords='offset points', **style)
 
-    def _force_axes(self, model: fsd.Model, frames: Sequence[Frame]) -> None:
+    def _force_axes(self, limit: float, frames: Sequence[Frame]) -> None:
         ax = self.ax_force
+        n = len(self.drawing.legs)
         forces = np.array([f.force for f in frames if f.force is not None]).reshape(-1)
         lo = min(0.0, float(forces.min())) if forces.size else 0.0
         hi = max(0.0, float(forces.max())) if forces.size else 1.0
         pad = 0.2 * (hi - lo) or 1.0
         ax.set_ylim(lo - (pad if lo < 0 else 0.0), hi + pad)
-        self.bars = ax.bar(ACTUATORS, [0.0, 0.0, 0.0], color=LEG_COLOURS, width=0.6)
-        self.values = [ax.text(i, 0.0, '', ha='center', va='bottom', fontsize='small')
-                       for i in range(3)]
+        self.bars = ax.bar(self.drawing.leg_names, [0.0] * n, color=self.colours, width=0.6)
+        # more than three bars: values in whole newtons, smaller, so that they fit
+        self.value_format = '{:.1f} N' if n <= 3 else '{:.0f}'
+        self.values = [ax.text(i, 0.0, '', ha='center', va='bottom',
+                               fontsize='small' if n <= 3 else 'x-small') for i in range(n)]
         ax.axhline(0.0, color='0.3', linewidth=0.8)
-        limit = model.limits.max_force
         for sign in (1.0, -1.0):
             if lo <= sign * limit <= hi + pad:
                 ax.axhline(sign * limit, color='red', linestyle='--', linewidth=1.0)
         ax.set_title('actuator forces', fontsize='medium')
         ax.set_ylabel('force f, N (+ pushes apart)')
         ax.grid(True, axis='y', alpha=0.3)
-        self.void_text = ax.text(1.0, 0.5 * (lo + hi), '', ha='center', va='center',
+        self.void_text = ax.text((n - 1) / 2, 0.5 * (lo + hi), '', ha='center', va='center',
                                  color='0.35', fontsize='medium', fontweight='bold')
 
     def draw(self, frame: Frame) -> None:
         """Move every artist to ``frame``."""
-        p = frame.points
+        d, p = self.drawing, frame.points
         for axis, _, parts in self.views:
-            for leg, ns in enumerate(SEGMENTS):
-                a, b = SEGMENTS[ns]
-                line = parts[ns]
-                line.set_data([p[a][axis], p[b][axis]], [p[a][2], p[b][2]])
-                colour = LEG_COLOURS[leg] if leg < 3 else PART_COLOURS[ns]
+            for name, line in parts['lines'].items():
+                a, b = d.segments[name]
+                if axis is None:
+                    line.set_data_3d(*([p[a][i], p[b][i]] for i in range(3)))
+                else:
+                    line.set_data([p[a][axis], p[b][axis]], [p[a][2], p[b][2]])
+                leg, colour = d.leg_of(name), d.styles[name].colour
+                colour = self.colours[leg] if colour is None else colour
                 line.set_color(colour if frame.solved else VOID_COLOUR)
                 line.set_alpha(1.0 if frame.solved else 0.6)
-            parts['plate'].set_xy([(p[n][axis], p[n][2]) for n in PLATE_OUTLINE])
-            parts['plate'].set_facecolor(PLATE_COLOUR if frame.solved else '0.85')
-            parts['plate'].set_edgecolor('0.35' if frame.solved else VOID_COLOUR)
-            parts['plate'].set_alpha(0.85 if frame.solved else 0.5)
-            joints = [p[n] for n in JOINTS]
-            parts['joints'].set_data([j[axis] for j in joints], [j[2] for j in joints])
-        force = frame.force if frame.solved else (0.0, 0.0, 0.0)
+            for name, plate in parts['plates'].items():
+                corners = [p[n] for n in d.plates[name]]
+                if axis is None:
+                    plate.set_verts([corners])
+                else:
+                    plate.set_xy([(c[axis], c[2]) for c in corners])
+                plate.set_facecolor(d.plate_colours[name] if frame.solved else '0.85')
+                plate.set_edgecolor('0.35' if frame.solved else VOID_COLOUR)
+                plate.set_alpha(0.85 if frame.solved else 0.5)
+            joints = [p[n] for n in d.joints]
+            if axis is None:
+                parts['joints'].set_data_3d(*([j[i] for j in joints] for i in range(3)))
+            else:
+                parts['joints'].set_data([j[axis] for j in joints], [j[2] for j in joints])
+        force = frame.force if frame.solved else (0.0,) * len(self.bars)
         for bar, value, f in zip(self.bars, self.values, force):
             bar.set_height(f)
             value.set_position((bar.get_x() + bar.get_width() / 2, max(f, 0.0)))
-            value.set_text(f'{f:.1f} N' if frame.solved else '')
+            value.set_text(self.value_format.format(f) if frame.solved else '')
         self.void_text.set_text('' if frame.solved else f'no solution\n({frame.status})')
         text = f't = {frame.t:.3f} s    status: {frame.status}'
         if not frame.solved:

@@ -1,8 +1,10 @@
-"""``flight-sim-dynamics workspace``: per roll angle a panel of the (surge,
-heave) plane at rest (:mod:`..machines.staicu.workspace`), reachable cells coloured by
-condition, unreachable ones hatched by cause, with the stroke limits, singular
-curves and the paper's motions (eq. 6); the summary on stdout (``--markdown``:
-a page). matplotlib is imported by :func:`plot` only.
+"""``flight-sim-dynamics workspace``: for the 3-DOF machine, per roll angle a
+panel of the (surge, heave) plane at rest (:mod:`..machines.staicu.workspace`),
+reachable cells coloured by condition, unreachable ones hatched by cause, with
+the stroke limits, singular curves and the paper's motions (eq. 6); the summary
+on stdout (``--markdown``: a page). A machine that gives its workspace as maps
+(``Machine.workspace``, the hexapod) is drawn by :mod:`.workspace_maps`.
+matplotlib is imported by :func:`plot` only.
 """
 from __future__ import annotations
 
@@ -16,6 +18,9 @@ from typing import Sequence
 
 import numpy as np
 
+import flight_sim_dynamics as fsd
+
+from ..machines import MACHINES
 from ..machines.staicu.model import Model
 from ..machines.staicu.trajectories import paper_example, sample_times
 from ..machines.staicu.workspace import (DEFAULT_RANGE, DEFAULT_ZOOM, DEGENERATE, E2_OFF_ROD,
@@ -23,9 +28,10 @@ from ..machines.staicu.workspace import (DEFAULT_RANGE, DEFAULT_ZOOM, DEGENERATE
                                          LineRanges, MotionReport, RollMap, RollResult,
                                          boundary_shares, general_pose_at_roll,
                                          near_singular_share, paper_motions, sample_roll)
+from . import workspace_maps
 from .bench import table
 from .csv_io import atomic_output
-from .main import load_model
+from .main import CliError, load_model
 from .plotting import output_format
 
 #: Default roll angles, degrees (negative ones mirror these: legs B and C exchanged).
@@ -325,45 +331,75 @@ def plot(results: Sequence[RollResult], model: Model, path: str, args: argparse.
 def configure(p: argparse.ArgumentParser) -> None:
     p.add_argument('-o', '--output', default='workspace.png', metavar='IMAGE',
                    help='figure to write, format by extension (default workspace.png)')
-    p.add_argument('--rolls', type=float, nargs='+', default=list(DEFAULT_ROLLS),
-                   metavar='DEG', help='roll angles in degrees, one panel each (default '
-                   + ' '.join(f'{r:g}' for r in DEFAULT_ROLLS) + ')')
+    p.add_argument('--rolls', type=float, nargs='+', default=None,
+                   metavar='DEG', help='3-DOF machine: roll angles in degrees, one panel each '
+                   '(default ' + ' '.join(f'{r:g}' for r in DEFAULT_ROLLS) + ')')
     p.add_argument('--resolution', type=int, default=DEFAULT_RESOLUTION, metavar='N',
                    help=f'grid points per axis of each panel (default {DEFAULT_RESOLUTION})')
-    p.add_argument('--range', type=float, nargs=4, default=list(DEFAULT_RANGE),
+    p.add_argument('--range', type=float, nargs=4, default=None,
                    metavar=('SURGE_MIN', 'SURGE_MAX', 'HEAVE_MIN', 'HEAVE_MAX'),
-                   help='extent of the overview panels and of the intervals and areas, m '
-                   '(default ' + ' '.join(f'{v:g}' for v in DEFAULT_RANGE) + ')')
-    p.add_argument('--zoom', type=float, nargs=4, default=list(DEFAULT_ZOOM),
+                   help='extent of the (surge, heave) panels, m (3-DOF machine: the overview '
+                   'panels, intervals and areas; default: the machine\'s; 3-DOF '
+                   + ' '.join(f'{v:g}' for v in DEFAULT_RANGE) + ')')
+    p.add_argument('--zoom', type=float, nargs=4, default=None,
                    metavar=('SURGE_MIN', 'SURGE_MAX', 'HEAVE_MIN', 'HEAVE_MAX'),
-                   help='extent of the zoomed panels, m (default '
+                   help='3-DOF machine: extent of the zoomed panels, m (default '
                    + ' '.join(f'{v:g}' for v in DEFAULT_ZOOM) + ')')
-    p.add_argument('--no-zoom', action='store_true', help='leave out the zoomed row')
-    p.add_argument('--color-by', choices=('cond', 'kinematic'), default='cond',
-                   help='colour: exact cond(Q) (default) or the kinematic condition')
+    p.add_argument('--no-zoom', action='store_true',
+                   help='3-DOF machine: leave out the zoomed row')
+    p.add_argument('--color-by', choices=('cond', 'kinematic'), default=None,
+                   help='3-DOF machine: colour: exact cond(Q) (default) or the kinematic '
+                   'condition')
+    p.add_argument('--at', type=float, nargs=4, default=None,
+                   metavar=('SWAY', 'ROLL', 'PITCH', 'YAW'),
+                   help='hexapod: the pose of the surge-heave map, m and degrees (default 0 0 '
+                   '0 0)')
+    p.add_argument('--yaws', type=float, nargs='+', default=None, metavar='DEG',
+                   help='hexapod: yaw angles of the roll-pitch maps at home, one map each '
+                   '(default: the machine\'s)')
+    p.add_argument('--orientation-range', type=float, nargs=4, default=None,
+                   metavar=('ROLL_MIN', 'ROLL_MAX', 'PITCH_MIN', 'PITCH_MAX'),
+                   help='hexapod: extent of the roll-pitch maps, degrees (default: the '
+                   'machine\'s)')
     p.add_argument('--markdown', metavar='MD', default=None,
                    help='also write the summary as a markdown page showing the figure')
     p.add_argument('--params', metavar='YAML', default=None,
-                   help='parameter file (default: the packaged parameters)')
+                   help='parameter file, which names the machine (default: the packaged '
+                   'parameters)')
     p.add_argument('--dpi', type=int, default=100, help='resolution of raster images '
                    '(default 100)')
+
+
+#: The options of the 3-DOF machine's roll panels and of a machine's maps.
+ROLL_PANEL_OPTIONS = ('rolls', 'zoom', 'no_zoom', 'color_by')
+MAP_OPTIONS = ('at', 'yaws', 'orientation_range')
+
+
+def _refuse(args: argparse.Namespace, names: Sequence[str], machine: str) -> None:
+    """CliError naming an option given that the machine's workspace does not use."""
+    given = [n for n in names if getattr(args, n) not in (None, False)]
+    if given:
+        raise CliError(f"--{given[0].replace('_', '-')}: not an option of machine "
+                       f"'{machine}' (its workspace does not use it)")
 
 
 def _check(args: argparse.Namespace) -> None:
     output_format(args.output)
     if not 20 <= args.resolution <= 2000:
         raise ValueError(f'--resolution must be between 20 and 2000, got {args.resolution}')
-    if not 1 <= len(args.rolls) <= 8:
+    if args.rolls is not None and not 1 <= len(args.rolls) <= 8:
         raise ValueError('--rolls takes 1 to 8 angles')
-    if not all(math.isfinite(r) and abs(r) <= 180.0 for r in args.rolls):
+    if not all(math.isfinite(r) and abs(r) <= 180.0 for r in args.rolls or ()):
         raise ValueError('--rolls must be finite angles in [-180, 180] degrees')
     for name in ('range', 'zoom'):
         e = getattr(args, name)
-        if not (all(math.isfinite(v) for v in e) and e[0] < e[1] and e[2] < e[3]):
+        if e is not None and not (all(math.isfinite(v) for v in e) and e[0] < e[1]
+                                  and e[2] < e[3]):
             raise ValueError(f'--{name} needs SURGE_MIN < SURGE_MAX and HEAVE_MIN < HEAVE_MAX '
                              f'(finite, m), got {" ".join(f"{v:g}" for v in e)}')
     if not 1 <= args.dpi <= 1200:
         raise ValueError(f'--dpi must be between 1 and 1200, got {args.dpi}')
+    workspace_maps.check(args)
     if args.markdown is not None and not args.markdown.endswith('.md'):
         raise ValueError(f'--markdown {args.markdown}: give a .md file')
     for path in (args.output, args.markdown):     # fail before the computation, not after
@@ -376,11 +412,29 @@ def run(args: argparse.Namespace) -> int:
     """The ``workspace`` subcommand: figure, summary on stdout, optional markdown."""
     t0 = time.perf_counter()
     _check(args)
-    model = load_model(args.params)
+    model = load_model(args.params, machines=MACHINES)
+    machine = fsd.machine_of(model)
 
     def progress(msg: str) -> None:
         print(f'[workspace] {msg}', file=sys.stderr, flush=True)
 
+    if machine.workspace is not None:
+        _refuse(args, ROLL_PANEL_OPTIONS, machine.name)
+        workspace_maps.run(model, machine.workspace, args, progress)
+    else:
+        _refuse(args, MAP_OPTIONS, machine.name)
+        _roll_panels(model, args, progress)
+    progress(f'wrote {args.output}' + (f' and {args.markdown}' if args.markdown else '')
+             + f' in {time.perf_counter() - t0:.1f} s')
+    return 0
+
+
+def _roll_panels(model: Model, args: argparse.Namespace, progress) -> None:
+    """The 3-DOF machine's panels per roll angle (module docstring)."""
+    for name, default in (('rolls', DEFAULT_ROLLS), ('range', DEFAULT_RANGE),
+                          ('zoom', DEFAULT_ZOOM), ('color_by', 'cond')):
+        if getattr(args, name) is None:
+            setattr(args, name, default if isinstance(default, str) else list(default))
     results = []
     for roll in args.rolls:
         progress(f'roll {roll:+g} deg')
@@ -394,6 +448,3 @@ def run(args: argparse.Namespace) -> int:
         text = markdown(results, motions, model, args, args.output, args.markdown)
         with atomic_output(args.markdown) as f:
             f.write(text.encode())
-    progress(f'wrote {args.output}' + (f' and {args.markdown}' if args.markdown else '')
-             + f' in {time.perf_counter() - t0:.1f} s')
-    return 0

@@ -143,7 +143,8 @@ def estimate_rows(t: np.ndarray, q: np.ndarray, qd: np.ndarray | None = None,
                   method: str = 'backward2', max_gap: float = 0.5,
                   angles: tuple[int, ...] = DEFAULT_ANGLES) -> tuple[np.ndarray, np.ndarray]:
     """Rates (``qd`` where given) and accelerations of the samples (t, q) as the
-    node estimates them, row by row (:meth:`DerivativeEstimator.update`).
+    node estimates them, row by row (:meth:`DerivativeEstimator.update`; the
+    coordinates ``angles`` unwrapped).
     """
     est = DerivativeEstimator(method, max_gap, angles=angles)
     rates, accs = np.empty_like(q), np.empty_like(q)

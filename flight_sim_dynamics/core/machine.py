@@ -25,6 +25,8 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
+from .drawing import Drawing
+from .effects import EFFECT_NAMES
 from .motion import Motion
 
 
@@ -83,6 +85,20 @@ class Machine:
     # s; motion.sampled(rate_hz) -> t, q, qd, qdd); the names ``example`` offers.
     motions: Mapping[str, Motion] = field(default_factory=dict, hash=False)
     examples: tuple[str, ...] = ()
+    # What a user sees beyond numbers (animate, workspace; RViz markers):
+    # ``drawing(model) -> Drawing`` (core/drawing.py); ``workspace(model,
+    # resolution=, extent=, at=, yaws=, orientation_extent=) -> Survey``
+    # (machines/stewart/workspace.py: ranges and maps at rest), None: the
+    # 3-DOF machine's roll panels of cli/workspace.py.
+    drawing: Callable[[Any], Drawing] | None = None
+    workspace: Callable[..., Any] | None = None
+    # What each effect costs (cli/bench.py): the effects the machine models
+    # (core/effects.py; others have nothing to act on), the built-in motions
+    # bench measures force errors on (the most demanding last), and whether its
+    # compiled kernel runs (``kernel_enabled()``).
+    effects: tuple[str, ...] = EFFECT_NAMES
+    bench_motions: tuple[str, ...] = ()
+    kernel_enabled: Callable[[], bool] = bool
 
     @property
     def dof(self) -> int:

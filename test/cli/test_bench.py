@@ -36,7 +36,7 @@ def test_quick_run_writes_a_table_row_per_variant_and_the_figure(quick_run):
     assert rc == 0
     for v in bench.variants():
         cells = row(md, v.key)
-        assert len(cells) == 4 + len(bench.TEST_MOTIONS)
+        assert len(cells) == 4 + len(fsd.machine_of(fsd.load_model()).bench_motions)
         median, p99 = float(cells[2]), float(cells[3])
         assert 0 < median <= p99
     assert (out / 'scenes.png').read_bytes()[:8] == PNG_SIGNATURE
@@ -79,8 +79,8 @@ def test_estimated_accelerations_get_better_with_rate():
 
 def test_estimator_keeps_exact_twists():
     q, qd, _ = bench.estimated('backward2', 250.0, 'violent', twist=True)
-    t = bench.sample_times(250.0, bench.duration('violent'))
-    np.testing.assert_array_equal(qd, bench.motion('violent', t)[1])
+    violent = fsd.machine_of(fsd.load_model()).motions['violent']
+    np.testing.assert_array_equal(qd, violent.sampled(250.0)[2])
 
 
 def test_update_docs_needs_the_repository_docs(tmp_path, monkeypatch, capsys):

@@ -322,8 +322,9 @@ def test_solve_table_matches_plain_assembly(capsys, kwargs):
 @pytest.mark.ros
 def test_solve_imports_only_what_it_needs(tmp_path):
     """`solve` configures its own subparser only: the modules behind the other
-    subcommands (bench, workspace, plotting) are not imported; --help still
-    lists every subcommand."""
+    subcommands (bench, workspace, plotting, animate) and matplotlib are not
+    imported (a machine's own modules are: its Machine record names them);
+    --help still lists every subcommand."""
     traj = tmp_path / 'traj.csv'
     t = np.arange(5) / 10.0
     q, qd, qdd = fsd.trajectories.paper_example('general', t)
@@ -337,7 +338,7 @@ def test_solve_imports_only_what_it_needs(tmp_path):
                          timeout=120)
     assert out.returncode == 0, out.stderr
     loaded = out.stdout
-    for module in ('bench', 'workspace', 'plotting', 'simulate', 'animate', 'matplotlib'):
+    for module in ('cli.bench', 'cli.workspace', 'cli.plotting', 'cli.animate', 'cli.simulate', 'matplotlib'):
         assert module not in loaded, loaded
     assert (tmp_path / 'o.csv').read_text().startswith('t,length_a')
     help_text = cli.build_parser('solve').format_help()

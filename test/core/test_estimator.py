@@ -8,7 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from flight_sim_dynamics.core.estimator import DerivativeEstimator, backward_derivative
+from flight_sim_dynamics.core.estimator import (DerivativeEstimator, backward_derivative,
+                                                estimate_rows, wrap_angle)
 from flight_sim_dynamics.machines.staicu.motions import motion
 
 
@@ -74,3 +75,16 @@ def test_estimator_of_six_coordinates_unwraps_the_angles_it_is_told():
     t = [0.0, 0.1, 0.25]
     quad = [(x * x,) * 6 for x in t]
     assert backward_derivative(t, quad, 2) == pytest.approx((0.5,) * 6)
+
+
+def test_every_angle_of_a_six_coordinate_pose_is_unwrapped():
+    """The hexapod's roll, pitch and yaw (coordinates 3-5) cross +-pi smoothly."""
+    t = np.arange(8) * 0.01
+    yaw = math.pi - 0.5 + 0.2 * t / 0.01             # 0.2 rad per sample, through pi
+    q = np.zeros((8, 6))
+    q[:, 5] = np.vectorize(wrap_angle)(yaw)
+    q[:, 0] = 0.1 * t
+    rates, accs = estimate_rows(t, q, angles=(3, 4, 5))
+    np.testing.assert_allclose(rates[1:, 5], 20.0, rtol=1e-9)
+    np.testing.assert_allclose(rates[1:, 0], 0.1, rtol=1e-9)
+    np.testing.assert_allclose(accs[3:], 0.0, atol=1e-6)

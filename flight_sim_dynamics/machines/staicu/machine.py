@@ -6,10 +6,12 @@ from __future__ import annotations
 import numpy as np
 
 from ...core.machine import ActuatorLimits, Machine
+from . import kernel
 from .forward_dynamics import forward_dynamics
 from .forward_kinematics import forward_kinematics
+from .mechanism import drawing
 from .model import JOINT_NAMES, LEG_NAMES, Model
-from .motions import MOTIONS
+from .motions import MOTIONS, TEST_MOTIONS
 from .solver import solve, solve_batch
 from .trajectories import PAPER_EXAMPLES
 
@@ -30,4 +32,8 @@ MACHINE = Machine(
     forward_dynamics=forward_dynamics, actuator_limits=actuator_limits,
     title='3-DOF flight simulator', leg_labels=('a', 'b', 'c'),
     sample_fields=('beta', 'kinematic_condition', 'jacobian_condition'),
-    costly_fields=('cond',), motions=MOTIONS, examples=tuple(PAPER_EXAMPLES))
+    costly_fields=('cond',), motions=MOTIONS, examples=tuple(PAPER_EXAMPLES),
+    # what a user sees beyond numbers
+    drawing=drawing,
+    # what each effect costs
+    bench_motions=TEST_MOTIONS, kernel_enabled=kernel.enabled)

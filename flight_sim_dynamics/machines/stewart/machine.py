@@ -1,12 +1,16 @@
 """The hexapod as the shared layer sees it (:class:`flight_sim_dynamics.core.machine.Machine`)."""
 from __future__ import annotations
 
+from ...core.effects import EFFECT_NAMES
 from ...core.machine import ActuatorLimits, Machine
+from . import kernel
+from .drawing import drawing
 from .forward_dynamics import forward_dynamics
 from .kinematics import forward_kinematics
 from .model import LEG_NAMES, PARAMETER_NAMES, StewartModel, from_dict
 from .motions import MOTIONS
 from .solver import COORDINATES, solve, solve_batch
+from .workspace import survey
 
 #: The joint variables of each leg, in the order of a solution's ``joints``
 #: (U-joint angles theta_1, theta_2 (S5), the prismatic joint's length L).
@@ -30,4 +34,9 @@ MACHINE = Machine(
     parameters=PARAMETER_NAMES, from_params=from_dict,
     parameter_files=('stewart_6dof', 'stewart_tsai2000'),
     title='6-DOF hexapod', leg_labels=tuple(str(i) for i in range(1, len(LEG_NAMES) + 1)),
-    sample_fields=('jacobian_condition',), motions=MOTIONS, examples=tuple(MOTIONS))
+    sample_fields=('jacobian_condition',), motions=MOTIONS, examples=tuple(MOTIONS),
+    # what a user sees beyond numbers
+    drawing=drawing, workspace=survey,
+    # what each effect costs: a hexapod has no cranks
+    effects=tuple(e for e in EFFECT_NAMES if e != 'crank_inertia'),
+    bench_motions=('gentle', 'cueing', 'violent'), kernel_enabled=kernel.enabled)

@@ -1,0 +1,141 @@
+"""``flight-sim-dynamics animate`` of a hexapod (--params naming it): the
+frames' points are the platform joints of the trajectory's poses (recovered
+from the leg lengths by forward kinematics, or read from the pose columns),
+the six legs end at the base joints, rows without a solution are drawn as
+such, and the GIF and the still render."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import flight_sim_dynamics as fsd
+from flight_sim_dynamics.cli import animate, csv_io
+from flight_sim_dynamics.cli.main import main
+from flight_sim_dynamics.machines.stewart.kinematics import leg_positions, rotation
+
+PARAMS = 'config/stewart_6dof.yaml'
+MODEL = fsd.load_model(PARAMS)
+MACHINE = fsd.machine_of(MODEL)
+
+
+def motion(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every coordinate a sine of its own amplitude (m, rad), 0.5 Hz."""
+    w, amp = math.pi, np.array([0.1, 0.08, 0.08, 0.12, 0.1, 0.25])
+    s, c = np.sin(w * t)[:, None], np.cos(w * t)[:, None]
+    return amp * s, amp * w * c, -amp * w * w * s
+
+
+def write_solved(path: Path, void: slice | None = None, pose: bool = False) -> np.ndarray:
+    """solve's output columns of the motion at 10 Hz over 2 s (the rows of
+    ``void`` with a NaN pose: invalid_input); returns the poses."""
+    t = np.arange(21) / 10.0
+    q, qd, qdd = motion(t)
+    asked = q.copy()
+    if void is not None:
+        asked[void, 0] = math.nan
+    sol = fsd.solve_batch(MODEL, asked, qd, qdd)
+    names = ['t'] + [f'{field}_{i}' for field in ('length', 'force') for i in range(1, 7)]
+    columns = [t, sol.length, sol.force]
+    if pose:
+        names += list(MACHINE.coordinates)
+        columns.append(q)
+    csv_io.write_csv(path, tuple(names), np.column_stack(columns),
+                     text=('status', [str(s) for s in sol.status]))
+    return q
+
+
+def joints_of(q: np.ndarray) -> np.ndarray:
+    """P_i = p + R p_i of pose q (the package's kinematics: test_drawing checks
+    them against stewart.md's definitions)."""
+    q = np.atleast_2d(q)
+    return leg_positions(MODEL, MODEL.home + q[:, :3], rotation(q)).P[0]
+
+
+@pytest.mark.parametrize('pose', [False, True], ids=['forward kinematics', 'pose columns'])
+def test_frames_are_the_platform_joints_of_the_poses(tmp_path, pose):
+    q = write_solved(tmp_path / 'out.csv', pose=pose)
+    solved = animate.read_solved(str(tmp_path / 'out.csv'), MACHINE)
+    assert (solved.pose is not None) is pose
+    frames = animate.frames(MODEL, solved, np.arange(0, 21, 2))
+    for frame in frames:
+        assert frame.solved and frame.status == 'ok'
+        want = joints_of(q[frame.row])
+        for i in range(6):
+            np.testing.assert_allclose(frame.points[f'P{i + 1}'], want[i], rtol=0, atol=1e-9)
+            np.testing.assert_array_equal(frame.points[f'B{i + 1}'], MODEL.base_joints[i])
+            length = np.linalg.norm(np.subtract(frame.points[f'P{i + 1}'],
+                                                frame.points[f'B{i + 1}']))
+            assert abs(length - solved.lengths[frame.row, i]) < 1e-9
+        assert frame.force == tuple(solved.force[frame.row])
+
+
+def test_rows_without_a_solution_are_drawn_as_such(tmp_path):
+    write_solved(tmp_path / 'out.csv', void=slice(5, 8))
+    solved = animate.read_solved(str(tmp_path / 'out.csv'), MACHINE)
+    frames = animate.frames(MODEL, solved, np.arange(21))
+    for frame in frames:
+        void = 5 <= frame.row < 8
+        assert frame.solved is not void
+        if void:
+            assert frame.status == 'invalid_input' and frame.force is None
+            assert frame.points == frames[4].points
+    first = animate.frames(MODEL, solved, np.arange(5, 10))
+    assert not first[0].solved and 'grey: home' in first[0].note
+    np.testing.assert_allclose(first[0].points['P1'], MODEL.home + MODEL.platform_joints[0],
+                               atol=1e-12)
+
+
+def test_renders_a_gif_and_a_still(tmp_path, capsys):
+    write_solved(tmp_path / 'out.csv', void=slice(5, 8))
+    gif, png = tmp_path / 'm.gif', tmp_path / 'still.png'
+    assert main(['animate', str(tmp_path / 'out.csv'), '--params', PARAMS, '-o', str(gif),
+                 '--every', '5', '--dpi', '20']) == 0
+    with Image.open(gif) as image:
+        assert image.n_frames == 5               # rows 0, 5, 10, 15, 20
+        assert image.size == (round(animate.FIGSIZE[0] * 20), round(animate.FIGSIZE[1] * 20))
+    assert main(['animate', str(tmp_path / 'out.csv'), '--params', PARAMS, '-o', str(png),
+                 '--at', '0.6', '--dpi', '20']) == 0
+    assert png.read_bytes().startswith(b'\x89PNG\r\n\x1a\n')
+
+
+def test_a_3dof_file_read_as_a_hexapod_names_the_missing_column(tmp_path, capsys):
+    assert main(['example', 'vertical', '--rate', '10', '-o', str(tmp_path / 'traj.csv')]) == 0
+    assert main(['solve', str(tmp_path / 'traj.csv'), '-o', str(tmp_path / 'out.csv')]) == 0
+    capsys.readouterr()
+    assert main(['animate', str(tmp_path / 'out.csv'), '--params', PARAMS, '-o',
+                 str(tmp_path / 'm.png')]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "'length_1'" in err[0]
+    assert not (tmp_path / 'm.png').exists()
+
+
+def test_a_built_in_motion_is_solved_and_drawn(tmp_path, capsys):
+    solved = animate.solve_motion(MODEL, 'violent')
+    t, q, qd, qdd = MACHINE.motions['violent'].sampled(animate.MOTION_RATE)
+    np.testing.assert_array_equal(solved.t, t)
+    np.testing.assert_array_equal(solved.pose, q)
+    np.testing.assert_array_equal(solved.force, fsd.solve_batch(MODEL, q, qd, qdd).force)
+    frame = animate.frames(MODEL, solved, [40])[0]
+    np.testing.assert_allclose([frame.points[f'P{i}'] for i in range(1, 7)], joints_of(q[40]),
+                               atol=1e-12)
+    png = tmp_path / 'violent.png'
+    assert main(['animate', '--motion', 'violent', '--params', PARAMS, '-o', str(png),
+                 '--dpi', '20']) == 0
+    assert png.read_bytes().startswith(b'\x89PNG')
+
+
+@pytest.mark.parametrize('argv, expect', [
+    (['--motion', 'vertical'], "'stewart'"),            # a 3-DOF motion
+    (['out.csv', '--motion', 'violent'], 'one of the two'),
+    ([], 'one of the two')])
+def test_motion_errors_are_one_line(tmp_path, capsys, argv, expect):
+    write_solved(tmp_path / 'out.csv')
+    argv = [str(tmp_path / a) if a.endswith('.csv') else a for a in argv]
+    assert main(['animate', *argv, '--params', PARAMS, '-o', str(tmp_path / 'm.png')]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and expect in err[0]
+    assert not (tmp_path / 'm.png').exists()
