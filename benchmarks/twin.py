@@ -20,7 +20,8 @@ from flight_sim_dynamics.config.scenes import available_scenes
 from flight_sim_dynamics.core import kernel as core_kernel
 from flight_sim_dynamics.machines.staicu import kernel
 from flight_sim_dynamics.machines.staicu.motions import TEST_MOTIONS, get
-from flight_sim_dynamics.machines.staicu.simulation import Reference, Servo, simulate
+from flight_sim_dynamics.core.interpolation import Reference
+from flight_sim_dynamics.machines.api import servo_for_bandwidth, simulate
 
 from ._common import header, table
 
@@ -59,7 +60,7 @@ def tracking(plant: fsd.Model, motions: Sequence[str], out: Path) -> list[list[s
     """
     from matplotlib.figure import Figure
 
-    servo = Servo.for_bandwidth(plant)
+    servo = servo_for_bandwidth(plant)
     scenes = (*available_scenes(), 'none')
     rows, bars = [], []
     for name in motions:

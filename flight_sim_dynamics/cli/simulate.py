@@ -11,9 +11,11 @@ import numpy as np
 
 import flight_sim_dynamics as fsd
 
+from ..core.interpolation import ForceHistory, Reference
+from ..core.servo import DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, Servo
+from ..core.simulation import DEFAULT_STEP
+from ..machines.api import servo_for_bandwidth, simulate
 from ..machines.staicu.motions import MOTIONS
-from ..machines.staicu.simulation import (DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, DEFAULT_STEP,
-                                          ForceHistory, Reference, Servo, simulate)
 from .csv_io import TRAJECTORY_COLUMNS, read_table, write_csv
 from .main import LEGS, load_model, read_trajectory, report_not_ok
 
@@ -98,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
                                                                    scene_option='--feedforward')
         hz = DEFAULT_BANDWIDTH_HZ if args.bandwidth is None else args.bandwidth
         servo = (Servo(tuple(args.gains[:3]), tuple(args.gains[3:])) if args.gains is not None
-                 else Servo.for_bandwidth(plant, hz, DEFAULT_DAMPING))
+                 else servo_for_bandwidth(plant, hz, DEFAULT_DAMPING))
         sim = simulate(plant, reference=reference, feedforward=feedforward,
                        servo=servo, initial=initial, step=args.step)
     columns = [sim.t, sim.q, sim.qd, sim.qdd, sim.length, sim.rate, sim.force]

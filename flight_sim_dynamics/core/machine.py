@@ -20,8 +20,9 @@ name it brings its own (:attr:`Machine.parameters`, :attr:`Machine.from_params`)
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any, Callable
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
@@ -68,6 +69,21 @@ class Machine:
     parameters: frozenset[str] = frozenset()
     from_params: Callable[..., Any] | None = None
     parameter_files: tuple[str, ...] = ()
+    # Simulation and the twin (core/simulation.py, core/twin.py). The affine terms of
+    # the inverse dynamics f = M(q) qdd + b(q, qd): ``affine_terms(model, q, qd) ->
+    # (M (dof, dof), b (legs,), the solve at qdd = 0)`` (M, b zeros where that solve is
+    # void; the solve gives length, rate, jacobian dL/dq, status, detail);
+    # ``require_inertia(model)``: ValueError for a scene whose forces do not determine
+    # accelerations; the kernel's RK4 of a tabulated force law, ``integrate_rows(model,
+    # law, step, k0, steps, rows) -> the first row not completed`` (None: no kernel
+    # loop), used while ``kernel_enabled()``.
+    affine_terms: Callable[..., tuple[np.ndarray, np.ndarray, Any]] | None = None
+    require_inertia: Callable[[Any], None] | None = None
+    integrate_rows: Callable[..., int] | None = None
+    kernel_enabled: Callable[[], bool] = bool
+    # Built-in reference motions, name -> a motion with ``duration`` (s) and
+    # ``trajectory(t) -> (q, qd, qdd)``, each (N, dof) (simulate --motion).
+    motions: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
 
     @property
     def dof(self) -> int:

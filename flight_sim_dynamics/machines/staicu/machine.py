@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...core.machine import ActuatorLimits, Machine
-from .forward_dynamics import forward_dynamics
+from . import kernel
+from .forward_dynamics import affine_terms, forward_dynamics, require_inertia
 from .forward_kinematics import forward_kinematics
 from .model import JOINT_NAMES, LEG_NAMES, Model
 from .solver import solve, solve_batch
@@ -25,4 +26,6 @@ MACHINE = Machine(
     name='flight_simulator_3dof', model_type=Model, coordinates=('surge', 'heave', 'roll'),
     units=('m', 'm', 'rad'), legs=LEG_NAMES, joints=JOINT_NAMES, solve=solve,
     solve_batch=solve_batch, forward_kinematics=forward_kinematics,
-    forward_dynamics=forward_dynamics, actuator_limits=actuator_limits)
+    forward_dynamics=forward_dynamics, actuator_limits=actuator_limits,
+    affine_terms=affine_terms, require_inertia=require_inertia,
+    integrate_rows=kernel.integrate_rows, kernel_enabled=kernel.enabled)

@@ -1,8 +1,12 @@
 """The hexapod as the shared layer sees it (:class:`flight_sim_dynamics.core.machine.Machine`)."""
 from __future__ import annotations
 
+import numpy as np
+
 from ...core.machine import ActuatorLimits, Machine
-from .forward_dynamics import forward_dynamics
+from . import kernel
+from .dynamics import has_inertia
+from .forward_dynamics import affine_terms, forward_dynamics
 from .kinematics import forward_kinematics
 from .model import LEG_NAMES, PARAMETER_NAMES, StewartModel, from_dict
 from .solver import COORDINATES, solve, solve_batch
@@ -21,10 +25,27 @@ def actuator_limits(model: StewartModel) -> ActuatorLimits:
                           max_speed=lim.max_speed, max_force=lim.max_force)
 
 
+def affine_parts(model: StewartModel, q, qd) -> tuple[np.ndarray, np.ndarray, object]:
+    """(M, b, the solve at qdd = 0) of f = M qdd + b (S10)-(S21), :func:`.affine_terms`."""
+    terms = affine_terms(model, q, qd)
+    return terms.M, terms.b, terms.solution
+
+
+def require_inertia(model: StewartModel) -> None:
+    """ValueError unless the model's scene moves some body (M != 0)."""
+    if not has_inertia(model):
+        raise ValueError(f"scene '{model.scene}' computes no inertia (enabled effects: "
+                         f"{', '.join(model.effects.enabled()) or 'none'}), so forces do not "
+                         'determine accelerations; forward dynamics and simulation need a scene '
+                         'with inertia, e.g. full')
+
+
 MACHINE = Machine(
     name='stewart', model_type=StewartModel, coordinates=COORDINATES,
     units=('m', 'm', 'm', 'rad', 'rad', 'rad'), legs=LEG_NAMES, joints=JOINT_NAMES,
     solve=solve, solve_batch=solve_batch, forward_kinematics=forward_kinematics,
     forward_dynamics=forward_dynamics, actuator_limits=actuator_limits,
     parameters=PARAMETER_NAMES, from_params=from_dict,
-    parameter_files=('stewart_6dof', 'stewart_tsai2000'))
+    parameter_files=('stewart_6dof', 'stewart_tsai2000'),
+    affine_terms=affine_parts, require_inertia=require_inertia,
+    integrate_rows=None, kernel_enabled=kernel.enabled)
