@@ -48,4 +48,4 @@ MACHINE = Machine(
     parameters=PARAMETER_NAMES, from_params=from_dict,
     parameter_files=('stewart_6dof', 'stewart_tsai2000'),
     affine_terms=affine_parts, require_inertia=require_inertia,
-    integrate_rows=None, kernel_enabled=kernel.enabled)
+    integrate_rows=kernel.integrate_rows, kernel_enabled=kernel.enabled)
