@@ -1,8 +1,9 @@
 """The hexapod's compiled solve (``kernel.c`` here, built as ``_kernel``;
 docs/kernel.md): (S1)-(S23) and the status rule of :mod:`.solver` in C, one
-sample or a batch; and the twin's RK4 loop (:func:`integrate_rows`). :mod:`.solver` uses it when it is built, unless FSD_KERNEL=0
-or :func:`flight_sim_dynamics.core.kernel.use_kernel` (False) asks for the
-numpy code, the reference it is tested against. The layouts are declared once,
+sample or a batch; and the twin's RK4 loop (:func:`integrate_rows`).
+:mod:`.solver` and the twin use it when it is built, unless FSD_KERNEL=0 or
+:func:`flight_sim_dynamics.core.kernel.use_kernel` (False) asks for the numpy
+code, the reference it is tested against. The layouts are declared once,
 in the C source; this module checks them against the package's own lists.
 """
 from __future__ import annotations
