@@ -22,6 +22,8 @@ from . import csv_io
 from ..config.parameters import packaged_values
 from ..config.scenes import SceneError
 from ..core.estimator import estimate_rows
+from ..core.machine import Machine
+from ..machines import FLIGHT_SIMULATOR
 from ..machines.staicu.forward_kinematics import poses_along
 from ..machines.staicu.model import JOINT_NAMES, Model
 from ..machines.staicu.trajectories import DURATION, PAPER_EXAMPLES, paper_example, sample_times
@@ -59,9 +61,11 @@ class CliError(Exception):
 
 
 def load_model(params: str | None, scene: str | None = None, option: str = '--params',
-               scene_option: str = '--scene') -> Model:
-    """The model of ``--params`` and ``--scene``; a CliError names the option at
-    fault, a note the file's values of an effect the scene leaves off.
+               scene_option: str = '--scene', *,
+               machines: Sequence[Machine] = (FLIGHT_SIMULATOR,)) -> Model:
+    """The model of ``--params`` and ``--scene``, of one of the ``machines`` a
+    command serves; a CliError names the option at fault, a note the file's
+    values of an effect the scene leaves off.
     """
     if params is not None and not os.path.isfile(params):
         raise CliError(f"{option} {params}: no such file")
@@ -71,10 +75,13 @@ def load_model(params: str | None, scene: str | None = None, option: str = '--pa
         raise CliError(f'{scene_option}: {exc}') from None
     except fsd.ParameterError as exc:
         raise CliError(f"{option} {params or '(packaged defaults)'}: {exc}") from None
-    if not isinstance(model, Model):
-        raise CliError(f"{option} {params}: machine '{fsd.machine_of(model).name}' "
-                       f"({model.name}): the command line serves the 3-DOF machine")
-    unused = [k for k, v in model.values.items() if k.split('.')[0] in ('payload', 'friction')
+    machine = fsd.machine_of(model)
+    if not any(machine is m for m in machines):
+        served = ' and '.join(f'the {m.dof}-DOF {m.name}' for m in machines)
+        raise CliError(f"{option} {params}: machine '{machine.name}' ({model.name}): this "
+                       f'command serves {served}')
+    unused = [k for k, v in getattr(model, 'values', {}).items()
+              if k.split('.')[0] in ('payload', 'friction')
               and not getattr(model.effects, k.split('.')[0]) and v != packaged_values().get(k)]
     if unused:
         print(f"note: {option} {params}: {', '.join(unused)} not simulated: scene "

@@ -10,6 +10,7 @@ from . import kernel
 from .forward_dynamics import affine_terms, forward_dynamics, require_inertia
 from .forward_kinematics import forward_kinematics
 from .model import JOINT_NAMES, LEG_NAMES, Model
+from .motions import MOTIONS
 from .solver import solve, solve_batch
 
 
@@ -28,4 +29,4 @@ MACHINE = Machine(
     solve_batch=solve_batch, forward_kinematics=forward_kinematics,
     forward_dynamics=forward_dynamics, actuator_limits=actuator_limits,
     affine_terms=affine_terms, require_inertia=require_inertia,
-    integrate_rows=kernel.integrate_rows, kernel_enabled=kernel.enabled)
+    integrate_rows=kernel.integrate_rows, kernel_enabled=kernel.enabled, motions=MOTIONS)
