@@ -596,11 +596,12 @@ static double deliver(double command, double rate, double max_force, double max_
     return force;
 }
 
-/* inv = A^-1 (6x6, row-major; A destroyed) by LU with partial pivoting; 0 if A
-   is exactly singular */
+/* inv = A^-1 (6x6, row-major; A destroyed) by LU with partial pivoting, the
+   pivots' reciprocals computed once; 0 if A is exactly singular */
 static int invert6(double A[6][6], double inv[6][6])
 {
-    int perm[6] = {0, 1, 2, 3, 4, 5};
+    int row_of[6] = {0, 1, 2, 3, 4, 5};         /* row_of[r]: A's row now at r */
+    double rp[6];
     for (int c = 0; c < 6; c++) {
         int p = c;
         for (int r = c + 1; r < 6; r++)
@@ -612,31 +613,33 @@ static int invert6(double A[6][6], double inv[6][6])
             for (int j = 0; j < 6; j++) {
                 double t = A[c][j]; A[c][j] = A[p][j]; A[p][j] = t;
             }
-            int t = perm[c]; perm[c] = perm[p]; perm[p] = t;
+            int t = row_of[c]; row_of[c] = row_of[p]; row_of[p] = t;
         }
+        rp[c] = 1.0 / A[c][c];
         for (int r = c + 1; r < 6; r++) {
-            double l = A[r][c] / A[c][c];
+            double l = A[r][c] * rp[c];
             A[r][c] = l;
             for (int j = c + 1; j < 6; j++)
                 A[r][j] -= l * A[c][j];
         }
     }
-    for (int e = 0; e < 6; e++) {               /* column e of the inverse */
-        double y[6];
-        for (int r = 0; r < 6; r++) {
-            double s = perm[r] == e ? 1.0 : 0.0;
-            for (int j = 0; j < r; j++)
+    for (int r0 = 0; r0 < 6; r0++) {            /* the column e_{row_of[r0]} of the inverse */
+        double y[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+        y[r0] = 1.0;                            /* L y = P e: zero above r0 */
+        for (int r = r0 + 1; r < 6; r++) {
+            double s = 0.0;
+            for (int j = r0; j < r; j++)
                 s -= A[r][j] * y[j];
             y[r] = s;
         }
-        for (int r = 5; r >= 0; r--) {
+        for (int r = 5; r >= 0; r--) {          /* U x = y */
             double s = y[r];
             for (int j = r + 1; j < 6; j++)
                 s -= A[r][j] * y[j];
-            y[r] = s / A[r][r];
+            y[r] = s * rp[r];
         }
         for (int r = 0; r < 6; r++)
-            inv[r][e] = y[r];
+            inv[r][row_of[r0]] = y[r];
     }
     return 1;
 }
@@ -701,11 +704,24 @@ static void unit_wrenches(const double *P, int fx, const platform_motion *pm,
             double inv_L = g[i].inv_L, s2 = g[i].s2, ic2 = g[i].inv_c2 * g[i].inv_c2;
             double alpha = ((I_pm + I_across) * inv_L - 2.0 * rod[K_MASS] * rod[K_COM]) * inv_L;
             double beta = s2 * s2 * I_along * ic2 * ic2 * inv_L * inv_L;
+            const double u[3] = {g[i].u.x, g[i].u.y, g[i].u.z};
+            const double n[3] = {g[i].a1xu.x, g[i].a1xu.y, g[i].a1xu.z};
+            v3 A[3];                                /* G_i = A_i a_P, column by column */
+            for (int c = 0; c < 3; c++) {
+                double col[3];
+                for (int r = 0; r < 3; r++)
+                    col[r] = (r == c ? rod[K_MASS] + alpha : 0.0) - alpha * u[r] * u[c]
+                             + beta * n[r] * n[c];
+                A[c] = vec(col[0], col[1], col[2]);
+            }
             for (int j = 0; j < 6; j++) {
-                v3 aP = add(lin[j], cross(ang[j], g[i].r));
-                v3 across = sub(aP, scale(dot(g[i].u, aP), g[i].u));
-                v3 G = add(add(scale(rod[K_MASS], aP), scale(alpha, across)),
-                           scale(beta * dot(g[i].a1xu, aP), g[i].a1xu));
+                v3 G;
+                if (j < 3) {                        /* a_P = e_j */
+                    G = A[j];
+                } else {
+                    v3 aP = cross(ang[j], g[i].r);
+                    G = add(add(scale(aP.x, A[0]), scale(aP.y, A[1])), scale(aP.z, A[2]));
+                }
                 F[j] = add(F[j], G);
                 M[j] = add(M[j], cross(g[i].r, G));
             }
