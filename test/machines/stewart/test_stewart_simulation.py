@@ -269,3 +269,15 @@ def test_a_scene_without_inertia_cannot_be_simulated():
     static = MODEL.with_effects(Effects(platform_inertia=False, leg_inertia=False))
     with pytest.raises(ValueError, match='computes no inertia'):
         fsd.simulate(static, forces=([0, 1], np.zeros((2, 6))))
+
+
+def test_default_gains_are_a_critically_damped_leg_at_the_bandwidth():
+    servo = fsd.servo_for_bandwidth(MODEL, 4.0, 0.8)
+    base = fsd.solve(MODEL, ZERO, ZERO, ZERO)
+    # leg-space mass: the force per unit leg acceleration, M J_L^-1, from six solves
+    mass = np.array([fsd.solve(MODEL, ZERO, ZERO, np.linalg.solve(base.jacobian, e)).force
+                     - base.force for e in np.eye(6)]).T
+    w = 2 * np.pi * 4.0
+    np.testing.assert_allclose(servo.kp, np.diag(mass) * w ** 2, rtol=1e-9)
+    np.testing.assert_allclose(servo.kd, 2.0 * 0.8 * np.diag(mass) * w, rtol=1e-9)
+    assert len(servo.kp) == 6 and min(servo.kp) > 0
