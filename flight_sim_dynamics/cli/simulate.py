@@ -120,9 +120,10 @@ def _reference(args: argparse.Namespace, plant, machine: Machine, names: Columns
         return Reference.from_samples(table['t'], *cols, dof=dof)
     motion = machine.motions.get(args.motion)
     if motion is None:
-        raise CliError(f"--motion: invalid choice: {args.motion!r} (choose from "
-                       f"{', '.join(repr(m) for m in machine.motions) or 'none'}: the built-in "
-                       f"motions of machine '{machine.name}')")
+        choices = ', '.join(repr(m) for m in machine.motions)
+        raise CliError(f'--motion: invalid choice: {args.motion!r} ' + (
+            f"(choose from {choices}: the built-in motions of machine '{machine.name}')"
+            if choices else f"(machine '{machine.name}' has no built-in motion)"))
     return Reference.from_motion(motion)
 
 
