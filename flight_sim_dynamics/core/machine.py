@@ -76,7 +76,7 @@ class Machine:
     # ``require_inertia(model)``: ValueError for a scene whose forces do not determine
     # accelerations; the kernel's RK4 of a tabulated force law, ``integrate_rows(model,
     # law, step, k0, steps, rows) -> the first row not completed`` (None: no kernel
-    # loop), used while ``kernel_enabled()``.
+    # loop), used while ``kernel_enabled()`` (the default, ``bool()``: never).
     affine_terms: Callable[..., tuple[np.ndarray, np.ndarray, Any]] | None = None
     require_inertia: Callable[[Any], None] | None = None
     integrate_rows: Callable[..., int] | None = None
