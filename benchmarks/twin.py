@@ -1,6 +1,8 @@
-"""The twin's real-time factor (``fsd.simulate``, ``violent``, RK4 at 1 kHz,
-closed and open loop), kernel and Python code (its first --python-seconds) in
-one run; --out: also the tracking error by feed-forward scene, and its figure.
+"""The twin's real-time factor (``fsd.simulate``, RK4 at 1 kHz, closed and open
+loop), kernel and Python code (its first --python-seconds) in one run, for the
+3-DOF machine (``violent``) and the 6-DOF hexapod (stewart_6dof, a sum of sines
+of 3 s about home, peak leg rate 1.1 m/s); --out: also the 3-DOF tracking
+error by feed-forward scene, and its figure.
 
     python -m benchmarks.twin [--repeats 11] [--quick] [--out docs/twin_tracking.png]
 """
@@ -18,11 +20,30 @@ import numpy as np
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config.scenes import available_scenes
 from flight_sim_dynamics.core import kernel as core_kernel
-from flight_sim_dynamics.machines.staicu import kernel
+from flight_sim_dynamics.core.interpolation import Reference
+from flight_sim_dynamics.machines.api import servo_for_bandwidth, simulate
 from flight_sim_dynamics.machines.staicu.motions import TEST_MOTIONS, get
-from flight_sim_dynamics.machines.staicu.simulation import Reference, Servo, simulate
 
-from ._common import header, table
+from ._common import ROOT, header, table
+
+#: The hexapod's motion: amplitudes (m, rad) and frequencies (Hz) of one sine
+#: per coordinate about home (surge, sway, heave, roll, pitch, yaw), and its length.
+HEXAPOD_SINES = ((0.04, 0.03, 0.025, 0.05, 0.04, 0.06), (1.7, 2.3, 2.9, 2.1, 2.6, 1.9))
+HEXAPOD_SECONDS = 3.0
+
+
+def hexapod_motion(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """q, qd, qdd (each (N, 6)) of the hexapod's motion at times ``t``."""
+    a, w = np.array(HEXAPOD_SINES[0]), 2.0 * np.pi * np.array(HEXAPOD_SINES[1])
+    t = np.atleast_1d(np.asarray(t, dtype=float))[:, None]
+    return a * np.sin(w * t), a * w * np.cos(w * t), -a * w * w * np.sin(w * t)
+
+
+def kernel_built(model) -> bool:
+    """True when the model's machine has its twin loop in a built kernel."""
+    machine = fsd.machine_of(model)
+    with core_kernel.use_kernel(True):
+        return machine.integrate_rows is not None and machine.kernel_enabled()
 
 
 def real_time_factor(run: Callable[[], fsd.Simulation], repeats: int) -> float:
@@ -34,20 +55,26 @@ def real_time_factor(run: Callable[[], fsd.Simulation], repeats: int) -> float:
     return statistics.median(factors)
 
 
-def speed(plant: fsd.Model, motion: str, repeats: int, python_s: float) -> list[list[str]]:
-    reference = get(motion)
-    t, q, qd, qdd = reference.sampled(1000.0)
+def speed(plant, reference: Reference, repeats: int, python_s: float,
+          has_kernel: bool) -> list[list[str]]:
+    """Closed loop (the plant's own feed-forward) and open loop (the reference's
+    inverse-dynamics forces at 1 kHz) of ``reference``: real-time factors.
+    """
+    t = np.linspace(reference.start, reference.end,
+                    int(round((reference.end - reference.start) * 1000.0)) + 1)
+    q, qd, qdd = reference.motion(t)
     forces = (t, fsd.solve_batch(plant, q, qd, qdd).force)
+    initial = (q[0], qd[0])
     rows = int(round(python_s * 1000.0)) + 1
-    paths = [('kernel', True)] if kernel.available() else []
+    paths = [('kernel', True)] if has_kernel else []
     out = []
     for label, on in paths + [('Python', False)]:
-        ref = reference if on else replace(Reference.from_motion(reference), end=python_s)
+        ref = reference if on else replace(reference, end=reference.start + python_s)
         f = forces if on else (t[:rows], forces[1][:rows])
         n = repeats if on else min(repeats, 3)
         with core_kernel.use_kernel(on):
             closed = real_time_factor(lambda: simulate(plant, reference=ref, feedforward=plant), n)
-            opened = real_time_factor(lambda: simulate(plant, forces=f), n)
+            opened = real_time_factor(lambda: simulate(plant, forces=f, initial=initial), n)
         span = 'whole motion' if on else f'first {python_s:g} s'
         out.append([label, span, str(n), f'{closed:.2f}', f'{opened:.2f}'])
     return out
@@ -59,7 +86,7 @@ def tracking(plant: fsd.Model, motions: Sequence[str], out: Path) -> list[list[s
     """
     from matplotlib.figure import Figure
 
-    servo = Servo.for_bandwidth(plant)
+    servo = servo_for_bandwidth(plant)
     scenes = (*available_scenes(), 'none')
     rows, bars = [], []
     for name in motions:
@@ -101,9 +128,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     motion = 'vertical' if args.quick else 'violent'
     repeats = 1 if args.quick else args.repeats
     python_s = 0.05 if args.quick else args.python_seconds
-    print(header(f'{motion} motion, RK4 1 kHz, median of the runs'))
-    print(table(['path', 'timed', 'runs', 'closed-loop real-time factor',
-                 'open-loop real-time factor'], speed(plant, motion, repeats, python_s)))
+    factors = ['closed-loop real-time factor', 'open-loop real-time factor']
+    print(header(f'3-DOF: {motion} motion; 6-DOF: stewart_6dof, '
+                 f'{0.5 if args.quick else HEXAPOD_SECONDS:g} s of sines; RK4 1 kHz, median '
+                 'of the runs'))
+    print(table(['path', 'timed', 'runs', *factors],
+                speed(plant, Reference.from_motion(get(motion)), repeats, python_s,
+                      kernel_built(plant))))
+    hexapod = fsd.load_model(str(ROOT / 'config' / 'stewart_6dof.yaml'))
+    print()
+    print(table(['6-DOF path', 'timed', 'runs', *factors],
+                speed(hexapod, Reference(hexapod_motion, 0.0,
+                                         0.5 if args.quick else HEXAPOD_SECONDS),
+                      repeats, python_s, kernel_built(hexapod))))
     if args.out is not None:
         motions = ('vertical',) if args.quick else TEST_MOTIONS
         print()

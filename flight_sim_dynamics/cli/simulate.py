@@ -1,51 +1,78 @@
 """``flight-sim-dynamics simulate``: the digital twin on files
-(:func:`flight_sim_dynamics.simulate`), open loop (``--forces``) or closed loop
-(``--reference``, ``--motion``); a run that stops writes its rows and exits 1.
+(:func:`flight_sim_dynamics.simulate`) for any machine (the plant's parameter
+file names it), open loop (``--forces``) or closed loop (``--reference``,
+``--motion``); a run that stops writes its rows and exits 1. Column names come
+from the plant's machine (:func:`columns`).
 """
 from __future__ import annotations
 
 import argparse
 import sys
+from typing import NamedTuple
 
 import numpy as np
 
 import flight_sim_dynamics as fsd
 
-from ..machines.staicu.motions import MOTIONS
-from ..machines.staicu.simulation import (DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, DEFAULT_STEP,
-                                          ForceHistory, Reference, Servo, simulate)
-from .csv_io import TRAJECTORY_COLUMNS, read_table, write_csv
-from .main import LEGS, load_model, read_trajectory, report_not_ok
+from ..core.interpolation import ForceHistory, Reference
+from ..core.machine import Machine
+from ..core.servo import DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, Servo
+from ..core.simulation import DEFAULT_STEP
+from ..machines import MACHINES
+from ..machines.api import servo_for_bandwidth, simulate
+from .csv_io import read_table, write_csv
+from .columns import per_leg, trajectory_columns
+from .main import CliError, load_model, read_trajectory, report_not_ok
 
-FORCE_COLUMNS = ('t',) + tuple(f'force_{leg}' for leg in LEGS)
-POSE = ('surge', 'heave', 'roll')
-#: Output columns, in order (closed loop adds ERROR_COLUMNS; then ``status``).
-OUTPUT_COLUMNS = (TRAJECTORY_COLUMNS + tuple(f'length_{leg}' for leg in LEGS)
-                  + tuple(f'rate_{leg}' for leg in LEGS) + tuple(f'force_{leg}' for leg in LEGS))
-ERROR_COLUMNS = (tuple(f'{name}_error' for name in POSE)
-                 + tuple(f'length_error_{leg}' for leg in LEGS))
 #: The most ``simulate`` reads of an input file: its rows are held in memory several times.
 MAX_INPUT_BYTES = 64 << 20
 
 
+class Columns(NamedTuple):
+    """A machine's column names in ``simulate``'s files."""
+
+    trajectory: tuple[str, ...]   # t, the pose, its rates (_rate) and accelerations (_acc)
+    forces: tuple[str, ...]       # t, force_<leg>: the open loop's input
+    output: tuple[str, ...]       # the trajectory, length_<leg>, rate_<leg>, force_<leg>
+    errors: tuple[str, ...]       # closed loop: <coordinate>_error, length_error_<leg>
+
+
+def columns(machine: Machine) -> Columns:
+    """The names of ``machine``'s columns in ``simulate``'s files (cli/columns.py)."""
+    pose = machine.coordinates
+    per_leg_names = [per_leg(machine, field) for field in ('length', 'rate', 'force')]
+    trajectory = trajectory_columns(machine)
+    return Columns(trajectory, ('t',) + per_leg_names[2], trajectory + sum(per_leg_names, ()),
+                   tuple(f'{c}_error' for c in pose) + per_leg(machine, 'length_error'))
+
+
+#: The default machine's output columns (closed loop adds ERROR_COLUMNS; then ``status``).
+OUTPUT_COLUMNS, ERROR_COLUMNS = columns(MACHINES[0])[2:]
+
+
 def configure(p: argparse.ArgumentParser) -> None:
+    default = columns(MACHINES[0])
     source = p.add_mutually_exclusive_group(required=True)
     source.add_argument('--forces', metavar='CSV',
-                        help='open loop: actuator forces, columns ' + ','.join(FORCE_COLUMNS)
-                             + " ('-' for standard input; solve's output, CSV or .npz, will do)")
+                        help='open loop: actuator forces, columns t,force_<leg> (3-DOF: '
+                             + ','.join(default.forces) + "; '-' for standard input; solve's "
+                             'output, CSV or .npz, will do)')
     source.add_argument('--reference', metavar='CSV',
-                        help='closed loop: a reference motion, the trajectory CSV solve reads ('
-                             + ','.join(TRAJECTORY_COLUMNS) + '; missing rates or accelerations '
-                             'estimated as solve does)')
-    source.add_argument('--motion', choices=tuple(MOTIONS),
-                        help='closed loop: a built-in reference motion')
+                        help='closed loop: a reference motion, the trajectory CSV solve reads '
+                             '(3-DOF: ' + ','.join(default.trajectory) + '; missing rates or '
+                             'accelerations estimated as solve does)')
+    source.add_argument('--motion', metavar='NAME',
+                        help="closed loop: a built-in reference motion of the plant's machine "
+                             f"(3-DOF: {', '.join(MACHINES[0].motions)})")
     p.add_argument('-o', '--output', required=True, metavar='CSV',
-                   help="simulated motion to write ('-' for standard output): "
-                        + ','.join(OUTPUT_COLUMNS) + ', in closed loop '
-                        + ','.join(ERROR_COLUMNS) + ', then status')
+                   help="simulated motion to write ('-' for standard output): the trajectory, "
+                        'length_<leg>, rate_<leg>, force_<leg>, in closed loop '
+                        '<coordinate>_error, length_error_<leg>, then status (3-DOF: '
+                        + ','.join(OUTPUT_COLUMNS + ERROR_COLUMNS) + ',status)')
     p.add_argument('--params', metavar='YAML', default=None,
                    help="the controller's parameter file, and the plant's unless "
-                        '--plant-params (default: the packaged parameters)')
+                        '--plant-params (default: the packaged parameters; a file naming its '
+                        'machine, e.g. config/stewart_6dof.yaml, simulates that machine)')
     p.add_argument('--plant-params', metavar='YAML', default=None,
                    help='parameter file of the simulated machine (default: --params)')
     p.add_argument('--plant-scene', metavar='NAME_OR_YAML', default=None,
@@ -58,15 +85,42 @@ def configure(p: argparse.ArgumentParser) -> None:
     gains.add_argument('--bandwidth', type=float, default=None, metavar='HZ',
                        help='closed loop: critically damped servo gains of this bandwidth '
                             f'(default {DEFAULT_BANDWIDTH_HZ:g} Hz)')
-    gains.add_argument('--gains', type=float, nargs=6, default=None,
-                       metavar=('KP_A', 'KP_B', 'KP_C', 'KD_A', 'KD_B', 'KD_C'),
-                       help='closed loop: PD gains per actuator, N/m and N s/m')
+    gains.add_argument('--gains', type=float, nargs='+', default=None, metavar='GAIN',
+                       help='closed loop: PD gains per actuator, kp of each leg (N/m) then kd '
+                            'of each leg (N s/m): 6 numbers for the 3-DOF machine '
+                            '(KP_A KP_B KP_C KD_A KD_B KD_C), 12 for a hexapod')
     p.add_argument('--step', type=float, default=DEFAULT_STEP, metavar='S',
                    help=f'RK4 step, s (default {DEFAULT_STEP:g})')
-    p.add_argument('--initial', type=float, nargs=6, default=None,
-                   metavar=('SURGE', 'HEAVE', 'ROLL', 'SURGE_RATE', 'HEAVE_RATE', 'ROLL_RATE'),
-                   help="initial state (m, rad, m/s, rad/s); default: rest, or the reference's "
-                        'start')
+    p.add_argument('--initial', type=float, nargs='+', default=None, metavar='X',
+                   help='initial state: the pose then its rates (m, rad, m/s, rad/s), 6 numbers '
+                        'for the 3-DOF machine (SURGE HEAVE ROLL SURGE_RATE HEAVE_RATE '
+                        "ROLL_RATE), 12 for a hexapod; default: rest, or the reference's start")
+
+
+def _split(option: str, values: list[float] | None, n: int, what: str
+           ) -> tuple[list[float], list[float]] | None:
+    """``values`` as two halves of ``n`` numbers each; CliError for another count."""
+    if values is None:
+        return None
+    if len(values) != 2 * n:
+        raise CliError(f'{option}: expected {2 * n} numbers ({what}), got {len(values)}')
+    return values[:n], values[n:]
+
+
+def _reference(args: argparse.Namespace, plant, machine: Machine, names: Columns) -> Reference:
+    if args.reference is not None:
+        table = read_trajectory(args.reference, plant, limit=MAX_INPUT_BYTES)
+        dof = machine.dof
+        cols = [np.column_stack([table[n] for n in names.trajectory[k:k + dof]])
+                for k in (1, 1 + dof, 1 + 2 * dof)]
+        return Reference.from_samples(table['t'], *cols, dof=dof)
+    motion = machine.motions.get(args.motion)
+    if motion is None:
+        choices = ', '.join(repr(m) for m in machine.motions)
+        raise CliError(f'--motion: invalid choice: {args.motion!r} ' + (
+            f"(choose from {choices}: the built-in motions of machine '{machine.name}')"
+            if choices else f"(machine '{machine.name}' has no built-in motion)"))
+    return Reference.from_motion(motion)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -79,34 +133,34 @@ def run(args: argparse.Namespace) -> int:
                          'not with --forces')
     plant_params = args.plant_params if args.plant_params is not None else args.params
     plant = load_model(plant_params, args.plant_scene,
-                       '--plant-params' if args.plant_params else '--params', '--plant-scene')
-    initial = None if args.initial is None else (args.initial[:3], args.initial[3:])
+                       '--plant-params' if args.plant_params else '--params', '--plant-scene',
+                       machines=MACHINES)
+    machine = fsd.machine_of(plant)
+    names = columns(machine)
+    initial = _split('--initial', args.initial, machine.dof,
+                     f"{', '.join(machine.coordinates)} and their rates")
+    gains = _split('--gains', args.gains, len(machine.legs), 'kp then kd of each leg')
     if args.forces is not None:
-        table = read_table(args.forces, required=FORCE_COLUMNS, limit=MAX_INPUT_BYTES)
-        forces = ForceHistory(table['t'], np.column_stack([table[n] for n in FORCE_COLUMNS[1:]]))
+        table = read_table(args.forces, required=names.forces, limit=MAX_INPUT_BYTES)
+        forces = ForceHistory(table['t'], np.column_stack([table[n] for n in names.forces[1:]]),
+                              len(machine.legs))
         sim = simulate(plant, forces=forces, initial=initial, step=args.step)
     else:
-        if args.reference is not None:
-            table = read_trajectory(args.reference, plant, limit=MAX_INPUT_BYTES)
-            cols = [np.column_stack([table[n] for n in TRAJECTORY_COLUMNS[k:k + 3]])
-                    for k in (1, 4, 7)]
-            reference = Reference.from_samples(table['t'], *cols)
-        else:
-            reference = Reference.from_motion(MOTIONS[args.motion])
+        reference = _reference(args, plant, machine, names)
         scene = args.feedforward if args.feedforward is not None else plant.scene
-        feedforward = None if scene == 'none' else load_model(args.params, scene,
-                                                                   scene_option='--feedforward')
+        feedforward = None if scene == 'none' else load_model(
+            args.params, scene, scene_option='--feedforward', machines=MACHINES)
         hz = DEFAULT_BANDWIDTH_HZ if args.bandwidth is None else args.bandwidth
-        servo = (Servo(tuple(args.gains[:3]), tuple(args.gains[3:])) if args.gains is not None
-                 else Servo.for_bandwidth(plant, hz, DEFAULT_DAMPING))
+        servo = (Servo(tuple(gains[0]), tuple(gains[1])) if gains is not None
+                 else servo_for_bandwidth(plant, hz, DEFAULT_DAMPING))
         sim = simulate(plant, reference=reference, feedforward=feedforward,
                        servo=servo, initial=initial, step=args.step)
-    columns = [sim.t, sim.q, sim.qd, sim.qdd, sim.length, sim.rate, sim.force]
-    names = OUTPUT_COLUMNS
+    data = [sim.t, sim.q, sim.qd, sim.qdd, sim.length, sim.rate, sim.force]
+    header = names.output
     if sim.pose_error is not None:
-        columns += [sim.pose_error, sim.length_error]
-        names += ERROR_COLUMNS
-    write_csv(args.output, names, np.column_stack(columns),
+        data += [sim.pose_error, sim.length_error]
+        header += names.errors
+    write_csv(args.output, header, np.column_stack(data),
               text=('status', [str(s) for s in sim.status]))
     summary = (f"simulate: plant scene '{plant.scene}', {len(sim.t)} rows, t = {sim.t[0]:g} to "
                f'{sim.t[-1]:g} s, {sim.outcome}')
@@ -114,7 +168,7 @@ def run(args: argparse.Namespace) -> int:
         e = sim.tracking()
         summary += '; tracking error max (RMS): ' + ', '.join(
             f"{n} {e[n + '_max']:.3g} ({e[n + '_rms']:.3g}) {unit}"
-            for n, unit in (('surge', 'm'), ('heave', 'm'), ('roll', 'rad'), ('length', 'm')))
+            for n, unit in zip(machine.coordinates + ('length',), machine.units + ('m',)))
     print(summary, file=sys.stderr if args.output == '-' else sys.stdout)
     report_not_ok('', sim.status, sim.detail, lambda i: f't = {sim.t[i]:.6g} s')
     if sim.outcome != fsd.Status.OK:

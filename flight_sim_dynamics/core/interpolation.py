@@ -21,14 +21,15 @@ class MotionLike(Protocol):
     def trajectory(self, t: np.ndarray) -> Trajectory: ...
 
 
-def finite_rows(name: str, value: object, n: int | None = None) -> np.ndarray:
-    """An (N, 3) array of finite numbers, or ValueError naming ``name``."""
+def finite_rows(name: str, value: object, n: int | None = None, columns: int = 3
+                ) -> np.ndarray:
+    """An (N, columns) array of finite numbers, or ValueError naming ``name``."""
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
         raise ValueError(f'{name} must be numbers, got {value!r:.100}') from None
-    if arr.ndim != 2 or arr.shape[1] != 3 or (n is not None and arr.shape[0] != n):
-        raise ValueError(f'{name} must have shape ({n if n is not None else "N"}, 3), '
+    if arr.ndim != 2 or arr.shape[1] != columns or (n is not None and arr.shape[0] != n):
+        raise ValueError(f'{name} must have shape ({n if n is not None else "N"}, {columns}), '
                          f'got {arr.shape}')
     bad = np.argwhere(~np.isfinite(arr))
     if bad.size:
@@ -79,12 +80,14 @@ def node_slopes(t: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 class ForceHistory:
-    """Actuator forces (N) at increasing times ``t`` (s), by the cubic Hermite spline."""
+    """Actuator forces (N) at increasing times ``t`` (s), by the cubic Hermite
+    spline: one column per leg (``legs`` of them).
+    """
 
-    def __init__(self, t: Sequence[float], force: object) -> None:
+    def __init__(self, t: Sequence[float], force: object, legs: int = 3) -> None:
         self.t = sample_times(t)
         self.start, self.end = float(self.t[0]), float(self.t[-1])
-        self.force = finite_rows('force', force, self.t.size)
+        self.force = finite_rows('force', force, self.t.size, legs)
         with np.errstate(over='ignore', invalid='ignore'):
             self.slope = node_slopes(self.t, self.force)
             # |h00|, |h01| <= 1 and |h10|, |h11| < 1: this bounds the spline on each interval
@@ -99,7 +102,7 @@ class ForceHistory:
                              'interpolate (the spline overflows)')
 
     def __call__(self, times: np.ndarray) -> np.ndarray:
-        """Forces (N, 3) at ``times`` (within [start, end], else ValueError)."""
+        """Forces (N, legs) at ``times`` (within [start, end], else ValueError)."""
         times = np.atleast_1d(np.asarray(times, dtype=float))
         if times.min() < self.start or times.max() > self.end:
             raise ValueError(f'force history spans [{self.start:g}, {self.end:g}] s; '
@@ -122,8 +125,8 @@ _QUINTIC = np.array([[1, 0, 0, -10, 15, -6], [0, 1, 0, -6, 8, -3],
 
 @dataclass(frozen=True)
 class Reference:
-    """A reference motion: ``motion(times)`` gives q, qd, qdd (each (N, 3)) at
-    times in [start, end] (s).
+    """A reference motion: ``motion(times)`` gives q, qd, qdd (each (N, dof))
+    at times in [start, end] (s).
     """
 
     motion: Callable[[np.ndarray], Trajectory]
@@ -140,12 +143,14 @@ class Reference:
                              f'duration, got {motion!r:.100}') from None
 
     @classmethod
-    def from_samples(cls, t: Sequence[float], q: object, qd: object, qdd: object
-                     ) -> 'Reference':
-        """Samples (rows of a trajectory CSV) by quintic Hermite polynomials (C2)."""
+    def from_samples(cls, t: Sequence[float], q: object, qd: object, qdd: object,
+                     dof: int = 3) -> 'Reference':
+        """Samples (rows of a trajectory CSV; ``dof`` coordinates) by quintic
+        Hermite polynomials (C2).
+        """
         times = sample_times(t)
         n = times.size
-        values = np.stack([finite_rows(name, value, n)
+        values = np.stack([finite_rows(name, value, n, dof)
                            for name, value in (('q', q), ('qd', qd), ('qdd', qdd))])
 
         def motion(at: np.ndarray) -> Trajectory:

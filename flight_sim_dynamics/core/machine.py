@@ -99,6 +99,17 @@ class Machine:
     effects: tuple[str, ...] = EFFECT_NAMES
     bench_motions: tuple[str, ...] = ()
     kernel_enabled: Callable[[], bool] = bool
+    # Simulation and the twin (core/simulation.py, core/twin.py). The affine terms of
+    # the inverse dynamics f = M(q) qdd + b(q, qd): ``affine_terms(model, q, qd) ->
+    # (M (dof, dof), b (legs,), the solve at qdd = 0)`` (M, b zeros where that solve is
+    # void; the solve gives length, rate, jacobian dL/dq, status, detail);
+    # ``require_inertia(model)``: ValueError for a scene whose forces do not determine
+    # accelerations; the kernel's RK4 of a tabulated force law, ``integrate_rows(model,
+    # law, step, k0, steps, rows) -> the first row not completed`` (None: no kernel
+    # loop), used while ``kernel_enabled()`` (the default, ``bool()``: never).
+    affine_terms: Callable[..., tuple[np.ndarray, np.ndarray, Any]] | None = None
+    require_inertia: Callable[[Any], None] | None = None
+    integrate_rows: Callable[..., int] | None = None
 
     @property
     def dof(self) -> int:

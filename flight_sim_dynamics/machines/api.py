@@ -19,8 +19,10 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ..core import simulation
 from ..core.machine import Machine
 from ..core.status import Status
+from ..core.servo import DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, Servo
 from . import BY_MODEL_TYPE, MACHINES
 
 # the machines' functions by model type, one look-up per call
@@ -111,3 +113,21 @@ def poses_along(model: Any, lengths: np.ndarray) -> list[Any]:
         initial = tuple(result.pose) if result.status == Status.OK else home
         results.append(result)
     return results
+
+
+def simulate(plant: Any, **kwargs: Any) -> simulation.Simulation:
+    """The digital twin of the plant's machine
+    (:func:`flight_sim_dynamics.core.simulation.simulate`): open loop
+    (``forces=``, one column per leg) or closed loop (``reference=``,
+    ``feedforward=``, ``servo=``); ``initial`` = (q, qd), ``step``; vectors of
+    the machine's sizes. ValueError for bad arguments.
+    """
+    return simulation.simulate(machine_of(plant), plant, **kwargs)
+
+
+def servo_for_bandwidth(model: Any, hz: float = DEFAULT_BANDWIDTH_HZ,
+                        damping: float = DEFAULT_DAMPING) -> Servo:
+    """Servo gains of ``hz`` and ``damping`` for the model's machine
+    (:meth:`flight_sim_dynamics.core.servo.Servo.for_bandwidth`).
+    """
+    return Servo.for_bandwidth(machine_of(model), model, hz, damping)

@@ -2,7 +2,7 @@
 
 A command is checked as it arrives and kept; the tick (``tick_rate``) holds
 the newest one from its arrival on, makes the RK4 steps due at ``rate``
-(:class:`..machines.staicu.twin.TwinStepper`) and publishes the state. So a burst of
+(:class:`..core.twin.TwinStepper`) and publishes the state. So a burst of
 commands costs a decode and a check each, never the loop its rate: commands
 a newer one replaced before a tick are counted, not simulated.
 """
@@ -25,9 +25,10 @@ from std_srvs.srv import Trigger
 
 from ..config import parameters as prm
 from ..config.schema import SIM_NODE_NAME, SIM_PARAMETERS
+from ..core.servo import Servo
+from ..core.twin import TwinStepper
+from ..machines.staicu.machine import MACHINE
 from ..machines.staicu.model import LEG_NAMES, Model
-from ..machines.staicu.simulation import Servo
-from ..machines.staicu.twin import TwinStepper
 from .dynamics_node import _declared, default_qos, descriptor_for, plain
 from .process import end_spins, stop_requested
 from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, STAMP_BACKWARDS, STAMP_REPEATED, WARN,
@@ -63,7 +64,7 @@ class SimConfig:
     servo: Servo
 
     def stepper(self) -> TwinStepper:
-        return TwinStepper(self.plant, self.servo, 1.0 / self.values['rate'],
+        return TwinStepper(MACHINE, self.plant, self.servo, 1.0 / self.values['rate'],
                            self.values['initial'])
 
 
@@ -86,7 +87,8 @@ def sim_config(values: Mapping[str, Any]) -> SimConfig:
                                  f"must not exceed rate ({checked['rate']:g} Hz): a tick "
                                  'makes whole steps')
     try:
-        servo = Servo.for_bandwidth(plant, checked['servo.bandwidth'], checked['servo.damping'])
+        servo = Servo.for_bandwidth(MACHINE, plant, checked['servo.bandwidth'],
+                                    checked['servo.damping'])
         config = SimConfig(checked, plant, servo)
         twin = config.stepper()
     except ValueError as exc:           # a scene without inertia

@@ -48,7 +48,7 @@ pytestmark = pytest.mark.ros
 #: (surge and heave m, roll rad). At the default 5 Hz servos with the full
 #: feed-forward of the same model, the error is the twin's lag behind the
 #: reference times the motion's rate (peak 0.05 m/s, 0.10 m/s, 0.27 rad/s):
-#: offline (machines.staicu.twin, commands of 100 Hz setpoints held, delayed by d), the
+#: offline (core.twin, commands of 100 Hz setpoints held, delayed by d), the
 #: roll error is 1.4e-3 rad at d = 0, 4.1e-3 at 10 ms, 6.9e-3 at 20 ms and
 #: 1.5e-2 at 50 ms (surge and heave 5x and 2.6x smaller). Through two Python
 #: nodes on the shared 2-core host the measured error was 8.4e-3 rad (an

@@ -5,7 +5,8 @@ S affine in qdd), so f = M(q) qdd + b(q, qd), b = ``solve(q, qd, 0).force``
 and M e_j = ``solve(q, qd, e_j).force - b``; forward dynamics solves
 M qdd = f - b (LU). A scene without inertia (M = 0) is a ValueError. Statuses
 follow :func:`.solver.solve`, with zero accelerations when not ok or limit
-(an M too ill-conditioned, :data:`MAX_MASS_CONDITION`: near_singular).
+(an M too ill-conditioned,
+:data:`flight_sim_dynamics.core.forward_dynamics.MAX_MASS_CONDITION`: near_singular).
 
 >>> import flight_sim_dynamics as fsd
 >>> model = fsd.load_model()
@@ -23,12 +24,10 @@ from typing import Sequence
 import numpy as np
 
 from . import kernel
+from ...core.forward_dynamics import solve_accelerations
 from ...core.status import SEVERITY, Status
 from .model import Model
 from .solver import Solution, kernel_solution, solve, three_numbers
-
-#: Largest condition number of M solved: beyond it, qdd would not reproduce f to 1e-8.
-MAX_MASS_CONDITION = 1e8
 
 _REST = (0.0, 0.0, 0.0)
 _UNIT = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
@@ -77,25 +76,6 @@ def affine_terms(model: Model, q: Sequence[float], qd: Sequence[float]
         M[:, j] = solve(model, q, qd, unit).force
     M -= b[:, None]
     return M, b, base
-
-
-def solve_accelerations(M: np.ndarray, b: np.ndarray, force: np.ndarray
-                        ) -> tuple[np.ndarray, Status, str]:
-    """Qdd with M qdd = force - b (LU) and ok; or zeros, near_singular (M too
-    ill-conditioned) or invalid_input (not finite).
-    """
-    if not np.all(np.isfinite(M)):
-        return np.zeros(3), Status.NEAR_SINGULAR, 'exact singularity: M is not finite'
-    sigma = np.linalg.svd(M, compute_uv=False)
-    if not (sigma[-1] > 0.0 and sigma[0] <= sigma[-1] * MAX_MASS_CONDITION):
-        condition = sigma[0] / sigma[-1] if sigma[-1] > 0 else math.inf
-        return np.zeros(3), Status.NEAR_SINGULAR, (
-            f'condition of M {condition:.3g} > {MAX_MASS_CONDITION:g}: '
-            'accelerations cannot be resolved')
-    qdd = np.linalg.solve(M, force - b)
-    if not np.all(np.isfinite(qdd)):
-        return np.zeros(3), Status.INVALID_INPUT, 'results are not finite: input too large'
-    return qdd, Status.OK, ''
 
 
 def forward_dynamics(model: Model, q: Sequence[float], qd: Sequence[float],

@@ -2,7 +2,7 @@
  * flight_sim_dynamics.machines.staicu._kernel: the solver's scalar path (paper eq. 5-23)
  * for one cycle (solve) or a batch (solve_batch), and the twin's affine terms
  * and RK4 loop. A line-by-line transcription of kinematics.py, dynamics.py,
- * status_rule.py, forward_dynamics.py and simulation.py, in the same order of
+ * status_rule.py, forward_dynamics.py and core/simulation.py, in the same order of
  * operations (the Python code is the reference; test/machines/staicu/test_kernel.py and
  * test_twin_kernel.py check the two agree). Function names follow the Python ones.
  */
@@ -850,8 +850,8 @@ static void affine_one(const double *P, int fx, const double *q, const double *q
             M[i] = 0.0;
 }
 
-/* ---- The twin's RK4 loop (simulation.integrate) for a tabulated force law ---- */
-/* simulation.TabulatedLaw: the stage forces ff (stages x 3), and for a servo
+/* ---- The twin's RK4 loop (core.simulation.integrate) for a tabulated force law ---- */
+/* core.servo.TabulatedLaw: the stage forces ff (stages x 3), and for a servo
    the leg lengths and rates of the reference, gains and actuator limits */
 typedef struct {
     const double *ff, *length_ref, *rate_ref;
@@ -859,7 +859,7 @@ typedef struct {
     int servo;
 } tabulated_law;
 
-/* simulation.deliver for one actuator */
+/* core.servo.deliver for one actuator */
 static double deliver(double command, double rate, double max_force, double max_speed)
 {
     double force = nmin(nmax(command, -max_force), max_force);
@@ -922,7 +922,7 @@ static int solve3(const double *M, const double *r, double *x)
     return isfinite(x[0]) && isfinite(x[1]) && isfinite(x[2]);
 }
 
-/* simulation._stage at (q, qd), stage j; 0 when the stage stops or is left to the
+/* core.simulation.stage at (q, qd), stage j; 0 when the stage stops or is left to the
    Python code (a status that stops, M ill-conditioned, results not finite) */
 static int stage(const double *P, int fx, const tabulated_law *law, Py_ssize_t j,
                  const double *q, const double *qd, double *qdd, double *force)
@@ -944,7 +944,7 @@ static int stage(const double *P, int fx, const tabulated_law *law, Py_ssize_t j
     return solve3(M, rhs, qdd);
 }
 
-/* RK4 rows k0..steps (simulation.integrate, same operations in the same order;
+/* RK4 rows k0..steps (core.simulation.integrate, same operations in the same order;
    kernel.integrate_rows): returns the first row whose step did not complete. */
 static Py_ssize_t rk4(const double *P, int fx, const tabulated_law *law, double h,
                       Py_ssize_t k0, Py_ssize_t steps, double *Q, double *QD,

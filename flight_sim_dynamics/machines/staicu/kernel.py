@@ -158,8 +158,9 @@ def affine_row(model: Model, q: tuple, qd: tuple
 
 def integrate_rows(model: Model, law: tuple, step: float, k0: int, steps: int,
                    rows: tuple) -> int:
-    """RK4 of :func:`.simulation.integrate` in the kernel, rows k0 to steps:
-    ``law`` the fields of :class:`.simulation.TabulatedLaw`, ``rows`` = (q,
+    """RK4 of :func:`flight_sim_dynamics.core.simulation.integrate` in the kernel,
+    rows k0 to steps: ``law`` the fields of
+    :class:`flight_sim_dynamics.core.servo.TabulatedLaw`, ``rows`` = (q,
     qd, qdd, force), (steps + 1, 3) C-contiguous float64, row k0 set. Returns
     the first row whose step it did not complete (steps + 1: all).
     """

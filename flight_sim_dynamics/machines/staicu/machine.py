@@ -7,7 +7,7 @@ import numpy as np
 
 from ...core.machine import ActuatorLimits, Machine
 from . import kernel
-from .forward_dynamics import forward_dynamics
+from .forward_dynamics import affine_terms, forward_dynamics, require_inertia
 from .forward_kinematics import forward_kinematics
 from .mechanism import drawing
 from .model import JOINT_NAMES, LEG_NAMES, Model
@@ -36,4 +36,7 @@ MACHINE = Machine(
     # what a user sees beyond numbers
     drawing=drawing,
     # what each effect costs
-    bench_motions=TEST_MOTIONS, kernel_enabled=kernel.enabled)
+    bench_motions=TEST_MOTIONS, kernel_enabled=kernel.enabled,
+    # simulation and the twin
+    affine_terms=affine_terms, require_inertia=require_inertia,
+    integrate_rows=kernel.integrate_rows)

@@ -1,7 +1,8 @@
 /*
  * flight_sim_dynamics.machines.stewart._kernel: the hexapod's solve
  * (docs/design/stewart.md, (S1)-(S23)) for one sample (solve) or a batch
- * (solve_batch), writing into caller-provided float64 buffers. A transcription
+ * (solve_batch), and the twin's RK4 loop (integrate: core/simulation.py),
+ * writing into caller-provided float64 buffers. A transcription
  * of kinematics.py, dynamics.py and the status rule of solver.py, equation by
  * equation (divisions by L_i and c theta_2 as products with their reciprocals,
  * computed once per leg); the numpy code is the reference
@@ -164,9 +165,10 @@ typedef struct {
 } leg_acceleration;
 
 /* kinematics.leg_positions: r = R p_i, d = p + r - B_i, L = |d|, u = d / L (S4);
-   theta_2 = atan2(a_1 . u, |a_1 x u|), theta_1 = atan2(-e2 . u, e3 . u) (S5) */
+   theta_2 = atan2(a_1 . u, |a_1 x u|), theta_1 = atan2(-e2 . u, e3 . u) (S5),
+   if `angles` (the twin's stages read none) */
 static void leg_position_of(const double *P, int i, const platform_motion *pm,
-                            leg_position *g)
+                            leg_position *g, int angles)
 {
     g->r = mat_vec(pm->R, load(P + P_JOINTS + 3 * i));
     v3 d = sub(add(pm->p, g->r), load(P + P_BASE + 3 * i));
@@ -178,6 +180,8 @@ static void leg_position_of(const double *P, int i, const platform_motion *pm,
     g->a1xu = cross(g->a1, g->u);
     g->c2 = sqrt(dot(g->a1xu, g->a1xu));
     g->inv_c2 = 1.0 / g->c2;
+    if (!angles)
+        return;
     const double *C = P + P_FRAMES + 9 * i;      /* C_i = [e1 e2 e3], row-major */
     double local1 = C[1] * g->u.x + C[4] * g->u.y + C[7] * g->u.z;
     double local2 = C[2] * g->u.x + C[5] * g->u.y + C[8] * g->u.z;
@@ -404,6 +408,50 @@ static double jacobian_condition(const double *J)
     return isfinite(cond) ? cond : SINGULAR;
 }
 
+/* The wrench (F, M) the actuators balance at the motion pm of the legs g, w, k
+   (S14)-(S21): dynamics.generalised_wrench; without velocity products the
+   inertia of the same accelerations from rest */
+static void generalised_wrench(const double *P, int fx, const double *q, const double *qd,
+                               const double *qdd, const platform_motion *pm,
+                               const leg_position *g, const leg_velocity *w,
+                               const leg_acceleration *k, double *wrench)
+{
+    platform_motion rest;                        /* no velocity products: from rest */
+    const platform_motion *dyn = pm;
+    const leg_velocity *dw = w;
+    const leg_acceleration *dk = k;
+    leg_velocity w0[6];
+    leg_acceleration k0[6];
+    if (!(fx & E_VP) && has_inertia(P, fx)) {
+        platform_motion_of(P, q, qd, qdd, 0, &rest);
+        dyn = &rest;
+        for (int i = 0; i < 6; i++) {
+            leg_velocity_of(&g[i], dyn, &w0[i]);
+            leg_acceleration_of(&g[i], &w0[i], dyn, &k0[i]);
+        }
+        dw = w0;
+        dk = k0;
+    }
+    v3 F = ZERO, M = ZERO;                                              /* w_0 (S16) */
+    int weight = (fx & E_GRAVITY) != 0;
+    if ((fx & E_PLATFORM) || weight)
+        rigid_body_wrench(P + P_PLATFORM, P, dyn, weight, (fx & E_PLATFORM) != 0, &F, &M);
+    if ((fx & E_PAYLOAD) && P[P_PAYLOAD + R_MASS] > 0.0)
+        rigid_body_wrench(P + P_PAYLOAD, P, dyn, weight, 1, &F, &M);
+    if (fx & (E_LEG | E_GRAVITY)) {                                     /* (S20)-(S21) */
+        v3 sG = ZERO, sM = ZERO;
+        for (int i = 0; i < 6; i++) {
+            v3 G = carried_force(P, fx, &g[i], &dw[i], &dk[i]);
+            sG = add(sG, G);
+            sM = add(sM, cross(g[i].r, G));
+        }
+        F = add(F, sG);
+        M = add(M, sM);
+    }
+    wrench[0] = F.x; wrench[1] = F.y; wrench[2] = F.z;
+    wrench[3] = M.x; wrench[4] = M.y; wrench[5] = M.z;
+}
+
 /* ---- One sample: solver._evaluate, _status, _clean ---- */
 
 static void void_row(double *out, int code, int info)
@@ -432,7 +480,7 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
     double *J = out + O_TWIST_JACOBIAN, *JL = out + O_JACOBIAN;
     int degenerate = -1;
     for (int i = 0; i < 6; i++) {
-        leg_position_of(P, i, &pm, &g[i]);                             /* (S4)-(S5) */
+        leg_position_of(P, i, &pm, &g[i], 1);                          /* (S4)-(S5) */
         leg_velocity_of(&g[i], &pm, &w[i]);                            /* (S6)-(S9) */
         leg_acceleration_of(&g[i], &w[i], &pm, &k[i]);                 /* (S10)-(S13) */
         out[O_LENGTH + i] = g[i].L;
@@ -465,40 +513,7 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
     /* the wrench the actuators balance (S14)-(S21): dynamics.generalised_wrench */
     double wrench[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
     if (solvable) {
-        platform_motion rest;                    /* no velocity products: from rest */
-        const platform_motion *dyn = &pm;
-        leg_velocity *dw = w;
-        leg_acceleration *dk = k;
-        leg_velocity w0[6];
-        leg_acceleration k0[6];
-        if (!(fx & E_VP) && has_inertia(P, fx)) {
-            platform_motion_of(P, q, qd, qdd, 0, &rest);
-            dyn = &rest;
-            for (int i = 0; i < 6; i++) {
-                leg_velocity_of(&g[i], dyn, &w0[i]);
-                leg_acceleration_of(&g[i], &w0[i], dyn, &k0[i]);
-            }
-            dw = w0;
-            dk = k0;
-        }
-        v3 F = ZERO, M = ZERO;                                          /* w_0 (S16) */
-        int weight = (fx & E_GRAVITY) != 0;
-        if ((fx & E_PLATFORM) || weight)
-            rigid_body_wrench(P + P_PLATFORM, P, dyn, weight, (fx & E_PLATFORM) != 0, &F, &M);
-        if ((fx & E_PAYLOAD) && P[P_PAYLOAD + R_MASS] > 0.0)
-            rigid_body_wrench(P + P_PAYLOAD, P, dyn, weight, 1, &F, &M);
-        if (fx & (E_LEG | E_GRAVITY)) {                                 /* (S20)-(S21) */
-            v3 sG = ZERO, sM = ZERO;
-            for (int i = 0; i < 6; i++) {
-                v3 G = carried_force(P, fx, &g[i], &dw[i], &dk[i]);
-                sG = add(sG, G);
-                sM = add(sM, cross(g[i].r, G));
-            }
-            F = add(F, sG);
-            M = add(M, sM);
-        }
-        wrench[0] = F.x; wrench[1] = F.y; wrench[2] = F.z;
-        wrench[3] = M.x; wrench[4] = M.y; wrench[5] = M.z;
+        generalised_wrench(P, fx, q, qd, qdd, &pm, g, w, k, wrench);
         double JT[6][6];                         /* f = J^-T wrench (S21) */
         for (int r = 0; r < 6; r++)
             for (int c = 0; c < 6; c++)
@@ -557,6 +572,319 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
     out[O_COND] = cond;
     out[O_STATUS] = code;
     out[O_INFO] = info;
+}
+
+/* ---- The twin's RK4 loop (core.simulation.integrate) for a tabulated force law ---- */
+
+/* NaN-propagating max and min, as numpy's maximum and minimum */
+static inline double nmax(double a, double b) { return (a >= b || isnan(a)) ? a : b; }
+static inline double nmin(double a, double b) { return (a <= b || isnan(a)) ? a : b; }
+
+/* core.servo.TabulatedLaw: the stage forces ff (stages x 6), and for a servo
+   the leg lengths and rates of the reference, gains and actuator limits */
+typedef struct {
+    const double *ff, *length_ref, *rate_ref;
+    double kp[6], kd[6], max_force, max_speed;
+    int servo;
+} tabulated_law;
+
+/* core.servo.deliver for one actuator */
+static double deliver(double command, double rate, double max_force, double max_speed)
+{
+    double force = nmin(nmax(command, -max_force), max_force);
+    double drive = max_force * nmax(0.0, 1.0 - fabs(rate) / max_speed);
+    if (force * rate > 0.0)
+        return (force > 0.0 ? 1.0 : -1.0) * nmin(fabs(force), drive);
+    return force;
+}
+
+/* inv = A^-1 (6x6, row-major; A destroyed) by LU with partial pivoting, the
+   pivots' reciprocals computed once; 0 if A is exactly singular */
+static int invert6(double A[6][6], double inv[6][6])
+{
+    int row_of[6] = {0, 1, 2, 3, 4, 5};         /* row_of[r]: A's row now at r */
+    double rp[6];
+    for (int c = 0; c < 6; c++) {
+        int p = c;
+        for (int r = c + 1; r < 6; r++)
+            if (fabs(A[r][c]) > fabs(A[p][c]))
+                p = r;
+        if (!(A[p][c] != 0.0))
+            return 0;
+        if (p != c) {
+            for (int j = 0; j < 6; j++) {
+                double t = A[c][j]; A[c][j] = A[p][j]; A[p][j] = t;
+            }
+            int t = row_of[c]; row_of[c] = row_of[p]; row_of[p] = t;
+        }
+        rp[c] = 1.0 / A[c][c];
+        for (int r = c + 1; r < 6; r++) {
+            double l = A[r][c] * rp[c];
+            A[r][c] = l;
+            for (int j = c + 1; j < 6; j++)
+                A[r][j] -= l * A[c][j];
+        }
+    }
+    for (int r0 = 0; r0 < 6; r0++) {            /* the column e_{row_of[r0]} of the inverse */
+        double y[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+        y[r0] = 1.0;                            /* L y = P e: zero above r0 */
+        for (int r = r0 + 1; r < 6; r++) {
+            double s = 0.0;
+            for (int j = r0; j < r; j++)
+                s -= A[r][j] * y[j];
+            y[r] = s;
+        }
+        for (int r = 5; r >= 0; r--) {          /* U x = y */
+            double s = y[r];
+            for (int j = r + 1; j < 6; j++)
+                s -= A[r][j] * y[j];
+            y[r] = s * rp[r];
+        }
+        for (int r = 0; r < 6; r++)
+            inv[r][row_of[r0]] = y[r];
+    }
+    return 1;
+}
+
+/* the Frobenius condition ||A||_F ||A^-1||_F, an upper bound of the 2-norm
+   condition (and at most 6 times it) */
+static double frobenius_condition(const double A[6][6], const double inv[6][6])
+{
+    double a = 0.0, b = 0.0;
+    for (int r = 0; r < 6; r++)
+        for (int c = 0; c < 6; c++) {
+            a += A[r][c] * A[r][c];
+            b += inv[r][c] * inv[r][c];
+        }
+    return sqrt(a) * sqrt(b);
+}
+
+/* The columns of the wrench of unit pose accelerations from rest, no weight
+   (S10)-(S21): W[r][j] = d wrench_r / d qdd_j, the inertia of the platform,
+   the payload and the legs. Each leg's carried force G_i (S14)-(S15), (S20)
+   is linear in the acceleration a_P of its joint, a_P of a unit qdd_j = a_j +
+   eps_j x r_i (S10), eps_j = E e_j (S2). */
+static void unit_wrenches(const double *P, int fx, const platform_motion *pm,
+                          const leg_position *g, double W[6][6])
+{
+    v3 lin[6], ang[6];                      /* a and eps of each unit qdd_j */
+    for (int j = 0; j < 6; j++) {
+        lin[j] = j < 3 ? vec(j == 0, j == 1, j == 2) : ZERO;
+        ang[j] = j < 3 ? ZERO : vec(pm->E[0][j - 3], pm->E[1][j - 3], pm->E[2][j - 3]);
+    }
+    v3 F[6], M[6];
+    for (int j = 0; j < 6; j++)
+        F[j] = M[j] = ZERO;
+    for (int b = 0; b < 2; b++) {           /* rigid_body_wrench at rest, no weight (S16) */
+        const double *body = b == 0 ? P + P_PLATFORM : P + P_PAYLOAD;
+        if (b == 0 ? !(fx & E_PLATFORM) : !((fx & E_PAYLOAD) && body[R_MASS] > 0.0))
+            continue;
+        v3 rho = mat_vec(pm->R, load(body + R_COM));
+        double RI[3][3], Ib[3][3];                               /* R I_c R^T */
+        const double *I = body + R_INERTIA;
+        for (int i = 0; i < 3; i++)
+            for (int k = 0; k < 3; k++)
+                RI[i][k] = pm->R[i][0] * I[k] + pm->R[i][1] * I[3 + k] + pm->R[i][2] * I[6 + k];
+        for (int i = 0; i < 3; i++)
+            for (int k = 0; k < 3; k++)
+                Ib[i][k] = RI[i][0] * pm->R[k][0] + RI[i][1] * pm->R[k][1]
+                    + RI[i][2] * pm->R[k][2];
+        for (int j = 0; j < 6; j++) {
+            v3 force = scale(body[R_MASS], add(lin[j], cross(ang[j], rho)));
+            F[j] = add(F[j], force);
+            M[j] = add(M[j], add(mat_vec(Ib, ang[j]), cross(rho, force)));
+        }
+    }
+    if (fx & E_LEG) {                                                   /* (S20)-(S21) */
+        const double *cyl = P + P_CYLINDER, *rod = P + P_ROD;
+        double I_pm = cyl[K_MASS] * cyl[K_COM] * cyl[K_COM] + rod[K_MASS] * rod[K_COM] * rod[K_COM];
+        double I_across = cyl[K_ACROSS] + rod[K_ACROSS], I_along = cyl[K_ALONG] + rod[K_ALONG];
+        for (int i = 0; i < 6; i++) {
+            /* at rest udd = Pi a_P / L (S10)-(S11), theta_1dd = (a_1 x u) . udd / c^2
+               (S12), eps = u x udd + s theta_1dd u (S13), so carried_force is
+               G = m_rod a_P + alpha Pi a_P / L + beta ((a_1 x u) . a_P) (a_1 x u) */
+            double inv_L = g[i].inv_L, s2 = g[i].s2, ic2 = g[i].inv_c2 * g[i].inv_c2;
+            double alpha = ((I_pm + I_across) * inv_L - 2.0 * rod[K_MASS] * rod[K_COM]) * inv_L;
+            double beta = s2 * s2 * I_along * ic2 * ic2 * inv_L * inv_L;
+            const double u[3] = {g[i].u.x, g[i].u.y, g[i].u.z};
+            const double n[3] = {g[i].a1xu.x, g[i].a1xu.y, g[i].a1xu.z};
+            v3 A[3];                                /* G_i = A_i a_P, column by column */
+            for (int c = 0; c < 3; c++) {
+                double col[3];
+                for (int r = 0; r < 3; r++)
+                    col[r] = (r == c ? rod[K_MASS] + alpha : 0.0) - alpha * u[r] * u[c]
+                             + beta * n[r] * n[c];
+                A[c] = vec(col[0], col[1], col[2]);
+            }
+            for (int j = 0; j < 6; j++) {
+                v3 G;
+                if (j < 3) {                        /* a_P = e_j */
+                    G = A[j];
+                } else {
+                    v3 aP = cross(ang[j], g[i].r);
+                    G = add(add(scale(aP.x, A[0]), scale(aP.y, A[1])), scale(aP.z, A[2]));
+                }
+                F[j] = add(F[j], G);
+                M[j] = add(M[j], cross(g[i].r, G));
+            }
+        }
+    }
+    for (int j = 0; j < 6; j++) {
+        W[0][j] = F[j].x; W[1][j] = F[j].y; W[2][j] = F[j].z;
+        W[3][j] = M[j].x; W[4][j] = M[j].y; W[5][j] = M[j].z;
+    }
+}
+
+/* The terms of f = M qdd + b at (q, qd) (forward_dynamics.affine_terms) with
+   the leg lengths and rates, for a stage of the twin: 1 when the state can be
+   simulated; 0 when it stops or is left to the Python code (input or results
+   not finite, a leg unreachable, J's condition maybe beyond
+   limits.max_jacobian_condition). M = J^-T W (S21) from unit_wrenches; b = J^-T
+   wrench(q, qd, 0) + friction (S14)-(S23). */
+static int stage_terms(const double *P, int fx, const double *q, const double *qd,
+                       double *L, double *Ld, double M[6][6], double *b)
+{
+    static const double REST[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+    for (int j = 0; j < 6; j++)
+        if (!(isfinite(q[j]) && isfinite(qd[j])))
+            return 0;
+    platform_motion pm;
+    platform_motion_of(P, q, qd, REST, 1, &pm);                        /* (S1)-(S3) */
+    leg_position g[6];
+    leg_velocity w[6];
+    leg_acceleration k[6];
+    double J[6][6], JT[6][6], X[6][6];          /* X = J^-T */
+    for (int i = 0; i < 6; i++) {
+        leg_position_of(P, i, &pm, &g[i], 0);                          /* (S4) */
+        if (!(g[i].L > MIN_LENGTH && g[i].c2 >= U_JOINT_TOLERANCE))
+            return 0;
+        leg_velocity_of(&g[i], &pm, &w[i]);                            /* (S6)-(S9) */
+        leg_acceleration_of(&g[i], &w[i], &pm, &k[i]);                 /* (S10)-(S13) */
+        L[i] = g[i].L;
+        Ld[i] = w[i].Ld;
+        v3 m = cross(g[i].r, g[i].u);            /* (S21): J row i = [u^T (r x u)^T] */
+        double row[6] = {g[i].u.x, g[i].u.y, g[i].u.z, m.x, m.y, m.z};
+        for (int j = 0; j < 6; j++)
+            J[i][j] = JT[j][i] = row[j];
+    }
+    if (!invert6(JT, X))
+        return 0;
+    /* solve's rule: near_singular beyond the limit, no forces from 1e12 on */
+    double bound = P[P_MAX_COND] < MAX_SOLVED_CONDITION ? P[P_MAX_COND]
+                                                        : 0.5 * MAX_SOLVED_CONDITION;
+    if (!(frobenius_condition(J, X) <= bound) && !(jacobian_condition(&J[0][0]) <= bound))
+        return 0;                                /* the Python code gives the status */
+    double wrench[6], W[6][6];
+    generalised_wrench(P, fx, q, qd, REST, &pm, g, w, k, wrench);
+    unit_wrenches(P, fx, &pm, g, W);
+    for (int r = 0; r < 6; r++) {
+        double f = 0.0;
+        for (int c = 0; c < 6; c++) {
+            f += X[r][c] * wrench[c];
+            double s = 0.0;
+            for (int m = 0; m < 6; m++)
+                s += X[r][m] * W[m][c];
+            M[r][c] = s;
+            if (!isfinite(s))
+                return 0;
+        }
+        if (fx & E_FRICTION)                                            /* (S23) */
+            f = f + (P[P_VISCOUS + r] * w[r].Ld
+                     + P[P_COULOMB + r] * tanh(w[r].Ld / P[P_SMOOTHING]));
+        if (!isfinite(f))
+            return 0;
+        b[r] = f;
+    }
+    return 1;
+}
+
+/* core.simulation.stage at (q, qd), stage j; 0 when the stage stops or is left
+   to the Python code (stage_terms, or M not surely within
+   core.forward_dynamics.MAX_MASS_CONDITION (1e8) by its Frobenius condition,
+   or qdd not finite) */
+static int stage(const double *P, int fx, const tabulated_law *law, Py_ssize_t j,
+                 const double *q, const double *qd, double *qdd, double *force)
+{
+    double L[6], Ld[6], M[6][6], b[6], Minv[6][6], rhs[6];
+    if (!stage_terms(P, fx, q, qd, L, Ld, M, b))
+        return 0;
+    for (int m = 0; m < 6; m++) {
+        double command = law->ff[6 * j + m];
+        if (law->servo) {
+            command = command + law->kp[m] * (law->length_ref[6 * j + m] - L[m])
+                      + law->kd[m] * (law->rate_ref[6 * j + m] - Ld[m]);
+            command = deliver(command, Ld[m], law->max_force, law->max_speed);
+        }
+        force[m] = command;
+        rhs[m] = command - b[m];
+    }
+    double A[6][6];
+    memcpy(A, M, sizeof A);
+    if (!invert6(A, Minv) || !(frobenius_condition(M, Minv) <= 1e8))
+        return 0;
+    int finite = 1;
+    for (int m = 0; m < 6; m++) {
+        double a = 0.0;
+        for (int c = 0; c < 6; c++)
+            a += Minv[m][c] * rhs[c];
+        qdd[m] = a;
+        finite = finite && isfinite(a);
+    }
+    return finite;
+}
+
+/* RK4 rows k0..steps (core.simulation.integrate, the same operations in the
+   same order; kernel.integrate_rows): returns the first row whose step did not
+   complete. */
+static Py_ssize_t rk4(const double *P, int fx, const tabulated_law *law, double h,
+                      Py_ssize_t k0, Py_ssize_t steps, double *Q, double *QD,
+                      double *QDD, double *F)
+{
+    double q[6], qd[6];
+    memcpy(q, Q + 6 * k0, sizeof q);
+    memcpy(qd, QD + 6 * k0, sizeof qd);
+    for (Py_ssize_t k = k0; k <= steps; k++) {
+        double a1[6], a2[6], a3[6], a4[6], f1[6], f[6], q2[6], v2[6], q3[6], v3[6], q4[6],
+               v4[6];
+        memcpy(Q + 6 * k, q, sizeof q);
+        memcpy(QD + 6 * k, qd, sizeof qd);
+        if (!stage(P, fx, law, 2 * k, q, qd, a1, f1))
+            return k;
+        if (k < steps) {
+            for (int i = 0; i < 6; i++) {
+                q2[i] = q[i] + 0.5 * h * qd[i];
+                v2[i] = qd[i] + 0.5 * h * a1[i];
+            }
+            if (!stage(P, fx, law, 2 * k + 1, q2, v2, a2, f))
+                return k;
+            for (int i = 0; i < 6; i++) {
+                q3[i] = q[i] + 0.5 * h * v2[i];
+                v3[i] = qd[i] + 0.5 * h * a2[i];
+            }
+            if (!stage(P, fx, law, 2 * k + 1, q3, v3, a3, f))
+                return k;
+            for (int i = 0; i < 6; i++) {
+                q4[i] = q[i] + h * v3[i];
+                v4[i] = qd[i] + h * a3[i];
+            }
+            if (!stage(P, fx, law, 2 * k + 2, q4, v4, a4, f))
+                return k;
+            double qn[6], qdn[6];
+            int finite = 1;
+            for (int i = 0; i < 6; i++) {
+                qn[i] = q[i] + (h / 6.0) * (qd[i] + 2.0 * (v2[i] + v3[i]) + v4[i]);
+                qdn[i] = qd[i] + (h / 6.0) * (a1[i] + 2.0 * (a2[i] + a3[i]) + a4[i]);
+                finite = finite && isfinite(qn[i]) && isfinite(qdn[i]);
+            }
+            if (!finite)
+                return k;
+            memcpy(q, qn, sizeof q);
+            memcpy(qd, qdn, sizeof qd);
+        }
+        memcpy(QDD + 6 * k, a1, sizeof a1);
+        memcpy(F + 6 * k, f1, sizeof f1);
+    }
+    return steps + 1;
 }
 
 /* ---- Python bindings ---- */
@@ -753,16 +1081,79 @@ done:
     return result;
 }
 
+PyDoc_STRVAR(integrate_doc,
+"integrate(params, effects, ff, length_ref, rate_ref, kp, kd, max_force, max_speed,\n"
+"          servo, h, k0, steps, q, qd, qdd, force) -> int\n\n"
+"RK4 rows k0 to steps of a TabulatedLaw (tables (2 steps + 1, 6), gains 6, rows\n"
+"(steps + 1, 6), C-contiguous float64); the first row not completed\n"
+"(kernel.integrate_rows). Releases the GIL while it runs.");
+
+static PyObject *py_integrate(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 17) {
+        PyErr_SetString(PyExc_TypeError, "integrate() takes 17 arguments");
+        return NULL;
+    }
+    int fx;
+    if (effect_bits(args[1], &fx) < 0)
+        return NULL;
+    int servo = PyObject_IsTrue(args[9]);
+    double max_force = PyFloat_AsDouble(args[7]), max_speed = PyFloat_AsDouble(args[8]);
+    double h = PyFloat_AsDouble(args[10]);
+    Py_ssize_t k0 = PyLong_AsSsize_t(args[11]), steps = PyLong_AsSsize_t(args[12]);
+    if (servo < 0 || PyErr_Occurred())
+        return NULL;
+    if (steps < 1 || k0 < 0 || k0 > steps || steps > (PY_SSIZE_T_MAX / 128)) {
+        PyErr_SetString(PyExc_ValueError, "need 0 <= k0 <= steps, steps >= 1");
+        return NULL;
+    }
+    /* buffers: params, ff, length_ref, rate_ref, kp, kd, q, qd, qdd, force */
+    static const int arg[10] = {0, 2, 3, 4, 5, 6, 13, 14, 15, 16};
+    static const char *const names[10] = {"packed model", "ff", "length_ref", "rate_ref",
+                                          "kp", "kd", "q", "qd", "qdd", "force"};
+    Py_ssize_t stages = 6 * (2 * steps + 1), rows = 6 * (steps + 1);
+    const Py_ssize_t sizes[10] = {P_SIZE, stages, stages, stages, 6, 6, rows, rows, rows, rows};
+    Py_buffer views[10];
+    int got = 0;
+    PyObject *result = NULL;
+    for (; got < 10; got++)
+        if (get_doubles(args[arg[got]], &views[got], sizes[got], got >= 6, names[got]) < 0)
+            goto done;
+    {
+        tabulated_law law;
+        law.ff = (const double *)views[1].buf;
+        law.length_ref = (const double *)views[2].buf;
+        law.rate_ref = (const double *)views[3].buf;
+        memcpy(law.kp, views[4].buf, sizeof law.kp);
+        memcpy(law.kd, views[5].buf, sizeof law.kd);
+        law.max_force = max_force;
+        law.max_speed = max_speed;
+        law.servo = servo;
+        Py_ssize_t reached;
+        Py_BEGIN_ALLOW_THREADS
+        reached = rk4((const double *)views[0].buf, fx, &law, h, k0, steps,
+                      (double *)views[6].buf, (double *)views[7].buf, (double *)views[8].buf,
+                      (double *)views[9].buf);
+        Py_END_ALLOW_THREADS
+        result = PyLong_FromSsize_t(reached);
+    }
+done:
+    for (int i = 0; i < got; i++)
+        PyBuffer_Release(&views[i]);
+    return result;
+}
+
 static PyMethodDef methods[] = {
     {"solve", (PyCFunction)(void (*)(void))py_solve, METH_FASTCALL, solve_doc},
     {"solve_batch", (PyCFunction)(void (*)(void))py_solve_batch, METH_FASTCALL,
      solve_batch_doc},
+    {"integrate", (PyCFunction)(void (*)(void))py_integrate, METH_FASTCALL, integrate_doc},
     {NULL, NULL, 0, NULL}
 };
 
 static struct PyModuleDef module = {
     PyModuleDef_HEAD_INIT, "_kernel",
-    "Compiled solve of the 6-UPS hexapod (see kernel.py).", -1, methods
+    "Compiled solve and twin loop of the 6-UPS hexapod (see kernel.py).", -1, methods
 };
 
 /* the declarations at the top, as Python objects (read by kernel.py) */

@@ -1,8 +1,9 @@
 """The hexapod's compiled solve (``kernel.c`` here, built as ``_kernel``;
 docs/kernel.md): (S1)-(S23) and the status rule of :mod:`.solver` in C, one
-sample or a batch. :mod:`.solver` uses it when it is built, unless FSD_KERNEL=0
-or :func:`flight_sim_dynamics.core.kernel.use_kernel` (False) asks for the
-numpy code, the reference it is tested against. The layouts are declared once,
+sample or a batch; and the twin's RK4 loop (:func:`integrate_rows`).
+:mod:`.solver` and the twin use it when it is built, unless FSD_KERNEL=0 or
+:func:`flight_sim_dynamics.core.kernel.use_kernel` (False) asks for the numpy
+code, the reference it is tested against. The layouts are declared once,
 in the C source; this module checks them against the package's own lists.
 """
 from __future__ import annotations
@@ -156,3 +157,17 @@ def solve_rows(model: StewartModel, q: np.ndarray, qd: np.ndarray,
     out = np.empty((arrays[0].shape[0], OUT_SIZE))
     _kernel.solve_batch(params, bits, *arrays, out)
     return out
+
+
+def integrate_rows(model: StewartModel, law: tuple, step: float, k0: int, steps: int,
+                   rows: tuple) -> int:
+    """RK4 of :func:`flight_sim_dynamics.core.simulation.integrate` in the kernel,
+    rows k0 to steps: each stage M qdd = f - b from the kernel's inverse
+    dynamics (M = J^-T W (S21), b the solve at qdd = 0), ``law`` the fields of
+    :class:`flight_sim_dynamics.core.servo.TabulatedLaw` (``tables()``), ``rows``
+    = (q, qd, qdd, force), (steps + 1, 6) C-contiguous float64, row k0 set.
+    Returns the first row whose step it did not complete (steps + 1: all); a
+    stage it leaves (a stop, a condition it cannot bound) is the Python code's.
+    """
+    params, bits = prepared(model)
+    return _kernel.integrate(params, bits, *law, step, k0, steps, *rows)

@@ -1,11 +1,14 @@
 """The hexapod as the shared layer sees it (:class:`flight_sim_dynamics.core.machine.Machine`)."""
 from __future__ import annotations
 
+import numpy as np
+
 from ...core.effects import EFFECT_NAMES
 from ...core.machine import ActuatorLimits, Machine
 from . import kernel
 from .drawing import drawing
-from .forward_dynamics import forward_dynamics
+from .dynamics import has_inertia
+from .forward_dynamics import affine_terms, forward_dynamics
 from .kinematics import forward_kinematics
 from .model import LEG_NAMES, PARAMETER_NAMES, StewartModel, from_dict
 from .motions import MOTIONS
@@ -26,6 +29,21 @@ def actuator_limits(model: StewartModel) -> ActuatorLimits:
                           max_speed=lim.max_speed, max_force=lim.max_force)
 
 
+def affine_parts(model: StewartModel, q, qd) -> tuple[np.ndarray, np.ndarray, object]:
+    """(M, b, the solve at qdd = 0) of f = M qdd + b (S10)-(S21), :func:`.affine_terms`."""
+    terms = affine_terms(model, q, qd)
+    return terms.M, terms.b, terms.solution
+
+
+def require_inertia(model: StewartModel) -> None:
+    """ValueError unless the model's scene moves some body (M != 0)."""
+    if not has_inertia(model):
+        raise ValueError(f"scene '{model.scene}' computes no inertia (enabled effects: "
+                         f"{', '.join(model.effects.enabled()) or 'none'}), so forces do not "
+                         'determine accelerations; forward dynamics and simulation need a scene '
+                         'with inertia, e.g. full')
+
+
 MACHINE = Machine(
     name='stewart', model_type=StewartModel, coordinates=COORDINATES,
     units=('m', 'm', 'm', 'rad', 'rad', 'rad'), legs=LEG_NAMES, joints=JOINT_NAMES,
@@ -39,4 +57,7 @@ MACHINE = Machine(
     drawing=drawing, workspace=survey,
     # what each effect costs: a hexapod has no cranks
     effects=tuple(e for e in EFFECT_NAMES if e != 'crank_inertia'),
-    bench_motions=('gentle', 'cueing', 'violent'), kernel_enabled=kernel.enabled)
+    bench_motions=('gentle', 'cueing', 'violent'), kernel_enabled=kernel.enabled,
+    # simulation and the twin
+    affine_terms=affine_parts, require_inertia=require_inertia,
+    integrate_rows=kernel.integrate_rows)

@@ -1,4 +1,4 @@
-"""The digital twin's integrator (flight_sim_dynamics.machines.staicu.simulation).
+"""The digital twin's integrator (flight_sim_dynamics.core.simulation) on the 3-DOF machine.
 
 * energy: friction off, gravity on, the mechanism's T + V from the
   independent reference model (test/reference/reference_model.py):
@@ -27,8 +27,9 @@ import reference_model as rm
 from flight_sim_dynamics import Status
 from flight_sim_dynamics.core.interpolation import node_slopes
 from flight_sim_dynamics.machines.staicu import motions
-from flight_sim_dynamics.machines.staicu.simulation import (ForceHistory, Reference, Servo,
-                                                            deliver, simulate)
+from flight_sim_dynamics.core.interpolation import ForceHistory, Reference
+from flight_sim_dynamics.core.servo import Servo, deliver
+from flight_sim_dynamics.machines.api import servo_for_bandwidth, simulate
 
 MODEL = fsd.load_model()
 PARAMS = rm.load_reference_params()
@@ -252,11 +253,11 @@ def test_a_plant_without_inertia_cannot_be_simulated_and_gains_are_checked():
     with pytest.raises(ValueError, match='servo kd must be 3 finite numbers >= 0'):
         Servo((1.0, 1.0, 1.0), (1.0, -1.0, 1.0))
     with pytest.raises(ValueError, match='servo bandwidth must be > 0 Hz'):
-        Servo.for_bandwidth(MODEL, 0.0)
+        servo_for_bandwidth(MODEL, 0.0)
 
 
 def test_default_gains_are_a_critically_damped_leg_at_the_documented_bandwidth():
-    servo = Servo.for_bandwidth(MODEL)
+    servo = servo_for_bandwidth(MODEL)
     rest = (0.0, 0.0, 0.0)
     base = fsd.solve(MODEL, rest, rest, rest)
     # leg-space mass: the force per unit leg acceleration, M J^-1, from three solves

@@ -1,4 +1,4 @@
-"""The real-time stepper of the twin (flight_sim_dynamics.machines.staicu.twin).
+"""The real-time stepper of the twin (flight_sim_dynamics.core.twin) on the 3-DOF machine.
 
 * rest: the central configuration's leg lengths with the static
   feed-forward keep the platform at rest (to rounding);
@@ -21,8 +21,10 @@ import flight_sim_dynamics as fsd
 from flight_sim_dynamics import Status
 from flight_sim_dynamics.core import kernel as core_kernel
 from flight_sim_dynamics.machines.staicu import kernel, motions
-from flight_sim_dynamics.machines.staicu.simulation import Reference, Servo, simulate
-from flight_sim_dynamics.machines.staicu.twin import TwinStepper
+from flight_sim_dynamics.core.interpolation import Reference
+from flight_sim_dynamics.core.twin import TwinStepper
+from flight_sim_dynamics.machines.api import servo_for_bandwidth, simulate
+from flight_sim_dynamics.machines.staicu.machine import MACHINE
 
 STEP = 1e-3
 ZERO = np.zeros(3)
@@ -35,7 +37,7 @@ def model():
 
 @pytest.fixture(scope='module')
 def servo(model):
-    return Servo.for_bandwidth(model)
+    return servo_for_bandwidth(model)
 
 
 def hold(model, q):
@@ -47,7 +49,7 @@ def hold(model, q):
 
 
 def test_static_feedforward_keeps_the_platform_at_rest(model, servo):
-    twin = TwinStepper(model, servo, STEP)
+    twin = TwinStepper(MACHINE, model, servo, STEP)
     twin.command(*hold(model, ZERO))
     assert twin.advance(500) == 500
     assert twin.running and twin.status is Status.OK
@@ -60,7 +62,7 @@ def test_static_feedforward_keeps_the_platform_at_rest(model, servo):
 def test_step_in_leg_length_converges(model, servo):
     target = np.array([0.04, -0.03, 0.06])
     length, rate, force = hold(model, target)
-    twin = TwinStepper(model, servo, STEP)
+    twin = TwinStepper(MACHINE, model, servo, STEP)
     twin.command(length, rate, force)
     twin.advance(300)
     early = np.max(np.abs(twin.q - target))
@@ -75,7 +77,7 @@ def test_no_feedforward_sags_under_gravity(model, servo):
     steady-state error f_static / kp per leg, to first order.
     """
     length, rate, _ = hold(model, ZERO)
-    twin = TwinStepper(model, servo, STEP)
+    twin = TwinStepper(MACHINE, model, servo, STEP)
     twin.command(length, rate, ZERO)
     twin.advance(3000)
     sag = length - twin.length
@@ -96,7 +98,7 @@ def test_equals_simulate_for_a_held_reference(model, servo):
     target = [0.03, 0.02, -0.04]
     sim = simulate(model, reference=constant(target), feedforward=model, servo=servo,
                    initial=(ZERO, ZERO), step=STEP)
-    twin = TwinStepper(model, servo, STEP)
+    twin = TwinStepper(MACHINE, model, servo, STEP)
     twin.command(*hold(model, target))
     qs = [twin.q]
     for _ in range(len(sim.t) - 1):
@@ -117,7 +119,7 @@ def test_follows_simulate_on_a_moving_reference(model, servo):
     t = sim.t
     q_ref, qd_ref, qdd_ref = motion.trajectory(t)
     ref = fsd.solve_batch(model, q_ref, qd_ref, qdd_ref)
-    twin = TwinStepper(model, servo, STEP, q0=q_ref[0])
+    twin = TwinStepper(MACHINE, model, servo, STEP, q0=q_ref[0])
     twin.qd = qd_ref[0].copy()
     qs = [twin.q]
     for k in range(len(t) - 1):
@@ -136,7 +138,7 @@ def test_stops_with_a_status_when_it_leaves_the_workspace(model, servo):
     state reached, at rest.
     """
     strong = replace(model, limits=replace(model.limits, max_force=1e6))
-    twin = TwinStepper(strong, servo, STEP)
+    twin = TwinStepper(MACHINE, strong, servo, STEP)
     length, rate, force = hold(model, ZERO)
     twin.command(length + np.array([1.0, -1.0, 1.0]), rate, force)    # far beyond the strokes
     done = twin.advance(5000)
@@ -156,7 +158,7 @@ def test_stops_with_a_status_when_it_leaves_the_workspace(model, servo):
 @pytest.mark.parametrize('bad', [[1.0, 2.0], [1.0, float('nan'), 2.0], 'abc',
                                  [1.0, float('inf'), 0.0]])
 def test_bad_command_is_an_error(model, servo, bad):
-    twin = TwinStepper(model, servo, STEP)
+    twin = TwinStepper(MACHINE, model, servo, STEP)
     with pytest.raises(ValueError):
         twin.command(bad, ZERO, ZERO)
     with pytest.raises(ValueError):
@@ -167,11 +169,11 @@ def test_bad_command_is_an_error(model, servo, bad):
                                     dict(step=1e-3, q0=[0, float('nan'), 0])])
 def test_bad_construction_is_an_error(model, servo, kwargs):
     with pytest.raises(ValueError):
-        TwinStepper(model, servo, **kwargs)
+        TwinStepper(MACHINE, model, servo, **kwargs)
 
 
 def test_unreachable_start_is_a_status(model, servo):
-    twin = TwinStepper(model, servo, STEP, q0=[0.0, 5.0, 0.0])
+    twin = TwinStepper(MACHINE, model, servo, STEP, q0=[0.0, 5.0, 0.0])
     assert not twin.running and twin.outcome is Status.UNREACHABLE
     assert twin.advance(3) == 0
     assert np.all(np.isfinite(twin.length))
@@ -179,7 +181,7 @@ def test_unreachable_start_is_a_status(model, servo):
 
 def _run_stepper(model, servo, commands, chunk):
     """The stepper fed ``commands`` (one per ``chunk`` steps): its states."""
-    twin = TwinStepper(model, servo, STEP)
+    twin = TwinStepper(MACHINE, model, servo, STEP)
     states = []
     for length, rate, force in commands:
         twin.command(length, rate, force)

@@ -7,7 +7,7 @@ the Python code it replaces when the kernel is built.
   solution of the state, over workspace states (property-based, the samples
   of test_workspace_properties.py), for scenes with and without velocity
   products, payload and friction, and for every effect set with inertia;
-* ``simulation.integrate``: the RK4 loop in C gives the Python loop's rows
+* ``core.simulation.integrate``: the RK4 loop in C gives the Python loop's rows
   (to rounding), outcome and detail, closed and open loop, on runs that end
   and on runs that stop.
 """
@@ -30,8 +30,11 @@ from flight_sim_dynamics.core.effects import EFFECT_NAMES, Effects
 from flight_sim_dynamics.machines.staicu import forward_dynamics as fd
 from flight_sim_dynamics.machines.staicu import kernel, motions
 from flight_sim_dynamics.machines.staicu.model import Friction
-from flight_sim_dynamics.machines.staicu.simulation import (Reference, TabulatedLaw, integrate,
-                                                            simulate)
+from flight_sim_dynamics.core.interpolation import Reference
+from flight_sim_dynamics.core.servo import TabulatedLaw
+from flight_sim_dynamics.core.simulation import integrate
+from flight_sim_dynamics.machines.api import simulate
+from flight_sim_dynamics.machines.staicu.machine import MACHINE
 from test_workspace_properties import batches, examples, tolerance_factor
 
 MODEL = fsd.load_model()
@@ -150,7 +153,7 @@ def test_open_loop_kernel_equals_python_up_to_the_stop():
     rest = fsd.solve(MODEL, (0, 0, 0), (0, 0, 0), (0, 0, 0)).force
     force = np.tile(rest + np.array([400.0, 300.0, -300.0]), (2 * steps + 1, 1))
     law = TabulatedLaw(force, force, force, np.zeros(3), np.zeros(3))
-    run = (MODEL, 0.0, 1e-3, steps, np.zeros(3), np.zeros(3), law)
+    run = (MACHINE, MODEL, 0.0, 1e-3, steps, np.zeros(3), np.zeros(3), law)
     fast, slow = both(lambda: integrate(*run))
     assert fast[5] in (Status.UNREACHABLE, Status.NEAR_SINGULAR), fast[5:]
     assert len(fast[0]) < steps + 1
@@ -165,8 +168,8 @@ def test_forces_too_large_stop_both_loops_alike():
     steps = 50
     force = np.full((2 * steps + 1, 3), 1e300)
     law = TabulatedLaw(force, force, force, np.zeros(3), np.zeros(3))
-    fast, slow = both(lambda: integrate(MODEL, 0.0, 1e-3, steps, np.zeros(3), np.zeros(3),
-                                        law))
+    fast, slow = both(lambda: integrate(MACHINE, MODEL, 0.0, 1e-3, steps, np.zeros(3),
+                                        np.zeros(3), law))
     assert fast[5] != Status.OK
     assert_same_run(fast, slow)
 

@@ -1,45 +1,52 @@
-"""The digital twin in real time (the ``platform_sim`` node): the plant under
-its actuator servos, the last command held, advanced by the RK4 of
-:func:`.simulation.integrate` (forward dynamics M(q) qdd = f - b(q, qd), eq.
-14, 18-23; in C when the kernel is enabled). A stage state that cannot be
-simulated stops the stepper (:attr:`TwinStepper.outcome`) at the last state
-reached, at rest: never a NaN.
+"""The digital twin in real time (the ``platform_sim`` node), for any machine
+(:class:`.machine.Machine`): the plant under its actuator servos, the last
+command held, advanced by the RK4 of :func:`.simulation.integrate` (forward
+dynamics M(q) qdd = f - b(q, qd); 3-DOF: eq. 14, 18-23 of the paper; hexapod:
+(S10)-(S22) of docs/design/stewart.md; in C when the machine's kernel loop is
+enabled). A stage state that cannot be simulated stops the stepper
+(:attr:`TwinStepper.outcome`) at the last state reached, at rest: never a NaN.
 """
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
-from . import kernel
-from ...core.status import Status
-from .model import Model
-from .simulation import Servo, _stage, deliver, rk4_step
-from .solver import Solution
+from .machine import Machine
+from .servo import Servo, deliver
+from .simulation import kernel_loop, rk4_step, stage
+from .status import Status
+
+Solution = Any      # the machine's solve at a stage state (length, rate, status, detail)
 
 
 class TwinStepper:
-    """The plant under servos of gains ``servo``, RK4 at ``step`` s from rest at
-    ``q0``; the servos push nothing until the first :meth:`command`.
+    """The plant (a model of ``machine``) under servos of gains ``servo``, RK4
+    at ``step`` s from rest at ``q0``; the servos push nothing until the first
+    :meth:`command`.
     """
 
-    def __init__(self, plant: Model, servo: Servo, step: float,
+    def __init__(self, machine: Machine, plant: Any, servo: Servo, step: float,
                  q0: Sequence[float] | None = None) -> None:
         if not (math.isfinite(step) and step > 0):
             raise ValueError(f'step must be a positive number of seconds, got {step!r}')
-        self.plant = plant
+        servo.check(machine)
+        self.machine, self.plant = machine, plant
         self.step = float(step)
+        self._dof, self._legs = machine.dof, len(machine.legs)
         self._kp, self._kd = np.array(servo.kp), np.array(servo.kd)
-        self._max_force = plant.limits.max_force
-        self._max_speed = plant.limits.max_speed
-        q = np.zeros(3) if q0 is None else np.asarray(q0, dtype=float)
-        if q.shape != (3,) or not np.all(np.isfinite(q)):
-            raise ValueError(f'q0 must be 3 finite numbers (surge, heave, roll), got {q0!r}')
-        self.q, self.qd = q.copy(), np.zeros(3)
+        limits = machine.actuator_limits(plant)
+        self._max_force, self._max_speed = limits.max_force, limits.max_speed
+        q = np.zeros(self._dof) if q0 is None else np.asarray(q0, dtype=float)
+        if q.shape != (self._dof,) or not np.all(np.isfinite(q)):
+            raise ValueError(f'q0 must be {self._dof} finite numbers '
+                             f'({", ".join(machine.coordinates)}), got {q0!r}')
+        self.q, self.qd = q.copy(), np.zeros(self._dof)
         self.time = 0.0                      # s of simulated time
         self.steps = 0
-        self._length_ref, self._rate_ref, self._ff = (np.zeros(3) for _ in range(3))  # command
+        self._length_ref, self._rate_ref, self._ff = (np.zeros(self._legs)
+                                                      for _ in range(3))  # command
         self.outcome = Status.OK             # ok while running, else why it stopped
         self.detail = ''
         # (qdd, delivered force, solve) of the current state's first stage; None: to evaluate
@@ -47,20 +54,21 @@ class TwinStepper:
         self._base: Solution | None = None
         self._held: Solution | None = None       # the solve of the last good state
         self._tables: tuple | None = None        # (steps, the kernel's law) of the command
-        self._rows = tuple(np.empty((0, 3)) for _ in range(4))   # the kernel's q, qd, qdd, f
+        self._rows = self._kernel_rows(0)    # the kernel's q, qd, qdd, f
         self._evaluate_first()
 
     # -- the command ------------------------------------------------------------------
     def command(self, length: Sequence[float], rate: Sequence[float],
                 force: Sequence[float]) -> None:
         """Hold a new command: leg lengths, rates (m, m/s) and feed-forward forces
-        (N), each three finite numbers (else ValueError).
+        (N), each one finite number per leg (else ValueError).
         """
         values = []
         for name, v in (('length', length), ('rate', rate), ('force', force)):
             arr = np.asarray(v, dtype=float)
-            if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-                raise ValueError(f'{name} must be 3 finite numbers (legs A, B, C), got {v!r}')
+            if arr.shape != (self._legs,) or not np.all(np.isfinite(arr)):
+                raise ValueError(f'{name} must be {self._legs} finite numbers (legs '
+                                 f'{", ".join(self.machine.legs)}), got {v!r}')
             values.append(arr)
         self._length_ref, self._rate_ref, self._ff = values
         self._first = None
@@ -80,7 +88,8 @@ class TwinStepper:
         the state cannot be simulated.
         """
         self._base = None
-        qdd, force, status, detail = _stage(self.plant, self.q, self.qd, self._law, 0)
+        qdd, force, status, detail = stage(self.machine, self.plant, self.q, self.qd,
+                                           self._law, 0)
         if status is not Status.OK:
             self._stop(status, f't = {self.time:.6g} s: {detail}')
             return False
@@ -90,7 +99,7 @@ class TwinStepper:
 
     def _stop(self, status: Status, detail: str) -> None:
         self.outcome, self.detail = status, detail
-        self.qd = np.zeros(3)
+        self.qd = np.zeros(self._dof)
         self._first = None
 
     # -- stepping -----------------------------------------------------------------------
@@ -99,16 +108,22 @@ class TwinStepper:
         number of steps made.
         """
         done = 0
-        if steps > 0 and self.outcome is Status.OK and kernel.enabled():
-            done = self._advance_compiled(steps)
+        loop = kernel_loop(self.machine)
+        if steps > 0 and self.outcome is Status.OK and loop is not None:
+            done = self._advance_compiled(loop, steps)
         while done < steps and self.outcome is Status.OK:
             if not self._python_step():
                 break
             done += 1
         return done
 
-    def _advance_compiled(self, steps: int) -> int:
-        """Up to ``steps`` steps in the kernel; the steps made."""
+    def _kernel_rows(self, n: int) -> tuple[np.ndarray, ...]:
+        """Rows of q, qd, qdd (dof columns) and force (legs columns) for the kernel."""
+        return (np.empty((n, self._dof)), np.empty((n, self._dof)), np.empty((n, self._dof)),
+                np.empty((n, self._legs)))
+
+    def _advance_compiled(self, loop, steps: int) -> int:
+        """Up to ``steps`` steps in the kernel's loop; the steps made."""
         if self._tables is None or self._tables[0] != steps:
             # the held command as the kernel's tables; kept until the next command
             n = 2 * steps + 1
@@ -118,10 +133,10 @@ class TwinStepper:
                 float(self._max_speed), True))
         law = self._tables[1]
         if len(self._rows[0]) < steps + 1:      # grown once, reused every tick
-            self._rows = tuple(np.empty((steps + 1, 3)) for _ in range(4))
+            self._rows = self._kernel_rows(steps + 1)
         rows = tuple(r[:steps + 1] for r in self._rows)
         rows[0][0], rows[1][0] = self.q, self.qd
-        reached = min(kernel.integrate_rows(self.plant, law, self.step, 0, steps, rows), steps)
+        reached = min(loop(self.plant, law, self.step, 0, steps, rows), steps)
         if reached == 0:
             return 0                         # the Python loop takes this step
         self.q, self.qd = rows[0][reached].copy(), rows[1][reached].copy()
@@ -132,7 +147,7 @@ class TwinStepper:
         self.q = rows[0][reached - 1].copy()
         self._set_steps(self.steps - 1)
         self._base = None
-        _stage(self.plant, self.q, rows[1][reached - 1], self._law, 0)
+        stage(self.machine, self.plant, self.q, rows[1][reached - 1], self._law, 0)
         self._held = self._base
         return reached - 1
 
@@ -145,8 +160,8 @@ class TwinStepper:
         if self._first is None and not self._evaluate_first():
             return False
         q = self.q
-        q_new, qd_new, status, detail = rk4_step(self.plant, q, self.qd, self._first[0],
-                                                 self._law, 0, self.step)
+        q_new, qd_new, status, detail = rk4_step(self.machine, self.plant, q, self.qd,
+                                                 self._first[0], self._law, 0, self.step)
         if status is not Status.OK:
             self._stop(status, f'step from t = {self.time:.6g} s: {detail}')
             return False
@@ -166,22 +181,22 @@ class TwinStepper:
     @property
     def acceleration(self) -> np.ndarray:
         """Qdd at the current state (zeros once stopped)."""
-        return self._first[0] if self._first is not None else np.zeros(3)
+        return self._first[0] if self._first is not None else np.zeros(self._dof)
 
     @property
     def force(self) -> np.ndarray:
         """Delivered actuator forces at the current state, N (zeros once stopped)."""
-        return self._first[1] if self._first is not None else np.zeros(3)
+        return self._first[1] if self._first is not None else np.zeros(self._legs)
 
     @property
     def length(self) -> np.ndarray:
         """Leg lengths at the current state, m (once stopped: where it is held)."""
-        return self._held.length if self._held is not None else np.zeros(3)
+        return self._held.length if self._held is not None else np.zeros(self._legs)
 
     @property
     def rate(self) -> np.ndarray:
         """Leg rates at the current state, m/s (zeros once stopped: held at rest)."""
-        return self._first[2].rate if self._first is not None else np.zeros(3)
+        return self._first[2].rate if self._first is not None else np.zeros(self._legs)
 
     @property
     def status(self) -> Status:
