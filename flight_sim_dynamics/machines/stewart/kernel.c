@@ -90,6 +90,8 @@ enum { UNREACHABLE_LIST(AS_ENUM) N_UNREACHABLE };
 #define U_JOINT_TOLERANCE 1e-6      /* model.U_JOINT_TOLERANCE */
 #define MIN_LENGTH 1e-9             /* model.MIN_LENGTH */
 #define MAX_SOLVED_CONDITION 1e12   /* model.MAX_SOLVED_CONDITION */
+/* a result row's jacobian_condition not computed by solve (conditions() computes it) */
+#define NOT_COMPUTED -1.0
 #define SINGULAR DBL_MAX            /* core.status.SINGULAR */
 
 typedef struct { double x, y, z; } v3;
@@ -298,37 +300,65 @@ static inline int has_inertia(const double *P, int fx)
     return (fx & (E_PLATFORM | E_LEG)) || ((fx & E_PAYLOAD) && P[P_PAYLOAD + R_MASS] > 0.0);
 }
 
-/* Solve A x = b (6x6, row-major, destroyed) by LU with partial pivoting
-   (LAPACK's gesv, as numpy.linalg.solve); 0 if A is exactly singular. */
-static int solve6(double A[6][6], double *b)
+/* inv = A^-1 (6x6, row-major; A destroyed) by LU with partial pivoting, the
+   pivots' reciprocals computed once; 0 if A is exactly singular */
+static int invert6(double A[6][6], double inv[6][6])
 {
+    int row_of[6] = {0, 1, 2, 3, 4, 5};         /* row_of[r]: A's row now at r */
+    double rp[6];
     for (int c = 0; c < 6; c++) {
         int p = c;
         for (int r = c + 1; r < 6; r++)
             if (fabs(A[r][c]) > fabs(A[p][c]))
                 p = r;
-        if (A[p][c] == 0.0)
+        if (!(A[p][c] != 0.0))
             return 0;
         if (p != c) {
             for (int j = 0; j < 6; j++) {
                 double t = A[c][j]; A[c][j] = A[p][j]; A[p][j] = t;
             }
-            double t = b[c]; b[c] = b[p]; b[p] = t;
+            int t = row_of[c]; row_of[c] = row_of[p]; row_of[p] = t;
         }
+        rp[c] = 1.0 / A[c][c];
         for (int r = c + 1; r < 6; r++) {
-            double l = A[r][c] / A[c][c];
+            double l = A[r][c] * rp[c];
+            A[r][c] = l;
             for (int j = c + 1; j < 6; j++)
                 A[r][j] -= l * A[c][j];
-            b[r] -= l * b[c];
         }
     }
-    for (int c = 5; c >= 0; c--) {
-        double s = b[c];
-        for (int j = c + 1; j < 6; j++)
-            s -= A[c][j] * b[j];
-        b[c] = s / A[c][c];
+    for (int r0 = 0; r0 < 6; r0++) {            /* the column e_{row_of[r0]} of the inverse */
+        double y[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+        y[r0] = 1.0;                            /* L y = P e: zero above r0 */
+        for (int r = r0 + 1; r < 6; r++) {
+            double s = 0.0;
+            for (int j = r0; j < r; j++)
+                s -= A[r][j] * y[j];
+            y[r] = s;
+        }
+        for (int r = 5; r >= 0; r--) {          /* U x = y */
+            double s = y[r];
+            for (int j = r + 1; j < 6; j++)
+                s -= A[r][j] * y[j];
+            y[r] = s * rp[r];
+        }
+        for (int r = 0; r < 6; r++)
+            inv[r][row_of[r0]] = y[r];
     }
     return 1;
+}
+
+/* the Frobenius condition ||A||_F ||A^-1||_F, an upper bound of the 2-norm
+   condition (and at most 6 times it) */
+static double frobenius_condition(const double A[6][6], const double inv[6][6])
+{
+    double a = 0.0, b = 0.0;
+    for (int r = 0; r < 6; r++)
+        for (int c = 0; c < 6; c++) {
+            a += A[r][c] * A[r][c];
+            b += inv[r][c] * inv[r][c];
+        }
+    return sqrt(a) * sqrt(b);
 }
 
 /* One Jacobi rotation of the columns x, y (length 6) that makes them
@@ -506,23 +536,38 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
         if (degenerate < 0 && !(g[i].L > MIN_LENGTH && g[i].c2 >= U_JOINT_TOLERANCE))
             degenerate = i;                      /* kinematics.degenerate_legs */
     }
-    /* an unreachable sample is void whatever its condition */
-    double cond = degenerate < 0 ? jacobian_condition(J) : SINGULAR;
-    int solvable = degenerate < 0 && cond < MAX_SOLVED_CONDITION;
-
-    /* the wrench the actuators balance (S14)-(S21): dynamics.generalised_wrench */
-    double wrench[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
-    if (solvable) {
-        generalised_wrench(P, fx, q, qd, qdd, &pm, g, w, k, wrench);
-        double JT[6][6];                         /* f = J^-T wrench (S21) */
+    /* an unreachable sample is void whatever its condition. J's 2-norm
+       condition is at most its Frobenius condition: where that is within both
+       limits, the condition is not needed for the status and is left to
+       conditions() (NOT_COMPUTED; the Jacobi sweeps are half a solve). */
+    double cond = SINGULAR, X[6][6];             /* X = J^-T */
+    int solvable = 0;
+    if (degenerate < 0) {
+        double JT[6][6];
         for (int r = 0; r < 6; r++)
             for (int c = 0; c < 6; c++)
                 JT[r][c] = J[6 * c + r];
-        if (!solve6(JT, wrench))
-            solvable = 0;
+        int invertible = invert6(JT, X);
+        double bound = P[P_MAX_COND] < MAX_SOLVED_CONDITION ? P[P_MAX_COND]
+                                                            : MAX_SOLVED_CONDITION;
+        if (invertible && frobenius_condition((const double (*)[6])J, X) <= bound)
+            cond = NOT_COMPUTED;
+        else
+            cond = jacobian_condition(J);
+        solvable = invertible && cond < MAX_SOLVED_CONDITION;
     }
+
+    /* the wrench the actuators balance (S14)-(S21): dynamics.generalised_wrench */
+    double wrench[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+    if (solvable)
+        generalised_wrench(P, fx, q, qd, qdd, &pm, g, w, k, wrench);
     for (int i = 0; i < 6; i++) {
-        double f = solvable ? wrench[i] : NAN;   /* no forces through a singular J */
+        double f = NAN;                          /* no forces through a singular J */
+        if (solvable) {                          /* f = J^-T wrench (S21) */
+            f = 0.0;
+            for (int c = 0; c < 6; c++)
+                f += X[i][c] * wrench[c];
+        }
         if (fx & E_FRICTION)                                            /* (S23) */
             f = f + (P[P_VISCOUS + i] * w[i].Ld
                      + P[P_COULOMB + i] * tanh(w[i].Ld / P[P_SMOOTHING]));
@@ -596,67 +641,6 @@ static double deliver(double command, double rate, double max_force, double max_
     if (force * rate > 0.0)
         return (force > 0.0 ? 1.0 : -1.0) * nmin(fabs(force), drive);
     return force;
-}
-
-/* inv = A^-1 (6x6, row-major; A destroyed) by LU with partial pivoting, the
-   pivots' reciprocals computed once; 0 if A is exactly singular */
-static int invert6(double A[6][6], double inv[6][6])
-{
-    int row_of[6] = {0, 1, 2, 3, 4, 5};         /* row_of[r]: A's row now at r */
-    double rp[6];
-    for (int c = 0; c < 6; c++) {
-        int p = c;
-        for (int r = c + 1; r < 6; r++)
-            if (fabs(A[r][c]) > fabs(A[p][c]))
-                p = r;
-        if (!(A[p][c] != 0.0))
-            return 0;
-        if (p != c) {
-            for (int j = 0; j < 6; j++) {
-                double t = A[c][j]; A[c][j] = A[p][j]; A[p][j] = t;
-            }
-            int t = row_of[c]; row_of[c] = row_of[p]; row_of[p] = t;
-        }
-        rp[c] = 1.0 / A[c][c];
-        for (int r = c + 1; r < 6; r++) {
-            double l = A[r][c] * rp[c];
-            A[r][c] = l;
-            for (int j = c + 1; j < 6; j++)
-                A[r][j] -= l * A[c][j];
-        }
-    }
-    for (int r0 = 0; r0 < 6; r0++) {            /* the column e_{row_of[r0]} of the inverse */
-        double y[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
-        y[r0] = 1.0;                            /* L y = P e: zero above r0 */
-        for (int r = r0 + 1; r < 6; r++) {
-            double s = 0.0;
-            for (int j = r0; j < r; j++)
-                s -= A[r][j] * y[j];
-            y[r] = s;
-        }
-        for (int r = 5; r >= 0; r--) {          /* U x = y */
-            double s = y[r];
-            for (int j = r + 1; j < 6; j++)
-                s -= A[r][j] * y[j];
-            y[r] = s * rp[r];
-        }
-        for (int r = 0; r < 6; r++)
-            inv[r][row_of[r0]] = y[r];
-    }
-    return 1;
-}
-
-/* the Frobenius condition ||A||_F ||A^-1||_F, an upper bound of the 2-norm
-   condition (and at most 6 times it) */
-static double frobenius_condition(const double A[6][6], const double inv[6][6])
-{
-    double a = 0.0, b = 0.0;
-    for (int r = 0; r < 6; r++)
-        for (int c = 0; c < 6; c++) {
-            a += A[r][c] * A[r][c];
-            b += inv[r][c] * inv[r][c];
-        }
-    return sqrt(a) * sqrt(b);
 }
 
 /* The columns of the wrench of unit pose accelerations from rest, no weight
@@ -940,7 +924,8 @@ static int effect_bits(PyObject *obj, int *fx)
 PyDoc_STRVAR(solve_doc,
 "solve(params, effects, out, q, qd, qdd) -> (status, info, jacobian_condition)\n\n"
 "One sample: q, qd, qdd lists or tuples of 6 floats; fills the writable buffer `out`\n"
-"(OUT_SIZE float64) and returns the row's scalars. params: the packed model\n"
+"(OUT_SIZE float64) and returns the row's scalars (jacobian_condition NOT_COMPUTED\n"
+"where the status does not need it: conditions()). params: the packed model\n"
 "(kernel.pack_model); effects: the bit set (EFFECTS).");
 
 static PyObject *py_solve(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
@@ -1143,11 +1128,51 @@ done:
     return result;
 }
 
+PyDoc_STRVAR(conditions_doc,
+"conditions(jacobians, out) -> None\n\n"
+"The 2-norm condition of each twist Jacobian: jacobians a C-contiguous (N, 36)\n"
+"float64 buffer (each row J row-major), out a writable (N,) float64 buffer.\n"
+"What solve leaves NOT_COMPUTED in a result row. Releases the GIL.");
+
+static PyObject *py_conditions(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    (void)self;
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "conditions() takes 2 arguments");
+        return NULL;
+    }
+    Py_buffer out;
+    if (PyObject_GetBuffer(args[1], &out, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT
+                           | PyBUF_WRITABLE) < 0)
+        return NULL;
+    Py_ssize_t n = out.len / (Py_ssize_t)sizeof(double);
+    Py_buffer jv;
+    if (out.format == NULL || strcmp(out.format, "d") != 0) {
+        PyErr_SetString(PyExc_ValueError, "out must be float64 numbers");
+        PyBuffer_Release(&out);
+        return NULL;
+    }
+    if (get_doubles(args[0], &jv, 36 * n, 0, "jacobians") < 0) {
+        PyBuffer_Release(&out);
+        return NULL;
+    }
+    const double *J = (const double *)jv.buf;
+    double *cond = (double *)out.buf;
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t i = 0; i < n; i++)
+        cond[i] = jacobian_condition(J + 36 * i);
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&jv);
+    PyBuffer_Release(&out);
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"solve", (PyCFunction)(void (*)(void))py_solve, METH_FASTCALL, solve_doc},
     {"solve_batch", (PyCFunction)(void (*)(void))py_solve_batch, METH_FASTCALL,
      solve_batch_doc},
     {"integrate", (PyCFunction)(void (*)(void))py_integrate, METH_FASTCALL, integrate_doc},
+    {"conditions", (PyCFunction)(void (*)(void))py_conditions, METH_FASTCALL, conditions_doc},
     {NULL, NULL, 0, NULL}
 };
 
@@ -1215,6 +1240,7 @@ PyMODINIT_FUNC PyInit__kernel(void)
             || add_object(m, "U_JOINT_TOLERANCE", PyFloat_FromDouble(U_JOINT_TOLERANCE)) < 0
             || add_object(m, "MIN_LENGTH", PyFloat_FromDouble(MIN_LENGTH)) < 0
             || add_object(m, "MAX_SOLVED_CONDITION", PyFloat_FromDouble(MAX_SOLVED_CONDITION)) < 0
+            || add_object(m, "NOT_COMPUTED", PyFloat_FromDouble(NOT_COMPUTED)) < 0
             || add_object(m, "PACKED", fields_dict(PACKED_FIELDS, COUNT(PACKED_FIELDS), 0)) < 0
             || add_object(m, "RIGID_ROW", fields_dict(RIGID_FIELDS, COUNT(RIGID_FIELDS), 0)) < 0
             || add_object(m, "LEG_ROW", fields_dict(LEG_FIELDS, COUNT(LEG_FIELDS), 0)) < 0

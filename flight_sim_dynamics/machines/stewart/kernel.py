@@ -92,6 +92,8 @@ if _kernel is not None:
     #: Status of each kernel code.
     STATUS_BY_CODE = tuple(Status(name) for name in _kernel.STATUS)
     solve_one = _kernel.solve       # (params, bits, out, q, qd, qdd) -> (code, info, cond)
+    #: A row's jacobian_condition that solve left to :func:`conditions`.
+    NOT_COMPUTED = _kernel.NOT_COMPUTED
 else:   # the numpy code runs without any of them
     OUT = {}
 
@@ -171,3 +173,18 @@ def integrate_rows(model: StewartModel, law: tuple, step: float, k0: int, steps:
     """
     params, bits = prepared(model)
     return _kernel.integrate(params, bits, *law, step, k0, steps, *rows)
+
+
+def conditions(rows: np.ndarray) -> np.ndarray:
+    """The condition of J of every result row, (N,) for (N, OUT_SIZE) rows:
+    the row's own where solve computed it, else the kernel's (the same Jacobi
+    sweeps solve runs)."""
+    cond = rows[..., O_COND].copy()
+    todo = np.flatnonzero(cond.reshape(-1) == NOT_COMPUTED)
+    if todo.size:
+        offset, size = OUT['twist_jacobian']
+        jacobians = np.ascontiguousarray(rows.reshape(-1, OUT_SIZE)[todo, offset:offset + size])
+        found = np.empty(todo.size)
+        _kernel.conditions(jacobians, found)
+        cond.reshape(-1)[todo] = found
+    return cond

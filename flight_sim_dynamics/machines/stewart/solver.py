@@ -282,7 +282,9 @@ def solve(model: StewartModel, q, qd, qdd) -> StewartSolution:
             code, info, cond = kernel.solve_one(params, bits, out, q, qd, qdd)
         sol = object.__new__(_KernelSolution)      # its fields come from the row
         values = sol.__dict__
-        values['_rows'], values['jacobian_condition'], values['_info'] = out, cond, info
+        values['_rows'], values['_info'] = out, info
+        if cond != kernel.NOT_COMPUTED:     # else computed on first access
+            values['jacobian_condition'] = cond
         values['status'], values['model'] = kernel.STATUS_BY_CODE[code], model
         if code:    # the detail's inputs, copied (the caller may reuse its lists)
             values['_inputs'] = (tuple(q), tuple(qd), tuple(qdd))
@@ -351,16 +353,24 @@ def _kernel_detail(sol: StewartSolution) -> str | tuple:
     return tuple(detail)
 
 
+def _kernel_condition(sol: StewartSolution) -> float | np.ndarray:
+    """The condition of J: the kernel's solve leaves it where the status does
+    not need it (kernel.conditions)."""
+    cond = kernel.conditions(sol.__dict__['_rows'])
+    return float(cond) if cond.ndim == 0 else cond
+
+
 class _KernelSolution(StewartSolution):
     """A :class:`StewartSolution` whose arrays are views of the kernel's result
-    row(s), made on first access, as is its detail.
+    row(s), made on first access, as are its detail and condition.
     """
 
     detail = _Lazy(_kernel_detail)
+    jacobian_condition = _Lazy(_kernel_condition)
 
 
 if kernel.OUT:
-    for _name in set(kernel.ROW_FIELDS) - {'status', 'info'}:
+    for _name in set(kernel.ROW_FIELDS) - {'status', 'info', 'jacobian_condition'}:
         _lazy = _Lazy(_row_view(_name))
         _lazy.__set_name__(_KernelSolution, _name)
         setattr(_KernelSolution, _name, _lazy)

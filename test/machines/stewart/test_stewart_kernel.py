@@ -30,6 +30,7 @@ from flight_sim_dynamics.machines.stewart import model as sm
 from stewart_cases import MACHINES, MOTIONS, model_of, random_motion
 
 NAMES = sorted(MACHINES)
+Z6 = (0.0,) * 6
 NUMBERS = ('length', 'stroke', 'rate', 'acceleration', 'force', 'power', 'joints',
            'joint_rates', 'joint_accelerations', 'spherical_angles', 'jacobian',
            'twist_jacobian', 'jacobian_condition')
@@ -250,6 +251,23 @@ def test_one_rule_for_any_input(q, qd, qdd):
     assert all(np.all(np.isfinite(getattr(fast, name))) for name in NUMBERS)
     if fast.status in (Status.UNREACHABLE, Status.INVALID_INPUT):
         assert all(np.all(getattr(fast, name) == 0.0) for name in NUMBERS)
+
+
+@needs_kernel
+@pytest.mark.parametrize('limit', [2.2009, 2.2010, 4.0, 6.8, 7.0, 100.0])
+def test_the_condition_limit_judged_as_the_numpy_code(limit):
+    """At home cond(J) = 2.20092 and its Frobenius bound 6.90: the kernel's
+    solve skips the Jacobi sweeps only where the bound is within the limit;
+    either way the status, and the condition read afterwards, are numpy's."""
+    limited = dataclasses.replace(MODEL, limits=dataclasses.replace(
+        MODEL.limits, max_jacobian_condition=limit))
+    fast, slow = both(limited, Z6, Z6, Z6)
+    assert_same(fast, slow)
+    assert fast.status is (Status.NEAR_SINGULAR if limit < 2.2009183 else Status.OK)
+    with use_kernel(True):
+        batch = solver.solve_batch(limited, np.zeros((3, 6)), np.zeros((3, 6)),
+                                   np.zeros((3, 6)))
+    np.testing.assert_array_equal(batch.jacobian_condition, fast.jacobian_condition)
 
 
 @needs_kernel
