@@ -11,22 +11,17 @@ package_name = 'flight_sim_dynamics'
 # The compiled kernel (docs/kernel.md); optional: without a C compiler the Python code
 # solves (same results, slower). -ffp-contract=off: no fused multiply-add, as in Python.
 KERNEL_FLAGS = ['-O2', '-ffp-contract=off', '-fno-math-errno']
-kernel = Extension(
-    f'{package_name}.machines.staicu._kernel',
-    sources=[f'{package_name}/machines/staicu/kernel.c'], optional=True,
-    extra_compile_args=KERNEL_FLAGS)
-# the hexapod's part of the kernel, in the machine's own folder (same rules)
-stewart_kernel = Extension(
-    f'{package_name}.machines.stewart._kernel',
-    sources=[f'{package_name}/machines/stewart/kernel.c'], optional=True,
-    extra_compile_args=KERNEL_FLAGS)
+# one per machine, in the machine's own folder: machines/<name>/kernel.c -> machines.<name>._kernel
+kernels = [Extension(f"{package_name}.machines.{source.split('/')[-2]}._kernel", sources=[source],
+                     optional=True, extra_compile_args=KERNEL_FLAGS)
+           for source in sorted(glob(f'{package_name}/machines/*/kernel.c'))]
 
 setup(
     name=package_name,
     version='0.1.0',
     packages=find_packages(exclude=['test', 'test.*', 'benchmarks', 'benchmarks.*',
                                     'scripts', 'scripts.*']),
-    ext_modules=[kernel, stewart_kernel],
+    ext_modules=kernels,
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
@@ -43,8 +38,8 @@ setup(
     zip_safe=False,
     maintainer='flight_sim_dynamics maintainers',
     maintainer_email='flight_sim_dynamics@example.com',
-    description='Inverse dynamics of a 3-DOF parallel flight simulator '
-                '(library, CLI and ROS 2 node).',
+    description='Inverse dynamics of motion simulators: a 3-DOF parallel flight simulator '
+                'and 6-DOF Stewart-Gough hexapods (library, CLI, ROS 2 node, twin).',
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
