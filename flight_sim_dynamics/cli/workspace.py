@@ -385,7 +385,8 @@ def plot(survey: Survey, path: str, dpi: int) -> None:
     col_w = 3.5
     heights = [max(col_w * (g[0].y[-1] - g[0].y[0]) / (g[0].x[-1] - g[0].x[0]), 1.0)
                for g in grid]
-    fig = Figure(figsize=(col_w * ncol + 1.4, sum(heights) + 2.3), dpi=dpi, layout='compressed')
+    fig = Figure(figsize=(max(col_w * ncol + 1.4, 7.0), sum(heights) + 2.3), dpi=dpi,
+                 layout='compressed')
     axes = fig.subplots(len(grid), ncol, squeeze=False, gridspec_kw=dict(height_ratios=heights))
     values = np.concatenate([p.condition[p.inside(0) & np.isfinite(p.condition)
                                          & (p.condition > 0)] for p in planes])
@@ -407,7 +408,8 @@ def plot(survey: Survey, path: str, dpi: int) -> None:
     fig.colorbar(mesh, ax=axes, label=f'{survey.condition_label}, log scale',
                  extend='max' if top > hi else 'neither', shrink=0.5, pad=0.01)
     handles, labels = legend_entries(survey, styles)
-    fig.legend(handles, labels, loc='outside lower center', ncol=2, fontsize=8, frameon=False,
+    fig.legend(handles, labels, loc='outside lower center', ncol=2 if ncol > 2 else 1,
+               fontsize=8, frameon=False,
                handler_map={tuple: HandlerTuple(ndivide=None)})
     fig.suptitle(survey.title, fontsize='large')
     with atomic_output(path) as f:
