@@ -24,6 +24,17 @@ ALLOWED = {
 #: modules of ros/ that talk to rclpy (the rest of ros/ is plain Python)
 RCLPY_MODULES = {'ros/dynamics_node.py', 'ros/node.py', 'ros/planner.py', 'ros/platform_sim.py',
                  'ros/service_thread.py', 'ros/sim_node.py', 'cli/demo.py'}
+#: subpackages that see the machines only through the registry
+#: (``flight_sim_dynamics.machines``) and the public calls
+#: (``flight_sim_dynamics.machines.api``), never a machine's own modules
+#: (``machines.<name>``), so that a new machine touches neither. 'ros' joins
+#: once the rewritten ROS adapter is merged (the lead enables it then).
+MACHINE_BLIND = ('cli',)
+#: the gateways of MACHINE_BLIND subpackages into machines/
+MACHINE_GATEWAYS = {'flight_sim_dynamics.machines', 'flight_sim_dynamics.machines.api'}
+#: modules not yet held to it: cli/demo.py (imports machines.staicu.motions) is
+#: rewritten by another branch; the lead removes this exemption at the merge.
+MACHINE_BLIND_EXEMPT = {'cli/demo.py'}
 #: modules that import matplotlib (an optional extra): imported lazily, by the
 #: commands that plot, so that nothing else ever needs matplotlib
 LAZY = {'flight_sim_dynamics.cli.plotting', 'flight_sim_dynamics.cli.workspace',
@@ -35,9 +46,11 @@ def module_name(path: Path) -> str:
     return '.'.join(parts[:-1] if parts[-1] == '__init__' else parts)
 
 
-def imports(path: Path) -> list[tuple[str, bool]]:
-    """(absolute module imported, at module level?) for every import in ``path``."""
-    tree = ast.parse(path.read_text())
+def imports(path: Path, source: str | None = None) -> list[tuple[str, bool]]:
+    """(absolute module imported, at module level?) for every import in ``path``
+    (or in ``source``, read as if it were ``path``).
+    """
+    tree = ast.parse(path.read_text() if source is None else source)
     here = module_name(path).split('.')
     if path.name != '__init__.py':
         here = here[:-1]
@@ -77,6 +90,37 @@ def test_imports_follow_the_layers(path):
             assert other in ALLOWED[own], f'{rel} imports {target}: {own}/ may not import {other}/'
         if target.split('.')[0] == 'rclpy':
             assert rel in RCLPY_MODULES, f'{rel} imports rclpy'
+
+
+def machine_modules_imported(path: Path, source: str | None = None) -> list[str]:
+    """The modules of machines/ that ``path`` imports other than the gateways."""
+    names = {module_name(p) for p in MODULES}
+    return [target for target, _ in imports(path, source)
+            if target.startswith('flight_sim_dynamics.machines.') and target in names
+            and target not in MACHINE_GATEWAYS]
+
+
+@pytest.mark.parametrize('sub', MACHINE_BLIND)
+def test_machines_are_seen_only_through_the_registry_and_api(sub):
+    """A third machine adds its folder, its config file, its tests and a line
+    in the registry: nothing in these subpackages names a machine's modules."""
+    offenders = [f'{path.relative_to(PACKAGE)} imports {target}'
+                 for path in sorted((PACKAGE / sub).rglob('*.py'))
+                 if str(path.relative_to(PACKAGE)) not in MACHINE_BLIND_EXEMPT
+                 for target in machine_modules_imported(path)]
+    assert not offenders, offenders
+
+
+@pytest.mark.parametrize('line, caught', [
+    ('from ..machines.staicu import workspace', True),
+    ('from ..machines.stewart.model import StewartModel', True),
+    ('import flight_sim_dynamics.machines.staicu.solver', True),
+    ('from ..machines import MACHINES', False),
+    ('from .. import machines as registry', False),
+    ('from ..machines.api import simulate', False)])
+def test_the_machine_rule_tells_a_machine_module_from_the_gateways(line, caught):
+    probe = PACKAGE / 'cli' / 'probe.py'
+    assert bool(machine_modules_imported(probe, line + '\n')) == caught
 
 
 @pytest.mark.parametrize('path', MODULES, ids=lambda p: str(p.relative_to(PACKAGE)))

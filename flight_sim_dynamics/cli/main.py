@@ -393,8 +393,9 @@ SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
     'bench': ('time per cycle against force error for every scene and single-effect variant, '
               'and the cost of estimating missing accelerations (writes scenes.md, scenes.png)',
               *_lazy('flight_sim_dynamics.cli.bench')),
-    'workspace': ('map the reachable (surge, heave) region per roll angle, coloured by cond(Q), '
-                  'with stroke limits, singular curves and where slider E2 would leave the rod',
+    'workspace': ('map where the machine (--params) reaches at rest: ranges through home and '
+                  'maps coloured by its condition figure, with what bounds them (the 3-DOF '
+                  'machine: per roll angle, with stroke limits and singular curves)',
                   *_lazy('flight_sim_dynamics.cli.workspace')),
     'animate': ('the mechanism following a solved trajectory (side and front views, actuator '
                 'forces as bars, the status of each frame) as .gif, .mp4 (needs ffmpeg) or a '

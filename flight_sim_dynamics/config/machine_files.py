@@ -18,8 +18,6 @@ from typing import Any, Mapping
 
 from ..core.machine import Machine, ModelValueError
 from ..machines import MACHINES, PACKAGED, machine_named
-from ..machines.staicu.model import Model
-from ..machines.stewart.model import StewartModel
 from . import parameters
 from .errors import ParameterError, did_you_mean
 from .files import default_params_path, read_params_sections
@@ -33,7 +31,7 @@ _QOS_OVERRIDES = 'qos_overrides.'
 
 
 def load_model(path: str | os.PathLike[str] | None = None,
-               scene: Scene | str | os.PathLike[str] | None = None) -> Model | StewartModel:
+               scene: Scene | str | os.PathLike[str] | None = None) -> Any:
     """The model of a parameter file (None: the packaged 3-DOF machine) and a
     scene (a name from config/scenes or a path; None: the file's ``scene``
     parameter, else ``full``): the machine the file names (``machine: <name>``),

@@ -28,6 +28,7 @@ import numpy as np
 from .drawing import Drawing
 from .effects import EFFECT_NAMES
 from .motion import Motion
+from .workspace import Option, Survey
 
 
 class ModelValueError(ValueError):
@@ -86,12 +87,14 @@ class Machine:
     motions: Mapping[str, Motion] = field(default_factory=dict, hash=False)
     examples: tuple[str, ...] = ()
     # What a user sees beyond numbers (animate, workspace; RViz markers):
-    # ``drawing(model) -> Drawing`` (core/drawing.py); ``workspace(model,
-    # resolution=, extent=, at=, yaws=, orientation_extent=) -> Survey``
-    # (machines/stewart/workspace.py: ranges and maps at rest), None: the
-    # 3-DOF machine's roll panels of cli/workspace.py.
+    # ``drawing(model) -> Drawing`` (core/drawing.py); ``workspace(model, *,
+    # resolution, **options) -> Survey`` (core/workspace.py: ranges, maps at
+    # rest, checks of motions), its keywords ``workspace_options`` (given as
+    # command-line options; not given: the function's defaults); None: no
+    # workspace command for the machine.
     drawing: Callable[[Any], Drawing] | None = None
-    workspace: Callable[..., Any] | None = None
+    workspace: Callable[..., Survey] | None = None
+    workspace_options: tuple[Option, ...] = ()
     # What each effect costs (cli/bench.py): the effects the machine models
     # (core/effects.py; others have nothing to act on), the built-in motions
     # bench measures force errors on (the most demanding last), and whether its

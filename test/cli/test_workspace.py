@@ -20,8 +20,8 @@ from flight_sim_dynamics.machines.staicu import workspace as ws
 PNG_SIGNATURE = b'\x89PNG\r\n\x1a\n'
 MODEL = fsd.load_model()
 ROLLS = (0.0, 20.0)
-#: one summary interval: [+0.123 (cause), -0.456 (cause)]
-INTERVAL = re.compile(r'\[([+-]\d+\.\d+) \(([^)]*)\), ([+-]\d+\.\d+) \(([^)]*)\)\]')
+#: one summary interval: [+0.123 m (cause), -0.456 m (cause)]
+INTERVAL = re.compile(r'\[([+-]\d+\.\d+) m \(([^)]*)\), ([+-]\d+\.\d+) m \(([^)]*)\)\]')
 
 
 @pytest.fixture(scope='module')
@@ -46,14 +46,15 @@ def _within_strokes(sol: fsd.Solution) -> bool:
 
 
 def _summary_blocks(stdout: str) -> dict[float, list[str]]:
+    """The range lines of the summary by roll angle."""
     blocks: dict[float, list[str]] = {}
     current = None
     for line in stdout.splitlines():
-        m = re.match(r'roll ([+-][\d.]+) deg:', line)
+        m = re.match(r'  roll ([+-][\d.]+) deg:$', line)
         if m:
             current = float(m.group(1))
             blocks[current] = []
-        elif current is not None and line.startswith('  '):
+        elif current is not None and line.startswith('    '):
             blocks[current].append(line)
         else:
             current = None
@@ -71,15 +72,17 @@ def test_command_writes_png_markdown_and_summary(quick_run):
     assert text.startswith('# Workspace')
     assert '(map.png)' in text                      # the page shows the figure
     assert 'flight-sim-dynamics workspace -o' in text
-    assert '| +0 deg |' in text and '| +20 deg |' in text
+    assert '| roll +0 deg |' in text and '| roll +20 deg (zoom) |' in text
     blocks = _summary_blocks(stdout)
     assert set(blocks) == set(ROLLS)
     for lines in blocks.values():
         joined = '\n'.join(lines)
-        assert 'reachable surge at heave 0: [' in joined
-        assert 'reachable heave at surge 0: [' in joined
-        assert re.search(r'area: reachable \d+\.\d+ m\^2.*within stroke limits \d+\.\d+ m\^2',
-                         joined)
+        assert 'surge at heave 0 (reachable): [' in joined
+        assert 'heave at surge 0 (within stroke limits): [' in joined
+    for roll in ROLLS:
+        head = re.escape(f'roll {roll:+g} deg')
+        assert re.search(rf'^  {head}: area reachable \d+\.\d+ m\^2; within stroke '
+                         r'limits \d+\.\d+ m\^2;', stdout, re.M), stdout
     # the paper's three motions are reported, and all their samples are ok
     for name in ('vertical', 'rectilinear', 'general'):
         assert re.search(rf'^  {name}: all \d+ ok;', stdout, re.M), stdout
@@ -114,21 +117,19 @@ def test_printed_ranges_agree_with_solve(quick_run):
     step = 2e-3
     for roll, lines in blocks.items():
         checked = 0
-        for i, line in enumerate(lines):
-            m = re.match(r'  reachable (surge|heave) at', line)
-            if not m:
-                continue
+        for line in lines:
+            m = re.match(r'    (surge|heave) at \w+ 0 \((reachable|within stroke limits)\)', line)
             axis = 0 if m.group(1) == 'surge' else 1
-            for text, inside in ((line, lambda s: s.status != fsd.Status.UNREACHABLE),
-                                 (lines[i + 1], _within_strokes)):
-                lo, lo_cause, hi, hi_cause = INTERVAL.search(text.split(': ', 1)[1]).groups()
-                lo, hi = float(lo), float(hi)
-                assert lo < 0.0 < hi, text       # the first one holds the central configuration
-                for end, cause, sign in ((lo, lo_cause, -1.0), (hi, hi_cause, 1.0)):
-                    assert inside(_at(_pose(axis, end - sign * step, roll))), (roll, text)
-                    if cause != ws.EDGE:
-                        assert not inside(_at(_pose(axis, end + sign * step, roll))), (roll, text)
-                checked += 1
+            inside = ((lambda s: s.status != fsd.Status.UNREACHABLE) if m.group(2) == 'reachable'
+                      else _within_strokes)
+            lo, lo_cause, hi, hi_cause = INTERVAL.search(line.split(': ', 1)[1]).groups()
+            lo, hi = float(lo), float(hi)
+            assert lo < 0.0 < hi, line       # the first one holds the central configuration
+            for end, cause, sign in ((lo, lo_cause, -1.0), (hi, hi_cause, 1.0)):
+                assert inside(_at(_pose(axis, end - sign * step, roll))), (roll, line)
+                if cause != ws.EDGE:
+                    assert not inside(_at(_pose(axis, end + sign * step, roll))), (roll, line)
+            checked += 1
         assert checked == 4
 
 
@@ -253,19 +254,23 @@ def test_reachable_interval_through_centre_holds_the_paper_motions():
 
 
 def test_bounds_are_shares_of_each_boundary_and_the_reachable_one_ignores_roll():
-    from flight_sim_dynamics.cli.workspace import bounds
+    survey = ws.survey(MODEL, resolution=40, rolls=(0.0, 30.0), color_by='kinematic')
+    overview = [p for p in survey.planes if p.row == 0]
+    zoom = [p for p in survey.planes if p.row == 1]
+    assert [p.title for p in overview] == ['roll +0 deg', 'roll +30 deg']
+    # roll moves legs B and C only
+    assert overview[0].boundary_shares(0) == overview[1].boundary_shares(0)
+    for plane, which in ((overview[0], 0), (zoom[0], 1)):
+        assert sum(plane.boundary_shares(which).values()) == pytest.approx(1.0)
+    assert 'loop D' in overview[0].boundary_shares(0)
+    assert any(k.startswith('stroke') for k in zoom[0].boundary_shares(1))
+    assert 0.0 <= zoom[1].near_singular_share(1) <= 1.0
 
-    results = [ws.sample_roll(MODEL, roll, ws.DEFAULT_RANGE, ws.DEFAULT_ZOOM, 40, False)
-               for roll in (0.0, 30.0)]
-    rows = bounds(results, MODEL)
-    assert [r[0] for r in rows] == ['+0 deg', '+30 deg']
-    assert rows[0][1] == rows[1][1]                    # roll moves legs B and C only
-    for which, rm in ((ws.KINDS[0], results[0].overview), (ws.KINDS[1], results[0].zoom)):
-        shares = ws.boundary_shares(MODEL, rm, which)
-        assert sum(shares.values()) == pytest.approx(1.0)
-    assert 'loop D' in rows[0][1] and 'stroke' in rows[0][2]
-    share = ws.near_singular_share(results[1].zoom)
-    assert 0.0 <= share <= 1.0 and rows[1][3].endswith(' %')
+
+def _legend(survey):
+    from flight_sim_dynamics.cli import workspace as cli_workspace
+
+    return cli_workspace.legend_entries(survey, cli_workspace._Styles(survey.planes))
 
 
 def test_the_legend_is_short_and_regions_are_drawn_one_by_one():
@@ -273,13 +278,15 @@ def test_the_legend_is_short_and_regions_are_drawn_one_by_one():
     region without its hatch. Related entries are grouped; every connected
     region is its own contourf (the largest first)."""
     from flight_sim_dynamics.cli import workspace as cli_workspace
-    from flight_sim_dynamics.machines.staicu.workspace import E2_OFF_ROD, LOOP_D, LOOP_E, REACHABLE
 
-    handles, labels = cli_workspace._legend_handles(
-        fsd.load_model(), {REACHABLE, LOOP_D, LOOP_E, E2_OFF_ROD})
-    assert len(handles) == len(labels) <= 12, labels
+    handles, labels = _legend(ws.survey(MODEL, resolution=40, rolls=(0.0, 20.0)))
+    assert len(handles) == len(labels) <= 16, labels
+    for word in ('loop D', 'loop E', 'E2 off the rod', 'stroke A', 'stroke B', 'stroke C',
+                 'kinematic condition (blocks of Q) =', 'det(dL/dq) = 0', 'near_singular',
+                 'vertical', 'rectilinear', 'general motion', 'dimmed'):
+        assert sum(word in label for label in labels) == 1, (word, labels)
     r = np.hypot(*np.meshgrid(np.linspace(-1, 1, 41), np.linspace(-1, 1, 41)))
-    regions = cli_workspace._regions((r < 0.2) | (r >= 0.6))      # an island inside a ring
+    regions = cli_workspace.regions((r < 0.2) | (r >= 0.6))      # an island inside a ring
     assert sorted(int(m.sum()) for m in regions)[0] == int((r < 0.2).sum())
     assert len(regions) == 2
 
@@ -288,15 +295,70 @@ def test_the_enclosed_disk_of_the_map_is_named_in_the_legend():
     """The default map has a small region of its own inside the E2-off-rod one
     (a disk, at about surge -0.25 m, heave -1.1 m): loop D, the same cause as
     the outer band, and the legend's loop D entry says it covers both."""
-    from flight_sim_dynamics.cli import workspace as cli_workspace
-    from flight_sim_dynamics.machines.staicu.workspace import LOOP_D, REACHABLE
-
     model = fsd.load_model()
     surge, heave = np.meshgrid(np.linspace(-0.8, 0.2, 21), np.linspace(-1.6, -0.6, 21))
     q = np.column_stack([surge.ravel(), heave.ravel(), np.zeros(surge.size)])
-    disk = ws.categorise(ws.at_rest(model, q)).reshape(surge.shape) == LOOP_D
+    disk = ws.categorise(ws.at_rest(model, q)).reshape(surge.shape) == ws.LOOP_D
     assert disk[10, 11]                                           # (-0.25, -1.1)
     assert not (disk[0].any() or disk[-1].any() or disk[:, 0].any() or disk[:, -1].any())
-    _, labels = cli_workspace._legend_handles(model, {REACHABLE, LOOP_D})
+    _, labels = _legend(ws.survey(model, resolution=40, rolls=(0.0,), no_zoom=True))
     loop_d = [label for label in labels if label.startswith('unreachable: loop D')]
     assert len(loop_d) == 1 and 'disk' in loop_d[0], labels
+
+
+# ----------------------------------------------------------------------------
+# The numbers of the survey: those the command printed for this grid when it
+# drew the roll panels itself (recorded at 157a148, `workspace --resolution 40
+# --rolls 0 20`), now through the shared survey and presentation
+# ----------------------------------------------------------------------------
+RECORDED = {
+    # roll: (reachable area, within-stroke area, within-stroke heave interval and its causes)
+    0.0: (4.391, 0.625, (-0.306, 'E2 off rod', 0.678, 'stroke B max, stroke C max')),
+    20.0: (4.391, 0.363, (-0.236, 'stroke B min', 0.477, 'stroke C max')),
+}
+RECORDED_SHARES = {      # boundary of the reachable set (overview), within the strokes (zoom)
+    0.0: ({'loop D': 48, 'E2 off rod': 35, 'loop E': 17},
+          {'stroke B, C max': 29, 'E2 off rod': 24, 'loop E': 22, 'stroke A min': 21,
+           'stroke B, C min': 3, 'stroke A max': 1}),
+    20.0: ({'loop D': 48, 'E2 off rod': 35, 'loop E': 17},
+           {'stroke C max': 27, 'loop E': 26, 'stroke A min': 20, 'E2 off rod': 16,
+            'stroke B min': 11}),
+}
+RECORDED_NEAR = {0.0: 0.3, 20.0: 0.5}     # % of the within-stroke cells of the zoom
+RECORDED_MOTIONS = {     # name: (max cond(Q), stroke C interval)
+    'vertical': (11.7, (0.001, 0.171)), 'rectilinear': (15.3, (0.001, 0.174)),
+    'general': (15.6, (0.001, 0.470))}
+
+
+def test_the_survey_gives_the_recorded_numbers():
+    survey = fsd.machine_of(MODEL).workspace(MODEL, resolution=40, rolls=ROLLS)
+    overview = {float(p.title.split()[1]): p for p in survey.planes if p.row == 0}
+    zoom = {float(p.title.split()[1]): p for p in survey.planes if p.row == 1}
+    for roll, (reach, within, (lo, lo_cause, hi, hi_cause)) in RECORDED.items():
+        assert round(overview[roll].area(0), 3) == reach
+        assert round(overview[roll].area(1), 3) == within
+        heave = next(r for r in survey.ranges if r.group == f'roll {roll:+g} deg'
+                     and r.name == 'heave at surge 0' and r.which == 1)
+        (a, b), = heave.intervals
+        assert (round(a.value, 3), a.cause, round(b.value, 3), b.cause) == (lo, lo_cause, hi,
+                                                                           hi_cause)
+        shares = [{k: round(100 * v) for k, v in plane.boundary_shares(which).items()
+                   if round(100 * v)} for plane, which in ((overview[roll], 0), (zoom[roll], 1))]
+        assert tuple(shares) == RECORDED_SHARES[roll]
+        assert round(100 * zoom[roll].near_singular_share(1), 1) == RECORDED_NEAR[roll]
+    for check in survey.checks:
+        assert dict(check.statuses) == {'ok': 301}
+        figures = {q.label: q.value for q in check.figures}
+        cond, stroke_c = RECORDED_MOTIONS[check.name]
+        assert round(figures['max cond(Q)'], 1) == cond
+        assert tuple(np.round(figures['stroke C'], 3)) == stroke_c
+
+
+def test_the_page_tables_carry_the_survey(quick_run):
+    """The markdown page of the command shows the recorded numbers in its tables."""
+    _, _, md, stdout, _ = quick_run
+    text = md.read_text()
+    assert '| roll +0 deg | heave at surge 0 | within stroke limits | -0.306 m | +0.678 m | ' \
+           'E2 off rod | stroke B max, stroke C max |' in text
+    assert 'reachable 4.391 m^2; within stroke limits 0.363 m^2' in text
+    assert '| vertical | all 301 ok |' in text and '[+0.001, +0.470] m' in text

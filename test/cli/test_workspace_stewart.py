@@ -28,7 +28,7 @@ def test_writes_png_markdown_and_the_ranges(tmp_path, capsys):
         row = (f'| {name} | {fmt.format(lo.value)} {unit} | {fmt.format(hi.value)} {unit} | '
                f'{lo.cause} | {hi.cause} |')
         assert row in page
-        assert f'  {name}: {fmt.format(lo.value)} {unit} to' in out
+        assert f'  {name}: [{fmt.format(lo.value)} {unit} ({lo.cause}), ' in out
     assert 'surge-heave at sway 0.05 m, roll 5, pitch 0, yaw 10 deg' in page
     assert page.count('| roll-pitch at home, yaw 0 deg |') == 1
 

@@ -14,6 +14,8 @@ from .model import JOINT_NAMES, LEG_NAMES, Model
 from .motions import MOTIONS, TEST_MOTIONS
 from .solver import solve, solve_batch
 from .trajectories import PAPER_EXAMPLES
+from .workspace import OPTIONS as WORKSPACE_OPTIONS
+from .workspace import survey
 
 
 def actuator_limits(model: Model) -> ActuatorLimits:
@@ -34,7 +36,7 @@ MACHINE = Machine(
     sample_fields=('beta', 'kinematic_condition', 'jacobian_condition'),
     costly_fields=('cond',), motions=MOTIONS, examples=tuple(PAPER_EXAMPLES),
     # what a user sees beyond numbers
-    drawing=drawing,
+    drawing=drawing, workspace=survey, workspace_options=WORKSPACE_OPTIONS,
     # what each effect costs
     bench_motions=TEST_MOTIONS, kernel_enabled=kernel.enabled,
     # simulation and the twin

@@ -1,7 +1,9 @@
 """Workspace sampling at rest, the numerics of ``flight-sim-dynamics workspace``:
 grid maps per roll angle by what ends reachability (:func:`sample_map`), intervals
-and areas with bisected crossings (:func:`line_ranges`, :func:`areas`), what makes
-the boundary (:func:`boundary_shares`) and the paper's motions (eq. 6).
+and areas with bisected crossings (:func:`line_ranges`, :func:`areas`), the
+causes that make the boundary, and the paper's motions (eq. 6); :func:`survey`
+gives them in the shape every machine's survey has
+(:class:`~flight_sim_dynamics.core.workspace.Survey`).
 """
 from __future__ import annotations
 
@@ -13,6 +15,9 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ...core.status import Status
+from ...core.workspace import (INSIDE, Cause, Check, Curve, End, Option, Path, PlaneMap,
+                               Quantity, Range, Survey, angles_check, cell_centres,
+                               check_extent)
 from .model import Model
 from .solver import Solution, solve_batch
 from .trajectories import PAPER_EXAMPLES, paper_example, sample_times
@@ -86,10 +91,6 @@ class RollMap:
     colour: np.ndarray           # (ny, nx) cond(Q) or kinematic condition (NaN unreachable)
     near_singular: np.ndarray    # (ny, nx) status near_singular
     jacobian_det: np.ndarray     # (ny, nx) det(dL/dq): 0 on the actuator-Jacobian singularity
-
-
-def cell_centres(lo: float, hi: float, n: int) -> np.ndarray:
-    return lo + (np.arange(n) + 0.5) * ((hi - lo) / n)
 
 
 def sample_map(model: Model, roll_deg: float, extent: Sequence[float], resolution: int,
@@ -360,30 +361,6 @@ def _limits_label(tied: np.ndarray) -> str:
     return '; '.join(parts)
 
 
-def boundary_shares(model: Model, rm: RollMap, which: str) -> dict[str, float]:
-    """Share of the boundary of the set ``which`` made by each constraint (grid
-    estimate: cell edges between inside and outside, by the outside's cause).
-    """
-    inside = rm.category == REACHABLE if which == KINDS[0] else rm.within
-    cause = _outside_cause(model, rm)
-    if which == KINDS[0]:
-        cause = np.where(rm.category == REACHABLE, '', cause)
-    ds = rm.surge[1] - rm.surge[0]
-    dh = rm.heave[1] - rm.heave[0]
-    total: dict[str, float] = {}
-    pairs = ((inside[:, :-1], inside[:, 1:], cause[:, :-1], cause[:, 1:], dh),
-             (inside[:-1], inside[1:], cause[:-1], cause[1:], ds))
-    for ia, ib, ca, cb, length in pairs:
-        for c in np.concatenate([cb[ia & ~ib], ca[ib & ~ia]]):
-            total[c] = total.get(c, 0.0) + length
-    edge = (inside[0].sum() + inside[-1].sum()) * ds + (inside[:, 0].sum()
-                                                         + inside[:, -1].sum()) * dh
-    if edge:
-        total['edge of the panel'] = float(edge)
-    s = sum(total.values())
-    return {k: v / s for k, v in sorted(total.items(), key=lambda kv: -kv[1])} if s else {}
-
-
 def sample_roll(model: Model, roll_deg: float, extent: Sequence[float],
                 zoom: Sequence[float] | None, resolution: int, exact_cond: bool = True
                 ) -> RollResult:
@@ -395,7 +372,170 @@ def sample_roll(model: Model, roll_deg: float, extent: Sequence[float],
                       areas=areas(model, overview, extent), overview=overview, zoom=zoomed)
 
 
-def near_singular_share(rm: RollMap) -> float:
-    """Share of the within-stroke cells that are near_singular (nan: none within)."""
-    n = int(rm.within.sum())
-    return float((rm.within & rm.near_singular).sum()) / n if n else math.nan
+#: Default roll angles, degrees (negative ones mirror these: legs B and C exchanged).
+DEFAULT_ROLLS = (0.0, 15.0, 30.0, 45.0)
+#: The legend's words of each category (its cause kind) and whether a boundary
+#: there is singular (a crank tangent: Q singular).
+_KIND = {LOOP_D: ('unreachable: loop D cannot close (crank D cannot reach the rod), outside '
+                  'and in the enclosed disk', True),
+         LOOP_E: ('unreachable: loop E cannot close', True),
+         E2_OFF_ROD: ('unreachable: slider E2 off the rod (outside A3-G)', False),
+         DEGENERATE: ('unreachable: degenerate leg', False),
+         INVALID: ('invalid', False)}
+BEYOND_STROKES = 'reachable, outside the stroke limits (dimmed)'
+
+
+def _fmt(values: Sequence[float]) -> str:
+    return ' '.join(f'{v:g}' for v in values)
+
+
+def _check_rolls(rolls: Sequence[float]) -> None:
+    if not 1 <= len(rolls) <= 8:
+        raise ValueError('takes 1 to 8 angles')
+    angles_check(8)(rolls)
+
+
+#: The options of :func:`survey` (``flight-sim-dynamics workspace``).
+OPTIONS = (
+    Option('rolls', 'roll angles in degrees, one panel each (default '
+           f'{_fmt(DEFAULT_ROLLS)})', nargs='+', metavar='DEG', check=_check_rolls),
+    Option('extent', 'extent of the overview panels, intervals and areas, m (default '
+           f'{_fmt(DEFAULT_RANGE)})', flag='range', nargs=4,
+           metavar=('SURGE_MIN', 'SURGE_MAX', 'HEAVE_MIN', 'HEAVE_MAX'), check=check_extent),
+    Option('zoom', f'extent of the zoomed panels, m (default {_fmt(DEFAULT_ZOOM)})', nargs=4,
+           metavar=('SURGE_MIN', 'SURGE_MAX', 'HEAVE_MIN', 'HEAVE_MAX'), check=check_extent),
+    Option('no_zoom', 'leave out the zoomed row', nargs=0),
+    Option('color_by', 'colour: exact cond(Q) (default) or the kinematic condition',
+           type=str, choices=('cond', 'kinematic')))
+
+
+def _causes(model: Model, rm: RollMap) -> tuple[np.ndarray, tuple[Cause, ...]]:
+    """Per cell the code of what keeps it out of the within-stroke region, and the causes."""
+    words = _outside_cause(model, rm)
+    causes = [INSIDE] + [Cause(SHORT_CAUSE[c], _KIND[c][0], singular=_KIND[c][1])
+                         for c in range(1, INVALID + 1)]
+    code = np.where(rm.category == REACHABLE, 0, rm.category).astype(np.int16)
+    beyond = (rm.category == REACHABLE) & ~rm.within
+    for text in sorted(set(words[beyond].tolist())):
+        code[beyond & (words == text)] = len(causes)
+        causes.append(Cause(text, BEYOND_STROKES, reachable=True))
+    return code, tuple(causes)
+
+
+def _curves(model: Model, rm: RollMap) -> tuple[Curve, ...]:
+    """Stroke limits per leg, the kinematic condition's threshold, det(dL/dq) = 0."""
+    lim = model.limits
+    curves = []
+    for j, leg in enumerate(LEGS):
+        label = f'stroke {leg} = {lim.stroke_min:g} m (dashed), {lim.stroke_max:g} m'
+        curves += [Curve(label, rm.stroke[:, :, j], lim.stroke_min, 'dashed', wide=leg == 'B'),
+                   Curve(label, rm.stroke[:, :, j], lim.stroke_max, 'solid', wide=leg == 'B')]
+    with np.errstate(divide='ignore', invalid='ignore'):
+        logk = np.log10(np.clip(rm.kinematic_condition, 1e-300, 1e300))
+    curves.append(Curve(f'kinematic condition (blocks of Q) = {lim.max_kinematic_condition:g}',
+                        logk, math.log10(lim.max_kinematic_condition), 'dotted'))
+    if np.nanmin(rm.jacobian_det) < 0.0 < np.nanmax(rm.jacobian_det):
+        curves.append(Curve('actuator Jacobian singular: det(dL/dq) = 0', rm.jacobian_det, 0.0,
+                            'dashdot'))
+    return tuple(curves)
+
+
+def _paths(roll_deg: float) -> tuple[Path, ...]:
+    """The paper's vertical and rectilinear motions at roll 0; the general one's
+    pose at the panel's roll (a star).
+    """
+    paths = []
+    if roll_deg == 0.0:
+        for name, label in (('vertical', "the paper's vertical motion"),
+                            ('rectilinear', "the paper's rectilinear motion (= general at "
+                                            'roll 0)')):
+            q, _, _ = paper_example(name, sample_times(20.0))
+            paths.append(Path(label, q[:, 0], q[:, 1]))
+    gp = general_pose_at_roll(roll_deg)
+    if gp is not None and roll_deg > 0:
+        paths.append(Path("the paper's general motion at the panel's roll",
+                          np.array([gp[0]]), np.array([gp[1]])))
+    return tuple(paths)
+
+
+def _plane(model: Model, rm: RollMap, zoomed: bool, report: tuple[int, ...],
+           area: Areas | None) -> PlaneMap:
+    code, causes = _causes(model, rm)
+    return PlaneMap(
+        title=f'roll {rm.roll_deg:+g} deg' + (' (zoom)' if zoomed else ''),
+        names=('surge', 'heave'), units=('m', 'm'), x=rm.surge, y=rm.heave, cause=code,
+        causes=causes, condition=rm.colour, near_singular=rm.near_singular, row=int(zoomed),
+        report=report, areas={} if area is None else {0: area.reachable, 1: area.within},
+        clipped=bool(area is not None and area.clipped), curves=_curves(model, rm),
+        paths=_paths(rm.roll_deg))
+
+
+def _ranges(line: LineRanges, group: str) -> tuple[Range, ...]:
+    out = []
+    for which, kind in enumerate(KINDS):
+        centre = line.through_centre(kind)
+        ivs = ([centre] if centre else []) + [iv for iv in line.intervals[kind]
+                                              if iv is not centre]
+        out.append(Range(line.name, 'm', tuple((End(iv.lo, iv.lo_cause), End(iv.hi, iv.hi_cause))
+                                               for iv in ivs), group, which,
+                         through=centre is not None))
+    return tuple(out)
+
+
+def _check(m: MotionReport) -> Check:
+    figures = [Quantity('end surge', float(m.end_pose[0]), 'm'),
+               Quantity('end heave', float(m.end_pose[1]), 'm'),
+               Quantity('end roll', math.degrees(float(m.end_pose[2])), 'deg')]
+    figures += [Quantity(f'stroke {leg}', np.array([lo, hi]), 'm')
+                for leg, lo, hi in zip(LEGS, m.stroke_min, m.stroke_max)]
+    figures += [Quantity('max cond(Q)', m.max_cond),
+                Quantity('max kinematic condition', m.max_kinematic_condition),
+                Quantity('max Jacobian condition', m.max_jacobian_condition)]
+    return Check(m.name, m.statuses, tuple(figures))
+
+
+def survey(model: Model, *, resolution: int, rolls: Sequence[float] = DEFAULT_ROLLS,
+           extent: Sequence[float] = DEFAULT_RANGE, zoom: Sequence[float] = DEFAULT_ZOOM,
+           no_zoom: bool = False, color_by: str = 'cond') -> Survey:
+    """Per roll angle the (surge, heave) panel of ``extent`` (reachable set,
+    refined areas) and, unless ``no_zoom``, of ``zoom`` (within the stroke
+    limits); the ranges of surge and heave through the central configuration;
+    the paper's three motions (eq. 6). Colour: cond(Q) (``color_by='cond'``)
+    or the kinematic condition.
+    """
+    if color_by not in ('cond', 'kinematic'):
+        raise ValueError(f"color_by is 'cond' or 'kinematic', got {color_by!r}")
+    lim = model.limits
+    planes, ranges = [], []
+    for roll in rolls:
+        r = sample_roll(model, roll, extent, None if no_zoom else zoom, resolution,
+                        color_by == 'cond')
+        group = f'roll {roll:+g} deg'
+        ranges += _ranges(r.surge_line, group) + _ranges(r.heave_line, group)
+        planes.append(_plane(model, r.overview, False, (0,) if r.zoom else (0, 1), r.areas))
+        if r.zoom is not None:
+            planes.append(_plane(model, r.zoom, True, (1,), None))
+    planes.sort(key=lambda p: p.row)
+    colour = 'cond(Q) (SVD)' if color_by == 'cond' else 'the kinematic condition'
+    caption = (f'One panel per roll angle, at rest; the bottom row (if any) zooms onto the '
+               f'central configuration (+). Colour: {colour}, log scale; dimmed: outside the '
+               f'stroke limits ({lim.stroke_min:g} m dashed, {lim.stroke_max:g} m solid); '
+               'hatched: unreachable, by cause. Roll enters legs B and C only: the reachable '
+               'set is the same at every roll angle.')
+    return Survey(
+        title='Workspace of the flight simulator: reachable (surge, heave) of G per roll '
+              'angle, at rest',
+        notes=(f'Stroke limits [{lim.stroke_min:g}, {lim.stroke_max:g}] m; near-singular '
+               f'thresholds: kinematic condition {lim.max_kinematic_condition:g}, actuator '
+               f'Jacobian condition {lim.max_jacobian_condition:g}.',),
+        sets=KINDS,
+        condition_label=('cond(Q), exact (SVD)' if color_by == 'cond'
+                         else 'kinematic condition (blocks of Q)'),
+        condition_name='cond(Q)' if color_by == 'cond' else 'kinematic condition',
+        max_condition=lim.max_kinematic_condition,
+        near_singular_rule=(f'kinematic condition > {lim.max_kinematic_condition:g} or '
+                            f'Jacobian condition > {lim.max_jacobian_condition:g}'),
+        ranges=tuple(ranges), planes=tuple(planes),
+        checks=tuple(_check(m) for m in paper_motions(model)),
+        checks_title="The paper's motions (eq. 6, 100 Hz, with their rates and accelerations)",
+        caption=caption)

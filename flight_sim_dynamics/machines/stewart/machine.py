@@ -13,6 +13,7 @@ from .kinematics import forward_kinematics
 from .model import LEG_NAMES, PARAMETER_NAMES, StewartModel, from_dict
 from .motions import MOTIONS
 from .solver import COORDINATES, solve, solve_batch
+from .workspace import OPTIONS as WORKSPACE_OPTIONS
 from .workspace import survey
 
 #: The joint variables of each leg, in the order of a solution's ``joints``
@@ -54,7 +55,7 @@ MACHINE = Machine(
     title='6-DOF hexapod', leg_labels=tuple(str(i) for i in range(1, len(LEG_NAMES) + 1)),
     sample_fields=('jacobian_condition',), motions=MOTIONS, examples=tuple(MOTIONS),
     # what a user sees beyond numbers
-    drawing=drawing, workspace=survey,
+    drawing=drawing, workspace=survey, workspace_options=WORKSPACE_OPTIONS,
     # what each effect costs: a hexapod has no cranks
     effects=tuple(e for e in EFFECT_NAMES if e != 'crank_inertia'),
     bench_motions=('gentle', 'cueing', 'violent'), kernel_enabled=kernel.enabled,

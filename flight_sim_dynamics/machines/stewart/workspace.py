@@ -14,12 +14,13 @@ force limits do not bound a pose at rest.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
 
 from ...core.status import Status
+from ...core.workspace import (INSIDE, Cause, End, Option, PlaneMap, Range, Survey,
+                               angles_check, cell_centres, check_extent, check_finite)
 from .model import StewartModel
 from .solver import COORDINATES, StewartSolution, solve_batch
 
@@ -91,69 +92,20 @@ def to_pose(values: Sequence[float], axes: Sequence[int]) -> np.ndarray:
     return np.array([math.radians(v) if a in ANGLES else float(v) for v, a in zip(values, axes)])
 
 
-@dataclass
-class PlaneMap:
-    """Two coordinates on a grid of cell centres (ny rows of y, nx of x), the
-    others fixed; display units (m, deg).
-    """
-
-    title: str
-    axes: tuple[int, int]        # indices into COORDINATES: x, y
-    fixed: np.ndarray            # (6,) the pose of the other coordinates, SI
-    x: np.ndarray                # (nx,) m or deg
-    y: np.ndarray                # (ny,)
-    cause: np.ndarray            # (ny, nx) cause code (REACHABLE inside)
-    legs: np.ndarray             # (ny, nx) the legs of the cause (bit k: leg k + 1)
-    condition: np.ndarray        # (ny, nx) condition of J, NaN where unreachable
-    max_condition: float         # near_singular above it
-
-    @property
-    def reachable(self) -> np.ndarray:
-        return self.cause == REACHABLE
-
-    @property
-    def cell_area(self) -> float:
-        return float((self.x[1] - self.x[0]) * (self.y[1] - self.y[0]))
-
-    def names(self) -> tuple[str, str]:
-        return tuple(COORDINATES[a] for a in self.axes)
-
-    def units(self) -> tuple[str, str]:
-        return tuple('deg' if a in ANGLES else 'm' for a in self.axes)
-
-    @staticmethod
-    def cause_text(code: int, legs: int) -> str:
-        """The words of a cell's cause (:func:`cause_text`)."""
-        return cause_text(code, legs)
-
-    def boundary_shares(self) -> dict[str, float]:
-        """Share of the reachable region's boundary made by each cause (grid
-        estimate: cell edges between a reachable and an unreachable cell, by the
-        latter's cause; the edge of the map when the region touches it).
-        """
-        inside = self.reachable
-        dx, dy = self.x[1] - self.x[0], self.y[1] - self.y[0]
-        total: dict[str, float] = {}
-        pairs = ((inside[:, :-1], inside[:, 1:], (slice(None), slice(None, -1)),
-                  (slice(None), slice(1, None)), dy),
-                 (inside[:-1], inside[1:], (slice(None, -1), slice(None)),
-                  (slice(1, None), slice(None)), dx))
-        for ia, ib, sa, sb, length in pairs:
-            for mask, where in ((ia & ~ib, sb), (ib & ~ia, sa)):
-                codes, legs = self.cause[where][mask], self.legs[where][mask]
-                for code, leg in zip(codes.tolist(), legs.tolist()):
-                    text = cause_text(code, leg)
-                    total[text] = total.get(text, 0.0) + length
-        edge = (inside[0].sum() + inside[-1].sum()) * dx + (inside[:, 0].sum()
-                                                             + inside[:, -1].sum()) * dy
-        if edge:
-            total['edge of the map'] = float(edge)
-        s = sum(total.values())
-        return {k: v / s for k, v in sorted(total.items(), key=lambda kv: -kv[1])} if s else {}
+_KINDS = {UNREACHABLE: 'unreachable (singular U-joint, degenerate leg)',
+          SHORT: 'a leg shorter than length_min', LONG: 'a leg longer than length_max',
+          U_JOINT: 'a joint angle beyond its limit', SPHERICAL: 'a joint angle beyond its limit'}
 
 
-def cell_centres(lo: float, hi: float, n: int) -> np.ndarray:
-    return lo + (np.arange(n) + 0.5) * ((hi - lo) / n)
+def _causes(code: np.ndarray, legs: np.ndarray) -> tuple[np.ndarray, tuple[Cause, ...]]:
+    """The cells' codes into the survey's causes (one per cause and legs, in words)."""
+    out = np.zeros(code.shape, dtype=np.int16)
+    causes = [INSIDE]
+    outside = code != REACHABLE
+    for c, leg in sorted(set(zip(code[outside].tolist(), legs[outside].tolist()))):
+        out[outside & (code == c) & (legs == leg)] = len(causes)
+        causes.append(Cause(cause_text(c, leg), _KINDS[c], singular=c == UNREACHABLE))
+    return out, tuple(causes)
 
 
 def sample_plane(model: StewartModel, title: str, axes: tuple[int, int], fixed: np.ndarray,
@@ -170,10 +122,14 @@ def sample_plane(model: StewartModel, title: str, axes: tuple[int, int], fixed: 
     sol = at_rest(model, q)
     code, legs = causes(model, sol)
     condition = np.where(code == REACHABLE, sol.jacobian_condition, np.nan)
-    return PlaneMap(title=title, axes=tuple(axes), fixed=np.asarray(fixed, dtype=float), x=x,
-                    y=y, cause=code.reshape(X.shape), legs=legs.reshape(X.shape),
-                    condition=condition.reshape(X.shape),
-                    max_condition=model.limits.max_jacobian_condition)
+    cell_cause, cell_causes = _causes(code.reshape(X.shape), legs.reshape(X.shape))
+    condition = condition.reshape(X.shape)
+    with np.errstate(invalid='ignore'):
+        near = condition > model.limits.max_jacobian_condition
+    return PlaneMap(title=title, names=tuple(COORDINATES[a] for a in axes),
+                    units=tuple('deg' if a in ANGLES else 'm' for a in axes), x=x, y=y,
+                    cause=cell_cause, causes=cell_causes, condition=condition,
+                    near_singular=near)
 
 
 def surge_heave_map(model: StewartModel, at: Sequence[float], extent: Sequence[float],
@@ -193,14 +149,6 @@ def roll_pitch_map(model: StewartModel, yaw_deg: float, extent: Sequence[float],
     fixed[5] = math.radians(yaw_deg)
     return sample_plane(model, f'roll-pitch at home, yaw {yaw_deg:g} deg', (3, 4), fixed,
                         extent, resolution)
-
-
-@dataclass(frozen=True)
-class End:
-    """One end of a range: where (m or deg) and what is just beyond it."""
-
-    value: float
-    cause: str
 
 
 def line_range(model: StewartModel, axis: int, fixed: np.ndarray | None = None,
@@ -250,25 +198,6 @@ def home_condition(model: StewartModel) -> float:
     return float(at_rest(model, np.zeros((1, 6))).jacobian_condition[0])
 
 
-@dataclass(frozen=True)
-class Range:
-    """The reachable range of one coordinate alone through home."""
-
-    name: str
-    unit: str            # 'm' or 'deg'
-    ends: tuple[End, End] | None   # None: home itself is not reachable
-
-
-@dataclass(frozen=True)
-class Survey:
-    """What ``workspace`` shows of a hexapod: single-coordinate ranges and maps."""
-
-    limits: str                  # what bounds a pose, in words
-    home_condition: float        # condition of J at home (S21)
-    ranges: tuple[Range, ...]
-    planes: tuple[PlaneMap, ...]
-
-
 def limits_text(model: StewartModel) -> str:
     """The limits that bound a pose at rest, in words."""
     lim = model.limits
@@ -285,11 +214,27 @@ def default_extent(ranges: Sequence[Range], axes: tuple[int, int]) -> tuple[floa
     """
     out = []
     for k in axes:
-        ends = ranges[k].ends
+        ends = ranges[k].intervals[0] if ranges[k].intervals else None
         far = MARGIN * max(abs(e.value) for e in ends) if ends else LINE_REACH[k]
         far = min(far, 180.0) if k in ANGLES else far
         out += [-far, far]
     return tuple(out)
+
+
+#: The options of :func:`survey` (``flight-sim-dynamics workspace``).
+OPTIONS = (
+    Option('extent', 'extent of the surge-heave map, m (default: '
+           f'{MARGIN:g} x the ranges through home)', flag='range', nargs=4,
+           metavar=('SURGE_MIN', 'SURGE_MAX', 'HEAVE_MIN', 'HEAVE_MAX'), check=check_extent),
+    Option('at', 'the pose of the surge-heave map, m and degrees (default '
+           + ' '.join(f'{v:g}' for v in DEFAULT_AT) + ')', nargs=4,
+           metavar=('SWAY', 'ROLL', 'PITCH', 'YAW'), check=check_finite),
+    Option('yaws', 'yaw angles of the roll-pitch maps at home, one map each (default '
+           + ' '.join(f'{v:g}' for v in DEFAULT_YAWS) + ')', nargs='+', metavar='DEG',
+           check=angles_check(6)),
+    Option('orientation_extent', 'extent of the roll-pitch maps, degrees (default: '
+           f'{MARGIN:g} x the ranges through home)', flag='orientation_range', nargs=4,
+           metavar=('ROLL_MIN', 'ROLL_MAX', 'PITCH_MIN', 'PITCH_MAX'), check=check_extent))
 
 
 def survey(model: StewartModel, *, resolution: int, extent: Sequence[float] | None = None,
@@ -300,12 +245,23 @@ def survey(model: StewartModel, *, resolution: int, extent: Sequence[float] | No
     ``orientation_extent`` (:func:`surge_heave_map`, :func:`roll_pitch_map`;
     extents by default :func:`default_extent`).
     """
-    ranges = tuple(Range(name, 'deg' if k in ANGLES else 'm', line_range(model, k))
-                   for k, name in enumerate(COORDINATES))
+    ranges = []
+    for k, name in enumerate(COORDINATES):
+        ends = line_range(model, k)
+        ranges.append(Range(name, 'deg' if k in ANGLES else 'm',
+                            () if ends is None else (ends,), through=ends is not None))
     extent = default_extent(ranges, (0, 2)) if extent is None else extent
     orientation_extent = (default_extent(ranges, (3, 4)) if orientation_extent is None
                           else orientation_extent)
     planes = (surge_heave_map(model, at, extent, resolution),) + tuple(
         roll_pitch_map(model, yaw, orientation_extent, resolution) for yaw in yaws)
-    return Survey(limits=limits_text(model), home_condition=home_condition(model),
-                  ranges=ranges, planes=planes)
+    return Survey(
+        title=f'Workspace of {model.name} at rest',
+        notes=(f'Reachable at rest: solvable and {limits_text(model)}; condition of the '
+               f'actuator Jacobian J at home {home_condition(model):.3g}.',),
+        sets=('reachable',), condition_label='condition of the actuator Jacobian J',
+        condition_name='condition of J',
+        max_condition=model.limits.max_jacobian_condition,
+        near_singular_rule=f'condition of J > {model.limits.max_jacobian_condition:g}',
+        ranges=tuple(ranges),
+        planes=planes)
