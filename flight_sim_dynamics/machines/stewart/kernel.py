@@ -178,7 +178,8 @@ def integrate_rows(model: StewartModel, law: tuple, step: float, k0: int, steps:
 def conditions(rows: np.ndarray) -> np.ndarray:
     """The condition of J of every result row, (N,) for (N, OUT_SIZE) rows:
     the row's own where solve computed it, else the kernel's (the same Jacobi
-    sweeps solve runs)."""
+    sweeps solve runs).
+    """
     cond = rows[..., O_COND].copy()
     todo = np.flatnonzero(cond.reshape(-1) == NOT_COMPUTED)
     if todo.size:

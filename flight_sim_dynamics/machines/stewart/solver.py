@@ -355,7 +355,8 @@ def _kernel_detail(sol: StewartSolution) -> str | tuple:
 
 def _kernel_condition(sol: StewartSolution) -> float | np.ndarray:
     """The condition of J: the kernel's solve leaves it where the status does
-    not need it (kernel.conditions)."""
+    not need it (kernel.conditions).
+    """
     cond = kernel.conditions(sol.__dict__['_rows'])
     return float(cond) if cond.ndim == 0 else cond
 
