@@ -24,6 +24,9 @@ ALLOWED = {
 #: modules of ros/ that talk to rclpy (the rest of ros/ is plain Python)
 RCLPY_MODULES = {'ros/dynamics_node.py', 'ros/node.py', 'ros/planner.py', 'ros/platform_sim.py',
                  'ros/service_thread.py', 'ros/sim_node.py', 'cli/demo.py'}
+#: modules of ros/ still importing a machine's own modules (machines/<name>/); the
+#: rest of ros/ takes what differs per machine from the Machine record alone
+ROS_MACHINE_IMPORTS = {'ros/dynamics_node.py', 'ros/setpoints.py', 'ros/markers.py'}
 #: modules that import matplotlib (an optional extra): imported lazily, by the
 #: commands that plot, so that nothing else ever needs matplotlib
 LAZY = {'flight_sim_dynamics.cli.plotting', 'flight_sim_dynamics.cli.workspace',
@@ -77,6 +80,22 @@ def test_imports_follow_the_layers(path):
             assert other in ALLOWED[own], f'{rel} imports {target}: {own}/ may not import {other}/'
         if target.split('.')[0] == 'rclpy':
             assert rel in RCLPY_MODULES, f'{rel} imports rclpy'
+
+
+@pytest.mark.parametrize('path', [p for p in MODULES if p.parent.name == 'ros'],
+                         ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_ros_imports_no_machines_own_module(path):
+    """A new machine touches its folder, its config file, its tests and the
+    registry, nothing in ros/: ros/ imports the registry and the public calls
+    (machines/__init__.py, machines/api.py), never machines/<name>/."""
+    rel = str(path.relative_to(PACKAGE))
+    own = sorted({t for t, _ in imports(path) if len(t.split('.')) > 2
+                  and t.split('.')[:2] == ['flight_sim_dynamics', 'machines']
+                  and (PACKAGE / 'machines' / t.split('.')[2]).is_dir()})
+    if rel in ROS_MACHINE_IMPORTS:
+        assert own, f'{rel} imports no machine module: drop it from ROS_MACHINE_IMPORTS'
+    else:
+        assert not own, f'{rel} imports {own}'
 
 
 @pytest.mark.parametrize('path', MODULES, ids=lambda p: str(p.relative_to(PACKAGE)))

@@ -64,8 +64,8 @@ class ParamSpec:
             low = '' if self.minimum is None else f'{self.minimum:g}'
             high = '' if self.maximum is None else f'{self.maximum:g}'
             bounds = f"{'(' if self.exclusive_minimum else '['}{low}, {high}]"
-        if self.length:
-            return f'{self.length} numbers' + (f' in {bounds}' if bounds else '')
+        if self.length or self.kind == 'double_array':
+            return f'{self.length or ""} numbers'.lstrip() + (f' in {bounds}' if bounds else '')
         return bounds
 
 
@@ -290,8 +290,10 @@ if set(_GEOMETRY_DEFAULTS) != set(GEOMETRY_KEYS):   # one list of lengths: the m
 SIM_NODE_NAME = 'platform_sim'
 SIM_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('plant.params_file', 'string', '',
-              'parameter file of the simulated plant, read by the rule of load_model '
-              '(partial files override the packaged one); empty: the packaged parameters', '',
+              'parameter file of the simulated plant, either machine, read by the rule of '
+              'load_model (partial files override the packaged one of their machine); '
+              'empty: the --params-file of the command line with a section for the dynamics '
+              'node (one file for both nodes), else the packaged 3-DOF parameters', '',
               max_length=MAX_PATH),
     ParamSpec('plant.scene', 'string', '',
               'scene of the plant, a name from config/scenes or a file (empty: the file\'s '
@@ -314,13 +316,14 @@ SIM_PARAMETERS: tuple[ParamSpec, ...] = (
               minimum=0.0, exclusive_minimum=True, maximum=1000.0),
     ParamSpec('servo.damping', 'double', 1.0,
               'damping ratio of the actuator servos', '1', minimum=0.0, maximum=100.0),
-    ParamSpec('initial', 'double_array', [0.0, 0.0, 0.0],
-              'pose at which the platform starts, at rest: surge m, heave m, roll rad', '',
-              minimum=-10.0, maximum=10.0, length=3),
+    ParamSpec('initial', 'double_array', [],
+              'pose at which the platform starts, at rest: one number per coordinate of the '
+              'plant (surge m, heave m, roll rad; a hexapod: surge, sway, heave m, roll, '
+              'pitch, yaw rad); empty: home', '', minimum=-10.0, maximum=10.0),
     ParamSpec('frame_id', 'string', 'simulator_base',
               'header.frame_id of platform_pose, platform_twist and measured_actuator_states: '
-              'the setpoints\' frame (REP-103 simulator base, origin at G\'s central '
-              'position)', '', max_length=MAX_NAME),
+              'the setpoints\' frame (REP-103 simulator base, origin at the platform\'s home '
+              'position: G\'s central position on the 3-DOF machine)', '', max_length=MAX_NAME),
     ParamSpec('diagnostics.period', 'double', 1.0,
               'period of the /diagnostics message', 's', minimum=0.01, maximum=3600.0),
 )

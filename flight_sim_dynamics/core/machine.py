@@ -110,6 +110,14 @@ class Machine:
     affine_terms: Callable[..., tuple[np.ndarray, np.ndarray, Any]] | None = None
     require_inertia: Callable[[Any], None] | None = None
     integrate_rows: Callable[..., int] | None = None
+    # The ROS side (ros/, core/pose.py): the component of a rigid body's pose each
+    # coordinate is in the messages (``x``, ``y``, ``z``, ``roll``, ``pitch``, ``yaw``:
+    # Pose position and ZYX angles; the others are 0), the built-in motions the
+    # demo planner plays in turn (names of ``motions``: the demo, ``--example all``)
+    # and the one it plays when not told (``--example``).
+    pose_components: tuple[str, ...] = ()
+    planner_motions: tuple[str, ...] = ()
+    planner_example: str = ''
 
     @property
     def dof(self) -> int:

@@ -15,9 +15,10 @@ from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.config.parameters import NodeConfig
 from flight_sim_dynamics.core.estimator import wrap_angle
 from flight_sim_dynamics.machines.staicu.model import Limits
+from flight_sim_dynamics.core.motion import PlannerSequence
+from flight_sim_dynamics.machines.staicu.motions import MOTIONS as STAICU_MOTIONS
 from flight_sim_dynamics.machines.staicu.motions import PLANNER_MOTIONS as MOTIONS
-from flight_sim_dynamics.machines.staicu.motions import (CUEING_DURATION, PlannerSequence,
-                                                         motion_cueing)
+from flight_sim_dynamics.machines.staicu.motions import CUEING_DURATION, motion_cueing
 from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION,
                                                DUPLICATE, ERROR, INACTIVE, JOINING, LATE,
                                                NO_POSE, STALE_WINDOW,
@@ -493,13 +494,13 @@ def test_cueing_returns_to_neutral_and_derivatives_are_consistent():
 
 
 def test_planner_sequence_continuous():
-    seq = PlannerSequence(list(MOTIONS), loop=True)
+    seq = PlannerSequence(STAICU_MOTIONS, list(MOTIONS), loop=True)
     assert seq.period == pytest.approx(3 * 4.0 + CUEING_DURATION)
     t = np.arange(0.0, 2 * seq.period, 0.005)
     q = np.array([seq.sample(x)[0] for x in t])
     assert np.abs(np.diff(q, axis=0)).max() < 5e-3            # no jumps in position
     assert not seq.finished(100.0)
-    once = PlannerSequence(['general'])
+    once = PlannerSequence(STAICU_MOTIONS, ['general'])
     assert once.period == 3.0 and once.finished(3.01) and not once.finished(3.0)
 
 

@@ -11,7 +11,7 @@ from .forward_dynamics import affine_terms, forward_dynamics, require_inertia
 from .forward_kinematics import forward_kinematics
 from .mechanism import drawing
 from .model import JOINT_NAMES, LEG_NAMES, Model
-from .motions import MOTIONS, TEST_MOTIONS
+from .motions import MOTIONS, PLANNER_MOTIONS, TEST_MOTIONS
 from .solver import solve, solve_batch
 from .trajectories import PAPER_EXAMPLES
 
@@ -39,4 +39,7 @@ MACHINE = Machine(
     bench_motions=TEST_MOTIONS, kernel_enabled=kernel.enabled,
     # simulation and the twin
     affine_terms=affine_terms, require_inertia=require_inertia,
-    integrate_rows=kernel.integrate_rows)
+    integrate_rows=kernel.integrate_rows,
+    # the ROS side: position x surge, z heave, the roll about x
+    pose_components=('x', 'z', 'roll'), planner_motions=PLANNER_MOTIONS,
+    planner_example='general')

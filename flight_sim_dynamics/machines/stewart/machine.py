@@ -60,4 +60,7 @@ MACHINE = Machine(
     bench_motions=('gentle', 'cueing', 'violent'), kernel_enabled=kernel.enabled,
     # simulation and the twin
     affine_terms=affine_parts, require_inertia=require_inertia,
-    integrate_rows=kernel.integrate_rows)
+    integrate_rows=kernel.integrate_rows,
+    # the ROS side: the six components in order; a slow tour, then motion cueing
+    pose_components=('x', 'y', 'z', 'roll', 'pitch', 'yaw'),
+    planner_motions=('gentle', 'cueing'), planner_example='cueing')
