@@ -51,6 +51,27 @@ def packaged_path(name: str) -> Path:
     return default_params_path().parent / f'{name}.yaml'
 
 
+def launch_params_file(machine: str = '', params_file: str = '') -> Path:
+    """The parameter file of the launch file's ``machine`` and ``params_file``
+    arguments: ``params_file`` when given, else the packaged file of ``machine``
+    (``stewart_6dof``: config/stewart_6dof.yaml; empty: the 3-DOF machine's).
+    ValueError for both given or a machine that is not packaged.
+    """
+    if params_file and machine:
+        raise ValueError(f'give machine ({machine}) or params_file ({params_file}), not both: '
+                         'a params file names its machine')
+    if params_file:
+        return Path(params_file)
+    default = default_params_path()
+    if not machine or machine == default.stem:
+        return default
+    if machine not in PACKAGED:
+        raise ValueError(f'machine {machine!r} is not packaged; choose one of '
+                         f"{', '.join(sorted(PACKAGED))} (none: the 3-DOF machine, "
+                         f'{default.name})' + did_you_mean(machine, PACKAGED))
+    return packaged_path(machine)
+
+
 def _model_names(flat: Mapping[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in flat.items()
             if k not in _ROS_NAMES and not k.startswith(_QOS_OVERRIDES)}
