@@ -26,7 +26,7 @@ RCLPY_MODULES = {'ros/dynamics_node.py', 'ros/node.py', 'ros/planner.py', 'ros/p
                  'ros/service_thread.py', 'ros/sim_node.py', 'cli/demo.py'}
 #: modules of ros/ still importing a machine's own modules (machines/<name>/); the
 #: rest of ros/ takes what differs per machine from the Machine record alone
-ROS_MACHINE_IMPORTS = {'ros/dynamics_node.py', 'ros/setpoints.py', 'ros/markers.py'}
+ROS_MACHINE_IMPORTS = {'ros/markers.py'}
 #: modules that import matplotlib (an optional extra): imported lazily, by the
 #: commands that plot, so that nothing else ever needs matplotlib
 LAZY = {'flight_sim_dynamics.cli.plotting', 'flight_sim_dynamics.cli.workspace',

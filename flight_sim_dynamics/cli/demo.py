@@ -25,7 +25,6 @@ from sensor_msgs.msg import JointState
 
 from ..config.machine_files import load_model
 from ..config.parameters import default_params_path
-from ..core import pose
 from ..core.machine import Machine
 from ..core.motion import PlannerSequence
 from ..machines import MACHINES
@@ -34,7 +33,7 @@ from ..ros.dynamics_node import default_qos
 from ..ros.node import spin_until
 from ..ros.planner import PlannerNode
 from ..ros.process import SIM_MODULE, start_node, stop_node, stop_on_signals, stop_requested
-from ..ros.setpoints import DIAGNOSTIC_TASK, LEVEL_NAMES, quaternion_to_rpy
+from ..ros.setpoints import DIAGNOSTIC_TASK, LEVEL_NAMES, pose_map, quaternion_to_rpy
 
 
 class Monitor(Node):
@@ -103,7 +102,7 @@ class TwinMonitor(Node):
 
     def __init__(self, machine: Machine, **kwargs: Any) -> None:
         super().__init__('demo_twin_monitor', **kwargs)
-        self.components = machine.pose_components
+        self.poses = pose_map(machine)
         self.rows: list[tuple[float, ...]] = []
         self.sub = self.create_subscription(PoseStamped, 'platform_pose', self._on_pose,
                                             default_qos())
@@ -112,7 +111,7 @@ class TwinMonitor(Node):
         p, o = msg.pose.position, msg.pose.orientation
         rpy = quaternion_to_rpy(o.x, o.y, o.z, o.w)
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        self.rows.append((stamp, *pose.coordinates(self.components, (p.x, p.y, p.z, *rpy))))
+        self.rows.append((stamp, *self.poses.coordinates((p.x, p.y, p.z, *rpy))))
 
 
 class LiveSummary:
@@ -178,7 +177,7 @@ def tracking(monitor: TwinMonitor, sequence: PlannerSequence, t0_ns: int, end_ns
     """
     rows = np.array([r for r in monitor.rows if t0_ns <= r[0] <= end_ns], dtype=float)
     if rows.size == 0:
-        dof = len(monitor.components)
+        dof = len(monitor.poses.names)
         return np.zeros(0), np.zeros((0, dof)), np.zeros((0, dof))
     t = (rows[:, 0] - t0_ns) * 1e-9
     commanded = np.array([sequence.sample(ti)[0] for ti in t])
@@ -208,8 +207,9 @@ def plot_tracking(t: np.ndarray, simulated: np.ndarray, commanded: np.ndarray,
         ax.grid(True, alpha=0.3)
         ax.legend(loc='upper right', fontsize=8, ncol=1 if dof <= 3 else 2)
     peak = np.abs(error).max(axis=0) if len(t) else np.full(dof, np.nan)
-    fig.suptitle(f'digital twin (platform_sim) driven by dynamics_node: {len(t)} poses; max error '
-                 + ', '.join(f'{1e3 * p:.2f} m{unit}' for p, unit in zip(peak, machine.units)))
+    fig.suptitle(f'digital twin (platform_sim) driven by dynamics_node: {len(t)} poses\nmax error '
+                 + ', '.join(f'{name} {1e3 * p:.2f} m{unit}'
+                             for name, p, unit in zip(machine.coordinates, peak, machine.units)))
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
 

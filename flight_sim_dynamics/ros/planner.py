@@ -3,7 +3,7 @@ built-in motions (:attr:`Machine.planner_motions`: the paper's motions and a
 motion-cueing sequence on the 3-DOF machine; a slow tour and a 6-DOF
 motion-cueing sequence on the hexapod), stamped ``start + k / rate`` on the
 node's clock. The pose carries the machine's coordinates as their
-:attr:`Machine.pose_components`; twist and accel the rates, and the angular
+components (:class:`.setpoints.PoseMap`); twist and accel the rates, and the angular
 velocity and acceleration in the base frame of the Euler-angle rates (S2), (S3).
 
     flight-sim-dynamics demo-planner --example general --rate 200 --loop
@@ -24,7 +24,6 @@ from rclpy.node import Node
 from rclpy.time import Time
 
 from ..config.machine_files import load_model
-from ..core import pose
 from ..core.machine import Machine
 from ..core.motion import PlannerSequence
 from ..machines import MACHINES
@@ -32,7 +31,7 @@ from ..machines.api import machine_of
 from .dynamics_node import default_qos
 from .node import own_options, running, spin_until
 from .process import stop_requested
-from .setpoints import rpy_to_quaternion
+from .setpoints import pose_map, rpy_to_quaternion
 
 
 class PlannerNode(Node):
@@ -47,7 +46,7 @@ class PlannerNode(Node):
                  **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self.sequence = sequence
-        self.components = machine.pose_components
+        self.poses = pose_map(machine)
         self.rate = float(rate)
         self.send_twist, self.send_accel = twist, accel
         self.on_sample = on_sample
@@ -111,28 +110,25 @@ class PlannerNode(Node):
 
     def _send(self, stamp_ns: int, q: Any, qd: Any, qdd: Any) -> None:
         stamp = Time(nanoseconds=stamp_ns).to_msg()
-        x, y, z, *rpy = pose.six(self.components, q)
+        poses = self.poses
+        x, y, z, *rpy = poses.message(q)
         msg = self._pose
         msg.header.stamp = stamp
         p, o = msg.pose.position, msg.pose.orientation
         p.x, p.y, p.z = x, y, z
         o.x, o.y, o.z, o.w = rpy_to_quaternion(*rpy)
         self.pose_pub.publish(msg)
-        xd, yd, zd, *rates = pose.six(self.components, qd)
         if self.send_twist:
             tw = self._twist
             tw.header.stamp = stamp
             v, w = tw.twist.linear, tw.twist.angular
-            v.x, v.y, v.z = xd, yd, zd
-            w.x, w.y, w.z = pose.angular_velocity(rpy, rates)
+            v.x, v.y, v.z, w.x, w.y, w.z = poses.twist(q, qd)
             self.twist_pub.publish(tw)
         if self.send_accel:
-            xdd, ydd, zdd, *accelerations = pose.six(self.components, qdd)
             ac = self._accel
             ac.header.stamp = stamp
             a, e = ac.accel.linear, ac.accel.angular
-            a.x, a.y, a.z = xdd, ydd, zdd
-            e.x, e.y, e.z = pose.angular_acceleration(rpy, rates, accelerations)
+            a.x, a.y, a.z, e.x, e.y, e.z = poses.accel(q, qd, qdd)
             self.accel_pub.publish(ac)
 
 

@@ -6,8 +6,9 @@ the newest one from its arrival on, makes the RK4 steps due at ``rate``
 commands costs a decode and a check each, never the loop its rate: commands
 a newer one replaced before a tick are counted, not simulated. The plant is
 a model of any machine (its parameter file names it): its legs are the
-commands' names, its pose goes out as the components its
-:attr:`Machine.pose_components` name (core/pose.py).
+commands' names, its pose goes out as the setpoints carry a pose
+(:class:`.setpoints.PoseMap`: position surge, sway, heave; ZYX roll, pitch,
+yaw; the twist's angular part the base-frame angular velocity, (S2)).
 """
 from __future__ import annotations
 
@@ -35,7 +36,6 @@ from ..config.files import NODE_NAME, section_applies
 from ..config.machine_files import load_model
 from ..config.schema import SIM_NODE_NAME, SIM_PARAMETERS
 from ..config.yaml_io import read_yaml
-from ..core import pose
 from ..core.machine import ActuatorLimits, Machine
 from ..core.servo import Servo
 from ..core.twin import TwinStepper
@@ -43,7 +43,7 @@ from ..machines.api import machine_of
 from .dynamics_node import _declared, default_qos, descriptor_for, plain
 from .process import end_spins, stop_requested
 from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, STAMP_BACKWARDS, STAMP_REPEATED, WARN,
-                        LogThrottle, SetpointError, diagnostic_name, number,
+                        LogThrottle, SetpointError, diagnostic_name, number, pose_map,
                         rpy_to_quaternion)
 
 #: Seconds between two log lines of one rejection reason.
@@ -438,11 +438,11 @@ class PlatformSim(Node):
             stamp_ns = self._stamp0 + round((twin.steps + self._dropped) * 1e9 / self._rate)
         header = Header(stamp=Time(nanoseconds=stamp_ns).to_msg(),
                         frame_id=self.config.values['frame_id'])
-        components = self.config.machine.pose_components
-        x, y, z, *rpy = pose.six(components, twin.q.tolist())
-        xd, yd, zd, *rates = pose.six(components, twin.qd.tolist())
+        poses = pose_map(self.config.machine)
+        q, qd = twin.q.tolist(), twin.qd.tolist()
+        x, y, z, *rpy = poses.message(q)
+        xd, yd, zd, wx, wy, wz = poses.twist(q, qd)
         ox, oy, oz, w = rpy_to_quaternion(*rpy)
-        wx, wy, wz = pose.angular_velocity(rpy, rates)
         self._pose_pub.publish(PoseStamped(header=header, pose=Pose(
             position=Point(x=x, y=y, z=z), orientation=Quaternion(x=ox, y=oy, z=oz, w=w))))
         self._twist_pub.publish(TwistStamped(header=header, twist=Twist(

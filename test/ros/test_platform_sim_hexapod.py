@@ -26,7 +26,7 @@ from std_srvs.srv import Trigger
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config.errors import ParameterError
-from flight_sim_dynamics.core import pose
+from flight_sim_dynamics.core.euler import euler_rates
 from flight_sim_dynamics.core.motion import PlannerSequence
 from flight_sim_dynamics.ros.platform_sim import check_command, plant_file, sim_config
 from flight_sim_dynamics.ros.setpoints import SetpointError, quaternion_to_rpy
@@ -74,7 +74,7 @@ def simulated(msg) -> list[float]:
 def rates(msg, q) -> list[float]:
     """The six coordinates' rates of a platform_twist at pose ``q``."""
     v, w = msg.twist.linear, msg.twist.angular
-    return [v.x, v.y, v.z, *pose.euler_rates(q[3:], (w.x, w.y, w.z))]
+    return [v.x, v.y, v.z, *euler_rates(q[3:], (w.x, w.y, w.z))]
 
 
 # -- the plant's file (no DDS) ---------------------------------------------------------
