@@ -84,10 +84,12 @@ class SimConfig:
                            self.values['initial'] or None)
 
 
-def plant_file(given: str, params_files: Sequence[str]) -> str | None:
+def plant_file(given: str, params_files: Sequence[str],
+               node: str = '/' + NODE_NAME) -> str | None:
     """The plant's parameter file: ``plant.params_file``, else the one
     ``--params-file`` of the command line with a section for the dynamics node
-    (the node's file serves the twin too), else None (the packaged parameters).
+    ``node`` (fully qualified: the twin's namespace; the node's file serves the
+    twin too), else None (the packaged parameters).
     """
     if given:
         return given
@@ -97,7 +99,7 @@ def plant_file(given: str, params_files: Sequence[str]) -> str | None:
             doc = read_yaml(path, 'params_file')
         except (OSError, ValueError):
             continue                     # rcl reads it as the twin's own: its error first
-        if isinstance(doc, Mapping) and any(section_applies(str(section), '/' + NODE_NAME)
+        if isinstance(doc, Mapping) and any(section_applies(str(section), node)
                                             for section in doc):
             found.append(path)
     if len(found) > 1:
@@ -107,15 +109,17 @@ def plant_file(given: str, params_files: Sequence[str]) -> str | None:
     return found[0] if found else None
 
 
-def sim_config(values: Mapping[str, Any], params_files: Sequence[str] = ()) -> SimConfig:
+def sim_config(values: Mapping[str, Any], params_files: Sequence[str] = (),
+               node: str = '/' + NODE_NAME) -> SimConfig:
     """The checked parameters (defaults for the absent ones), plant and servos;
-    ``params_files``: the ``--params-file`` files of the command line
-    (:func:`plant_file`). ParameterError also for a scene without inertia, a
-    pose of another size than the machine's or one the plant cannot take.
+    ``params_files``: the ``--params-file`` files of the command line, ``node``
+    the dynamics node whose section names the plant (:func:`plant_file`).
+    ParameterError also for a scene without inertia, a pose of another size
+    than the machine's or one the plant cannot take.
     """
     checked = {spec.name: prm.check_value(spec, values.get(spec.name, spec.default))
                for spec in SIM_PARAMETERS}
-    path = plant_file(checked['plant.params_file'], params_files)
+    path = plant_file(checked['plant.params_file'], params_files, node)
     try:
         plant = load_model(path, checked['plant.scene'] or None)
     except prm.SceneError as exc:
@@ -308,7 +312,9 @@ class PlatformSim(Node):
         for spec in SIM_PARAMETERS:
             with contextlib.suppress(ParameterUninitializedException):   # not given
                 values[spec.name] = plain(self.get_parameter(spec.name).value)
-        self.config = sim_config(values, params_files)
+        # the dynamics node next to it: in its namespace
+        node = f"{self.get_namespace().rstrip('/')}/{NODE_NAME}"
+        self.config = sim_config(values, params_files, node)
         values = self.config.values
         self.stats = CommandStats()
         self._rate = values['rate']

@@ -11,17 +11,22 @@ config/stewart_6dof.yaml``) as a separate process over DDS:
   lengths and rates at the same stamp are the plant's own at that pose and
   those rates (angular velocity converted back to Euler-angle rates, (S2));
 * bad commands (another machine's legs, wrong sizes, NaN) are rejected,
-  counted by reason, and the held command stays in force.
+  counted by reason, and the held command stays in force;
+* chained to ``dynamics_node`` on the same file (one remap), fed the
+  motion-cueing sequence as setpoints, it follows the node's commands.
 
 Also the rclpy-free parts: which params file the twin takes as its plant.
 """
 from __future__ import annotations
 
+import itertools
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
+from rclpy.time import Time
 from std_srvs.srv import Trigger
 
 import flight_sim_dynamics as fsd
@@ -29,9 +34,11 @@ from flight_sim_dynamics.config.errors import ParameterError
 from flight_sim_dynamics.core.euler import euler_rates
 from flight_sim_dynamics.core.motion import PlannerSequence
 from flight_sim_dynamics.ros.platform_sim import check_command, plant_file, sim_config
-from flight_sim_dynamics.ros.setpoints import SetpointError, quaternion_to_rpy
-from node_harness import PARAMS_FILE, ROOT
-from sim_harness import command, own_twin, sim_output, stamp, start_sim
+from flight_sim_dynamics.ros.process import stop_node
+from flight_sim_dynamics.ros.setpoints import (SetpointError, pose_map, quaternion_to_rpy,
+                                               rpy_to_quaternion)
+from node_harness import PARAMS_FILE, ROOT, Client, NodeProcess
+from sim_harness import SimClient, command, own_twin, sim_output, stamp, start_sim
 
 pytestmark = pytest.mark.ros
 
@@ -87,6 +94,13 @@ def test_the_plant_is_the_params_file_of_the_dynamics_node(tmp_path):
     assert plant_file('', [str(own), str(STEWART_FILE)]) == str(STEWART_FILE)
     with pytest.raises(ParameterError, match='plant.params_file'):
         plant_file('', [str(STEWART_FILE), str(PARAMS_FILE)])
+    # the dynamics node in the twin's namespace: its fully qualified section
+    namespaced = tmp_path / 'sim.yaml'
+    namespaced.write_text(STEWART_FILE.read_text().replace('flight_sim_dynamics:',
+                                                           '/sim/flight_sim_dynamics:', 1))
+    assert plant_file('', [str(namespaced)], '/sim/flight_sim_dynamics') == str(namespaced)
+    assert plant_file('', [str(namespaced)]) is None
+    assert plant_file('', [str(STEWART_FILE)], '/sim/flight_sim_dynamics') == str(STEWART_FILE)
     config = sim_config({}, [str(STEWART_FILE)])
     assert config.machine.legs == tuple(f'leg_{i}' for i in range(1, 7))
     assert sim_config({}).machine.legs == ('leg_a', 'leg_b', 'leg_c')
@@ -168,17 +182,11 @@ def test_hexapod_twin_follows_the_solvers_commands(hexa, model, machine):
                             sol.rate[k], sol.force[k]))
     end = t0 + round((n - 1) * 1e9 / RATE)
     assert client.spin_until(lambda: twin.poses and stamp(twin.poses[-1]) > end, 5.0)
-    poses = [m for m in twin.poses[first:] if t0 <= stamp(m) <= end]
-    assert len(poses) > 0.5 * sequence.period * 100          # one pose per tick (100 Hz)
-    q_sim = np.array([simulated(m) for m in poses])
-    q_ref = np.array([sequence.sample((stamp(m) - t0) * 1e-9)[0] for m in poses])
-    error = q_sim - q_ref
-    ratio = np.sqrt((error ** 2).mean(axis=0) / (q_ref ** 2).mean(axis=0))
-    amplitude = np.abs(q_ref).max()
-    print(f'hexapod twin over {len(poses)} poses: max error per coordinate '
-          f'{np.abs(error).max(axis=0).round(4)}, RMS error / RMS motion {ratio.round(3)}')
-    assert ratio.max() < 0.5
-    assert np.abs(error).max() < 0.5 * amplitude
+    peak, ratio, count = tracking_errors(twin.poses[first:], sequence, t0, end)
+    print(f'hexapod twin over {count} poses: max error per coordinate {peak.round(4)}, '
+          f'RMS error / RMS motion {ratio.round(3)}')
+    assert count > 0.5 * sequence.period * 100          # one pose per tick (100 Hz)
+    assert ratio.max() < 0.5 and peak.max() < 0.5 * 0.2     # the motion's amplitude: 0.2
     values = twin.diagnostics(lambda v: int(v['commands accepted']) >= n)
     assert values['rejected total'] == '0' and values['outcome'] == 'ok'
     assert twin.all_finite() and sim.poll() is None
@@ -254,3 +262,93 @@ def test_bad_hexapod_commands_are_rejected_and_the_held_one_stays(hexa, model, m
     # the held command (home) in force: the platform stays at home
     assert max(np.abs(simulated(m)).max() for m in twin.poses[count:]) < 1e-3
     assert twin.all_finite() and sim.poll() is None
+
+
+def tracking_errors(poses, sequence, t0: int, end: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """Per coordinate: max |simulated - commanded| and RMS error / RMS motion of
+    the poses stamped in [t0, end]; their count."""
+    chosen = [m for m in poses if t0 <= stamp(m) <= end]
+    q_sim = np.array([simulated(m) for m in chosen])
+    q_ref = np.array([sequence.sample((stamp(m) - t0) * 1e-9)[0] for m in chosen])
+    error = q_sim - q_ref
+    ratio = np.sqrt((error ** 2).mean(axis=0) / (q_ref ** 2).mean(axis=0))
+    return np.abs(error).max(axis=0), ratio, len(chosen)
+
+
+def publish_setpoint(client, poses, stamp_ns: int, q, qd, qdd) -> None:
+    """Twist and acceleration, then the pose that completes the setpoint, as the
+    planner sends them (:class:`PoseMap`'s message side)."""
+    msg_stamp = Time(nanoseconds=stamp_ns).to_msg()
+    twist, accel, pose = TwistStamped(), AccelStamped(), PoseStamped()
+    for msg in (twist, accel, pose):
+        msg.header.stamp = msg_stamp
+    (twist.twist.linear.x, twist.twist.linear.y, twist.twist.linear.z, twist.twist.angular.x,
+     twist.twist.angular.y, twist.twist.angular.z) = poses.twist(q, qd)
+    (accel.accel.linear.x, accel.accel.linear.y, accel.accel.linear.z, accel.accel.angular.x,
+     accel.accel.angular.y, accel.accel.angular.z) = poses.accel(q, qd, qdd)
+    x, y, z, *rpy = poses.message(q)
+    p, o = pose.pose.position, pose.pose.orientation
+    p.x, p.y, p.z = x, y, z
+    o.x, o.y, o.z, o.w = rpy_to_quaternion(*rpy)
+    client.twist_pub.publish(twist)
+    client.accel_pub.publish(accel)
+    client.pose_pub.publish(pose)
+
+
+def test_hexapod_twin_follows_the_nodes_commands(machine):
+    """dynamics_node and platform_sim on config/stewart_6dof.yaml, one remap
+    apart (no namespace: the packaged file's section names the node); the
+    motion-cueing sequence streamed as
+    setpoints at 100 Hz: every one answered, and the twin follows (the bounds of
+    :func:`test_hexapod_twin_follows_the_solvers_commands`)."""
+    node = NodeProcess('-p', 'diagnostics.period:=0.25', '-p', 'sync.wait:=0.5',
+                       params_file=STEWART_FILE)
+    client = Client('hexnode_client')
+    sim = log = None
+    try:
+        client.wait_for_node(node)
+        probes = itertools.count(time.time_ns() - 60 * 10**9, 5 * 10**6)
+        client.round_trip(lambda: next(probes))        # setpoints at home, both ways
+        sim, log = start_sim('-r', 'actuator_commands:=actuator_states',
+                             params_file=STEWART_FILE)
+        twin = SimClient(client)
+        ok = client.spin_until(lambda: twin.ready() or sim.poll() is not None, 20.0)
+        assert ok and sim.poll() is None, 'twin not up:\n' + sim_output(log)[-3000:]
+        zero = (0.0, 0.0, 0.0)
+        deadline = time.monotonic() + 20.0
+        while not twin.has(lambda v: int(v['commands accepted']) > 0):
+            assert time.monotonic() < deadline, 'no probe reached the twin\n' + sim_output(log)
+            client.send(next(probes), zero, zero, zero)
+            client.spin_until(lambda: False, 0.3)
+
+        poses = pose_map(machine)
+        sequence = PlannerSequence(machine.motions, ['cueing'])
+        n = int(sequence.period * RATE) + 1
+        t0 = client.node.get_clock().now().nanoseconds
+        wall0 = time.monotonic()
+        first, first_pose = len(client.actuator), len(twin.poses)
+        for k in range(n):
+            client.spin_until(lambda: time.monotonic() - wall0 >= k / RATE, 1.0)
+            q, qd, qdd, _ = sequence.sample(k / RATE)
+            publish_setpoint(client, poses, t0 + round(k * 1e9 / RATE), q, qd, qdd)
+        assert client.wait_actuator(first + n, 10.0), \
+            f'{len(client.actuator) - first} of {n} answered' + client.explain()
+        assert all(tuple(m.name) == machine.legs for _, m in client.actuator[first:])
+        end = t0 + round((n - 1) * 1e9 / RATE)
+        assert client.spin_until(lambda: twin.poses and stamp(twin.poses[-1]) > end, 5.0)
+        peak, ratio, count = tracking_errors(twin.poses[first_pose:], sequence, t0, end)
+        print(f'hexapod twin driven by the node over {count} poses: max error per coordinate '
+              f'{peak.round(4)}, RMS error / RMS motion {ratio.round(3)}')
+        assert count > 0.5 * sequence.period * 100
+        assert ratio.max() < 0.5 and peak.max() < 0.5 * 0.2     # the motion's amplitude: 0.2
+        values = twin.diagnostics(lambda v: int(v['commands accepted']) >= n)
+        assert values['rejected total'] == '0' and values['outcome'] == 'ok'
+        assert twin.all_finite()
+    finally:
+        client.close()
+        node.stop()
+        if sim is not None:
+            stop_node(sim)
+            print(sim_output(log)[-2000:])
+            log.close()
+            Path(log.name).unlink(missing_ok=True)
