@@ -57,7 +57,8 @@ def _flight_simulator() -> NodeSchema:
 
 def _named(name: Any) -> NodeSchema:
     machine = named_machine(name, _SOURCE)
-    defaults = {s.name: s.default for s in prm.NODE_PARAMETERS}
+    defaults = {s.name: s.default for s in prm.NODE_PARAMETERS + machine.parameter_specs
+                if s.default is not None}
     if name in PACKAGED:
         flat = read_params_sections(packaged_path(name))
         defaults.update({k: v for k, v in flat.items() if k in machine.parameters})

@@ -5,7 +5,8 @@ part the platform's angular velocity and acceleration in the base frame,
 answered with fsd.solve's numbers for the Euler-angle rates; the
 platform_setpoint in any joint order; bad setpoints get a status and the next
 valid one is answered; its parameters (descriptors, a live model change, a
-refused one, the machine refused); the README's hexapod one-liners.
+refused one, the machine refused); the README's hexapod one-liners; lifecycle
+transitions; a 3-DOF node and a hexapod side by side in two namespaces.
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ import numpy as np
 import pytest
 import yaml
 from builtin_interfaces.msg import Time
+from lifecycle_msgs.msg import Transition
 from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rcl_interfaces.srv import DescribeParameters
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -28,6 +30,7 @@ from flight_sim_dynamics.machines.stewart.kinematics import (euler_rate_matrix,
                                                              euler_rate_matrix_derivative)
 from flight_sim_dynamics.ros.setpoints import rpy_to_quaternion
 from node_harness import ROOT, Client, NodeProcess, stamp_ns
+from test_node_lifecycle import LifecycleClient
 from test_node_readme_poke import ONE_LINER, fill, message_type
 
 pytestmark = pytest.mark.ros
@@ -294,3 +297,112 @@ def test_the_readme_one_liners_for_the_hexapod_are_answered(client):
 def test_diagnostics_name_the_scene(client):
     values = client.wait_diagnostics(lambda v: 'scene' in v)
     assert values['scene'] == 'full'
+
+
+# -- nodes of their own: a namespace needs a section that reaches it ----------------
+def namespaced_file(tmp_path) -> str:
+    """The packaged hexapod for a node in any namespace (a section named
+    ``flight_sim_dynamics`` reaches only the root namespace's node)."""
+    path = tmp_path / 'hexapod.yaml'
+    path.write_text(yaml.safe_dump({'/**': {'ros__parameters': {'machine': 'stewart_6dof'}}}))
+    return str(path)
+
+
+def test_lifecycle_transitions_on_the_hexapod(tmp_path, model):
+    proc = NodeProcess('-p', 'autostart:=false', '-p', 'diagnostics.period:=0.2',
+                       '-r', '__ns:=/lc6', params_file=namespaced_file(tmp_path))
+    client = LifecycleClient('/lc6')
+    client.watch = proc
+    q, qd, qdd = motion(0.2)
+    twist, accel = twist_of(q, qd, qdd)
+    expected = fsd.solve(model, q, qd, qdd)
+
+    def answered() -> bool:
+        stamp = time.time_ns()
+        publish(client, stamp, q, twist, accel)
+        msgs = answer(client, stamp, 3.0)
+        if msgs is not None:
+            assert_solved(msgs, expected)
+        return msgs is not None
+    try:
+        assert client.spin_until(lambda: client.srv['get_state'].service_is_ready(), 20.0)
+        assert client.state() == 'unconfigured'
+        assert client.change(Transition.TRANSITION_CONFIGURE)
+        assert client.state() == 'inactive'
+        client.wait_matched()
+        assert not answered()
+        assert client.wait_diagnostics(lambda v: int(v['rejected inactive']) >= 1)
+        assert client.change(Transition.TRANSITION_ACTIVATE)
+        assert answered()
+        assert client.change(Transition.TRANSITION_DEACTIVATE)
+        assert not answered()
+        assert client.change(Transition.TRANSITION_CLEANUP)
+        assert client.state() == 'unconfigured'
+        # configured again, the same machine: answered again
+        assert client.change(Transition.TRANSITION_CONFIGURE)
+        assert client.change(Transition.TRANSITION_ACTIVATE)
+        client.wait_matched()
+        assert answered()
+        assert client.get_params(['machine']) == ['stewart_6dof']
+        client.watch = None
+        assert client.change(Transition.TRANSITION_ACTIVE_SHUTDOWN)
+        proc.proc.wait(10.0)
+        assert proc.proc.returncode == 0, proc.output()[-3000:]
+    finally:
+        client.close()
+        proc.stop()
+    assert 'Traceback' not in proc.output()
+
+
+def test_two_machines_side_by_side_in_two_namespaces(tmp_path, model):
+    """A 3-DOF node in /three and a hexapod in /six: each answers its own
+    setpoints with its own legs and numbers; neither takes a machine change."""
+    three = NodeProcess('-r', '__ns:=/three', '-p', 'sync.wait:=0.5')
+    six = NodeProcess('-r', '__ns:=/six', '-p', 'sync.wait:=0.5',
+                      params_file=namespaced_file(tmp_path))
+    clients = {'/three': Client('three_client', '/three'), '/six': Client('six_client', '/six')}
+    try:
+        for (ns, c), proc in zip(clients.items(), (three, six)):
+            c.wait_for_node(proc)
+            probes = itertools.count(10 ** 18, 5_000_000)
+            c.round_trip(lambda: next(probes))
+        # the 3-DOF machine: surge, heave, roll of the same kind of messages
+        flight = fsd.load_model()
+        q3, qd3, qdd3 = (0.02, 0.05, 0.1), (0.1, 0.0, 0.2), (0.0, 0.5, 0.0)
+        stamp = 16 * 10 ** 17
+        clients['/three'].send(stamp, q3, qd3, qdd3)
+        q, qd, qdd = motion(0.4)
+        twist, accel = twist_of(q, qd, qdd)
+        publish(clients['/six'], stamp, q, twist, accel)
+        msgs = answer(clients['/six'], stamp)
+        assert msgs is not None, clients['/six'].explain()
+        assert_solved(msgs, fsd.solve(model, q, qd, qdd))
+        msgs3 = answer(clients['/three'], stamp)
+        assert msgs3 is not None, clients['/three'].explain()
+        assert list(msgs3[0].name) == ['leg_a', 'leg_b', 'leg_c']
+        np.testing.assert_allclose(msgs3[0].effort, fsd.solve(flight, q3, qd3, qdd3).force,
+                                   rtol=1e-12)
+        # each answered its own only
+        assert all(len(m.name) == 3 for _, m in clients['/three'].actuator)
+        assert all(len(m.name) == 6 for _, m in clients['/six'].actuator)
+        for c, other in ((clients['/three'], 'stewart_6dof'),
+                         (clients['/six'], 'flight_simulator_3dof')):
+            [result] = c.set_params({'machine': other})
+            assert not result.successful and 'read-only' in result.reason
+    finally:
+        for c in clients.values():
+            c.close()
+        three.stop()
+        six.stop()
+
+
+def test_a_section_that_does_not_reach_the_node_is_refused():
+    """--params-file config/stewart_6dof.yaml in a namespace: ROS gives the node
+    none of its parameters; the node refuses to start (exit 2) rather than
+    run the 3-DOF machine."""
+    proc = NodeProcess('-r', '__ns:=/elsewhere', params_file=HEXAPOD_FILE)
+    try:
+        assert proc.proc.wait(30.0) == 2
+        assert 'error:' in proc.output() and 'machine' in proc.output()
+    finally:
+        proc.stop()

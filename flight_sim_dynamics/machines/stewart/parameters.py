@@ -1,15 +1,17 @@
 """The declarations of a hexapod's parameters (docs/design/stewart.md, "The
 parameter file"): type, unit, meaning and the bounds :func:`.model.from_dict`
 checks, one per name of :data:`.model.PARAMETER_NAMES`. The defaults are the
-packaged file's (config/stewart_6dof.yaml); what the builder checks on the
-whole (symmetric inertia, length_max > length_min, a regular home) it checks.
+packaged file's (config/stewart_6dof.yaml), or the builder's where it has one;
+the joint-angle limits have none (no limit unless given). What the builder
+checks on the whole (symmetric inertia, length_max > length_min, a regular
+home) it checks.
 """
 from __future__ import annotations
 
 import math
 
 from ...core.parameter_spec import ParamSpec
-from .model import PARAMETER_NAMES
+from .model import PARAMETER_NAMES, Limits
 
 MAX_PATH = 4096     # characters of a scene file's path
 
@@ -81,8 +83,9 @@ PARAMETER_SPECS: tuple[ParamSpec, ...] = tuple([
           'm', 0.0, True),
     _spec('limits.max_speed', 'double', 'largest allowed leg speed |dL/dt|', 'm/s', 0.0, True),
     _spec('limits.max_force', 'double', 'largest allowed actuator force |f|', 'N', 0.0, True),
-    _spec('limits.max_jacobian_condition', 'double', 'status near_singular beyond this 2-norm '
-          'condition number of J (m, rad)', '1', 1.0, required=False),
+    ParamSpec('limits.max_jacobian_condition', 'double', Limits.max_jacobian_condition,
+              'status near_singular beyond this 2-norm condition number of J (m, rad)', '1',
+              minimum=1.0, required=False),
     _spec('limits.u_joint_max_angle', 'double', 'largest U-joint angle |theta_1|, |theta_2| '
           '(absent: no limit)', 'rad', 0.0, True, math.pi, required=False),
     _spec('limits.spherical_joint_max_angle', 'double', 'largest angle of a leg from the '
