@@ -230,10 +230,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='flight-sim-dynamics demo',
         description='Start the dynamics node with the packaged parameters (or --params: '
-                    'either machine), drive it with the demo planner (the machine\'s planner '
-                    'motions: the paper examples and motion cueing on the 3-DOF machine, a '
-                    'slow tour and motion cueing on a hexapod), print a live summary and '
-                    'plot the forces and powers received on actuator_states.')
+                    'any machine), drive it with the demo planner (the machine\'s planner '
+                    'motions), print a live summary and plot the forces and powers received '
+                    'on actuator_states.')
     parser.add_argument('-o', '--output', default='out/demo.png', type=Path,
                         help='PNG to write (default: out/demo.png)')
     parser.add_argument('--rate', type=float, default=100.0, metavar='HZ',

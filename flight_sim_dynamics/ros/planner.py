@@ -132,27 +132,31 @@ class PlannerNode(Node):
             self.accel_pub.publish(ac)
 
 
+def _planner_motions() -> str:
+    """Each machine's planner motions and their durations, for the help."""
+    return '; '.join(f"{m.title}: " + ', '.join(f'{name} ({m.motions[name].duration:g} s)'
+                                              for name in m.planner_motions)
+                     for m in MACHINES)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='flight-sim-dynamics demo-planner',
-        description="Publish pose/twist/accel_setpoint of a machine's built-in motions: the "
-                    "paper's motions (eq. 6, 3 s each) or a motion-cueing sequence (6.5 s) "
-                    'of the 3-DOF machine; a slow tour (12 s) or a motion-cueing sequence '
-                    '(7.5 s) of a hexapod. ROS arguments go after --ros-args.')
+        description="Publish pose/twist/accel_setpoint of a machine's built-in planner "
+                    f'motions ({_planner_motions()}). ROS arguments go after --ros-args.')
     parser.add_argument('--params', '--params-file', type=str, default=None, metavar='FILE',
                         help="parameter file naming the machine (the node's, e.g. "
                              'config/stewart_6dof.yaml; default: the 3-DOF machine)')
     parser.add_argument('--example', default=None, metavar='NAME',
-                        help="motion to play, one of the machine's planner motions ("
-                             + '; '.join(f"{m.title}: {', '.join(m.planner_motions)}"
-                                         for m in MACHINES)
-                             + '); all = each in turn (default: '
+                        help="motion to play, one of the machine's planner motions; all = "
+                             'each in turn (default: '
                              + ', '.join(f'{m.planner_example} ({m.title})' for m in MACHINES)
                              + ')')
     parser.add_argument('--rate', type=float, default=100.0, metavar='HZ',
                         help='setpoint rate (default: 100 Hz)')
     parser.add_argument('--loop', action='store_true',
-                        help='repeat forever (each paper example is washed back to neutral)')
+                        help='repeat forever (a motion that ends away from neutral is washed back '
+                             'to it)')
     parser.add_argument('--no-twist', action='store_true',
                         help='do not publish twist_setpoint (the node estimates rates)')
     parser.add_argument('--no-accel', action='store_true',
