@@ -1,9 +1,15 @@
 r"""Launch the flight_sim_dynamics node (a managed node), optionally the demo
-planner and the twin (platform_sim, fed by the node's actuator_states).
+planner and the twin (platform_sim, fed by the node's actuator_states), on
+either machine: ``machine:=stewart_6dof`` takes the packaged hexapod file,
+``params_file:=...`` a file of one's own (it names its machine); neither: the
+3-DOF machine. The twin simulates the node's machine (the same file as its
+``plant.params_file``), the planner plays that machine's motions.
 
 For a ROS 2 install (``ros2 launch`` is not on PyPI):
 
     ros2 launch flight_sim_dynamics flight_sim_dynamics.launch.py
+    ros2 launch flight_sim_dynamics flight_sim_dynamics.launch.py machine:=stewart_6dof \\
+        planner:=true twin:=true
     ros2 launch flight_sim_dynamics flight_sim_dynamics.launch.py \\
         namespace:=sim scene:=quasi_static params_file:=/path/to/params.yaml
     ros2 launch flight_sim_dynamics flight_sim_dynamics.launch.py \\
@@ -13,42 +19,57 @@ For a ROS 2 install (``ros2 launch`` is not on PyPI):
 """
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, OpaqueFunction
-from launch.conditions import IfCondition
-from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
+from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import LifecycleNode, Node
-from launch_ros.substitutions import FindPackageShare
+
+from flight_sim_dynamics.config.machine_files import launch_params_file
 
 PACKAGE = 'flight_sim_dynamics'
 
 
-def _node(context, *args, **kwargs):
-    """The node (and the twin); ``scene`` overrides the params file only when given."""
+def _nodes(context, *args, **kwargs):
+    """The node (and the twin, the planner) on the chosen file; ``scene``
+    overrides the params file only when given.
+    """
+    def value(name):
+        return LaunchConfiguration(name).perform(context)
+
     def flag(name):
-        return LaunchConfiguration(name).perform(context).lower() in ('true', '1')
+        return value(name).lower() in ('true', '1')
+    params_file = str(launch_params_file(value('machine'), value('params_file')))
+    namespace = LaunchConfiguration('namespace')
     overrides = {'autostart': flag('autostart'), 'use_sim_time': flag('use_sim_time')}
-    scene = LaunchConfiguration('scene').perform(context)
-    if scene:
-        overrides['scene'] = scene
+    if value('scene'):
+        overrides['scene'] = value('scene')
     nodes = [LifecycleNode(
-        package=PACKAGE, executable='dynamics_node', name=PACKAGE,
-        namespace=LaunchConfiguration('namespace'),
-        parameters=[LaunchConfiguration('params_file'), overrides],
-        output='screen')]
+        package=PACKAGE, executable='dynamics_node', name=PACKAGE, namespace=namespace,
+        parameters=[params_file, overrides], output='screen')]
     if flag('twin'):
         nodes.append(Node(package=PACKAGE, executable='platform_sim', name='platform_sim',
-                          namespace=LaunchConfiguration('namespace'),
-                          parameters=[{'use_sim_time': overrides['use_sim_time']}],
+                          namespace=namespace,
+                          parameters=[{'use_sim_time': overrides['use_sim_time'],
+                                       'plant.params_file': params_file}],
                           remappings=[('actuator_commands', 'actuator_states')],
                           output='screen'))
+    if flag('planner'):
+        nodes.append(Node(package=PACKAGE, executable='flight-sim-dynamics', name='demo_planner',
+                          arguments=['demo-planner', '--params', params_file, '--example', 'all',
+                                     '--loop'],
+                          namespace=namespace, output='screen'))
     return nodes
 
 
 def generate_launch_description() -> LaunchDescription:
     return LaunchDescription([
         DeclareLaunchArgument(
-            'params_file', description='parameter file of the node',
-            default_value=PathJoinSubstitution([FindPackageShare(PACKAGE), 'config',
-                                                'flight_sim_dynamics.yaml'])),
+            'machine', default_value='',
+            description='packaged machine: its file config/<machine>.yaml of the installed '
+                        'share directory (stewart_6dof, stewart_tsai2000; empty: the 3-DOF '
+                        'machine, unless params_file is given)'),
+        DeclareLaunchArgument(
+            'params_file', default_value='',
+            description='parameter file of the node (it names its machine; empty: the '
+                        'packaged file of machine)'),
         DeclareLaunchArgument('namespace', default_value='',
                               description='namespace of the node (and the planner)'),
         DeclareLaunchArgument('scene', default_value='',
@@ -59,14 +80,11 @@ def generate_launch_description() -> LaunchDescription:
         DeclareLaunchArgument('use_sim_time', default_value='false',
                               description='the node\'s clock from /clock'),
         DeclareLaunchArgument('planner', default_value='false',
-                              description='also run the demo planner (looping the paper\'s '
+                              description='also run the demo planner (looping the machine\'s '
+                                          'planner motions: on the 3-DOF machine the paper\'s '
                                           'three motions and a motion-cueing sequence)'),
         DeclareLaunchArgument('twin', default_value='false',
                               description='also run the twin (platform_sim) on the node\'s '
-                                          'actuator_states'),
-        OpaqueFunction(function=_node),
-        Node(package=PACKAGE, executable='flight-sim-dynamics', name='demo_planner',
-             arguments=['demo-planner', '--example', 'all', '--loop'],
-             namespace=LaunchConfiguration('namespace'),
-             output='screen', condition=IfCondition(LaunchConfiguration('planner'))),
+                                          'actuator_states, simulating the node\'s machine'),
+        OpaqueFunction(function=_nodes),
     ])

@@ -170,3 +170,23 @@ def test_no_sys_path_edits_anywhere():
                     and isinstance(node.value.value, ast.Name) and node.value.value.id == 'sys'):
                 offenders.append(f'{path.relative_to(ROOT)}:{node.lineno}')
     assert not offenders, offenders
+
+
+#: modules of ros/ that serve every machine through its Machine record: they
+#: import no machines.<name> module (the rest of ros/ joins as it is made generic)
+MACHINE_FREE = {'ros/dynamics_node.py', 'ros/setpoints.py', 'ros/node.py', 'ros/platform_sim.py',
+                'ros/sim_node.py', 'ros/planner.py', 'ros/process.py', 'ros/service_thread.py',
+                'cli/demo.py'}
+
+
+@pytest.mark.parametrize('rel', sorted(MACHINE_FREE))
+def test_ros_imports_no_machine_of_its_own(rel):
+    """What differs per machine comes from the Machine record (core/machine.py)
+    and the registry (machines/__init__.py, machines/api.py), never from a
+    machine's own modules: a third machine touches nothing here."""
+    names = {m.name for m in (PACKAGE / 'machines').iterdir() if m.is_dir()
+             and (m / '__init__.py').is_file()}
+    own = sorted(t for t, _ in imports(PACKAGE / rel)
+                 if t.split('.')[:2] == ['flight_sim_dynamics', 'machines']
+                 and len(t.split('.')) > 2 and t.split('.')[2] in names)
+    assert not own, f'{rel} imports {own}'

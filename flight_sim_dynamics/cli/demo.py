@@ -1,9 +1,11 @@
 """End-to-end demo (``flight-sim-dynamics demo``, about 25 s): the node as a
-process with the packaged parameters (its log ``<output>_node.log``), the demo
-planner in this process, one summary line per second from ``actuator_states``
-and ``/diagnostics``, then the forces and powers received plotted to ``-o``.
-``--twin`` adds ``platform_sim`` on the node's ``actuator_states`` and plots
-commanded against simulated motion to ``<output>_twin.png``.
+process with the packaged parameters or ``--params`` (either machine; its log
+``<output>_node.log``), the demo planner in this process playing the
+machine's planner motions, one summary line per second from
+``actuator_states`` and ``/diagnostics``, then the forces and powers received
+plotted to ``-o``. ``--twin`` adds ``platform_sim`` (the same parameter file:
+the node's machine as the plant) on the node's ``actuator_states`` and plots
+commanded against simulated motion, every coordinate, to ``<output>_twin.png``.
 """
 from __future__ import annotations
 
@@ -21,14 +23,17 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 
+from ..config.machine_files import load_model
 from ..config.parameters import default_params_path
-from ..machines.staicu.motions import PLANNER_MOTIONS as MOTIONS
-from ..machines.staicu.motions import PlannerSequence
+from ..core.machine import Machine
+from ..core.motion import PlannerSequence
+from ..machines import MACHINES
+from ..machines.api import machine_of
 from ..ros.dynamics_node import default_qos
 from ..ros.node import spin_until
 from ..ros.planner import PlannerNode
 from ..ros.process import SIM_MODULE, start_node, stop_node, stop_on_signals, stop_requested
-from ..ros.setpoints import DIAGNOSTIC_TASK, LEVEL_NAMES, quaternion_to_rpy
+from ..ros.setpoints import DIAGNOSTIC_TASK, LEVEL_NAMES, pose_map, quaternion_to_rpy
 
 
 class Monitor(Node):
@@ -93,27 +98,29 @@ def round_trip(executor: Any, planner: PlannerNode, monitor: Monitor,
 
 
 class TwinMonitor(Node):
-    """Records the twin's ``platform_pose`` as (stamp ns, surge, heave, roll)."""
+    """Records the twin's ``platform_pose`` as (stamp ns, the machine's coordinates)."""
 
-    def __init__(self, **kwargs: Any) -> None:
+    def __init__(self, machine: Machine, **kwargs: Any) -> None:
         super().__init__('demo_twin_monitor', **kwargs)
-        self.rows: list[tuple[int, float, float, float]] = []
+        self.poses = pose_map(machine)
+        self.rows: list[tuple[float, ...]] = []
         self.sub = self.create_subscription(PoseStamped, 'platform_pose', self._on_pose,
                                             default_qos())
 
     def _on_pose(self, msg: PoseStamped) -> None:
         p, o = msg.pose.position, msg.pose.orientation
-        roll = quaternion_to_rpy(o.x, o.y, o.z, o.w)[0]
+        rpy = quaternion_to_rpy(o.x, o.y, o.z, o.w)
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-        self.rows.append((stamp, p.x, p.z, roll))
+        self.rows.append((stamp, *self.poses.coordinates((p.x, p.y, p.z, *rpy))))
 
 
 class LiveSummary:
     """The demo's one line per second: receive rate since the previous line,
-    last forces A/B/C, node status.
+    last forces of the legs ``labels`` (e.g. A/B/C), node status.
     """
 
-    def __init__(self, now: float) -> None:
+    def __init__(self, now: float, labels: Sequence[str] = ('A', 'B', 'C')) -> None:
+        self.labels = tuple(labels)
         self.start = self.last_time = now
         self.last_count = 0
         self.printed = 0
@@ -128,10 +135,10 @@ class LiveSummary:
         self.printed += 1
         rate = (count - self.last_count) / (now - self.last_time) if now > self.last_time else 0.0
         self.last_time, self.last_count = now, count
-        text = ('  '.join(f'{f:7.2f}' for f in forces) if forces
-                else '   -      -      -  ')
+        text = '  '.join(f'{f:7.2f}' for f in forces) if forces else \
+            '  '.join(f'{"-":>4}   ' for _ in self.labels)
         return (f'[demo] t={now - self.start:5.1f} s  rate {rate:6.1f} Hz  '
-                f'forces A/B/C {text} N  status {status}')
+                f'forces {"/".join(self.labels)} {text} N  status {status}')
 
 
 def _shade_segments(axes, sequence: PlannerSequence) -> None:
@@ -145,14 +152,18 @@ def _shade_segments(axes, sequence: PlannerSequence) -> None:
                      ha='center', va='bottom', fontsize=8)
 
 
-def plot(monitor: Monitor, sequence: PlannerSequence, t0_ns: int, path: Path) -> None:
-    """Forces and powers (effort x velocity) of the received messages vs time."""
+def plot(monitor: Monitor, sequence: PlannerSequence, t0_ns: int, path: Path,
+         labels: Sequence[str] = ('A', 'B', 'C')) -> None:
+    """Forces and powers (effort x velocity) of the received messages vs time,
+    one curve per leg (``labels``).
+    """
     from .plotting import force_power_figure
 
     t = (np.array(monitor.stamps, dtype=np.int64) - t0_ns) * 1e-9
     force = np.array(monitor.effort)
     fig = force_power_figure(t, force, force * np.array(monitor.velocity),
-                             title=f'actuator_states received from the node: {len(t)} messages')
+                             title=f'actuator_states received from the node: {len(t)} messages',
+                             actuators=tuple(labels))
     _shade_segments(fig.axes[:2], sequence)
     fig.axes[1].set_xlabel('setpoint stamp (s from start)')
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -161,71 +172,78 @@ def plot(monitor: Monitor, sequence: PlannerSequence, t0_ns: int, path: Path) ->
 
 def tracking(monitor: TwinMonitor, sequence: PlannerSequence, t0_ns: int, end_ns: int
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(t s from the start, simulated q (N, 3), commanded q (N, 3)) of the
+    """(t s from the start, simulated q (N, dof), commanded q (N, dof)) of the
     poses stamped within the planner's run.
     """
     rows = np.array([r for r in monitor.rows if t0_ns <= r[0] <= end_ns], dtype=float)
     if rows.size == 0:
-        return np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3))
+        dof = len(monitor.poses.names)
+        return np.zeros(0), np.zeros((0, dof)), np.zeros((0, dof))
     t = (rows[:, 0] - t0_ns) * 1e-9
     commanded = np.array([sequence.sample(ti)[0] for ti in t])
     return t, rows[:, 1:], commanded
 
 
 def plot_tracking(t: np.ndarray, simulated: np.ndarray, commanded: np.ndarray,
-                  sequence: PlannerSequence, path: Path) -> None:
-    """Commanded against simulated surge, heave and roll, and the tracking
-    error, against time.
+                  sequence: PlannerSequence, path: Path, machine: Machine = MACHINES[0]) -> None:
+    """Commanded against simulated motion, each coordinate of ``machine``, and
+    the tracking errors, against time.
     """
     from matplotlib.figure import Figure
 
     error = simulated - commanded
-    fig = Figure(figsize=(10, 9), layout='constrained')
-    axes = fig.subplots(4, 1, sharex=True)
-    for i, (name, unit) in enumerate((('surge', 'm'), ('heave', 'm'), ('roll', 'rad'))):
+    dof = machine.dof
+    fig = Figure(figsize=(10, 2.25 * (dof + 1)), layout='constrained')
+    axes = fig.subplots(dof + 1, 1, sharex=True)
+    for i, (name, unit) in enumerate(zip(machine.coordinates, machine.units)):
         axes[i].plot(t, commanded[:, i], color='0.3', lw=2.5, alpha=0.5, label='commanded')
         axes[i].plot(t, simulated[:, i], color='tab:blue', lw=1.0, label='simulated (twin)')
         axes[i].set_ylabel(f'{name} ({unit})')
-    for i, label in enumerate(('surge (mm)', 'heave (mm)', 'roll (mrad)')):
-        axes[3].plot(t, 1e3 * error[:, i], label=label)
-    axes[3].set_ylabel('simulated - commanded')
-    axes[3].set_xlabel('stamp (s from start)')
+        axes[dof].plot(t, 1e3 * error[:, i], label=f'{name} (m{unit})')
+    axes[dof].set_ylabel('simulated - commanded')
+    axes[dof].set_xlabel('stamp (s from start)')
     _shade_segments(axes, sequence)
     for ax in axes:
         ax.grid(True, alpha=0.3)
-        ax.legend(loc='upper right', fontsize=8)
-    peak = np.abs(error).max(axis=0) if len(t) else np.full(3, np.nan)
-    fig.suptitle(f'digital twin (platform_sim) driven by dynamics_node: {len(t)} poses; max error '
-                 f'{1e3 * peak[0]:.2f} mm, {1e3 * peak[1]:.2f} mm, {1e3 * peak[2]:.2f} mrad')
+        ax.legend(loc='upper right', fontsize=8, ncol=1 if dof <= 3 else 2)
+    peak = np.abs(error).max(axis=0) if len(t) else np.full(dof, np.nan)
+    fig.suptitle(f'digital twin (platform_sim) driven by dynamics_node: {len(t)} poses\nmax error '
+                 + ', '.join(f'{name} {1e3 * p:.2f} m{unit}'
+                             for name, p, unit in zip(machine.coordinates, peak, machine.units)))
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
 
 
-def twin_summary(t: np.ndarray, simulated: np.ndarray, commanded: np.ndarray) -> str:
+def twin_summary(t: np.ndarray, simulated: np.ndarray, commanded: np.ndarray,
+                 machine: Machine = MACHINES[0]) -> str:
     """One line: poses and max / RMS tracking error per coordinate."""
     if not len(t):
         return 'no twin pose received within the run'
     e = simulated - commanded
     peak, rms = np.abs(e).max(axis=0), np.sqrt((e * e).mean(axis=0))
-    return (f'{len(t)} twin poses; tracking error max / RMS: surge {1e3 * peak[0]:.2f} / '
-            f'{1e3 * rms[0]:.2f} mm, heave {1e3 * peak[1]:.2f} / {1e3 * rms[1]:.2f} mm, roll '
-            f'{1e3 * peak[2]:.2f} / {1e3 * rms[2]:.2f} mrad')
+    return (f'{len(t)} twin poses; tracking error max / RMS: ' + ', '.join(
+        f'{name} {1e3 * p:.2f} / {1e3 * r:.2f} m{unit}'
+        for name, unit, p, r in zip(machine.coordinates, machine.units, peak, rms)))
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='flight-sim-dynamics demo',
-        description='Start the dynamics node with the packaged parameters, drive it with the '
-                    'demo planner (paper examples + motion cueing), print a live summary and '
-                    'plot the forces and powers received on actuator_states.')
+        description='Start the dynamics node with the packaged parameters (or --params: '
+                    'any machine), drive it with the demo planner (the machine\'s planner '
+                    'motions), print a live summary and plot the forces and powers received '
+                    'on actuator_states.')
     parser.add_argument('-o', '--output', default='out/demo.png', type=Path,
                         help='PNG to write (default: out/demo.png)')
     parser.add_argument('--rate', type=float, default=100.0, metavar='HZ',
                         help='planner rate (default: 100 Hz)')
-    parser.add_argument('--motions', nargs='+', choices=MOTIONS, default=list(MOTIONS),
-                        help='motions to play (default: all four)')
-    parser.add_argument('--params-file', type=Path, default=None,
-                        help='node parameter file (default: the packaged one)')
+    parser.add_argument('--motions', nargs='+', default=None, metavar='NAME',
+                        help="motions to play, of the machine's planner motions ("
+                             + '; '.join(f"{m.title}: {', '.join(m.planner_motions)}"
+                                         for m in MACHINES) + '; default: all of them)')
+    parser.add_argument('--params', '--params-file', type=Path, default=None, metavar='FILE',
+                        help='node parameter file, naming the machine (e.g. '
+                             'config/stewart_6dof.yaml; default: the packaged 3-DOF file)')
     parser.add_argument('--twin', action='store_true',
                         help='also run the twin node platform_sim on the node\'s actuator_states '
                              'and plot commanded against simulated motion to <output>_twin.png')
@@ -239,28 +257,40 @@ def main(argv: Sequence[str] | None = None) -> int:
     # Ctrl-C requests a stop, seen between callbacks (as in the node executables):
     # no KeyboardInterrupt raised inside a timer callback
     stop_on_signals()
-    params_file = args.params_file or default_params_path()
+    params_file = args.params or default_params_path()
+    parser = build_parser()
+    try:
+        machine = machine_of(load_model(params_file))
+    except (OSError, ValueError) as exc:
+        parser.error(f'--params: {exc}')
+    names = args.motions or list(machine.planner_motions)
+    unknown = [name for name in names if name not in machine.planner_motions]
+    if unknown:
+        parser.error(f'--motions: {unknown[0]!r} is not a motion of the {machine.title}; '
+                     f"choose from {', '.join(machine.planner_motions)}")
     args.output.parent.mkdir(parents=True, exist_ok=True)
     log_path = args.output.with_name(args.output.stem + '_node.log')   # next to the PNG
-    sequence = PlannerSequence(args.motions)
-    print(f'[demo] starting the node: dynamics_node --ros-args --params-file {params_file}')
+    sequence = PlannerSequence(machine.motions, names)
+    print(f'[demo] {machine.title}; starting the node: dynamics_node --ros-args '
+          f'--params-file {params_file}')
     print(f'[demo] node log: {log_path}')
     node_proc = start_node(params_file, log=log_path)
     twin_log = args.output.with_name(args.output.stem + '_twin.log')
-    # the twin reads the node's answers (one remap), default parameters: the packaged plant
-    twin_proc = start_node(None, ('-r', 'actuator_commands:=actuator_states'), log=twin_log,
+    # the twin reads the node's answers (one remap); the node's file: its model is the plant
+    twin_args = ('-r', 'actuator_commands:=actuator_states')
+    twin_proc = start_node(params_file, twin_args, log=twin_log,
                            module=SIM_MODULE) if args.twin else None
     if twin_proc is not None:
-        print(f'[demo] starting the twin: platform_sim --ros-args -r '
-              f'actuator_commands:=actuator_states (log: {twin_log})')
+        print(f'[demo] starting the twin: platform_sim --ros-args --params-file {params_file} '
+              f'-r actuator_commands:=actuator_states (log: {twin_log})')
     context = rclpy.Context()
     rclpy.init(args=['demo', *argv], context=context,
                signal_handler_options=SignalHandlerOptions.NO)
     from rclpy.experimental import EventsExecutor
     executor = EventsExecutor(context=context)
-    planner = PlannerNode(sequence, args.rate, context=context)
+    planner = PlannerNode(sequence, args.rate, machine=machine, context=context)
     monitor = Monitor(context=context)
-    twin = TwinMonitor(context=context) if twin_proc is not None else None
+    twin = TwinMonitor(machine, context=context) if twin_proc is not None else None
     executor.add_node(planner)
     executor.add_node(monitor)
     if twin is not None:
@@ -294,7 +324,8 @@ def main(argv: Sequence[str] | None = None) -> int:
               f'{sequence.period:.1f} s')
         planner.start()
         t0_ns = planner._t0_ns
-        live = LiveSummary(time.monotonic())
+        labels = tuple(label.upper() for label in machine.leg_labels)
+        live = LiveSummary(time.monotonic(), labels)
 
         def summary(final: bool = False) -> None:
             text = live.line(time.monotonic(), len(monitor.stamps),
@@ -320,10 +351,12 @@ def main(argv: Sequence[str] | None = None) -> int:
               f'({planner.sent - received} missing); {lat}')
         d = monitor.diagnostics
         if d:
-            print(f"[demo] node diagnostics: solve time mean {d.get('solve time mean (us)')} us, "
-                  f"rejected {d.get('rejected total')}, cond(Q) {d.get('cond(Q) last')}")
+            fields = (('solve time mean', 'solve time mean (us)', ' us'),
+                      ('rejected', 'rejected total', ''), ('cond(Q)', 'cond(Q) last', ''))
+            print('[demo] node diagnostics: ' + ', '.join(
+                f'{label} {d[key]}{unit}' for label, key, unit in fields if key in d))
         if received:
-            plot(monitor, sequence, t0_ns, args.output)
+            plot(monitor, sequence, t0_ns, args.output, labels)
             print(f'[demo] forces and powers plotted to {args.output}')
         twin_ok = True
         if twin is not None:
@@ -331,11 +364,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             spin(lambda: bool(twin.rows) and twin.rows[-1][0] >= end_ns,
                  timeout=3.0)
             t, simulated, commanded = tracking(twin, sequence, t0_ns, end_ns)
-            print(f'[demo] twin: {twin_summary(t, simulated, commanded)}')
+            print(f'[demo] twin: {twin_summary(t, simulated, commanded, machine)}')
             twin_ok = len(t) > 0 and not twin_down()
             if len(t):
                 twin_png = args.output.with_name(args.output.stem + '_twin.png')
-                plot_tracking(t, simulated, commanded, sequence, twin_png)
+                plot_tracking(t, simulated, commanded, sequence, twin_png, machine)
                 print(f'[demo] commanded against simulated motion plotted to {twin_png}')
         return 0 if received == planner.sent and received > 0 and twin_ok else 1
     except KeyboardInterrupt:

@@ -1,14 +1,15 @@
 """What a built-in motion is, for every machine: :class:`Motion` (name ->
 q, qd, qdd at times t, and a duration), the sample times of a rate, and the
 smooth steps most built-in motions are sums of (q, qd, qdd continuous and
-exact). Each machine's registry (``machines/<name>/motions.py``) fills
+exact), and :class:`PlannerSequence`, motions played in turn as the demo
+planner streams them. Each machine's registry (``machines/<name>/motions.py``) fills
 :attr:`flight_sim_dynamics.core.machine.Machine.motions` with these.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -64,3 +65,64 @@ def step_sequence(steps: Sequence[Step], t: np.ndarray | float, dof: int = 3) ->
         qd[:, axis] += change * ds / duration
         qdd[:, axis] += change * dds / duration ** 2
     return q, qd, qdd
+
+
+RETURN_TIME = 1.0  # s, smooth return to neutral after a motion that ends away from it
+NEUTRAL_TOLERANCE = 1e-9  # m or rad: a motion ending closer than this to neutral needs no return
+
+
+class PlannerSequence:
+    """Motions ``names`` of ``motions`` (a machine's :attr:`Machine.motions`)
+    played one after the other, as a planner would stream them: one that ends
+    away from neutral returns to it by a smooth step of ``return_time`` s.
+    ``segments`` lists (label, start s, end s).
+    """
+
+    def __init__(self, motions: Mapping[str, Motion], names: Sequence[str], *,
+                 loop: bool = False, return_time: float = RETURN_TIME) -> None:
+        if not names:
+            raise ValueError('no motion given')
+        unknown = [name for name in names if name not in motions]
+        if unknown:
+            raise ValueError(f"unknown motion {unknown[0]!r}; choose one of "
+                             f"{', '.join(motions)}")
+        self.names = tuple(names)
+        self.loop = loop
+        self._motions = {name: motions[name] for name in self.names}
+        self.segments: list[tuple[str, float, float]] = []
+        self._parts: list[tuple[str, float, float, np.ndarray | None]] = []
+        start = 0.0
+        for i, name in enumerate(self.names):
+            length = self._motions[name].duration
+            self._parts.append((name, start, length, None))
+            self.segments.append((name, start, start + length))
+            start += length
+            end_q = self._motions[name].trajectory(length)[0][0]
+            away = bool(np.abs(end_q).max() > NEUTRAL_TOLERANCE)
+            if away and (loop or i < len(self.names) - 1):
+                self._parts.append(('return', start, return_time, end_q))
+                self.segments.append(('return', start, start + return_time))
+                start += return_time
+        self.period = start
+
+    def finished(self, t: float) -> bool:
+        """True once ``t`` is past the end (never when looping)."""
+        return not self.loop and t > self.period + 1e-9
+
+    def sample(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+        """q, qd, qdd (one number per coordinate each) and the segment label at
+        sequence time ``t``.
+        """
+        if self.loop:
+            t = t % self.period
+        t = min(max(t, 0.0), self.period)
+        for label, start, length, end_q in reversed(self._parts):
+            if t >= start - 1e-12:
+                break
+        local = min(t - start, length)
+        if label == 'return':
+            s, ds, dds = smooth_step(np.array([local / length]))
+            return (end_q * (1.0 - s[0]), -end_q * ds[0] / length,
+                    -end_q * dds[0] / length ** 2, label)
+        q, qd, qdd = self._motions[label].trajectory(local)
+        return q[0], qd[0], qdd[0], label

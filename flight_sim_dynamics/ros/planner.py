@@ -1,8 +1,14 @@
-"""Demo planner: streams pose, twist and accel setpoints of the paper's motions
-(and a motion-cueing sequence), stamped ``start + k / rate`` on the node's clock.
+"""Demo planner: streams pose, twist and accel setpoints of a machine's
+built-in motions (:attr:`Machine.planner_motions`: the paper's motions and a
+motion-cueing sequence on the 3-DOF machine; a slow tour and a 6-DOF
+motion-cueing sequence on the hexapod), stamped ``start + k / rate`` on the
+node's clock. The pose carries the machine's coordinates as their
+components (:class:`.setpoints.PoseMap`); twist and accel the rates, and the angular
+velocity and acceleration in the base frame of the Euler-angle rates (S2), (S3).
 
     flight-sim-dynamics demo-planner --example general --rate 200 --loop
     flight-sim-dynamics demo-planner --example cueing --no-accel
+    flight-sim-dynamics demo-planner --params config/stewart_6dof.yaml --example all
 """
 from __future__ import annotations
 
@@ -17,25 +23,30 @@ from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rclpy.node import Node
 from rclpy.time import Time
 
-from ..machines.staicu.motions import PLANNER_MOTIONS as MOTIONS
-from ..machines.staicu.motions import PlannerSequence
+from ..config.machine_files import load_model
+from ..core.machine import Machine
+from ..core.motion import PlannerSequence
+from ..machines import MACHINES
+from ..machines.api import machine_of
 from .dynamics_node import default_qos
 from .node import own_options, running, spin_until
 from .process import stop_requested
-from .setpoints import rpy_to_quaternion
+from .setpoints import pose_map, rpy_to_quaternion
 
 
 class PlannerNode(Node):
-    """Publishes a PlannerSequence at ``rate`` from :meth:`start` on;
-    ``on_sample(stamp_ns, label)`` after each sample; ``done`` once sent.
+    """Publishes a PlannerSequence of ``machine``'s motions at ``rate`` from
+    :meth:`start` on; ``on_sample(stamp_ns, label)`` after each sample;
+    ``done`` once sent.
     """
 
-    def __init__(self, sequence: PlannerSequence, rate: float, *, twist: bool = True,
-                 accel: bool = True, frame_id: str = 'simulator_base',
+    def __init__(self, sequence: PlannerSequence, rate: float, *, machine: Machine = MACHINES[0],
+                 twist: bool = True, accel: bool = True, frame_id: str = 'simulator_base',
                  node_name: str = 'demo_planner', on_sample: Any = None,
                  **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self.sequence = sequence
+        self.poses = pose_map(machine)
         self.rate = float(rate)
         self.send_twist, self.send_accel = twist, accel
         self.on_sample = on_sample
@@ -95,44 +106,57 @@ class PlannerNode(Node):
         both ways (matching seen from one side does not).
         """
         q = self.sequence.sample(0.0)[0]
-        self._send(stamp_ns, q, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        self._send(stamp_ns, q, [0.0] * len(q), [0.0] * len(q))
 
     def _send(self, stamp_ns: int, q: Any, qd: Any, qdd: Any) -> None:
         stamp = Time(nanoseconds=stamp_ns).to_msg()
-        pose = self._pose
-        pose.header.stamp = stamp
-        pose.pose.position.x, pose.pose.position.y, pose.pose.position.z = \
-            float(q[0]), 0.0, float(q[1])
-        o = pose.pose.orientation
-        o.x, o.y, o.z, o.w = rpy_to_quaternion(float(q[2]))
-        self.pose_pub.publish(pose)
+        poses = self.poses
+        x, y, z, *rpy = poses.message(q)
+        msg = self._pose
+        msg.header.stamp = stamp
+        p, o = msg.pose.position, msg.pose.orientation
+        p.x, p.y, p.z = x, y, z
+        o.x, o.y, o.z, o.w = rpy_to_quaternion(*rpy)
+        self.pose_pub.publish(msg)
         if self.send_twist:
             tw = self._twist
             tw.header.stamp = stamp
-            tw.twist.linear.x, tw.twist.linear.z, tw.twist.angular.x = \
-                float(qd[0]), float(qd[1]), float(qd[2])
+            v, w = tw.twist.linear, tw.twist.angular
+            v.x, v.y, v.z, w.x, w.y, w.z = poses.twist(q, qd)
             self.twist_pub.publish(tw)
         if self.send_accel:
             ac = self._accel
             ac.header.stamp = stamp
-            ac.accel.linear.x, ac.accel.linear.z, ac.accel.angular.x = \
-                float(qdd[0]), float(qdd[1]), float(qdd[2])
+            a, e = ac.accel.linear, ac.accel.angular
+            a.x, a.y, a.z, e.x, e.y, e.z = poses.accel(q, qd, qdd)
             self.accel_pub.publish(ac)
+
+
+def _planner_motions() -> str:
+    """Each machine's planner motions and their durations, for the help."""
+    return '; '.join(f"{m.title}: " + ', '.join(f'{name} ({m.motions[name].duration:g} s)'
+                                              for name in m.planner_motions)
+                     for m in MACHINES)
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='flight-sim-dynamics demo-planner',
-        description="Publish pose/twist/accel_setpoint of the paper's motions (eq. 6, "
-                    '3 s each) or a motion-cueing sequence (6.5 s). ROS arguments go after '
-                    '--ros-args.')
-    parser.add_argument('--example', choices=(*MOTIONS, 'all'), default='general',
-                        help='motion to play; all = the three examples then cueing '
-                             '(default: general)')
+        description="Publish pose/twist/accel_setpoint of a machine's built-in planner "
+                    f'motions ({_planner_motions()}). ROS arguments go after --ros-args.')
+    parser.add_argument('--params', '--params-file', type=str, default=None, metavar='FILE',
+                        help="parameter file naming the machine (the node's, e.g. "
+                             'config/stewart_6dof.yaml; default: the 3-DOF machine)')
+    parser.add_argument('--example', default=None, metavar='NAME',
+                        help="motion to play, one of the machine's planner motions; all = "
+                             'each in turn (default: '
+                             + ', '.join(f'{m.planner_example} ({m.title})' for m in MACHINES)
+                             + ')')
     parser.add_argument('--rate', type=float, default=100.0, metavar='HZ',
                         help='setpoint rate (default: 100 Hz)')
     parser.add_argument('--loop', action='store_true',
-                        help='repeat forever (each paper example is washed back to neutral)')
+                        help='repeat forever (a motion that ends away from neutral is washed back '
+                             'to it)')
     parser.add_argument('--no-twist', action='store_true',
                         help='do not publish twist_setpoint (the node estimates rates)')
     parser.add_argument('--no-accel', action='store_true',
@@ -151,11 +175,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.no_twist and not args.no_accel:
         build_parser().error('--no-twist needs --no-accel (accelerations without rates '
                              'are not a stream the node expects)')
+    try:
+        machine = MACHINES[0] if args.params is None else machine_of(load_model(args.params))
+    except (OSError, ValueError) as exc:
+        build_parser().error(f'--params: {exc}')
+    example = args.example or machine.planner_example
+    if example not in (*machine.planner_motions, 'all'):
+        build_parser().error(f'--example: {example!r} is not a motion of the {machine.title}; '
+                             f"choose one of {', '.join((*machine.planner_motions, 'all'))}")
     from rclpy.experimental import EventsExecutor
     with running('demo_planner', argv) as nodes:
-        sequence = PlannerSequence(list(MOTIONS) if args.example == 'all' else [args.example],
-                                   loop=args.loop)
-        node = PlannerNode(sequence, args.rate, twist=not args.no_twist,
+        sequence = PlannerSequence(machine.motions, list(machine.planner_motions)
+                                   if example == 'all' else [example], loop=args.loop)
+        node = PlannerNode(sequence, args.rate, machine=machine, twist=not args.no_twist,
                            accel=not args.no_accel)
         nodes.append(node)
         executor = EventsExecutor()
@@ -171,9 +203,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         node.start()
         spin_until(executor, lambda: node.done)
         if node.done and not stop_requested():
-                node.pose_pub.wait_for_all_acked(rclpy.duration.Duration(seconds=2.0))
+            node.pose_pub.wait_for_all_acked(rclpy.duration.Duration(seconds=2.0))
         log.info(f'sent {node.sent} setpoints')
     return 0
+
 
 if __name__ == '__main__':
     sys.exit(main())

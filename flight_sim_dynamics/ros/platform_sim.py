@@ -4,18 +4,26 @@ A command is checked as it arrives and kept; the tick (``tick_rate``) holds
 the newest one from its arrival on, makes the RK4 steps due at ``rate``
 (:class:`..core.twin.TwinStepper`) and publishes the state. So a burst of
 commands costs a decode and a check each, never the loop its rate: commands
-a newer one replaced before a tick are counted, not simulated.
+a newer one replaced before a tick are counted, not simulated. The plant is
+a model of any machine (its parameter file names it): its legs are the
+commands' names, its pose goes out as the setpoints carry a pose
+(:class:`.setpoints.PoseMap`: position surge, sway, heave; ZYX roll, pitch,
+yaw; the twist's angular part the base-frame angular velocity, (S2)).
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from dataclasses import dataclass
 from typing import Any, Mapping, Sequence
 
+import numpy as np
+
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Point, Pose, PoseStamped, Quaternion, Twist, TwistStamped, Vector3
 from rclpy.clock import Clock, ClockType
+from rclpy.exceptions import ParameterUninitializedException
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
 from rclpy.time import Time
@@ -24,22 +32,25 @@ from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
 from ..config import parameters as prm
+from ..config.files import NODE_NAME, section_applies
+from ..config.machine_files import load_model
 from ..config.schema import SIM_NODE_NAME, SIM_PARAMETERS
+from ..config.yaml_io import read_yaml
+from ..core.machine import ActuatorLimits, Machine
 from ..core.servo import Servo
 from ..core.twin import TwinStepper
-from ..machines.staicu.machine import MACHINE
-from ..machines.staicu.model import LEG_NAMES, Model
+from ..machines.api import machine_of
 from .dynamics_node import _declared, default_qos, descriptor_for, plain
 from .process import end_spins, stop_requested
 from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, STAMP_BACKWARDS, STAMP_REPEATED, WARN,
-                        LogThrottle, SetpointError, Vec3, diagnostic_name, number,
+                        LogThrottle, SetpointError, diagnostic_name, number, pose_map,
                         rpy_to_quaternion)
 
 #: Seconds between two log lines of one rejection reason.
 LOG_THROTTLE = 2.0
 UNDECODABLE = 'undecodable'      # bytes that are no JointState
-BAD_NAMES = 'bad_names'          # names that are not the three legs, once each
-BAD_SIZE = 'bad_size'            # an array of another size than 3 (or 0: velocity, effort)
+BAD_NAMES = 'bad_names'          # names that are not the machine's legs, once each
+BAD_SIZE = 'bad_size'            # an array of another size than the legs (or 0: velocity, effort)
 BEYOND_LIMITS = 'beyond_limits'  # no command the machine could be sent (LIMIT_MARGIN)
 #: Why a command is rejected, in the order /diagnostics lists them.
 COMMAND_REASONS = (UNDECODABLE, BAD_NAMES, BAD_SIZE, NON_FINITE, BEYOND_LIMITS,
@@ -57,39 +68,78 @@ SIM_TASK = 'platform simulation'
 
 @dataclass(frozen=True)
 class SimConfig:
-    """The twin's validated parameters, the plant and its servos."""
+    """The twin's validated parameters, the plant (a model of ``machine``), its
+    servos, its limits and the length each leg's stroke is measured from.
+    """
 
     values: Mapping[str, Any]
-    plant: Model
+    machine: Machine
+    plant: Any
     servo: Servo
+    limits: ActuatorLimits
+    stroke_origin: np.ndarray
 
     def stepper(self) -> TwinStepper:
-        return TwinStepper(MACHINE, self.plant, self.servo, 1.0 / self.values['rate'],
-                           self.values['initial'])
+        return TwinStepper(self.machine, self.plant, self.servo, 1.0 / self.values['rate'],
+                           self.values['initial'] or None)
 
 
-def sim_config(values: Mapping[str, Any]) -> SimConfig:
+def plant_file(given: str, params_files: Sequence[str],
+               node: str = '/' + NODE_NAME) -> str | None:
+    """The plant's parameter file: ``plant.params_file``, else the one
+    ``--params-file`` of the command line with a section for the dynamics node
+    ``node`` (fully qualified: the twin's namespace; the node's file serves the
+    twin too), else None (the packaged parameters).
+    """
+    if given:
+        return given
+    found = []
+    for path in params_files:
+        try:
+            doc = read_yaml(path, 'params_file')
+        except (OSError, ValueError):
+            continue                     # rcl reads it as the twin's own: its error first
+        if isinstance(doc, Mapping) and any(section_applies(str(section), node)
+                                            for section in doc):
+            found.append(path)
+    if len(found) > 1:
+        raise prm.ParameterError('plant.params_file', '', f'{len(found)} --params-file files '
+                                 f"have a section for {NODE_NAME} ({', '.join(found)}): "
+                                 "name the plant's with plant.params_file")
+    return found[0] if found else None
+
+
+def sim_config(values: Mapping[str, Any], params_files: Sequence[str] = (),
+               node: str = '/' + NODE_NAME) -> SimConfig:
     """The checked parameters (defaults for the absent ones), plant and servos;
-    ParameterError also for a scene without inertia or a pose the plant cannot take.
+    ``params_files``: the ``--params-file`` files of the command line, ``node``
+    the dynamics node whose section names the plant (:func:`plant_file`).
+    ParameterError also for a scene without inertia, a pose of another size
+    than the machine's or one the plant cannot take.
     """
     checked = {spec.name: prm.check_value(spec, values.get(spec.name, spec.default))
                for spec in SIM_PARAMETERS}
+    path = plant_file(checked['plant.params_file'], params_files, node)
     try:
-        plant = prm.load_model(checked['plant.params_file'] or None,
-                               checked['plant.scene'] or None)
+        plant = load_model(path, checked['plant.scene'] or None)
     except prm.SceneError as exc:
         raise prm.ParameterError('plant.scene', checked['plant.scene'], str(exc)) from None
     except (OSError, ValueError) as exc:
-        raise prm.ParameterError('plant.params_file', checked['plant.params_file'],
-                                 str(exc)) from None
+        raise prm.ParameterError('plant.params_file', path or '', str(exc)) from None
+    machine = machine_of(plant)
+    if checked['initial'] and len(checked['initial']) != machine.dof:
+        raise prm.ParameterError('initial', checked['initial'], f'expected {machine.dof} '
+                                 f"numbers ({', '.join(machine.coordinates)}) or none (home)")
     if checked['tick_rate'] > checked['rate']:
         raise prm.ParameterError('tick_rate', checked['tick_rate'],
                                  f"must not exceed rate ({checked['rate']:g} Hz): a tick "
                                  'makes whole steps')
+    home = machine.solve(plant, *(np.zeros(machine.dof),) * 3)
     try:
-        servo = Servo.for_bandwidth(MACHINE, plant, checked['servo.bandwidth'],
+        servo = Servo.for_bandwidth(machine, plant, checked['servo.bandwidth'],
                                     checked['servo.damping'])
-        config = SimConfig(checked, plant, servo)
+        config = SimConfig(checked, machine, plant, servo, machine.actuator_limits(plant),
+                           np.asarray(home.length) - np.asarray(home.stroke))
         twin = config.stepper()
     except ValueError as exc:           # a scene without inertia
         raise prm.ParameterError('plant.scene', checked['plant.scene'], str(exc)) from None
@@ -99,37 +149,44 @@ def sim_config(values: Mapping[str, Any]) -> SimConfig:
     return config
 
 
+Command = tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]
+
+
 def check_command(names: Sequence[str], position: Sequence[float],
-                  velocity: Sequence[float], effort: Sequence[float], plant: Model
-                  ) -> tuple[Vec3, Vec3, Vec3]:
-    """(length, rate, force) of a command, legs A, B, C; raises
-    :class:`SetpointError` with the reason (:data:`COMMAND_REASONS`; the
-    stamp is checked by :meth:`CommandStats.stamp`).
+                  velocity: Sequence[float], effort: Sequence[float], config: SimConfig
+                  ) -> Command:
+    """(length, rate, force) of a command, one number per leg of the plant's
+    machine in its order; raises :class:`SetpointError` with the reason
+    (:data:`COMMAND_REASONS`; the stamp is checked by :meth:`CommandStats.stamp`).
     """
-    if len(names) != 3 or sorted(names) != sorted(LEG_NAMES):
-        raise SetpointError(BAD_NAMES, f'names must be {", ".join(LEG_NAMES)} once each, '
+    legs = config.machine.legs
+    n = len(legs)
+    if len(names) != n or sorted(names) != sorted(legs):
+        raise SetpointError(BAD_NAMES, f'names must be {", ".join(legs)} once each, '
                                        f'got {list(names)!r:.200}')
-    order = [names.index(leg) for leg in LEG_NAMES]
+    order = [names.index(leg) for leg in legs]
     out = []
     for what, values in (('position', position), ('velocity', velocity), ('effort', effort)):
-        if len(values) != 3 and (what == 'position' or len(values)):
-            raise SetpointError(BAD_SIZE, f'{what} must have 3 values'
+        if len(values) != n and (what == 'position' or len(values)):
+            raise SetpointError(BAD_SIZE, f'{what} must have {n} values'
                                 + ('' if what == 'position' else ' or none')
                                 + f', got {len(values)}')
-        picked = tuple(float(values[i]) for i in order) if len(values) else (0.0, 0.0, 0.0)
+        picked = tuple(float(values[i]) for i in order) if len(values) else (0.0,) * n
         if not all(math.isfinite(v) for v in picked):
             raise SetpointError(NON_FINITE, f'{what} has a non-finite value {picked!r}')
         out.append(picked)
-    lim = plant.limits
+    lim = config.limits
     span = lim.stroke_max - lim.stroke_min
     for what, values, low, high in (
-            ('stroke (m)', [v - v0 for v, v0 in zip(out[0], plant.geometry.L0)],
+            ('stroke (m)', [v - v0 for v, v0 in zip(out[0], config.stroke_origin)],
              lim.stroke_min - span, lim.stroke_max + span),
-            ('rate (m/s)', out[1], -LIMIT_MARGIN * lim.max_speed, LIMIT_MARGIN * lim.max_speed),
-            ('force (N)', out[2], -LIMIT_MARGIN * lim.max_force, LIMIT_MARGIN * lim.max_force)):
-        if not all(low <= v <= high for v in values):
+            ('rate (m/s)', out[1], [-LIMIT_MARGIN * lim.max_speed] * n,
+             [LIMIT_MARGIN * lim.max_speed] * n),
+            ('force (N)', out[2], [-LIMIT_MARGIN * lim.max_force] * n,
+             [LIMIT_MARGIN * lim.max_force] * n)):
+        if not all(lo <= v <= hi for v, lo, hi in zip(values, low, high)):
             raise SetpointError(BEYOND_LIMITS, f'{what} {[f"{v:.4g}" for v in values]} beyond '
-                                               f'[{low:.4g}, {high:.4g}]')
+                                               f'[{min(low):.4g}, {max(high):.4g}]')
     return out[0], out[1], out[2]
 
 
@@ -231,22 +288,33 @@ class CommandStats:
 
 
 class PlatformSim(Node):
-    """The twin node; ``kwargs`` go to rclpy's Node; bad parameters raise ParameterError."""
+    """The twin node; ``params_files``: the ``--params-file`` files of its
+    command line (:func:`plant_file`); ``kwargs`` go to rclpy's Node; bad
+    parameters raise ParameterError.
+    """
 
-    def __init__(self, **kwargs: Any) -> None:
+    def __init__(self, params_files: Sequence[str] = (), **kwargs: Any) -> None:
         super().__init__(SIM_NODE_NAME, automatically_declare_parameters_from_overrides=True,
                          **kwargs)
         given = set(self.list_parameters([], 0).names) - prm.ROS_PARAMETERS
         for name in given:
             self.undeclare_parameter(name)      # re-declared below with our descriptors
-        self.declare_parameters('', [(spec.name, _declared(spec, spec.default).value,
+        # an empty default (initial: home) declares the type alone: rclpy would take
+        # an empty list for a byte array
+        declared = [_declared(spec, spec.default) for spec in SIM_PARAMETERS]
+        self.declare_parameters('', [(p.name, p.value if p.value != [] else p.type_,
                                       descriptor_for(spec, read_only=True))
-                                     for spec in SIM_PARAMETERS])
+                                     for p, spec in zip(declared, SIM_PARAMETERS)])
         unknown = sorted(name for name in given if not self.has_parameter(name))
         if unknown:
             self.get_logger().warn('ignoring unknown parameters (typo?): ' + ', '.join(unknown))
-        self.config = sim_config({spec.name: plain(self.get_parameter(spec.name).value)
-                                  for spec in SIM_PARAMETERS})
+        values = {}
+        for spec in SIM_PARAMETERS:
+            with contextlib.suppress(ParameterUninitializedException):   # not given
+                values[spec.name] = plain(self.get_parameter(spec.name).value)
+        # the dynamics node next to it: in its namespace
+        node = f"{self.get_namespace().rstrip('/')}/{NODE_NAME}"
+        self.config = sim_config(values, params_files, node)
         values = self.config.values
         self.stats = CommandStats()
         self._rate = values['rate']
@@ -271,8 +339,9 @@ class PlatformSim(Node):
         self._diag_timer = self.create_timer(values['diagnostics.period'],
                                              self._on_diagnostics, clock=steady)
         self.get_logger().info(
-            f"ready: plant scene {self.config.plant.scene}, RK4 at {self._rate:g} Hz, ticks at "
-            f"{values['tick_rate']:g} Hz, servo {values['servo.bandwidth']:g} Hz (kp "
+            f"ready: {self.config.machine.title}, plant scene {self.config.plant.scene}, RK4 "
+            f"at {self._rate:g} Hz, ticks at {values['tick_rate']:g} Hz, servo "
+            f"{values['servo.bandwidth']:g} Hz (kp "
             f"{', '.join(f'{k:.4g}' for k in self.config.servo.kp)} N/m); waiting for commands")
 
     def _rest(self) -> None:
@@ -280,7 +349,7 @@ class PlatformSim(Node):
         self.twin = self.config.stepper()
         self.stats.last_stamp = None
         self.stats.new_period(time.monotonic(), 0.0)
-        self._pending: tuple[float, tuple[Vec3, Vec3, Vec3]] | None = None  # (arrival, command)
+        self._pending: tuple[float, Command] | None = None  # (arrival, command)
         self._started_at: float | None = None    # monotonic time of the first command
         self._stamp0 = 0                         # ROS time (ns) of simulated time 0
         self._dropped = 0                        # steps dropped after stalls
@@ -332,7 +401,7 @@ class PlatformSim(Node):
                 except Exception as exc:  # noqa: BLE001 - rclpy's RMWError, a private type
                     raise SetpointError(UNDECODABLE, f'{len(data)} bytes: {exc}') from None
                 command = check_command(msg.name, msg.position, msg.velocity, msg.effort,
-                                        self.config.plant)
+                                        self.config)
                 stats.stamp(msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec)
             except SetpointError as exc:
                 stats.reject(exc.reason, str(exc))
@@ -375,14 +444,17 @@ class PlatformSim(Node):
             stamp_ns = self._stamp0 + round((twin.steps + self._dropped) * 1e9 / self._rate)
         header = Header(stamp=Time(nanoseconds=stamp_ns).to_msg(),
                         frame_id=self.config.values['frame_id'])
-        (x, z, roll), (xd, zd, rolld) = twin.q.tolist(), twin.qd.tolist()
-        ox, oy, oz, w = rpy_to_quaternion(roll)
+        poses = pose_map(self.config.machine)
+        q, qd = twin.q.tolist(), twin.qd.tolist()
+        x, y, z, *rpy = poses.message(q)
+        xd, yd, zd, wx, wy, wz = poses.twist(q, qd)
+        ox, oy, oz, w = rpy_to_quaternion(*rpy)
         self._pose_pub.publish(PoseStamped(header=header, pose=Pose(
-            position=Point(x=x, z=z), orientation=Quaternion(x=ox, y=oy, z=oz, w=w))))
+            position=Point(x=x, y=y, z=z), orientation=Quaternion(x=ox, y=oy, z=oz, w=w))))
         self._twist_pub.publish(TwistStamped(header=header, twist=Twist(
-            linear=Vector3(x=xd, z=zd), angular=Vector3(x=rolld))))
+            linear=Vector3(x=xd, y=yd, z=zd), angular=Vector3(x=wx, y=wy, z=wz))))
         self._measured_pub.publish(JointState(
-            header=header, name=LEG_NAMES, position=twin.length.tolist(),
+            header=header, name=self.config.machine.legs, position=twin.length.tolist(),
             velocity=twin.rate.tolist(), effort=twin.force.tolist()))
 
     def _on_diagnostics(self) -> None:

@@ -683,12 +683,13 @@ def test_the_demo_twin_figure_shows_its_labels_whole(tmp_path, monkeypatch):
     from matplotlib.figure import Figure
 
     from flight_sim_dynamics.cli import demo
-    from flight_sim_dynamics.machines.staicu.motions import PLANNER_MOTIONS, PlannerSequence
+    from flight_sim_dynamics.core.motion import PlannerSequence
+    from flight_sim_dynamics.machines.staicu.motions import MOTIONS, PLANNER_MOTIONS
     saved = []
     original = Figure.savefig
     monkeypatch.setattr(Figure, 'savefig',
                         lambda self, *a, **k: (saved.append(self), original(self, *a, **k)))
-    sequence = PlannerSequence(list(PLANNER_MOTIONS))
+    sequence = PlannerSequence(MOTIONS, list(PLANNER_MOTIONS))
     t = np.linspace(0.0, sequence.period, 500)
     commanded = np.array([sequence.sample(x)[0] for x in t])
     demo.plot_tracking(t, commanded + 1e-4, commanded, sequence, tmp_path / 'demo_twin.png')

@@ -1,18 +1,32 @@
-"""launch/flight_sim_dynamics.launch.py: for ROS installs (``launch`` and
-``launch_ros`` are not on PyPI, so this test skips itself without them). It
-loads the launch description and checks its arguments and actions; the
-node it starts is tested as a process in test/ros/.
+"""launch/flight_sim_dynamics.launch.py. ``launch`` and ``launch_ros`` are
+not on PyPI: the launch description itself is checked only where they are
+installed (a ROS install; skipped otherwise). Which file each machine gets,
+and what the node, the twin and the planner are given, is checked everywhere:
+the launch file runs against minimal stand-ins of the few launch classes it
+uses, which record what it builds.
 """
 from __future__ import annotations
 
 import importlib.util
+import sys
+import types
 from pathlib import Path
 
 import pytest
 
-pytestmark = pytest.mark.ros
+from flight_sim_dynamics.config.machine_files import launch_params_file
 
-LAUNCH_FILE = Path(__file__).resolve().parents[2] / 'launch' / 'flight_sim_dynamics.launch.py'
+ROOT = Path(__file__).resolve().parents[2]
+LAUNCH_FILE = ROOT / 'launch' / 'flight_sim_dynamics.launch.py'
+ARGUMENTS = {'machine', 'params_file', 'namespace', 'scene', 'autostart', 'planner',
+             'use_sim_time', 'twin'}
+
+
+def load(name: str = 'fsd_launch'):
+    spec = importlib.util.spec_from_file_location(name, LAUNCH_FILE)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def test_launch_file_is_installed_with_the_package():
@@ -22,14 +36,93 @@ def test_launch_file_is_installed_with_the_package():
     assert "'/launch', sorted(glob('launch/*.launch.py'))" in setup
 
 
+def test_machine_picks_the_packaged_file_and_params_file_ones_own():
+    config = ROOT / 'config'
+    assert launch_params_file() == config / 'flight_sim_dynamics.yaml'
+    assert launch_params_file('stewart_6dof') == config / 'stewart_6dof.yaml'
+    assert launch_params_file('stewart_tsai2000') == config / 'stewart_tsai2000.yaml'
+    assert launch_params_file('flight_sim_dynamics') == config / 'flight_sim_dynamics.yaml'
+    assert launch_params_file('', '/tmp/mine.yaml') == Path('/tmp/mine.yaml')
+    with pytest.raises(ValueError, match='stewart_6dof'):       # did you mean
+        launch_params_file('stewart6dof')
+    with pytest.raises(ValueError, match='not both'):
+        launch_params_file('stewart_6dof', '/tmp/mine.yaml')
+
+
+class _Recorded:
+    """A launch class's stand-in: keeps what it was built with."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        self.args, self.kwargs = args, kwargs
+
+
+class _Configuration:
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def perform(self, context: dict[str, str]) -> str:
+        return context[self.name]
+
+
+def _stand_ins(monkeypatch) -> None:
+    modules = {name: types.ModuleType(name) for name in (
+        'launch', 'launch.actions', 'launch.substitutions', 'launch_ros', 'launch_ros.actions')}
+    modules['launch'].LaunchDescription = _Recorded
+    modules['launch.actions'].DeclareLaunchArgument = _Recorded
+    modules['launch.actions'].OpaqueFunction = _Recorded
+    modules['launch.substitutions'].LaunchConfiguration = _Configuration
+    modules['launch_ros.actions'].LifecycleNode = type('LifecycleNode', (_Recorded,), {})
+    modules['launch_ros.actions'].Node = type('Node', (_Recorded,), {})
+    for name, module in modules.items():
+        monkeypatch.setitem(sys.modules, name, module)
+
+
+def launched(monkeypatch, **given: str) -> dict[str, _Recorded]:
+    """The actions the launch file builds for the arguments ``given`` (the
+    declared defaults for the rest), by executable."""
+    _stand_ins(monkeypatch)
+    description = load('fsd_launch_stand_ins').generate_launch_description()
+    entities = description.args[0]
+    declared = {e.args[0]: e.kwargs['default_value'] for e in entities
+                if e.args and e.kwargs.get('default_value') is not None}
+    assert set(declared) == ARGUMENTS
+    context = {**declared, **given}
+    function, = (e.kwargs['function'] for e in entities if 'function' in e.kwargs)
+    return {node.kwargs['executable']: node for node in function(context)}
+
+
+def test_the_hexapod_is_launched_with_its_packaged_file(monkeypatch):
+    stewart = str(ROOT / 'config' / 'stewart_6dof.yaml')
+    nodes = launched(monkeypatch, machine='stewart_6dof', twin='true', planner='true')
+    assert nodes['dynamics_node'].kwargs['parameters'][0] == stewart
+    assert type(nodes['dynamics_node']).__name__ == 'LifecycleNode'
+    twin = nodes['platform_sim'].kwargs
+    assert twin['parameters'][0]['plant.params_file'] == stewart
+    assert twin['remappings'] == [('actuator_commands', 'actuator_states')]
+    arguments = nodes['flight-sim-dynamics'].kwargs['arguments']
+    assert arguments[arguments.index('--params') + 1] == stewart
+
+
+def test_the_default_is_the_3dof_machine_and_a_params_file_wins(monkeypatch):
+    nodes = launched(monkeypatch)
+    assert set(nodes) == {'dynamics_node'}
+    assert nodes['dynamics_node'].kwargs['parameters'][0] == \
+        str(ROOT / 'config' / 'flight_sim_dynamics.yaml')
+    assert nodes['dynamics_node'].kwargs['parameters'][1] == {'autostart': True,
+                                                              'use_sim_time': False}
+    nodes = launched(monkeypatch, params_file='/tmp/mine.yaml', scene='payload', twin='true')
+    assert nodes['dynamics_node'].kwargs['parameters'][0] == '/tmp/mine.yaml'
+    assert nodes['dynamics_node'].kwargs['parameters'][1]['scene'] == 'payload'
+    assert nodes['platform_sim'].kwargs['parameters'][0]['plant.params_file'] == '/tmp/mine.yaml'
+    with pytest.raises(ValueError, match='not packaged'):
+        launched(monkeypatch, machine='hexapod')
+
+
+@pytest.mark.ros
 def test_launch_description_declares_its_arguments():
     pytest.importorskip('launch')
     pytest.importorskip('launch_ros')
     from launch.actions import DeclareLaunchArgument
-    spec = importlib.util.spec_from_file_location('fsd_launch', LAUNCH_FILE)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    description = module.generate_launch_description()
+    description = load().generate_launch_description()
     names = {a.name for a in description.entities if isinstance(a, DeclareLaunchArgument)}
-    assert names == {'params_file', 'namespace', 'scene', 'autostart', 'planner',
-                     'use_sim_time', 'twin'}
+    assert names == ARGUMENTS

@@ -14,33 +14,30 @@ real ``dynamics_node`` (one remap: ``actuator_commands:=actuator_states``).
 """
 from __future__ import annotations
 
-import re
-import contextlib
 import itertools
-import math
 import os
+import re
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
-import rclpy
-from geometry_msgs.msg import PoseStamped, TwistStamped
+from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config.schema import SIM_PARAMETERS
+from flight_sim_dynamics.core.motion import PlannerSequence
 from flight_sim_dynamics.machines.staicu.model import LEG_NAMES
-from flight_sim_dynamics.machines.staicu.motions import PlannerSequence
-from flight_sim_dynamics.ros.platform_sim import SIM_TASK
-from flight_sim_dynamics.ros.process import SIM_MODULE, start_node, stop_node
+from flight_sim_dynamics.machines.staicu.motions import MOTIONS
+from flight_sim_dynamics.ros.process import SIM_MODULE, stop_node
 from flight_sim_dynamics.ros.setpoints import quaternion_to_rpy
-from node_harness import PARAMS_FILE, QOS, ROOT, Client, NodeProcess, diagnostic_values
+from node_harness import PARAMS_FILE, QOS, ROOT, Client, NodeProcess
+from sim_harness import SimClient, command, own_twin, sim_output, stamp, start_sim
 
 pytestmark = pytest.mark.ros
 
@@ -57,73 +54,6 @@ pytestmark = pytest.mark.ros
 #: move, or moves wrongly, fails.
 TOLERANCE = 3e-2
 RATE = 100.0
-
-
-def start_sim(*ros_args: str, namespace: str = ''):
-    log = tempfile.NamedTemporaryFile('w+', prefix='fsd_sim_', suffix='.log', delete=False)
-    args = ['-p', 'diagnostics.period:=0.25', *ros_args]
-    if namespace:
-        args += ['-r', f'__ns:={namespace}']
-    return start_node(None, args, log, cwd=ROOT, module=SIM_MODULE), log
-
-
-def sim_output(log) -> str:
-    log.flush()
-    return Path(log.name).read_text(errors='replace')
-
-
-class SimClient:
-    """Subscriptions to the twin's outputs on a harness Client's node."""
-
-    def __init__(self, client: Client, namespace: str = '') -> None:
-        prefix = namespace.rstrip('/') + '/' if namespace else ''
-        n = client.node
-        self.client = client
-        self.poses: list[PoseStamped] = []
-        self.twists: list[TwistStamped] = []
-        self.measured: list[JointState] = []
-        self.pose_sub = n.create_subscription(PoseStamped, prefix + 'platform_pose',
-                                              self.poses.append, QOS)
-        self.twist_sub = n.create_subscription(TwistStamped, prefix + 'platform_twist',
-                                               self.twists.append, QOS)
-        self.measured_sub = n.create_subscription(JointState, prefix + 'measured_actuator_states',
-                                                  self.measured.append, QOS)
-        self.status_name = f'{namespace.rstrip("/")}/platform_sim: {SIM_TASK}'
-
-    def ready(self) -> bool:
-        return (self.pose_sub.get_publisher_count() > 0
-                and self.twist_sub.get_publisher_count() > 0
-                and self.measured_sub.get_publisher_count() > 0)
-
-    def diagnostics(self, predicate, timeout: float = 10.0) -> dict[str, str]:
-        client = self.client
-        start = len(client.diagnostics)
-        found: list[dict[str, str]] = []
-
-        def check() -> bool:
-            for msg in client.diagnostics[start + len(found):]:
-                found.append(diagnostic_values(msg, self.status_name))
-            return any(v and predicate(v) for v in found)
-        client.spin_until(check, timeout)
-        matching = [v for v in found if v and predicate(v)]
-        seen = [v for v in found if v]
-        assert matching, f'no matching twin diagnostics; last: {seen[-1] if seen else None}'
-        return matching[-1]
-
-    def has(self, predicate) -> bool:
-        """Whether a twin diagnostics message received so far satisfies ``predicate``."""
-        values = (diagnostic_values(m, self.status_name) for m in self.client.diagnostics)
-        return any(v and predicate(v) for v in values)
-
-    def all_finite(self) -> bool:
-        poses = all(math.isfinite(v) for m in self.poses for v in (
-            m.pose.position.x, m.pose.position.y, m.pose.position.z, m.pose.orientation.x,
-            m.pose.orientation.y, m.pose.orientation.z, m.pose.orientation.w))
-        twists = all(math.isfinite(v) for m in self.twists for v in (
-            m.twist.linear.x, m.twist.linear.z, m.twist.angular.x))
-        measured = all(math.isfinite(v) for m in self.measured
-                       for arr in (m.position, m.velocity, m.effort) for v in arr)
-        return poses and twists and measured
 
 
 @pytest.fixture(scope='module')
@@ -183,7 +113,7 @@ def test_twin_waits_at_rest_before_the_first_command():
 
 def test_simulated_pose_follows_the_commanded_one(pipeline):
     client, twin, sim, _ = pipeline
-    sequence = PlannerSequence(['general'])
+    sequence = PlannerSequence(MOTIONS, ['general'])
     n = int(sequence.period * RATE) + 1
     t0 = client.node.get_clock().now().nanoseconds
     wall0 = time.monotonic()
@@ -232,19 +162,6 @@ def test_simulated_pose_follows_the_commanded_one(pipeline):
                              [0, 0, 0], [0, 0, 0]).length
         np.testing.assert_allclose(list(m.position), expected, atol=1e-9)
     assert tuple(m.name) == LEG_NAMES
-
-
-def stamp(msg) -> int:
-    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
-
-
-def command(stamp_ns: int, names=LEG_NAMES, position=(1.0, 1.0, 1.0),
-            velocity=(0.0, 0.0, 0.0), effort=(0.0, 0.0, 0.0)) -> JointState:
-    msg = JointState()
-    msg.header.stamp = rclpy.time.Time(nanoseconds=stamp_ns).to_msg()
-    msg.name = list(names)
-    msg.position, msg.velocity, msg.effort = list(position), list(velocity), list(effort)
-    return msg
 
 
 def test_bad_commands_are_counted_and_nothing_non_finite_is_published(pipeline):
@@ -301,27 +218,6 @@ def test_bad_commands_are_counted_and_nothing_non_finite_is_published(pipeline):
     count = len(twin.poses)
     assert client.spin_until(lambda: len(twin.poses) > count + 10, 5.0), 'twin stopped publishing'
     assert twin.all_finite()
-
-
-@contextlib.contextmanager
-def own_twin(namespace: str, *ros_args: str):
-    """A twin of its own in ``namespace``, matched with a client's publisher
-    of its commands: (client, twin, publisher, process)."""
-    sim, log = start_sim(*ros_args, namespace=namespace)
-    client = Client(f'twin{namespace.replace("/", "_")}_client')
-    try:
-        twin = SimClient(client, namespace)
-        pub = client.node.create_publisher(JointState, f'{namespace}/actuator_commands', QOS)
-        ok = client.spin_until(lambda: twin.ready() and pub.get_subscription_count() > 0
-                               or sim.poll() is not None, 20.0)
-        assert ok and sim.poll() is None, sim_output(log)[-3000:]
-        yield client, twin, pub, sim
-    finally:
-        client.close()
-        stop_node(sim)
-        print(sim_output(log)[-2000:])
-        log.close()
-        Path(log.name).unlink(missing_ok=True)
 
 
 def test_out_of_reach_command_stops_the_plant_and_a_reset_runs_it_again(tmp_path):

@@ -1,16 +1,14 @@
 """The reference motions, one registry (name -> q, qd, qdd at times t, duration):
 the paper's three examples (eq. 6), ``cueing`` and ``violent`` (``cueing``
 compressed, a harsh test), sums of quintic steps (q, qd, qdd continuous and
-exact). :class:`PlannerSequence` plays motions in turn, as the demo planner does.
+exact).
 """
 from __future__ import annotations
 
 from functools import partial
-from typing import Sequence
-
 import numpy as np
 
-from ...core.motion import Motion, Step, Trajectory, smooth_step, step_sequence
+from ...core.motion import Motion, Step, Trajectory, step_sequence
 from .trajectories import DURATION as PAPER_DURATION
 from .trajectories import PAPER_EXAMPLES, paper_example
 from .trajectories import sample_times  # noqa: F401 - the one sample_times, offered here too
@@ -90,56 +88,3 @@ def motion(name: str, t: np.ndarray | float) -> Trajectory:
 def duration(name: str) -> float:
     """Length of motion ``name``, s."""
     return get(name).duration
-
-
-RETURN_TIME = 1.0  # s, smooth return to neutral after a motion that ends away from it
-NEUTRAL_TOLERANCE = 1e-9  # m or rad: a motion ending closer than this to neutral needs no return
-
-
-class PlannerSequence:
-    """Motions played one after the other, as a planner would stream them: one
-    that ends away from neutral returns to it by a smooth step of
-    ``return_time`` s. ``segments`` lists (label, start s, end s).
-    """
-
-    def __init__(self, names: Sequence[str], *, loop: bool = False,
-                 return_time: float = RETURN_TIME) -> None:
-        if not names:
-            raise ValueError('no motion given')
-        self.names = tuple(names)
-        self.loop = loop
-        self.segments: list[tuple[str, float, float]] = []
-        self._parts: list[tuple[str, float, float, np.ndarray | None]] = []
-        start = 0.0
-        for i, name in enumerate(self.names):
-            length = duration(name)
-            self._parts.append((name, start, length, None))
-            self.segments.append((name, start, start + length))
-            start += length
-            end_q = motion(name, length)[0][0]
-            away = bool(np.abs(end_q).max() > NEUTRAL_TOLERANCE)
-            if away and (loop or i < len(self.names) - 1):
-                self._parts.append(('return', start, return_time, end_q))
-                self.segments.append(('return', start, start + return_time))
-                start += return_time
-        self.period = start
-
-    def finished(self, t: float) -> bool:
-        """True once ``t`` is past the end (never when looping)."""
-        return not self.loop and t > self.period + 1e-9
-
-    def sample(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
-        """q, qd, qdd (3 each) and the segment label at sequence time ``t``."""
-        if self.loop:
-            t = t % self.period
-        t = min(max(t, 0.0), self.period)
-        for label, start, length, end_q in reversed(self._parts):
-            if t >= start - 1e-12:
-                break
-        local = min(t - start, length)
-        if label == 'return':
-            s, ds, dds = smooth_step(np.array([local / length]))
-            return (end_q * (1.0 - s[0]), -end_q * ds[0] / length,
-                    -end_q * dds[0] / length ** 2, label)
-        q, qd, qdd = motion(label, local)
-        return q[0], qd[0], qdd[0], label

@@ -12,6 +12,7 @@ import pytest
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.cli.demo import LiveSummary
+from flight_sim_dynamics.core.motion import PlannerSequence
 from flight_sim_dynamics.machines.staicu import motions, trajectories
 from flight_sim_dynamics.ros import process
 
@@ -71,10 +72,10 @@ def test_violent_motion_is_violent_reachable_and_exact():
 
 
 def test_planner_returns_to_neutral_only_after_motions_that_end_away_from_it():
-    seq = motions.PlannerSequence(['general', 'cueing', 'violent', 'vertical'])
+    seq = PlannerSequence(motions.MOTIONS, ['general', 'cueing', 'violent', 'vertical'])
     labels = [s[0] for s in seq.segments]
     assert labels == ['general', 'return', 'cueing', 'violent', 'vertical']
-    looped = motions.PlannerSequence(['general', 'cueing'], loop=True)
+    looped = PlannerSequence(motions.MOTIONS, ['general', 'cueing'], loop=True)
     assert [s[0] for s in looped.segments] == ['general', 'return', 'cueing']
 
 

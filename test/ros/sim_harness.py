@@ -1,0 +1,128 @@
+"""Harness of the twin tests (test/ros/test_platform_sim*.py): the twin node
+``platform_sim`` started as a process (:func:`start_sim`, :func:`own_twin`),
+subscriptions to its outputs on a harness :class:`~node_harness.Client`
+(:class:`SimClient`), and commands (:func:`command`).
+"""
+from __future__ import annotations
+
+import contextlib
+import math
+import tempfile
+from pathlib import Path
+from typing import Sequence
+
+import rclpy
+from geometry_msgs.msg import PoseStamped, TwistStamped
+from sensor_msgs.msg import JointState
+
+from flight_sim_dynamics.machines.staicu.model import LEG_NAMES
+from flight_sim_dynamics.ros.platform_sim import SIM_TASK
+from flight_sim_dynamics.ros.process import SIM_MODULE, start_node, stop_node
+from node_harness import QOS, ROOT, Client, diagnostic_values
+
+
+def start_sim(*ros_args: str, namespace: str = '', params_file: Path | str | None = None):
+    """The twin as a process (``--params-file params_file`` when given) and its log."""
+    log = tempfile.NamedTemporaryFile('w+', prefix='fsd_sim_', suffix='.log', delete=False)
+    args = ['-p', 'diagnostics.period:=0.25', *ros_args]
+    if namespace:
+        args += ['-r', f'__ns:={namespace}']
+    return start_node(params_file, args, log, cwd=ROOT, module=SIM_MODULE), log
+
+
+def sim_output(log) -> str:
+    log.flush()
+    return Path(log.name).read_text(errors='replace')
+
+
+class SimClient:
+    """Subscriptions to the twin's outputs on a harness Client's node."""
+
+    def __init__(self, client: Client, namespace: str = '') -> None:
+        prefix = namespace.rstrip('/') + '/' if namespace else ''
+        n = client.node
+        self.client = client
+        self.poses: list[PoseStamped] = []
+        self.twists: list[TwistStamped] = []
+        self.measured: list[JointState] = []
+        self.pose_sub = n.create_subscription(PoseStamped, prefix + 'platform_pose',
+                                              self.poses.append, QOS)
+        self.twist_sub = n.create_subscription(TwistStamped, prefix + 'platform_twist',
+                                               self.twists.append, QOS)
+        self.measured_sub = n.create_subscription(JointState, prefix + 'measured_actuator_states',
+                                                  self.measured.append, QOS)
+        self.status_name = f'{namespace.rstrip("/")}/platform_sim: {SIM_TASK}'
+
+    def ready(self) -> bool:
+        return (self.pose_sub.get_publisher_count() > 0
+                and self.twist_sub.get_publisher_count() > 0
+                and self.measured_sub.get_publisher_count() > 0)
+
+    def diagnostics(self, predicate, timeout: float = 10.0) -> dict[str, str]:
+        client = self.client
+        start = len(client.diagnostics)
+        found: list[dict[str, str]] = []
+
+        def check() -> bool:
+            for msg in client.diagnostics[start + len(found):]:
+                found.append(diagnostic_values(msg, self.status_name))
+            return any(v and predicate(v) for v in found)
+        client.spin_until(check, timeout)
+        matching = [v for v in found if v and predicate(v)]
+        seen = [v for v in found if v]
+        assert matching, f'no matching twin diagnostics; last: {seen[-1] if seen else None}'
+        return matching[-1]
+
+    def has(self, predicate) -> bool:
+        """Whether a twin diagnostics message received so far satisfies ``predicate``."""
+        values = (diagnostic_values(m, self.status_name) for m in self.client.diagnostics)
+        return any(v and predicate(v) for v in values)
+
+    def all_finite(self) -> bool:
+        poses = all(math.isfinite(v) for m in self.poses for v in (
+            m.pose.position.x, m.pose.position.y, m.pose.position.z, m.pose.orientation.x,
+            m.pose.orientation.y, m.pose.orientation.z, m.pose.orientation.w))
+        twists = all(math.isfinite(v) for m in self.twists for v in (
+            m.twist.linear.x, m.twist.linear.y, m.twist.linear.z, m.twist.angular.x,
+            m.twist.angular.y, m.twist.angular.z))
+        measured = all(math.isfinite(v) for m in self.measured
+                       for arr in (m.position, m.velocity, m.effort) for v in arr)
+        return poses and twists and measured
+
+
+def stamp(msg) -> int:
+    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+
+
+def command(stamp_ns: int, names: Sequence[str] = LEG_NAMES, position=(1.0, 1.0, 1.0),
+            velocity=None, effort=None) -> JointState:
+    """A command; ``velocity``, ``effort`` default to zeros of ``position``'s size."""
+    msg = JointState()
+    msg.header.stamp = rclpy.time.Time(nanoseconds=stamp_ns).to_msg()
+    msg.name = list(names)
+    zeros = [0.0] * len(position)
+    msg.position = list(position)
+    msg.velocity = zeros if velocity is None else list(velocity)
+    msg.effort = zeros if effort is None else list(effort)
+    return msg
+
+
+@contextlib.contextmanager
+def own_twin(namespace: str, *ros_args: str, params_file: Path | str | None = None):
+    """A twin of its own in ``namespace``, matched with a client's publisher
+    of its commands: (client, twin, publisher, process)."""
+    sim, log = start_sim(*ros_args, namespace=namespace, params_file=params_file)
+    client = Client(f'twin{namespace.replace("/", "_")}_client')
+    try:
+        twin = SimClient(client, namespace)
+        pub = client.node.create_publisher(JointState, f'{namespace}/actuator_commands', QOS)
+        ok = client.spin_until(lambda: twin.ready() and pub.get_subscription_count() > 0
+                               or sim.poll() is not None, 20.0)
+        assert ok and sim.poll() is None, sim_output(log)[-3000:]
+        yield client, twin, pub, sim
+    finally:
+        client.close()
+        stop_node(sim)
+        print(sim_output(log)[-2000:])
+        log.close()
+        Path(log.name).unlink(missing_ok=True)
