@@ -22,8 +22,12 @@ ALLOWED = {
     'cli': {'core', 'config', 'ros', 'machines'},
 }
 #: modules of ros/ that talk to rclpy (the rest of ros/ is plain Python)
-RCLPY_MODULES = {'ros/dynamics_node.py', 'ros/node.py', 'ros/planner.py', 'ros/platform_sim.py',
-                 'ros/service_thread.py', 'ros/sim_node.py', 'cli/demo.py'}
+RCLPY_MODULES = {'ros/dynamics_node.py', 'ros/marker_publisher.py', 'ros/node.py',
+                 'ros/planner.py', 'ros/platform_sim.py', 'ros/service_thread.py',
+                 'ros/sim_node.py', 'cli/demo.py'}
+#: modules of ros/ that serve any machine: what differs per machine comes from
+#: its Machine record, never from a machines.<name> module
+MACHINE_GENERIC = {'ros/markers.py', 'ros/marker_publisher.py'}
 #: modules that import matplotlib (an optional extra): imported lazily, by the
 #: commands that plot, so that nothing else ever needs matplotlib
 LAZY = {'flight_sim_dynamics.cli.plotting', 'flight_sim_dynamics.cli.workspace',
@@ -77,6 +81,9 @@ def test_imports_follow_the_layers(path):
             assert other in ALLOWED[own], f'{rel} imports {target}: {own}/ may not import {other}/'
         if target.split('.')[0] == 'rclpy':
             assert rel in RCLPY_MODULES, f'{rel} imports rclpy'
+        if rel in MACHINE_GENERIC and other == 'machines':
+            assert target.split('.')[2] in ('api', 'MACHINES', 'BY_MODEL_TYPE'), \
+                f'{rel} imports {target}: ros/ imports no machines.<name> module'
 
 
 @pytest.mark.parametrize('path', MODULES, ids=lambda p: str(p.relative_to(PACKAGE)))
