@@ -8,7 +8,9 @@ import sys
 from typing import Sequence
 
 from flight_sim_dynamics.config import parameters as prm
+from flight_sim_dynamics.config.node_schema import node_schema
 from flight_sim_dynamics.config.schema import SIM_PARAMETERS
+from flight_sim_dynamics.machines import STEWART
 from flight_sim_dynamics.machines.staicu.model import BODY_NAMES
 
 from . import DOCS, replace_block
@@ -17,8 +19,10 @@ TYPES = {'double_array': 'double[]', 'integer': 'int'}     # else the kind's own
 HEADER = ['| name | type | unit | default | range | meaning |', '|---|---|---|---|---|---|']
 
 
-def default(spec: prm.ParamSpec) -> str:
-    value = spec.default
+def default(spec: prm.ParamSpec, value: object = None) -> str:
+    value = spec.default if value is None else value
+    if value is None:
+        return 'none'
     if isinstance(value, list):
         return 'see YAML' if len(value) > 3 else '[' + ', '.join(f'{v:g}' for v in value) + ']'
     if isinstance(value, float):
@@ -26,15 +30,18 @@ def default(spec: prm.ParamSpec) -> str:
     return f'`{value}`' if isinstance(value, str) else str(value)
 
 
-def table(specs: Sequence[prm.ParamSpec]) -> list[str]:
-    """One row per parameter; the per-body rows (bodies.<body>.*) folded into one
-    each, the lengths (geometry.*) into one.
+def table(specs: Sequence[prm.ParamSpec], fold: bool = True,
+          defaults: dict | None = None) -> list[str]:
+    """One row per parameter (``defaults``: their values where the specs have
+    none); with ``fold`` (the 3-DOF machine's) the per-body rows
+    (bodies.<body>.*) folded into one each, the lengths (geometry.*) into one.
     """
     lines, folded = list(HEADER), set()
     lengths = [s.name.split('.')[1] for s in specs if s.name.startswith('geometry.')]
     for spec in specs:
-        name, meaning, value = spec.name, spec.description, default(spec)
-        parts = name.split('.')
+        name, meaning = spec.name, spec.description
+        value = default(spec, (defaults or {}).get(name))
+        parts = name.split('.') if fold else ['']
         if parts[0] == 'geometry':
             if 'geometry' in folded:
                 continue
@@ -59,7 +66,10 @@ def blocks() -> dict[tuple[str, str], str]:
     node = '\n'.join(['Node parameters:', '', *table(prm.NODE_PARAMETERS), '',
                       'Model parameters (the names of the YAML file; `load_model` reads them '
                       'too):', '', *table(prm.MODEL_PARAMETERS), '', bodies])
+    hexapod = '\n'.join(table(STEWART.parameter_specs, fold=False,
+                               defaults=dict(node_schema('stewart_6dof').defaults)))
     return {('node.md', 'node-parameters'): node,
+            ('node.md', 'hexapod-parameters'): hexapod,
             ('twin.md', 'twin-parameters'): '\n'.join(table(SIM_PARAMETERS))}
 
 

@@ -48,6 +48,7 @@ def test_reproduction_table_regenerates_the_page(tmp_path):
 def test_parameter_tables_are_current_and_complete():
     from flight_sim_dynamics.config.parameters import MODEL_PARAMETERS, NODE_PARAMETERS
     from flight_sim_dynamics.config.schema import SIM_PARAMETERS
+    from flight_sim_dynamics.machines import STEWART
 
     generated = node_param_table.blocks()
     for (page, name), text in generated.items():
@@ -63,13 +64,17 @@ def test_parameter_tables_are_current_and_complete():
         assert name in node, spec.name
     for spec in SIM_PARAMETERS:
         assert f'| `{spec.name}` |' in twin, spec.name
+    hexapod = generated[('node.md', 'hexapod-parameters')]
+    for spec in STEWART.parameter_specs:
+        assert f'| `{spec.name}` |' in hexapod, spec.name
 
 
 def test_node_param_table_prints_without_writing():
     proc = subprocess.run([sys.executable, '-m', 'scripts.node_param_table'],
                           cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.count('| name | type | unit | default | range | meaning |') == 3
+    # the node's, the 3-DOF machine's, the hexapod's, the twin's
+    assert proc.stdout.count('| name | type | unit | default | range | meaning |') == 4
 
 
 def test_replace_block_touches_only_the_block(tmp_path):

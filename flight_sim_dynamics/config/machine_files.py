@@ -24,12 +24,15 @@ from . import parameters
 from .errors import ParameterError, did_you_mean
 from .files import default_params_path, read_params_sections
 from .scenes import DEFAULT_SCENE, Scene, SceneError, load_scene, scenes_dir
-from .schema import SPECS
+from .schema import NODE_PARAMETERS, SPECS
+from .validation import check_value
 
 #: Names a parameter file may give that belong to ROS, not to the model
 #: (rclpy's own parameters, QoS overrides): ignored, as for the 3-DOF files.
 _ROS_NAMES = frozenset({'use_sim_time', 'start_type_description_service'})
 _QOS_OVERRIDES = 'qos_overrides.'
+#: The node's parameters, which a named machine's file may give too.
+NODE_SPECS = {spec.name: spec for spec in NODE_PARAMETERS}
 
 
 def load_model(path: str | os.PathLike[str] | None = None,
@@ -93,21 +96,45 @@ def _scene(scene: Scene | str | os.PathLike[str] | None, values: Mapping[str, An
     return load_scene(scene, names=machine.parameters - {'machine', 'scene'})
 
 
-def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
-                     scene: Scene | str | os.PathLike[str] | None = None) -> Any:
-    """The model of the parameter file ``path`` whose parameters ``flat``
-    (dotted names) name its machine, with ``scene`` (None: the file's).
+def named_machine(name: Any, source: str) -> Machine:
+    """The machine a file's (or a node's) ``machine: <name>`` describes; a
+    ParameterError for no name and for the 3-DOF machine's (its files name none).
     """
-    source = str(Path(path))
-    own = _model_names(flat)
-    name = own['machine']
     if not isinstance(name, str) or not name:
         raise ParameterError('machine', name, f'expected the name of a machine in {source}')
     unnamed = {m.name for m in MACHINES if m.from_params is None}   # the 3-DOF machine
     if name in unnamed:
         raise ParameterError('machine', name, f'the {name} machine\'s files name no machine: '
                                               f'leave this line out in {source}')
-    machine = machine_named(name)
+    return machine_named(name)
+
+
+def node_values(flat: Mapping[str, Any], source: str) -> dict[str, Any]:
+    """The node's parameters among a named machine's ``flat`` (dotted names),
+    each value checked (one file serves the model and the node, as for the
+    3-DOF machine); ``limits.warn_fraction`` is one of them.
+    """
+    out = {}
+    for key in flat.keys() & NODE_SPECS.keys():
+        try:
+            out[key] = check_value(NODE_SPECS[key], flat[key])
+        except ParameterError as exc:
+            raise ParameterError(exc.key, exc.value, f'{exc.reason} in {source}') from None
+    return out
+
+
+def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
+                     scene: Scene | str | os.PathLike[str] | None = None) -> Any:
+    """The model of the parameter file ``path`` whose parameters ``flat``
+    (dotted names) name its machine, with ``scene`` (None: the file's); the
+    node's parameters it gives are checked (:func:`node_values`) and left out.
+    """
+    source = str(Path(path))
+    own = _model_names(flat)
+    name = own['machine']
+    machine = named_machine(name, source)
+    node_values(own, source)
+    own = {k: v for k, v in own.items() if k not in NODE_SPECS}
     _check_names(own, machine, name, source)
     packaged = name in PACKAGED
     origin = {key: source for key in own}   # the file each value comes from
@@ -117,6 +144,20 @@ def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
         values = _model_names(read_params_sections(defaults))
         origin = {**{key: str(defaults) for key in values}, **origin}
     values.update(own)
+    return model_of_values(machine, values, source, scene, origin)
+
+
+def model_of_values(machine: Machine, values: Mapping[str, Any], source: str,
+                    scene: Scene | str | os.PathLike[str] | None = None,
+                    origin: Mapping[str, str] | None = None) -> Any:
+    """The model of a named machine's complete ``values`` (dotted names, read
+    from ``source``; ``origin``: the file of each value where others) with
+    ``scene`` (None: the values' ``scene``), built and checked by the machine.
+    """
+    values = dict(values)
+    name = values.get('machine')
+    packaged = name in PACKAGED
+    origin = origin or {}
     chosen = _scene(scene, values, machine, source)
     values.update(chosen.parameters)
     values['scene'] = chosen.name

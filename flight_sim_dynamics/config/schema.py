@@ -10,9 +10,9 @@ and geometry keys: :data:`machines.staicu.model.BODY_NAMES`,
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any, Mapping
 
+from ..core.parameter_spec import ParamSpec
 from ..machines.staicu.model import BODY_NAMES, GEOMETRY_KEYS
 
 #: Physical bounds shared by every body (and the payload).
@@ -22,51 +22,6 @@ MAX_INERTIA = 1.0e6         # kg m^2, |entry| of an inertia tensor
 MAX_LENGTH = 100.0          # m, a geometry length
 MAX_NAME = 256              # characters of a frame id
 MAX_PATH = 4096             # characters of a file path (PATH_MAX on Linux)
-
-
-@dataclass(frozen=True)
-class ParamSpec:
-    """One declared parameter. ``kind``: ``double``, ``double_array``, ``integer``,
-    ``string`` or ``bool``; ``minimum``/``maximum`` bound a number or each element
-    (inclusive unless ``exclusive_minimum``); ``length``: an array's size.
-    """
-
-    name: str
-    kind: str
-    default: Any
-    description: str
-    unit: str = ''
-    minimum: float | None = None
-    maximum: float | None = None
-    exclusive_minimum: bool = False
-    length: int | None = None
-    choices: tuple[str, ...] | None = None
-    required: bool = True     # a complete model file must give it (model parameters only)
-    max_length: int | None = None   # most characters of a string
-
-    @property
-    def full_description(self) -> str:
-        return f'{self.description} [{self.unit}]' if self.unit else self.description
-
-    @property
-    def range_text(self) -> str:
-        """The valid values in words: ``(0, 100]``, ``3 numbers in [-100, 100]``,
-        ``at most 256 characters``, ``backward | backward2`` (for the docs).
-        """
-        if self.choices:
-            return ' | '.join(self.choices)
-        if self.kind == 'bool':
-            return 'true | false'
-        if self.max_length is not None:
-            return f'at most {self.max_length} characters'
-        bounds = ''
-        if self.minimum is not None or self.maximum is not None:
-            low = '' if self.minimum is None else f'{self.minimum:g}'
-            high = '' if self.maximum is None else f'{self.maximum:g}'
-            bounds = f"{'(' if self.exclusive_minimum else '['}{low}, {high}]"
-        if self.length:
-            return f'{self.length} numbers' + (f' in {bounds}' if bounds else '')
-        return bounds
 
 
 # Model parameters: defaults of mechanism.md and the paper's application data.
@@ -201,24 +156,27 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'limit (stroke: of the half-range around its middle)', '1',
               minimum=0.0, maximum=1.0),
     ParamSpec('input.max_linear_acceleration', 'double', 50.0,
-              'setpoints whose surge or heave acceleration (given or estimated) exceeds this '
-              'are rejected as absurd', 'm/s^2',
+              'setpoints whose surge, sway or heave acceleration (given or estimated; those '
+              'the machine follows) exceeds this are rejected as absurd', 'm/s^2',
               minimum=0.0, exclusive_minimum=True, maximum=1.0e6),
     ParamSpec('input.max_angular_acceleration', 'double', 100.0,
-              'setpoints whose roll acceleration (given or estimated) exceeds this are '
-              'rejected as absurd', 'rad/s^2',
+              'setpoints whose angular acceleration (a component of accel_setpoint\'s angular '
+              'part, or an estimated Euler-angle acceleration; those the machine follows) '
+              'exceeds this are rejected as absurd', 'rad/s^2',
               minimum=0.0, exclusive_minimum=True, maximum=1.0e6),
     ParamSpec('input.quaternion_tolerance', 'double', 1.0e-3,
               'largest accepted | |q| - 1 | of an orientation quaternion (it is then '
               'normalised); beyond it the setpoint is rejected', '1',
               minimum=0.0, maximum=0.5),
     ParamSpec('input.position_tolerance', 'double', 1.0e-3,
-              'sway (position.y, and linear.y of twist and acceleration per s, s^2) beyond '
-              'this is reported as motion the mechanism cannot follow, then ignored', 'm',
+              'a position the machine does not follow (the 3-DOF machine\'s sway: position.y, '
+              'and linear.y of twist and acceleration per s, s^2) beyond this is reported as '
+              'motion the machine cannot follow, then ignored', 'm',
               minimum=0.0, maximum=10.0),
     ParamSpec('input.angle_tolerance', 'double', 1.0e-3,
-              'yaw, and a pitch other than zero or the parasitic pitch, beyond this is '
-              'reported as motion the mechanism cannot follow, then ignored', 'rad',
+              'an angle the machine does not follow (the 3-DOF machine\'s yaw, and a pitch '
+              'other than zero or its parasitic pitch) beyond this is reported as motion the '
+              'machine cannot follow, then ignored', 'rad',
               minimum=0.0, maximum=3.2),
     ParamSpec('input.max_future', 'double', 1.0,
               'setpoints stamped more than this ahead of the node\'s clock are rejected as '
@@ -260,11 +218,11 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'exit 2); false: start unconfigured and wait for a lifecycle manager or '
               '`ros2 lifecycle set` (a failing configure then leaves it unconfigured)', ''),
     ParamSpec('output.frame_id', 'string', 'simulator_base',
-              'header.frame_id of actuator_states: the REP-103 simulator base frame '
-              '(origin at G\'s central position); leg lengths are frame-free scalars', '',
+              'header.frame_id of actuator_states: the REP-103 simulator base frame, the '
+              'setpoints\' frame (docs/node.md); leg lengths are frame-free scalars', '',
               max_length=MAX_NAME),
     ParamSpec('output.joint_states_frame_id', 'string', 'simulator_base',
-              'header.frame_id of joint_states (the 12 joint variables)', '',
+              'header.frame_id of joint_states (the machine\'s joint variables)', '',
               max_length=MAX_NAME),
     ParamSpec('output.markers_rate', 'double', 30.0,
               'rate of the mechanism markers (visualization_msgs/MarkerArray of '

@@ -28,6 +28,7 @@ import numpy as np
 from .drawing import Drawing
 from .effects import EFFECT_NAMES
 from .motion import Motion
+from .parameter_spec import ParamSpec
 
 
 class ModelValueError(ValueError):
@@ -110,6 +111,13 @@ class Machine:
     affine_terms: Callable[..., tuple[np.ndarray, np.ndarray, Any]] | None = None
     require_inertia: Callable[[Any], None] | None = None
     integrate_rows: Callable[..., int] | None = None
+    # The dynamics node (ros/): the declarations of the parameters its files give
+    # (type, unit, meaning, the bounds its builder checks; empty: config/schema.py's,
+    # the 3-DOF machine's), and the pose components outside ``coordinates`` that
+    # the machine moves by itself, each a function of a solution (a setpoint
+    # giving that value is not reported as motion the machine cannot follow).
+    parameter_specs: tuple[ParamSpec, ...] = field(default=(), hash=False)
+    parasitic: Mapping[str, Callable[[Any], float]] = field(default_factory=dict, hash=False)
 
     @property
     def dof(self) -> int:

@@ -30,8 +30,7 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
 
 from ..config import parameters as prm
-from ..machines.staicu.model import JOINT_NAMES, LEG_NAMES
-from ..machines.api import machine_of
+from ..config.node_schema import MACHINE, NodeSchema, node_schema
 from .marker_publisher import MarkerPublisher
 from .process import end_spins, stop_requested
 from .service_thread import ServiceThread
@@ -164,34 +163,43 @@ class DynamicsNode(LifecycleNode):
         self._actuator_pub = self._joint_pub = self._diag_pub = None
         self._diag_timer = self._poll_timer = None
         self._markers: MarkerPublisher | None = None
-        self._actuator_msg = JointState(name=list(LEG_NAMES))
-        self._joint_msg = JointState(name=list(JOINT_NAMES))
         self._diag_name = diagnostic_name(self.get_fully_qualified_name())
         # timers on the steady clock: they tick with use_sim_time and no /clock
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self._schema: NodeSchema = node_schema()
         self._given, self._refused = self._declare_parameters()
+        self._specs = self._schema.specs
+        self._model_names = frozenset(s.name for s in self._schema.model_specs)
+        machine = self._schema.machine
+        self._actuator_msg = JointState(name=list(machine.legs))
+        self._joint_msg = JointState(name=list(machine.joints))
         self._guard_services()
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.add_post_set_parameters_callback(self._on_parameters_set)
 
+    @property
+    def machine_name(self) -> str | None:
+        """The ``machine`` parameter it was started with (None: the 3-DOF machine's)."""
+        return self.get_parameter(MACHINE).value if self.has_parameter(MACHINE) else None
+
     # -- parameters ----------------------------------------------------------------
     def _declare_parameters(self) -> tuple[set[str], dict[str, str]]:
-        """Declare the schema at the given values, else the defaults. A refused
-        given value keeps the default and fails every configure until set.
+        """Declare the schema of the machine the given ``machine`` names (none:
+        the 3-DOF machine) at the given values, else the defaults (a name with
+        neither is not declared). A refused given value keeps the default and
+        fails every configure until set; ``machine`` is read-only.
         """
         names = set(self.list_parameters([], 0).names) - prm.ROS_PARAMETERS
         given = {name: self.get_parameter(name) for name in names}
         for name in names:
             self.undeclare_parameter(name)
-        try:
-            defaults = prm.validate(prm.read_params_file(prm.default_params_path()),
-                                    require_all=False)
-        except (prm.ParameterError, FileNotFoundError):
-            defaults = prm.defaults()
+        if MACHINE in given:
+            self._schema = node_schema(plain(given[MACHINE].value))
+        defaults = self._schema.defaults
         refused: dict[str, str] = {}
         declarations = []
-        for spec in prm.ALL_PARAMETERS:
-            value = defaults[spec.name]
+        for spec in self._schema.specs.values():
+            value = defaults.get(spec.name)
             if spec.name in given:
                 param, _ = typed(given[spec.name], _KIND_TYPES[spec.kind])
                 reason = self._check(param, spec)
@@ -199,7 +207,10 @@ class DynamicsNode(LifecycleNode):
                     value = param.value
                 else:
                     refused[spec.name] = reason
-            declarations.append((spec.name, _declared(spec, value).value, descriptor_for(spec)))
+            if value is None:       # optional, neither given nor packaged
+                continue
+            declarations.append((spec.name, _declared(spec, value).value,
+                                 descriptor_for(spec, read_only=spec.name == MACHINE)))
         self.declare_parameters('', declarations, ignore_override=True)
         return names, refused
 
@@ -218,25 +229,26 @@ class DynamicsNode(LifecycleNode):
         return f'{detail} ({reason})' if detail else reason
 
     def _values(self) -> dict[str, Any]:
-        return {name: plain(self.get_parameter(name).value) for name in prm.SPECS}
+        return {name: plain(self.get_parameter(name).value) for name in self._specs
+                if self.has_parameter(name)}
 
-    def _runtime_of(self, values: dict[str, Any], changed: Any = prm.SPECS) -> Runtime:
+    def _runtime_of(self, values: dict[str, Any], changed: Any = None) -> Runtime:
         """The model is rebuilt only when a model parameter changed."""
         model = self._runtime.model if self._runtime is not None else None
-        if model is None or any(prm.SPECS[n] in prm.MODEL_PARAMETERS for n in changed):
-            model = prm.model_from_values({s.name: values[s.name] for s in prm.MODEL_PARAMETERS})
+        if model is None or changed is None or not self._model_names.isdisjoint(changed):
+            model = self._schema.model(values)
         return Runtime(model, prm.NodeConfig.from_values(
             {s.name: values[s.name] for s in prm.NODE_PARAMETERS}))
 
     def _on_set_parameters(self, params: list[Parameter]) -> SetParametersResult:
         """Validate the whole set as it would be; stage the runtime for the commit."""
-        ours = [p for p in params if p.name in prm.SPECS]
+        ours = [p for p in params if p.name in self._specs]
         if not ours:
             return SetParametersResult(successful=True)
         self._staged = None
         try:
             if self._runtime is None:   # unconfigured: each on its own; configure checks all
-                reason = next(filter(None, (self._check(p, prm.SPECS[p.name]) for p in ours)),
+                reason = next(filter(None, (self._check(p, self._specs[p.name]) for p in ours)),
                               None)
                 return _failed(reason) if reason else SetParametersResult(successful=True)
             values = self._values()
@@ -332,6 +344,11 @@ class DynamicsNode(LifecycleNode):
         if len(value.string_value) > MAX_STRING_LENGTH:
             return None, None, (f"parameter '{msg.name}': string of {len(value.string_value)} "
                                 f'characters, more than {MAX_STRING_LENGTH}')
+        if msg.name == MACHINE:
+            return None, None, (
+                f"parameter 'machine' is read-only: refused; this node serves the "
+                f'{self._schema.machine.title} its start-up parameters name; another machine '
+                'needs another node started with its parameter file')
         if not msg.name or not self.has_parameter(msg.name):
             # rclpy creates a parameter named '' and loses undeclared names in its reason
             return None, None, f'parameter {msg.name!r} is not declared: refused'
@@ -339,7 +356,7 @@ class DynamicsNode(LifecycleNode):
             # refused on its own, so the rest of a dump loads back in one change
             return None, None, f'parameter {msg.name!r} is read-only: refused'
         param = Parameter.from_parameter_msg(msg)
-        spec = prm.SPECS.get(param.name)
+        spec = self._specs.get(param.name)
         if spec is None:            # rclpy's to answer (qos_overrides: read-only; unknown)
             return param, None, None
         param, note = typed(param, _KIND_TYPES[spec.kind])
@@ -476,8 +493,7 @@ class DynamicsNode(LifecycleNode):
             self.get_logger().warn('ignoring unknown parameters (typo?): ' + ', '.join(unknown))
         self._unknown_reported = True
         self.get_logger().info(
-            f'configured: {len(prm.SPECS)} parameters, beta0 = '
-            f'{self._runtime.model.central.beta0:.6f} rad; '
+            f'configured: {self._schema.machine.title}, {len(self._values())} parameters; '
             + ', '.join(f'{e.topic_name} ({e.qos_profile.reliability.name.lower()} '
                         f'{e.qos_profile.history.name.lower()} {e.qos_profile.depth})'
                         for e in self._endpoints) + ', /diagnostics')
@@ -577,7 +593,7 @@ class DynamicsNode(LifecycleNode):
                                              clock=self._steady)
         self._poll_timer = self.create_timer(self._poll_period(config), self._on_poll,
                                              clock=self._steady)
-        self._markers = MarkerPublisher(self, machine_of(runtime.model), runtime.model,
+        self._markers = MarkerPublisher(self, self._schema.machine, runtime.model,
                                         config.output_frame_id, config.output_markers_rate)
 
     @staticmethod
@@ -680,8 +696,8 @@ class DynamicsNode(LifecycleNode):
                 return
             stats.stamp_check = self._stamp_check(runtime.config.input_max_future)
             last = self._intake.last_solution
-            level, message, values = stats.report(time.monotonic(),
-                                                  last.cond if last is not None else math.nan)
+            exact = last.cond if last is not None and self._intake.reports_cond else math.nan
+            level, message, values = stats.report(time.monotonic(), exact)
             values[1:1] = [('lifecycle state', 'active' if self._active else 'inactive'),
                            ('scene', runtime.model.scene)]
             msg = DiagnosticArray(status=[DiagnosticStatus(

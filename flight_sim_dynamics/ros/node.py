@@ -23,6 +23,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from ..config import parameters as prm
 from ..config.files import params_files_in, read_params_file
+from ..config.node_schema import check_node_params_files
 from .dynamics_node import DynamicsNode
 from .process import ending_spin, stop_on_signals, stop_requested
 
@@ -116,7 +117,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         node = create(DynamicsNode)
         nodes.append(node)
         # an unknown name or bad value in a --params-file ends the start
-        create(lambda: prm.check_params_files(argv, node.get_fully_qualified_name()))
+        create(lambda: check_node_params_files(argv, node.get_fully_qualified_name(),
+                                             node.machine_name))
         if not node.get_parameter('autostart').value:
             node.get_logger().info('autostart is false: unconfigured, waiting for a lifecycle '
                                    'manager (configure, then activate)')

@@ -1,7 +1,8 @@
 """The node's setpoint rules, without rclpy: :class:`SetpointIntake` checks each
 message, joins and orders the setpoints, estimates what is missing, solves
-(eqs. 5-23) and returns the answers and log lines due. A rejected setpoint
-leaves no trace (docs/node.md, "Stamps"). SI units; stamps in integer ns.
+(the machine's ``solve``) and returns the answers and log lines due. A
+rejected setpoint leaves no trace (docs/node.md, "Stamps"). What a machine
+takes of the messages: :class:`PoseMap`. SI units; stamps in integer ns.
 """
 from __future__ import annotations
 
@@ -9,14 +10,16 @@ import math
 import reprlib
 import time
 from dataclasses import dataclass
-from typing import Any, Callable, Iterable, NamedTuple, Sequence
+from typing import Any, Callable, NamedTuple, Sequence
 
 import flight_sim_dynamics as fsd
 
 from ..config.parameters import NodeConfig
-from ..core.estimator import DerivativeEstimator, Vec3
+from ..core.estimator import DerivativeEstimator, Vec, Vec3
+from ..core.euler import EulerSingularity, euler_accelerations, euler_rates
+from ..core.machine import ActuatorLimits, Machine
 from ..core.status import Status
-from ..machines.staicu.model import Limits, Model
+from ..machines.api import machine_of
 
 # Rejection reasons (diagnostics counters): nothing is published for them.
 NON_FINITE = 'non_finite'                  # NaN or infinity in a field
@@ -45,14 +48,15 @@ ERROR_REASONS = frozenset({NON_FINITE, BAD_QUATERNION, ABSURD_ACCELERATION,
 # not answered by design: counted, logged at INFO, the level stays OK
 QUIET_REASONS = frozenset({WARMING_UP, INACTIVE, JOINING})
 
-# Motion the mechanism cannot follow: reported, ignored, the setpoint is solved.
+#: The six components of a pose setpoint (position x, y, z; the orientation's
+#: ZYX angles), of which a machine's coordinates are some; the others are
+#: motion it cannot follow: reported, ignored, the setpoint is solved.
+COMPONENTS = ('surge', 'sway', 'heave', 'roll', 'pitch', 'yaw')
 SWAY, YAW, PITCH = 'sway', 'yaw', 'pitch'
-UNFOLLOWABLE_COMPONENTS = (SWAY, YAW, PITCH)
 
 POSE, TWIST, ACCEL = 'pose', 'twist', 'accel'
 KINDS = (POSE, TWIST, ACCEL)
 PLATFORM = 'platform_setpoint'
-PLATFORM_DOF_NAMES = ('surge', 'heave', 'roll')
 
 # diagnostic_msgs/DiagnosticStatus levels; INFO: log lines only
 OK, WARN, ERROR = 0, 1, 2
@@ -127,95 +131,161 @@ def rpy_to_quaternion(roll: float, pitch: float = 0.0, yaw: float = 0.0
             cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)
 
 
-class Motion(NamedTuple):
-    """``q`` = (surge, heave, roll) or a derivative; sway, pitch, yaw: beyond q."""
-
-    q: Vec3
-    sway: float
-    pitch: float
-    yaw: float
+#: A message's six numbers: a pose's surge, sway, heave, roll, pitch, yaw
+#: (:data:`COMPONENTS`), or a twist's or acceleration's linear x, y, z and angular x, y, z.
+Motion = tuple[float, float, float, float, float, float]
 
 
 def pose_input(px: float, py: float, pz: float, qx: float, qy: float, qz: float, qw: float,
                quaternion_tolerance: float = 1e-3) -> Motion:
-    """Surge = position.x, heave = position.z, roll = the ZYX roll (REP-103)."""
+    """Position x, y, z and the ZYX roll, pitch, yaw of the orientation (REP-103)."""
     if not math.isfinite(px + py + pz) and not all(map(math.isfinite, (px, py, pz))):
         raise SetpointError(NON_FINITE, f'position has a non-finite component '
                                         f'({px!r}, {py!r}, {pz!r})')
-    roll, pitch, yaw = quaternion_to_rpy(qx, qy, qz, qw, quaternion_tolerance)
-    return Motion((px, pz, roll), py, pitch, yaw)
+    return (px, py, pz, *quaternion_to_rpy(qx, qy, qz, qw, quaternion_tolerance))
 
 
 def rate_input(lx: float, ly: float, lz: float, ax: float, ay: float, az: float,
                what: str = 'twist') -> Motion:
-    """d/dt of (surge, heave, roll) = (linear.x, linear.z, angular.x)."""
+    """The six numbers of a twist or acceleration, finite."""
     # a sum is finite iff every term is, unless it overflows (then one by one)
     if not math.isfinite(lx + ly + lz + ax + ay + az) and not all(
             map(math.isfinite, (lx, ly, lz, ax, ay, az))):
         raise SetpointError(NON_FINITE, f'{what} has a non-finite component')
-    return Motion((lx, lz, ax), ly, ay, az)
+    return (lx, ly, lz, ax, ay, az)
 
 
-def check_acceleration(qdd: Iterable[float], max_linear: float, max_angular: float,
+def check_acceleration(qdd: Sequence[float], names: Sequence[str], units: Sequence[str],
+                       max_linear: float, max_angular: float,
                        source: str = 'acceleration') -> None:
-    a_surge, a_heave, a_roll = qdd
-    if abs(a_surge) > max_linear or abs(a_heave) > max_linear:
+    """Accelerations of coordinates ``names`` (``units`` m or rad) within the bounds."""
+    linear = [v for v, unit in zip(qdd, units) if unit != 'rad']
+    if any(abs(v) > max_linear for v in linear):
         raise SetpointError(ABSURD_ACCELERATION,
-                            f'{source} ({a_surge:.4g}, {a_heave:.4g}) m/s^2 exceeds '
+                            f'{source} ({", ".join(f"{v:.4g}" for v in linear)}) m/s^2 exceeds '
                             f'input.max_linear_acceleration = {max_linear:g} m/s^2')
-    if abs(a_roll) > max_angular:
-        raise SetpointError(ABSURD_ACCELERATION,
-                            f'{source} roll {a_roll:.4g} rad/s^2 exceeds '
-                            f'input.max_angular_acceleration = {max_angular:g} rad/s^2')
+    for v, name, unit in zip(qdd, names, units):
+        if unit == 'rad' and abs(v) > max_angular:
+            raise SetpointError(ABSURD_ACCELERATION,
+                                f'{source} {name} {v:.4g} rad/s^2 exceeds '
+                                f'input.max_angular_acceleration = {max_angular:g} rad/s^2')
 
 
-def unfollowable(pose: Motion, twist: Motion | None, accel: Motion | None,
-                 parasitic_pitch: float, position_tolerance: float,
-                 angle_tolerance: float) -> tuple[str, ...]:
-    """Sway and yaw beyond the tolerances, a pitch neither zero nor the
-    parasitic pitch (-beta); pitch rates are not the planner's to choose.
+class PoseMap:
+    """What a machine takes of the setpoint messages (docs/node.md): its
+    coordinates (some of :data:`COMPONENTS`, in its order); a twist's and an
+    acceleration's linear part as the rates of surge, sway, heave, their
+    angular part (the platform's angular velocity and acceleration in the base
+    frame) as Euler-angle rates (S2)/(S3) at the angles the machine follows
+    (zero for the others); the other components reported as motion it cannot
+    follow, except where the machine itself moves them (``Machine.parasitic``).
     """
-    sway = abs(pose.sway) > position_tolerance
-    yaw = abs(pose.yaw) > angle_tolerance
-    for rates in (twist, accel):
-        if rates is not None:
-            sway = sway or abs(rates.sway) > position_tolerance
-            yaw = yaw or abs(rates.yaw) > angle_tolerance
-    pitch = abs(pose.pitch) > angle_tolerance and \
-        abs(pose.pitch - parasitic_pitch) > angle_tolerance
-    if not (sway or yaw or pitch):
-        return ()
-    return tuple(name for name, bad in ((SWAY, sway), (YAW, yaw), (PITCH, pitch)) if bad)
+
+    def __init__(self, machine: Machine) -> None:
+        names = machine.coordinates
+        unknown = [c for c in names if c not in COMPONENTS]
+        if unknown:
+            raise ValueError(f'the node takes the coordinates {", ".join(COMPONENTS)}; '
+                             f'{machine.name} has {", ".join(unknown)}')
+        self.names, self.units = names, machine.units
+        self.index = tuple(COMPONENTS.index(c) for c in names)
+        self.parasitic = dict(machine.parasitic)
+        others = [c for c in COMPONENTS if c not in names]
+        #: reported when beyond the tolerances, those the machine moves last
+        self.ignored = tuple([c for c in others if c not in self.parasitic]
+                             + [c for c in others if c in self.parasitic])
+        self._checks = tuple((c, COMPONENTS.index(c), COMPONENTS.index(c) < 3,
+                              self.parasitic.get(c)) for c in self.ignored)
+        # the Euler angles followed: their positions in q (None: held at zero)
+        self._euler = tuple(names.index(c) if c in names else None
+                            for c in COMPONENTS[3:])
+        #: the coordinates unwrapped across +-pi by the estimator
+        self.angles = tuple(i for i, unit in enumerate(self.units) if unit == 'rad')
+
+    def coordinates(self, msg: Motion) -> Vec:
+        """The machine's components of a message, in its order."""
+        return tuple([msg[i] for i in self.index])
+
+    def _angles(self, q: Vec) -> tuple[float, float, float]:
+        return tuple([0.0 if i is None else q[i] for i in self._euler])
+
+    def rates(self, q: Vec, twist: Motion) -> Vec:
+        """The rates (qd) of a twist at the pose q: linear as given, angular as Euler rates (S2)."""
+        euler = euler_rates(self._angles(q), twist[3:])
+        return tuple([twist[i] if i < 3 else euler[i - 3] for i in self.index])
+
+    def accelerations(self, q: Vec, qd: Vec, accel: Motion) -> Vec:
+        """The accelerations (qdd) of an acceleration at the pose q and rates qd (S3)."""
+        euler = euler_accelerations(self._angles(q), self._angles(qd), accel[3:])
+        return tuple([accel[i] if i < 3 else euler[i - 3] for i in self.index])
+
+    def check_acceleration(self, qdd: Sequence[float], max_linear: float, max_angular: float,
+                           source: str = 'acceleration') -> None:
+        check_acceleration(qdd, self.names, self.units, max_linear, max_angular, source)
+
+    def unfollowable(self, pose: Motion, twist: Motion | None, accel: Motion | None,
+                     solution: Any, position_tolerance: float,
+                     angle_tolerance: float) -> tuple[str, ...]:
+        """The components beyond the machine's coordinates that the setpoint
+        gives beyond the tolerances: a value or a rate, or for one the machine
+        moves itself (the 3-DOF machine's pitch), a value neither zero nor the
+        machine's (its rates are not the planner's to choose).
+        """
+        out = []
+        for name, i, linear, own in self._checks:
+            tolerance = position_tolerance if linear else angle_tolerance
+            value = pose[i]
+            if own is not None:
+                bad = abs(value) > tolerance and abs(value - own(solution)) > tolerance
+            else:
+                bad = abs(value) > tolerance or any(
+                    rates is not None and abs(rates[i]) > tolerance for rates in (twist, accel))
+            if bad:
+                out.append(name)
+        return tuple(out)
+
+
+_MAPS: dict[str, PoseMap] = {}
+
+
+def pose_map(machine: Machine) -> PoseMap:
+    """The :class:`PoseMap` of ``machine``, made once."""
+    found = _MAPS.get(machine.name)
+    if found is None:
+        found = _MAPS[machine.name] = PoseMap(machine)
+    return found
 
 
 class PlatformPoint(NamedTuple):
-    """One checked trajectory point; twist / accel None: estimated."""
+    """One checked trajectory point, in the machine's coordinates (q, qd, qdd);
+    twist / accel None: estimated.
+    """
 
     stamp_ns: int
     header: tuple[int, int]
-    pose: Motion
-    twist: Motion | None
-    accel: Motion | None
+    pose: Vec
+    twist: Vec | None
+    accel: Vec | None
 
 
-def platform_dof_order(joint_names: Sequence[str]) -> tuple[int, int, int]:
-    """Index of surge, heave and roll in ``joint_names`` (any order)."""
+def platform_dof_order(joint_names: Sequence[str], coordinates: Sequence[str]
+                       ) -> tuple[int, ...]:
+    """Index of each of ``coordinates`` in ``joint_names`` (any order)."""
     key = list(joint_names)
-    if len(key) != 3 or set(key) != set(PLATFORM_DOF_NAMES):
-        raise SetpointError(BAD_SETPOINT, f'joint_names must be {", ".join(PLATFORM_DOF_NAMES)} '
+    if len(key) != len(coordinates) or set(key) != set(coordinates):
+        raise SetpointError(BAD_SETPOINT, f'joint_names must be {", ".join(coordinates)} '
                                           f'(each once, in any order), got {_SHOWN.repr(key)}')
-    surge, heave, roll = (key.index(name) for name in PLATFORM_DOF_NAMES)
-    return surge, heave, roll
+    return tuple(key.index(name) for name in coordinates)
 
 
 def _point_problem(p: Sequence[float], v: Sequence[float], a: Sequence[float],
-                   e: Sequence[float]) -> SetpointError | None:
-    if len(p) != 3:
-        return SetpointError(BAD_SETPOINT, f'positions must be 3 numbers (in the order of '
+                   e: Sequence[float], n: int) -> SetpointError | None:
+    if len(p) != n:
+        return SetpointError(BAD_SETPOINT, f'positions must be {n} numbers (in the order of '
                                            f'joint_names), got {len(p)}: {_SHOWN.repr(list(p))}')
     for name, values in (('velocities', v), ('accelerations', a)):
-        if len(values) not in (0, 3):
-            return SetpointError(BAD_SETPOINT, f'{name} must be 3 numbers or empty (then '
+        if len(values) not in (0, n):
+            return SetpointError(BAD_SETPOINT, f'{name} must be {n} numbers or empty (then '
                                                f'estimated), got {len(values)}: '
                                                f'{_SHOWN.repr(list(values))}')
     if len(e):
@@ -228,12 +298,14 @@ def _point_problem(p: Sequence[float], v: Sequence[float], a: Sequence[float],
     return None
 
 
-def platform_setpoints(msg: Any, max_linear: float, max_angular: float,
+def platform_setpoints(msg: Any, poses: PoseMap, max_linear: float, max_angular: float,
                        latest_ns: int | None = None) -> list[PlatformPoint | SetpointError]:
     """A PlatformPoint or SetpointError per point (stamp: header.stamp +
-    time_from_start, increasing); bad joint_names or no points: raised.
+    time_from_start, increasing; joint_names: the coordinates of ``poses``'
+    machine); bad joint_names or no points: raised.
     """
-    surge, heave, roll = platform_dof_order(msg.joint_names)
+    order = platform_dof_order(msg.joint_names, poses.names)
+    n = len(order)
     if not msg.points:
         raise SetpointError(BAD_SETPOINT, 'points is empty (each point is one setpoint)')
     sec, nanosec = msg.header.stamp.sec, msg.header.stamp.nanosec
@@ -258,14 +330,14 @@ def platform_setpoints(msg: Any, max_linear: float, max_angular: float,
                                                   f'{header[0]} s is beyond '
                                                   'builtin_interfaces/Time (int32 seconds)')
             p, v, a = point.positions, point.velocities, point.accelerations
-            problem = _point_problem(p, v, a, point.effort)
+            problem = _point_problem(p, v, a, point.effort, n)
             if problem is not None:
                 raise problem
-            pose = Motion((p[surge], p[heave], p[roll]), 0.0, 0.0, 0.0)
-            twist = Motion((v[surge], v[heave], v[roll]), 0.0, 0.0, 0.0) if len(v) else None
-            accel = Motion((a[surge], a[heave], a[roll]), 0.0, 0.0, 0.0) if len(a) else None
+            pose = tuple([p[i] for i in order])
+            twist = tuple([v[i] for i in order]) if len(v) else None
+            accel = tuple([a[i] for i in order]) if len(a) else None
             if accel is not None:
-                check_acceleration(accel.q, max_linear, max_angular)
+                poses.check_acceleration(accel, max_linear, max_angular)
             if before is not None and stamp_ns <= before:
                 raise SetpointError(
                     STAMP_REPEATED if stamp_ns == before else STAMP_BACKWARDS,
@@ -282,12 +354,14 @@ def platform_setpoints(msg: Any, max_linear: float, max_angular: float,
 # -- joining and ordering the setpoints -------------------------------------------
 @dataclass(slots=True)
 class Setpoint:
-    """The messages with one stamp (twist / accel None: estimated)."""
+    """The messages with one stamp (twist / accel None: estimated): three
+    messages' :data:`Motion` s, or from PLATFORM the machine's q, qd, qdd.
+    """
 
     stamp_ns: int
-    pose: Motion | None = None
-    twist: Motion | None = None
-    accel: Motion | None = None
+    pose: Any = None
+    twist: Any = None
+    accel: Any = None
     header: Any = None
     first_arrival: float = 0.0
     source: str = POSE        # the input that carried it: POSE (three topics) or PLATFORM
@@ -591,12 +665,16 @@ class LimitReport(NamedTuple):
 
 
 def check_limits(stroke: Sequence[float], rate: Sequence[float], force: Sequence[float],
-                 limits: Limits, warn_fraction: float) -> LimitReport:
-    """Beyond a limit: ERROR, within ``warn_fraction`` of one: WARN (published anyway)."""
-    mid = 0.5 * (limits.stroke_max + limits.stroke_min)
-    half = 0.5 * (limits.stroke_max - limits.stroke_min)
+                 limits: ActuatorLimits, warn_fraction: float,
+                 labels: Sequence[str]) -> LimitReport:
+    """Beyond a limit: ERROR, within ``warn_fraction`` of one: WARN (published
+    anyway); legs named by ``labels`` (upper case).
+    """
     usages = {}
-    for i, leg in enumerate('ABC'):
+    for i, label in enumerate(labels):
+        leg = label.upper()
+        low, high = float(limits.stroke_min[i]), float(limits.stroke_max[i])
+        mid, half = 0.5 * (high + low), 0.5 * (high - low)
         usages[f'stroke {leg}'] = abs(stroke[i] - mid) / half
         usages[f'speed {leg}'] = abs(rate[i]) / limits.max_speed
         usages[f'force {leg}'] = abs(force[i]) / limits.max_force
@@ -609,10 +687,15 @@ def check_limits(stroke: Sequence[float], rate: Sequence[float], force: Sequence
 class CycleStats:
     """/diagnostics: counters from start-up, statistics per period."""
 
-    def __init__(self) -> None:
+    def __init__(self, ignorable: Sequence[str] = (SWAY, YAW, PITCH),
+                 kinematic: bool = True) -> None:
+        """``ignorable``: the components a machine cannot follow; ``kinematic``:
+        its solutions have a kinematic condition (reported with the exact cond(Q)).
+        """
         self.received = {POSE: 0, TWIST: 0, ACCEL: 0, PLATFORM: 0}   # messages
         self.rejected = {reason: 0 for reason in REJECTION_REASONS}
-        self.ignored = {c: 0 for c in UNFOLLOWABLE_COMPONENTS}
+        self.ignored = {c: 0 for c in ignorable}
+        self.kinematic = kinematic
         self.answered = self.estimated_twist = self.estimated_accel = 0
         self.limit_exceeded = self.near_limit = self.near_singular = 0
         self.parameter_changes = self.parameter_rejections = self.planner_restarts = 0
@@ -687,9 +770,10 @@ class CycleStats:
             ('solve time p99 (us)', number(p99_us, '.1f')),
             ('solve time max (us)', number(max_us, '.1f')),
             ('solves this period', str(n)),
-            ('cond(Q) last', number(exact_cond, '.4g')),
-            ('kinematic condition last', number(self.last_cond, '.4g')),
-            ('kinematic condition max this period', number(cond_max, '.4g')),
+            *([('cond(Q) last', number(exact_cond, '.4g')),
+               ('kinematic condition last', number(self.last_cond, '.4g')),
+               ('kinematic condition max this period', number(cond_max, '.4g'))]
+              if self.kinematic else []),
             ('Jacobian condition last', number(self.last_jacobian_cond, '.4g')),
             ('Jacobian condition max this period', number(jacobian_cond_max, '.4g')),
             ('rejected total', str(total_rejected)),
@@ -743,12 +827,16 @@ class LogThrottle:
 class Runtime(NamedTuple):
     """What a cycle reads from the parameters, swapped as one reference."""
 
-    model: Model
+    model: Any              # a model of load_model, of any machine
     config: NodeConfig
+
+    @property
+    def machine(self) -> Machine:
+        return machine_of(self.model)
 
 
 class Answer(NamedTuple):
-    """Stamp, leg lengths, rates and forces (eq. 23), the 12 joints and rates."""
+    """Stamp, leg lengths, rates and forces, the joint variables and rates."""
 
     header: tuple[int, int]
     length: list[float]
@@ -768,7 +856,14 @@ class SetpointIntake:
     def __init__(self, runtime: Runtime) -> None:
         config = runtime.config
         self.runtime = runtime
-        self.stats = CycleStats()
+        machine = runtime.machine
+        self.poses = pose_map(machine)
+        #: its solutions' exact cond(Q) is reported (a costly field)
+        self.reports_cond = 'cond' in machine.costly_fields
+        self._kinematic = 'kinematic_condition' in machine.sample_fields
+        self._labels = machine.leg_labels
+        self._limits = self._limits_of(runtime.model)
+        self.stats = CycleStats(self.poses.ignored, self._kinematic)
         self.throttle = LogThrottle(config.diagnostics_log_throttle)
         self.sync = StampSynchroniser(config.sync_wait, config.sync_max_pending,
                                       config.input_restart_jump, join_window=JOIN_WINDOW)
@@ -781,11 +876,14 @@ class SetpointIntake:
         self._answers: list[Answer] = []
         self._lines: list[tuple[int, str]] = []
 
-    @staticmethod
-    def _new_estimator(config: NodeConfig) -> DerivativeEstimator:
+    def _new_estimator(self, config: NodeConfig) -> DerivativeEstimator:
         # warming up: never estimates an acceleration from a rest it assumed
         return DerivativeEstimator(config.estimator_method, config.estimator_max_gap,
-                                   warm_up=True)
+                                   warm_up=True, angles=self.poses.angles)
+
+    @staticmethod
+    def _limits_of(model: Any) -> tuple[Any, ActuatorLimits]:
+        return model, machine_of(model).actuator_limits(model)
 
     def _flush(self) -> Outcome:
         out = (self._answers, self._lines)
@@ -841,9 +939,10 @@ class SetpointIntake:
         v = msg.twist if kind == TWIST else msg.accel
         rates = rate_input(v.linear.x, v.linear.y, v.linear.z,
                            v.angular.x, v.angular.y, v.angular.z, kind)
-        if kind == ACCEL:
-            check_acceleration(rates.q, config.input_max_linear_acceleration,
-                               config.input_max_angular_acceleration)
+        if kind == ACCEL:   # the components the machine takes, angular ones as received
+            self.poses.check_acceleration(self.poses.coordinates(rates),
+                                          config.input_max_linear_acceleration,
+                                          config.input_max_angular_acceleration)
         return rates
 
     def _stamped(self, kind: str, msg: Any, now: float, latest_ns: int | None) -> None:
@@ -876,7 +975,7 @@ class SetpointIntake:
                                       f'than input.max_points = {config.input_max_points}')
             return
         try:
-            points = platform_setpoints(msg, config.input_max_linear_acceleration,
+            points = platform_setpoints(msg, self.poses, config.input_max_linear_acceleration,
                                         config.input_max_angular_acceleration, latest_ns)
         except SetpointError as exc:
             self.reject(exc.reason, f'{PLATFORM} rejected: {exc}')
@@ -920,12 +1019,13 @@ class SetpointIntake:
         """
         runtime = self.runtime            # read once: a parameter change applies next cycle
         try:
-            qd, qdd = self._rates(sp, runtime.config)
+            q, qd, qdd = self._rates(sp, runtime.config)
             t0 = time.perf_counter()
-            sol = _solve(runtime.model, sp.pose.q, qd, qdd)
+            sol = _solve(runtime.model, q, qd, qdd)
             elapsed = time.perf_counter() - t0
             answer = Answer(sp.header, sol.length.tolist(), sol.rate.tolist(),
-                            sol.force.tolist(), sol.joints.tolist(), sol.joint_rates.tolist())
+                            sol.force.tolist(), sol.joints.ravel().tolist(),
+                            sol.joint_rates.ravel().tolist())
             if not math.isfinite(sum(map(sum, answer[1:]))):
                 raise SetpointError(NON_FINITE_OUTPUT, 'solver returned a non-finite value '
                                                        '(not published)')
@@ -942,11 +1042,24 @@ class SetpointIntake:
         self._assess(sol, sp, runtime, elapsed, answer)
         self.last_solution, self.last_header = sol, sp.header
 
-    def _rates(self, sp: Setpoint, config: NodeConfig) -> tuple[Vec3, Vec3]:
-        twist, accel = sp.twist, sp.accel
-        qd, qdd = self.estimator.estimate(sp.stamp_ns * 1e-9, sp.pose.q,
-                                          None if twist is None else twist.q,
-                                          None if accel is None else accel.q)
+    def _rates(self, sp: Setpoint, config: NodeConfig) -> tuple[Vec, Vec, Vec]:
+        """q, qd, qdd of a setpoint: given (converted, :class:`PoseMap`) or estimated."""
+        twist, accel, t = sp.twist, sp.accel, sp.stamp_ns * 1e-9
+        if sp.source == PLATFORM:       # the machine's coordinates already
+            q = sp.pose
+            qd, qdd = self.estimator.estimate(t, q, twist, accel)
+        else:
+            poses = self.poses
+            q = poses.coordinates(sp.pose)
+            try:
+                given = None if twist is None else poses.rates(q, twist)
+                if accel is None:
+                    qd, qdd = self.estimator.estimate(t, q, given, None)
+                else:       # the rates, given or estimated, convert the angular acceleration
+                    qd, _ = self.estimator.estimate(t, q, given, accel)
+                    qdd = poses.accelerations(q, qd, accel)
+            except EulerSingularity as exc:
+                raise SetpointError(BAD_SETPOINT, str(exc)) from None
         if twist is None:
             self.stats.estimated_twist += 1
         if qdd is None:
@@ -955,15 +1068,17 @@ class SetpointIntake:
                                             'of a stream is taken at rest); the next ones are')
         if accel is None:
             self.stats.estimated_accel += 1
-            check_acceleration(qdd, config.input_max_linear_acceleration,
-                               config.input_max_angular_acceleration, 'estimated acceleration')
-        return qd, qdd
+            self.poses.check_acceleration(qdd, config.input_max_linear_acceleration,
+                                          config.input_max_angular_acceleration,
+                                          'estimated acceleration')
+        return q, qd, qdd
 
     def _assess(self, sol: Any, sp: Setpoint, runtime: Runtime, seconds: float,
                 answer: Answer) -> None:
         config, stats = runtime.config, self.stats
-        ignored = unfollowable(sp.pose, sp.twist, sp.accel, -sol.beta,
-                               config.input_position_tolerance, config.input_angle_tolerance)
+        ignored = () if sp.source == PLATFORM else self.poses.unfollowable(
+            sp.pose, sp.twist, sp.accel, sol, config.input_position_tolerance,
+            config.input_angle_tolerance)
         if ignored:
             for component in ignored:
                 stats.ignored[component] += 1
@@ -974,8 +1089,10 @@ class SetpointIntake:
             stats.near_singular += 1
             stats.note(WARN, 'near singular')
             self.log(WARN, 'near_singular', lambda: f'near singular: {sol.detail}')
+        if self._limits[0] is not runtime.model:
+            self._limits = self._limits_of(runtime.model)
         limits = check_limits(sol.stroke.tolist(), answer.rate, answer.force,
-                              runtime.model.limits, config.limits_warn_fraction)
+                              self._limits[1], config.limits_warn_fraction, self._labels)
         if limits.exceeded:
             stats.limit_exceeded += 1
             stats.note(ERROR, 'limit exceeded')
@@ -984,7 +1101,8 @@ class SetpointIntake:
         elif limits.near:
             stats.near_limit += 1
             stats.note(WARN, 'near an actuator limit')
-        stats.solved(seconds, sol.kinematic_condition, sol.jacobian_condition)
+        stats.solved(seconds, sol.kinematic_condition if self._kinematic else math.nan,
+                     float(sol.jacobian_condition))
 
     def reconfigure(self, runtime: Runtime) -> None:
         old, new = self.runtime.config, runtime.config
@@ -1030,7 +1148,7 @@ class SetpointIntake:
         self._lines.append((level, text))
 
 
-def _solve(model: Model, q: Sequence[float], qd: Sequence[float], qdd: Sequence[float]) -> Any:
+def _solve(model: Any, q: Sequence[float], qd: Sequence[float], qdd: Sequence[float]) -> Any:
     try:
         sol = fsd.solve(model, q, qd, qdd)
     except Exception as exc:  # noqa: BLE001 - a malformed call: never escape

@@ -164,11 +164,22 @@ def test_a_missing_key_of_a_section_of_ones_own_is_named(tmp_path):
     ('geometry:\n  d1: 0.4', 'geometry.d1', ['3-DOF machine']),
     ('limits:\n  stroke_max: 0.5', 'limits.stroke_max', ['3-DOF machine']),
     ('bodies:\n  crank_d:\n    mass: 1.0', 'bodies.crank_d.mass', ['3-DOF machine']),
-    ('input:\n  max_points: 10', 'input.max_points', ['3-DOF machine']),
 ])
 def test_an_unknown_name_in_a_hexapod_file(tmp_path, body, key, words):
     path = _file(tmp_path, 'machine: stewart_6dof\n' + body)
     _raises(path, key, 'unknown parameter', *words)
+
+
+def test_a_hexapod_file_may_give_the_node_parameters(tmp_path):
+    """One file serves the model and the node, as for the 3-DOF machine: the
+    node's parameters are checked, and leave the model as it is."""
+    given = _file(tmp_path, 'machine: stewart_6dof\ninput:\n  max_points: 10\n'
+                            'limits:\n  warn_fraction: 0.8\n')
+    model = fsd.load_model(given)
+    packaged = fsd.load_model(ROOT / 'config' / 'stewart_6dof.yaml')
+    assert model.limits == packaged.limits
+    bad = _file(tmp_path, 'machine: stewart_6dof\ninput:\n  max_points: 0\n')
+    _raises(bad, 'input.max_points', '>= 1')
 
 
 @pytest.mark.parametrize('body, key, words', [

@@ -34,12 +34,15 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from flight_sim_dynamics.ros.setpoints import diagnostic_name
-from flight_sim_dynamics.ros.setpoints import PLATFORM_DOF_NAMES, rpy_to_quaternion
+from flight_sim_dynamics.machines import FLIGHT_SIMULATOR
+from flight_sim_dynamics.ros.setpoints import rpy_to_quaternion
 from flight_sim_dynamics.ros.process import node_command, node_env, start_node, stop_node
 
 ROOT = Path(__file__).resolve().parents[2]
 PARAMS_FILE = ROOT / 'config' / 'flight_sim_dynamics.yaml'
 NODE_NAME = 'flight_sim_dynamics'
+#: The 3-DOF machine's platform_setpoint joint names, in the order of its q.
+PLATFORM_DOF_NAMES = FLIGHT_SIMULATOR.coordinates
 
 # The test side: reliable, deep enough for every message of a test run.
 QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=2000,

@@ -3,6 +3,7 @@ and of the planner motions (flight_sim_dynamics.machines.staicu.motions)."""
 from __future__ import annotations
 
 import dataclasses
+from functools import partial
 import math
 from types import SimpleNamespace
 
@@ -14,7 +15,7 @@ from hypothesis import strategies as st
 from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.config.parameters import NodeConfig
 from flight_sim_dynamics.core.estimator import wrap_angle
-from flight_sim_dynamics.machines.staicu.model import Limits
+from flight_sim_dynamics.core.machine import ActuatorLimits
 from flight_sim_dynamics.machines.staicu.motions import PLANNER_MOTIONS as MOTIONS
 from flight_sim_dynamics.machines.staicu.motions import (CUEING_DURATION, PlannerSequence,
                                                          motion_cueing)
@@ -26,9 +27,15 @@ from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_Q
                                                WARN, YAW, CycleStats, LogThrottle, Runtime,
                                                SetpointError, SetpointIntake,
                                                StampSynchroniser,
-                                               check_acceleration, check_limits, pose_input,
+                                               check_limits, pose_input,
                                                quaternion_to_rpy, rate_input,
-                                               rpy_to_quaternion, unfollowable)
+                                               pose_map, rpy_to_quaternion)
+from flight_sim_dynamics.machines import FLIGHT_SIMULATOR
+
+#: What the 3-DOF machine takes of the messages; a solution of parasitic pitch -0.04 rad.
+POSES = pose_map(FLIGHT_SIMULATOR)
+BETA = SimpleNamespace(beta=0.04)
+unfollowable = POSES.unfollowable
 
 def field_name(parameter: str) -> str:
     return parameter.replace('.', '_')
@@ -88,10 +95,11 @@ def test_slightly_non_unit_quaternion_normalised():
 
 def test_pose_and_rate_inputs():
     pose = pose_input(0.05, 0.01, 0.1, *rpy_to_quaternion(0.2, 0.03, 0.04))
-    assert pose.q == pytest.approx((0.05, 0.1, 0.2))
-    assert (pose.sway, pose.pitch, pose.yaw) == pytest.approx((0.01, 0.03, 0.04))
+    assert pose == pytest.approx((0.05, 0.01, 0.1, 0.2, 0.03, 0.04))
+    assert POSES.coordinates(pose) == pytest.approx((0.05, 0.1, 0.2))
     rates = rate_input(1.0, 2.0, 3.0, 4.0, 5.0, 6.0)
-    assert rates.q == (1.0, 3.0, 4.0) and (rates.sway, rates.pitch, rates.yaw) == (2.0, 5.0, 6.0)
+    assert rates == (1.0, 2.0, 3.0, 4.0, 5.0, 6.0)
+    assert POSES.coordinates(rates) == (1.0, 3.0, 4.0)
     with pytest.raises(SetpointError):
         pose_input(math.nan, 0, 0, 0, 0, 0, 1)
     with pytest.raises(SetpointError):
@@ -100,20 +108,20 @@ def test_pose_and_rate_inputs():
 
 def test_unfollowable_components():
     clean = pose_input(0, 0, 0, *rpy_to_quaternion(0.1))
-    assert unfollowable(clean, None, None, -0.04, 1e-3, 1e-3) == ()
+    assert unfollowable(clean, None, None, BETA, 1e-3, 1e-3) == ()
     parasitic = pose_input(0, 0, 0, *rpy_to_quaternion(0.1, -0.04))
-    assert unfollowable(parasitic, None, None, -0.04, 1e-3, 1e-3) == ()
+    assert unfollowable(parasitic, None, None, BETA, 1e-3, 1e-3) == ()
     other = pose_input(0, 0.1, 0, *rpy_to_quaternion(0.1, 0.2, 0.3))
-    assert unfollowable(other, None, None, -0.04, 1e-3, 1e-3) == (SWAY, YAW, PITCH)
+    assert unfollowable(other, None, None, BETA, 1e-3, 1e-3) == (SWAY, YAW, PITCH)
     twist = rate_input(0, 0.5, 0, 0, 0, 0)
-    assert unfollowable(clean, twist, None, -0.04, 1e-3, 1e-3) == (SWAY,)
+    assert unfollowable(clean, twist, None, BETA, 1e-3, 1e-3) == (SWAY,)
 
 
 def test_absurd_acceleration():
-    check_acceleration((1.0, -2.0, 3.0), 50.0, 100.0)
+    POSES.check_acceleration((1.0, -2.0, 3.0), 50.0, 100.0)
     for qdd in ((51.0, 0.0, 0.0), (0.0, -51.0, 0.0), (0.0, 0.0, 101.0)):
         with pytest.raises(SetpointError) as info:
-            check_acceleration(qdd, 50.0, 100.0)
+            POSES.check_acceleration(qdd, 50.0, 100.0)
         assert info.value.reason == ABSURD_ACCELERATION
 
 
@@ -421,12 +429,14 @@ def test_node_parameters_in_packaged_yaml():
 
 
 def test_limits():
-    limits = Limits(stroke_min=-0.3, stroke_max=0.6, max_speed=1.0, max_force=100.0)
-    ok = check_limits((0.0, 0.1, 0.1), (0.1, 0.1, 0.1), (30.0, 30.0, 30.0), limits, 0.9)
+    limits = ActuatorLimits(stroke_min=np.full(3, -0.3), stroke_max=np.full(3, 0.6),
+                            max_speed=1.0, max_force=100.0)
+    check = partial(check_limits, labels=FLIGHT_SIMULATOR.leg_labels)
+    ok = check((0.0, 0.1, 0.1), (0.1, 0.1, 0.1), (30.0, 30.0, 30.0), limits, 0.9)
     assert ok.level == OK and not ok.exceeded and not ok.near
-    near = check_limits((0.58, 0.1, 0.1), (0.1, 0.95, 0.1), (30.0, 30.0, 30.0), limits, 0.9)
+    near = check((0.58, 0.1, 0.1), (0.1, 0.95, 0.1), (30.0, 30.0, 30.0), limits, 0.9)
     assert near.level == WARN and set(near.near) == {'stroke A', 'speed B'}
-    over = check_limits((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (30.0, 30.0, -101.0), limits, 0.9)
+    over = check((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (30.0, 30.0, -101.0), limits, 0.9)
     assert over.level == ERROR and over.exceeded == ('force C',)
 
 

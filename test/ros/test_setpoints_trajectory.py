@@ -10,10 +10,19 @@ import pytest
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, BAD_SETPOINT, ERROR,
-                                               NON_FINITE, PLATFORM, PLATFORM_DOF_NAMES,
-                                               STAMP_BACKWARDS, STAMP_REPEATED, CycleStats,
-                                               PlatformPoint, SetpointError, platform_dof_order,
-                                               platform_setpoints)
+                                               NON_FINITE, PLATFORM, STAMP_BACKWARDS,
+                                               STAMP_REPEATED, CycleStats, PlatformPoint,
+                                               SetpointError, platform_dof_order, pose_map)
+from flight_sim_dynamics.ros.setpoints import platform_setpoints as machine_setpoints
+from flight_sim_dynamics.machines import FLIGHT_SIMULATOR
+
+#: The 3-DOF machine's coordinates, the joint names of its platform_setpoint.
+PLATFORM_DOF_NAMES = FLIGHT_SIMULATOR.coordinates
+
+
+def platform_setpoints(msg, *args):
+    """The points of a 3-DOF machine's message."""
+    return machine_setpoints(msg, pose_map(FLIGHT_SIMULATOR), *args)
 
 
 def message(frame: str, sec: int, nanosec: int, names: list[str],
@@ -46,7 +55,7 @@ def point(p=(0.01, 0.02, 0.03), v=(), a=(), e=(), sec=0, nanosec=0):
 
 def test_joint_names_in_any_order():
     """The names give the order of the numbers: the pose is (surge, heave,
-    roll) whatever the order; sway, pitch and yaw are 0."""
+    roll) whatever the order."""
     for names in (('surge', 'heave', 'roll'), ('roll', 'surge', 'heave'),
                   ('heave', 'roll', 'surge')):
         value = {'surge': 0.01, 'heave': 0.02, 'roll': 0.03}
@@ -56,11 +65,10 @@ def test_joint_names_in_any_order():
             [point([value[n] for n in names], [rate[n] for n in names],
                    [acc[n] for n in names])], names), 50.0, 100.0)
         assert isinstance(sp, PlatformPoint)
-        assert sp.pose.q == (0.01, 0.02, 0.03) and sp.twist.q == (0.1, 0.2, 0.3)
-        assert sp.accel.q == (1.0, 2.0, 3.0)
-        assert (sp.pose.sway, sp.pose.pitch, sp.pose.yaw) == (0.0, 0.0, 0.0)
-        assert (sp.twist.sway, sp.twist.pitch, sp.twist.yaw) == (0.0, 0.0, 0.0)
-        assert platform_dof_order(names) == tuple(names.index(n) for n in PLATFORM_DOF_NAMES)
+        assert sp.pose == (0.01, 0.02, 0.03) and sp.twist == (0.1, 0.2, 0.3)
+        assert sp.accel == (1.0, 2.0, 3.0)
+        assert platform_dof_order(names, PLATFORM_DOF_NAMES) == tuple(
+            names.index(n) for n in PLATFORM_DOF_NAMES)
 
 
 @pytest.mark.parametrize('names', [(), ('surge', 'heave'), ('surge', 'heave', 'yaw'),
@@ -115,7 +123,7 @@ def test_a_bad_point_rejects_that_point_only(bad, reason, words):
 def test_overflowing_sum_is_no_error():
     """Finite numbers whose sum overflows are not 'non-finite'."""
     (item,) = platform_setpoints(trajectory([point(p=(1e308, 1e308, 0.0))]), 50.0, 100.0)
-    assert isinstance(item, PlatformPoint) and item.pose.q == (1e308, 1e308, 0.0)
+    assert isinstance(item, PlatformPoint) and item.pose == (1e308, 1e308, 0.0)
 
 
 def test_stamps_are_header_plus_time_from_start():
@@ -151,7 +159,7 @@ def test_missing_rates_and_accelerations_are_none():
     (item,) = platform_setpoints(trajectory([point()]), 50.0, 100.0)
     assert item.twist is None and item.accel is None
     (item,) = platform_setpoints(trajectory([point(v=(1.0, 2.0, 3.0))]), 50.0, 100.0)
-    assert item.twist.q == (1.0, 2.0, 3.0) and item.accel is None
+    assert item.twist == (1.0, 2.0, 3.0) and item.accel is None
 
 
 def test_diagnostics_count_the_new_input_and_reason():

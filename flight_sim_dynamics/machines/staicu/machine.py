@@ -12,7 +12,7 @@ from .forward_kinematics import forward_kinematics
 from .mechanism import drawing
 from .model import JOINT_NAMES, LEG_NAMES, Model
 from .motions import MOTIONS, TEST_MOTIONS
-from .solver import solve, solve_batch
+from .solver import Solution, solve, solve_batch
 from .trajectories import PAPER_EXAMPLES
 
 
@@ -22,6 +22,11 @@ def actuator_limits(model: Model) -> ActuatorLimits:
     return ActuatorLimits(stroke_min=np.full(legs, lim.stroke_min),
                           stroke_max=np.full(legs, lim.stroke_max),
                           max_speed=lim.max_speed, max_force=lim.max_force)
+
+
+def parasitic_pitch(solution: Solution) -> float:
+    """The platform's REP-103 pitch at a solution: -beta (eq. 8)."""
+    return -solution.beta
 
 
 #: The 3-DOF flight simulator of Staicu, Ocnarescu and Ungureanu (the default).
@@ -39,4 +44,6 @@ MACHINE = Machine(
     bench_motions=TEST_MOTIONS, kernel_enabled=kernel.enabled,
     # simulation and the twin
     affine_terms=affine_terms, require_inertia=require_inertia,
-    integrate_rows=kernel.integrate_rows)
+    integrate_rows=kernel.integrate_rows,
+    # the dynamics node: the mechanism pitches the platform by -beta (REP pitch)
+    parasitic={'pitch': parasitic_pitch})

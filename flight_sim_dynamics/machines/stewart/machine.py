@@ -12,6 +12,7 @@ from .forward_dynamics import affine_terms, forward_dynamics
 from .kinematics import forward_kinematics
 from .model import LEG_NAMES, PARAMETER_NAMES, StewartModel, from_dict
 from .motions import MOTIONS
+from .parameters import PARAMETER_SPECS
 from .solver import COORDINATES, solve, solve_batch
 from .workspace import survey
 
@@ -60,4 +61,6 @@ MACHINE = Machine(
     bench_motions=('gentle', 'cueing', 'violent'), kernel_enabled=kernel.enabled,
     # simulation and the twin
     affine_terms=affine_parts, require_inertia=require_inertia,
-    integrate_rows=kernel.integrate_rows)
+    integrate_rows=kernel.integrate_rows,
+    # the dynamics node
+    parameter_specs=PARAMETER_SPECS)

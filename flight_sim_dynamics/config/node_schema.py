@@ -1,0 +1,105 @@
+"""The parameters the dynamics node declares, for the machine its parameters
+name (``machine: <name>``; none: the 3-DOF machine): the machine's own
+(config/schema.py's for the 3-DOF machine, :attr:`Machine.parameter_specs`
+otherwise), the node's (:data:`.schema.NODE_PARAMETERS`, shared), their start-up
+values and the model of a complete set (:class:`NodeSchema`).
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Any, Callable, Mapping, Sequence
+
+from ..core.machine import Machine
+from ..core.parameter_spec import ParamSpec
+from ..machines import FLIGHT_SIMULATOR
+from . import parameters as prm
+from .files import params_files_in, read_params_sections
+from .machine_files import (PACKAGED, load_named_model, model_of_values, named_machine,
+                            node_values, packaged_path)
+
+#: The parameter naming the machine (read-only: fixed at start-up).
+MACHINE = 'machine'
+_SOURCE = "the node's parameters"
+
+
+@dataclass(frozen=True)
+class NodeSchema:
+    """What a node declares for ``machine``: ``specs`` (name -> declaration,
+    the machine's then the node's), the ``defaults`` a start-up value overrides
+    (the packaged file's; a name without one is declared only when given), and
+    ``build(values) -> model`` of a complete set of the machine's values.
+    """
+
+    machine: Machine
+    model_specs: tuple[ParamSpec, ...]
+    defaults: Mapping[str, Any]
+    build: Callable[[Mapping[str, Any]], Any]
+
+    @property
+    def specs(self) -> dict[str, ParamSpec]:
+        return {s.name: s for s in self.model_specs + prm.NODE_PARAMETERS}
+
+    def model(self, values: Mapping[str, Any]) -> Any:
+        """The model of ``values`` (at least every declared model parameter)."""
+        return self.build({s.name: values[s.name] for s in self.model_specs
+                           if s.name in values})
+
+
+def _flight_simulator() -> NodeSchema:
+    try:
+        defaults = prm.validate(prm.read_params_file(prm.default_params_path()),
+                                require_all=False)
+    except (prm.ParameterError, FileNotFoundError):
+        defaults = prm.defaults()
+    return NodeSchema(FLIGHT_SIMULATOR, prm.MODEL_PARAMETERS, defaults, prm.model_from_values)
+
+
+def _named(name: Any) -> NodeSchema:
+    machine = named_machine(name, _SOURCE)
+    defaults = {s.name: s.default for s in prm.NODE_PARAMETERS + machine.parameter_specs
+                if s.default is not None}
+    if name in PACKAGED:
+        flat = read_params_sections(packaged_path(name))
+        defaults.update({k: v for k, v in flat.items() if k in machine.parameters})
+        defaults.update(node_values(flat, str(packaged_path(name))))
+    defaults[MACHINE] = name
+    return NodeSchema(machine, machine.parameter_specs, defaults,
+                      lambda values: model_of_values(machine, values, _SOURCE))
+
+
+def node_schema(machine_name: Any = None) -> NodeSchema:
+    """The schema of the machine a node's ``machine`` parameter names (None:
+    the 3-DOF machine); a ParameterError for a name no machine answers to.
+    """
+    return _flight_simulator() if machine_name is None else _named(machine_name)
+
+
+def check_node_params_files(args: Sequence[str], node: str = '/' + prm.NODE_NAME,
+                            machine: Any = None) -> None:
+    """The one rule on the ``--params-file`` files of a node's command line
+    (``node``: its fully qualified name; ``machine``: the ``machine`` parameter
+    it was given, None: none): files naming a machine are checked as
+    ``load_model`` reads them, merged in order; the others as the 3-DOF
+    machine's (:func:`.parameters.check_params_files`). A bad file is one
+    ParameterError, as is a file naming a machine whose section ROS did not
+    give the node (a section named ``flight_sim_dynamics`` reaches only the
+    node of that name in the root namespace).
+    """
+    paths = params_files_in(args)
+    flats = [(path, read_params_sections(path, node)) for path in paths]
+    named = [(path, flat) for path, flat in flats if MACHINE in flat]
+    if not named:
+        prm.check_params_files(args, node)
+        return
+    path, flat = named[-1]
+    if flat[MACHINE] != machine:
+        raise prm.ParameterError(MACHINE, flat[MACHINE], (
+            f'{path} names this machine, but ROS gave the node {node} no parameter of '
+            'that file (its section must be the node\'s fully qualified name, or /**, to '
+            'reach a node in a namespace); the node would run another machine'))
+    merged: dict[str, Any] = {}
+    for _, flat in flats:
+        merged.update(flat)
+    load_named_model(merged, named[-1][0] if len(flats) == 1 else
+                     os.pathsep.join(str(p) for p in paths))

@@ -1,0 +1,54 @@
+"""The declaration of one parameter (:class:`ParamSpec`): what the node's
+descriptors, the validation of values and the docs' tables read. The 3-DOF
+machine's and the node's are config/schema.py's; a machine whose files name it
+declares its own (:attr:`flight_sim_dynamics.core.machine.Machine.parameter_specs`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """One declared parameter. ``kind``: ``double``, ``double_array``, ``integer``,
+    ``string`` or ``bool``; ``minimum``/``maximum`` bound a number or each element
+    (inclusive unless ``exclusive_minimum``); ``length``: an array's size.
+    """
+
+    name: str
+    kind: str
+    default: Any
+    description: str
+    unit: str = ''
+    minimum: float | None = None
+    maximum: float | None = None
+    exclusive_minimum: bool = False
+    length: int | None = None
+    choices: tuple[str, ...] | None = None
+    required: bool = True     # a complete model file must give it (model parameters only)
+    max_length: int | None = None   # most characters of a string
+
+    @property
+    def full_description(self) -> str:
+        return f'{self.description} [{self.unit}]' if self.unit else self.description
+
+    @property
+    def range_text(self) -> str:
+        """The valid values in words: ``(0, 100]``, ``3 numbers in [-100, 100]``,
+        ``at most 256 characters``, ``backward | backward2`` (for the docs).
+        """
+        if self.choices:
+            return ' | '.join(self.choices)
+        if self.kind == 'bool':
+            return 'true | false'
+        if self.max_length is not None:
+            return f'at most {self.max_length} characters'
+        bounds = ''
+        if self.minimum is not None or self.maximum is not None:
+            low = '' if self.minimum is None else f'{self.minimum:g}'
+            high = '' if self.maximum is None else f'{self.maximum:g}'
+            bounds = f"{'(' if self.exclusive_minimum else '['}{low}, {high}]"
+        if self.length:
+            return f'{self.length} numbers' + (f' in {bounds}' if bounds else '')
+        return bounds
