@@ -184,3 +184,45 @@ def test_a_dead_renderer_is_logged_and_the_node_keeps_answering():
         client.close()
         assert proc.stop() == 0
     assert not Path(f'/proc/{pid}').exists()      # ended with the node
+
+
+def test_hexapod_markers_follow_its_solved_pose(tmp_path):
+    """The hexapod's node: base, six cylinders and rods, platform, joints and
+    status, its joints where the solver puts them for each answered pose."""
+    from test_markers import hexapod_points
+    from test_node_hexapod import HEXAPOD_FILE, motion, namespaced_file, publish, twist_of
+
+    model = fsd.load_model(HEXAPOD_FILE)
+    proc = NodeProcess('-r', '__ns:=/hexapod_markers', params_file=namespaced_file(tmp_path))
+    client = Client('hexapod_markers_client', namespace='/hexapod_markers')
+    arrays = listen(client)
+    try:
+        client.wait_for_node(proc)
+        t0 = time.time_ns() - 500_000_000
+        sent = {}
+        for k in range(20):
+            q, qd, qdd = motion(0.05 * k)
+            twist, accel = twist_of(q, qd, qdd)
+            sent[t0 + k * 50_000_000] = q
+            publish(client, t0 + k * 50_000_000, q, twist, accel)
+            client.spin_until(lambda: False, 0.05)
+
+        def drawn() -> list[MarkerArray]:
+            return [a for _, a in arrays if a.markers and stamp_ns(a.markers[0]) in sent]
+        assert client.spin_until(lambda: len(drawn()) >= 3, 10.0), proc.output()[-2000:]
+        for array in drawn():
+            markers = {m.ns: m for m in array.markers}
+            assert set(markers) == {f'{part}_{i}' for part in ('cylinder', 'rod')
+                                    for i in range(1, 7)} | {'base', 'platform', 'joints',
+                                                             'status'}
+            zero = np.zeros(6)
+            want = hexapod_points(fsd.solve(model, sent[stamp_ns(array.markers[0])], zero, zero))
+            for i in range(1, 7):
+                np.testing.assert_allclose(xyz(markers[f'rod_{i}'].points[1]), want[f'P{i}'],
+                                           atol=1e-9)
+                np.testing.assert_allclose(xyz(markers[f'cylinder_{i}'].points[0]),
+                                           want[f'B{i}'], atol=1e-9)
+            assert all(m.header.frame_id == 'simulator_base' for m in array.markers)
+    finally:
+        client.close()
+        assert proc.stop() == 0
