@@ -216,6 +216,51 @@ def stream(target: str, params: Path, rate: float, seconds: float, env: dict[str
                 p99=pct(0.99), max=lat[-1] if lat else math.nan)
 
 
+def marker_costs(params: Path, n: int) -> list[list[str]]:
+    """Per markers array, µs (median, p99) on the node's thread (the snapshot,
+    the renderer's request, the raw publish) and in the renderer (building and
+    serializing the array), over ``n`` solutions of the cueing motion.
+    """
+    import rclpy
+    from rclpy.context import Context
+    from visualization_msgs.msg import MarkerArray
+
+    import flight_sim_dynamics as fsd
+    from flight_sim_dynamics.ros.marker_publisher import render, request
+    from flight_sim_dynamics.ros.markers import snapshot
+
+    model = fsd.load_model(params)
+    machine = fsd.machine_of(model)
+    _, q, qd, qdd = machine.motions[MOTION].sampled(n / machine.motions[MOTION].duration)
+    sols = [machine.solve(model, *sample) for sample in zip(q[:n], qd[:n], qdd[:n])]
+    _, builder = render(request(model, 'simulator_base', (0, 0), None), None)
+    context = Context()
+    rclpy.init(context=context)
+    node = rclpy.create_node('bench_markers', context=context)
+    pub = node.create_publisher(MarkerArray, 'bench_markers', 10)
+    node_side, renderer = [], []
+    try:
+        for k, sol in enumerate(sols):
+            t0 = time.perf_counter()
+            message = request(None, 'simulator_base', (k, 0), snapshot(sol))
+            t1 = time.perf_counter()
+            reply, builder = render(message, builder)
+            t2 = time.perf_counter()
+            pub.publish(reply[1:])
+            t3 = time.perf_counter()
+            node_side.append(1e6 * (t1 - t0 + t3 - t2))
+            renderer.append(1e6 * (t2 - t1))
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+
+    def cells(values: list[float]) -> list[str]:
+        values = sorted(values)
+        return [f'{values[len(values) // 2]:.1f}', f'{values[int(0.99 * len(values))]:.1f}']
+    return [["node's thread (snapshot, request, raw publish)", *cells(node_side)],
+            ['renderer process (build, serialize)', *cells(renderer)]]
+
+
 ECHO = 'echo'
 #: the streams' targets: the node's ROS arguments, or the echo
 TARGETS = {'node, markers on': (), 'node, markers off': ('-p', 'output.markers_rate:=0.0'),
@@ -262,6 +307,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(table(['ratio to the echo', 'median', 'p99'],
                 [[target, f'{m["median"] / echo["median"]:.2f}x', f'{m["p99"] / echo["p99"]:.2f}x']
                  for target, m in figures.items() if target != ECHO]))
+    print(table(['markers, per array', 'median µs', 'p99 µs'],
+                marker_costs(params, 100 if args.quick else 1000)))
     return 0
 
 

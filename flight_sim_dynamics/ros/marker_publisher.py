@@ -27,7 +27,7 @@ from visualization_msgs.msg import MarkerArray
 
 from ..core.machine import Machine
 from ..machines.api import machine_of
-from .markers import MarkerBuilder, clear_array, snapshot
+from .markers import MarkerBuilder, Snapshot, clear_array, snapshot
 from .process import node_env
 
 LOG_THROTTLE = 5.0       # s between two log lines of failed markers
@@ -184,7 +184,7 @@ class MarkerPublisher:
         # the model once per renderer, and again after a change
         sent = None if model is self._sent_model else model
         try:
-            _write(self._child.stdin.fileno(), pickle.dumps((sent, self._frame, header, snap)))
+            _write(self._child.stdin.fileno(), request(sent, self._frame, header, snap))
             reply = _read(self._child.stdout.fileno())
         except (OSError, ValueError):
             reply = None
@@ -203,6 +203,13 @@ class MarkerPublisher:
                 self._pub.publish(reply[1:])
                 self._stamp = header
         return True
+
+
+def request(model: Any, frame_id: str, header: tuple[int, int], snap: Snapshot | None) -> bytes:
+    """A message to the renderer: the model (None: unchanged), the frame, the
+    stamp and the snapshot to draw (None: home).
+    """
+    return pickle.dumps((model, frame_id, header, snap))
 
 
 def render(message: bytes, builder: MarkerBuilder | None) -> tuple[bytes, MarkerBuilder | None]:

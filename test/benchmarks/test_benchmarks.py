@@ -92,3 +92,5 @@ def test_node_prints_the_node_with_and_without_markers_next_to_the_echo():
               if not k.startswith(':')}
     assert set(ratios) == {'node, markers on', 'node, markers off'}
     assert all(v > 0 for cells in ratios.values() for v in numbers(cells))
+    costs = {k: v for k, v in table(rows, 'markers, per array').items() if not k.startswith(':')}
+    assert len(costs) == 2 and all(v > 0 for cells in costs.values() for v in numbers(cells))
