@@ -2,7 +2,8 @@
 --rate, the machine's ``cueing`` motion, each timed until its
 ``actuator_states``): the node with its markers at the file's rate, the node
 without markers (``output.markers_rate:=0``) and a same-traffic rclpy echo (the
-node's three subscriptions and two JointStates, no solve), in rotating order.
+node's three subscriptions and two JointStates, no solve), in rotating order;
+then what one markers array costs the node's thread and the renderer process.
 
     python -m benchmarks.node [--params FILE] [--rate 1000] [--seconds 5] [--repeats 3] [--quick]
 """
