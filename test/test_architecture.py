@@ -22,19 +22,16 @@ ALLOWED = {
     'cli': {'core', 'config', 'ros', 'machines'},
 }
 #: modules of ros/ that talk to rclpy (the rest of ros/ is plain Python)
-RCLPY_MODULES = {'ros/dynamics_node.py', 'ros/node.py', 'ros/planner.py', 'ros/platform_sim.py',
-                 'ros/service_thread.py', 'ros/sim_node.py', 'cli/demo.py'}
+RCLPY_MODULES = {'ros/dynamics_node.py', 'ros/marker_publisher.py', 'ros/node.py',
+                 'ros/planner.py', 'ros/platform_sim.py', 'ros/service_thread.py',
+                 'ros/sim_node.py', 'cli/demo.py'}
 #: subpackages that see the machines only through the registry
 #: (``flight_sim_dynamics.machines``) and the public calls
 #: (``flight_sim_dynamics.machines.api``), never a machine's own modules
-#: (``machines.<name>``), so that a new machine touches neither. 'ros' joins
-#: once the rewritten ROS adapter is merged (the lead enables it then).
-MACHINE_BLIND = ('cli',)
+#: (``machines.<name>``), so that a new machine touches neither
+MACHINE_BLIND = ('cli', 'ros')
 #: the gateways of MACHINE_BLIND subpackages into machines/
 MACHINE_GATEWAYS = {'flight_sim_dynamics.machines', 'flight_sim_dynamics.machines.api'}
-#: modules not yet held to it: cli/demo.py (imports machines.staicu.motions) is
-#: rewritten by another branch; the lead removes this exemption at the merge.
-MACHINE_BLIND_EXEMPT = {'cli/demo.py'}
 #: modules that import matplotlib (an optional extra): imported lazily, by the
 #: commands that plot, so that nothing else ever needs matplotlib
 LAZY = {'flight_sim_dynamics.cli.plotting', 'flight_sim_dynamics.cli.workspace',
@@ -106,7 +103,6 @@ def test_machines_are_seen_only_through_the_registry_and_api(sub):
     in the registry: nothing in these subpackages names a machine's modules."""
     offenders = [f'{path.relative_to(PACKAGE)} imports {target}'
                  for path in sorted((PACKAGE / sub).rglob('*.py'))
-                 if str(path.relative_to(PACKAGE)) not in MACHINE_BLIND_EXEMPT
                  for target in machine_modules_imported(path)]
     assert not offenders, offenders
 
@@ -170,23 +166,3 @@ def test_no_sys_path_edits_anywhere():
                     and isinstance(node.value.value, ast.Name) and node.value.value.id == 'sys'):
                 offenders.append(f'{path.relative_to(ROOT)}:{node.lineno}')
     assert not offenders, offenders
-
-
-#: modules of ros/ that serve every machine through its Machine record: they
-#: import no machines.<name> module (the rest of ros/ joins as it is made generic)
-MACHINE_FREE = {'ros/dynamics_node.py', 'ros/setpoints.py', 'ros/node.py', 'ros/platform_sim.py',
-                'ros/sim_node.py', 'ros/planner.py', 'ros/process.py', 'ros/service_thread.py',
-                'cli/demo.py'}
-
-
-@pytest.mark.parametrize('rel', sorted(MACHINE_FREE))
-def test_ros_imports_no_machine_of_its_own(rel):
-    """What differs per machine comes from the Machine record (core/machine.py)
-    and the registry (machines/__init__.py, machines/api.py), never from a
-    machine's own modules: a third machine touches nothing here."""
-    names = {m.name for m in (PACKAGE / 'machines').iterdir() if m.is_dir()
-             and (m / '__init__.py').is_file()}
-    own = sorted(t for t, _ in imports(PACKAGE / rel)
-                 if t.split('.')[:2] == ['flight_sim_dynamics', 'machines']
-                 and len(t.split('.')) > 2 and t.split('.')[2] in names)
-    assert not own, f'{rel} imports {own}'

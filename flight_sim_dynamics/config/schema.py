@@ -225,7 +225,7 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'header.frame_id of joint_states (the machine\'s joint variables)', '',
               max_length=MAX_NAME),
     ParamSpec('output.markers_rate', 'double', 30.0,
-              'rate of the mechanism markers (visualization_msgs/MarkerArray of '
+              "rate of the machine's markers (visualization_msgs/MarkerArray of "
               'ros/markers.py, in output.frame_id); 0 = none', 'Hz',
               minimum=0.0, maximum=1000.0),
 )

@@ -28,14 +28,10 @@ from rclpy.serialization import deserialize_message
 from rclpy.task import Future
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
-from visualization_msgs.msg import MarkerArray
-
-import flight_sim_dynamics as fsd
 
 from ..config import parameters as prm
 from ..config.node_schema import MACHINE, NodeSchema, node_schema
-from .markers import MarkerBuilder
-from .markers import Model as MarkedModel   # the models markers.py draws
+from .marker_publisher import MarkerPublisher
 from .process import end_spins, stop_requested
 from .service_thread import ServiceThread
 from .setpoints import (ACCEL, BAD_SETPOINT, ERROR, INACTIVE, LEVEL_NAMES, PLATFORM, POSE, TWIST,
@@ -164,10 +160,9 @@ class DynamicsNode(LifecycleNode):
         self._latest: int | None = None
         self._latest_until = 0.0
         self._endpoints: list[Any] = []
-        self._actuator_pub = self._joint_pub = self._markers_pub = self._diag_pub = None
-        self._diag_timer = self._poll_timer = self._markers_timer = None
-        self._markers: MarkerBuilder | None = None
-        self._home = None                        # the solution at home of the running model
+        self._actuator_pub = self._joint_pub = self._diag_pub = None
+        self._diag_timer = self._poll_timer = None
+        self._markers: MarkerPublisher | None = None
         self._diag_name = diagnostic_name(self.get_fully_qualified_name())
         # timers on the steady clock: they tick with use_sim_time and no /clock
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -282,11 +277,9 @@ class DynamicsNode(LifecycleNode):
             self._intake.stats.parameter_changes += 1
             new = staged.config
             if staged.model is not old.model:
-                self._markers = self._marker_builder(staged.model, new.output_frame_id)
-            if self._markers is not None:
-                self._markers.frame_id = new.output_frame_id
-            if new.output_markers_rate != old.config.output_markers_rate:
-                self._markers_rate(new.output_markers_rate)
+                self._markers.set_model(staged.model)
+            self._markers.set_frame(new.output_frame_id)
+            self._markers.set_rate(new.output_markers_rate)
             self._diag_timer.timer_period_ns = int(new.diagnostics_period * 1e9)
             self._poll_timer.timer_period_ns = int(self._poll_period(new) * 1e9)
             self.get_logger().info('parameters changed: '
@@ -324,6 +317,8 @@ class DynamicsNode(LifecycleNode):
     def destroy_node(self) -> None:
         if self._apart is not None:
             self._apart.stop()
+        if self._markers is not None:        # its renderer process ends with it
+            self._markers.close()
         super().destroy_node()
 
     def _guarded(self, name: str, handler: Callable[[Any, Any], Any]) -> Callable[[Any, Any], Any]:
@@ -531,6 +526,7 @@ class DynamicsNode(LifecycleNode):
 
     def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
         self._active = False
+        self._markers.clear()
         self._log(self._intake.reset(INACTIVE))
         self.get_logger().info('inactive: setpoints are counted as inactive, not answered')
         return super().on_deactivate(state)
@@ -552,17 +548,20 @@ class DynamicsNode(LifecycleNode):
 
     def _release(self) -> None:
         self._active = False
-        for timer in filter(None, (self._diag_timer, self._poll_timer, self._markers_timer)):
+        for timer in filter(None, (self._diag_timer, self._poll_timer)):
             self.destroy_timer(timer)
-        for pub in filter(None, (self._actuator_pub, self._joint_pub, self._markers_pub)):
+        for pub in filter(None, (self._actuator_pub, self._joint_pub)):
             self.destroy_lifecycle_publisher(pub)
+        if self._markers is not None:
+            self._markers.close()
         for sub in self._endpoints[2:]:
             self.destroy_subscription(sub)
         if self._diag_pub is not None:
             self.destroy_publisher(self._diag_pub)
         self._endpoints = []
-        self._actuator_pub = self._joint_pub = self._markers_pub = self._diag_pub = None
-        self._diag_timer = self._poll_timer = self._markers_timer = None
+        self._actuator_pub = self._joint_pub = self._diag_pub = None
+        self._diag_timer = self._poll_timer = None
+        self._markers = None
         self._runtime = self._staged = None
 
     def _create_endpoints(self, runtime: Runtime) -> None:
@@ -594,9 +593,8 @@ class DynamicsNode(LifecycleNode):
                                              clock=self._steady)
         self._poll_timer = self.create_timer(self._poll_period(config), self._on_poll,
                                              clock=self._steady)
-        self._markers = self._marker_builder(runtime.model, config.output_frame_id)
-        self._markers_pub = self.create_lifecycle_publisher(MarkerArray, 'markers', 10)
-        self._markers_rate(config.output_markers_rate)
+        self._markers = MarkerPublisher(self, self._schema.machine, runtime.model,
+                                        config.output_frame_id, config.output_markers_rate)
 
     @staticmethod
     def _poll_period(config: prm.NodeConfig) -> float:
@@ -673,6 +671,7 @@ class DynamicsNode(LifecycleNode):
             joints.position, joints.velocity = answer.joints, answer.joint_rates
             self._actuator_pub.publish(actuator)
             self._joint_pub.publish(joints)
+        self._markers.offer(self._intake.last_header, self._intake.last_solution)
         self._log(([], lines))
 
     def _log(self, outcome: Outcome) -> None:
@@ -689,41 +688,6 @@ class DynamicsNode(LifecycleNode):
         # not while shutting down: a failed publish then is the shutdown's
         if self._intake is not None and self.context.ok():
             self._log(self._intake.internal_error(exc))
-
-    def _markers_rate(self, rate: float) -> None:
-        """0: stop, and clear the view."""
-        if self._markers_timer is not None:
-            self.destroy_timer(self._markers_timer)
-            self._markers_timer = None
-            if not rate and self._markers is not None:
-                self._markers_pub.publish(self._markers.clear())
-        if rate:
-            self._markers_timer = self.create_timer(1.0 / rate, self._on_markers,
-                                                    clock=self._steady)
-
-    @staticmethod
-    def _marker_builder(model: Any, frame_id: str) -> MarkerBuilder | None:
-        """The markers of the models markers.py draws (None: no markers)."""
-        return MarkerBuilder(model, frame_id) if isinstance(model, MarkedModel) else None
-
-    def _on_markers(self) -> None:
-        """The mechanism at the last answered setpoint, stamped like it; before
-        the first one, at home (the central configuration), stamped now.
-        """
-        try:
-            if self._markers_pub is None or self._markers is None:
-                return
-            if self._intake.last_solution is not None:
-                sol, header = self._intake.last_solution, self._intake.last_header
-            else:
-                model = self._runtime.model
-                if self._home is None or self._home.model is not model:
-                    zero = (0.0,) * self._schema.machine.dof
-                    self._home = fsd.solve(model, zero, zero, zero)
-                sol, header = self._home, self.get_clock().now().seconds_nanoseconds()
-            self._markers_pub.publish(self._markers.update(sol, *header))
-        except Exception as exc:  # noqa: BLE001
-            self._internal_error(exc)
 
     def _on_diagnostics(self) -> None:
         try:

@@ -1,41 +1,57 @@
-"""One solution as a MarkerArray (eqs. 5-8), one marker per part updated in
-place; legs coloured by |force| / max_force (red beyond a limit, magenta near
-singular); without positions the last pose in grey. No rclpy here.
+"""Any machine's drawing (:attr:`Machine.drawing`, core/drawing.py) as one
+MarkerArray, one marker per part updated in place: each line part, each plate,
+the joints and a status text. Legs coloured by |force| / max_force (red beyond
+a limit of the leg, magenta near singular); a pose without a drawing redraws
+the last one grey. No rclpy here (the node publishes it: ros/marker_publisher.py).
 """
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import Any, NamedTuple, Sequence
 
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
+from ..core.machine import Machine
 from ..core.status import SEVERITY, Status
-from ..core.vectors import backend
-from ..machines.staicu.kinematics import inverse_geometry
-from ..machines.staicu.mechanism import JOINTS, PLATE, SEGMENTS, mechanism_points
-from ..machines.staicu.model import LEG_NAMES, Model
-from ..machines.staicu.solver import Solution
 
-_SCALAR = backend(False)
-
-NAMESPACES = LEG_NAMES + ('rod', 'platform', 'crank_d', 'crank_e', 'joints', 'status')
-
-WIDTH = {'leg_a': 0.04, 'leg_b': 0.04, 'leg_c': 0.04, 'rod': 0.05, 'crank_d': 0.03,
-         'crank_e': 0.03}
-JOINT_DIAMETER = 0.07
-TEXT_HEIGHT = 0.08
-TEXT_ABOVE = 0.35          # m above G
-MAX_TEXT = 120             # characters of the status text
+# sizes as fractions of the machine's size (the diagonal of its home drawing's
+# bounding box, about 3.4 m for both packaged machines)
+WIDTH_PER_STYLE = 0.0133 / 3.45    # a line part's width per unit of PartStyle.width
+JOINT_DIAMETER = 0.02
+TEXT_HEIGHT = 0.023
+TEXT_ABOVE = 0.1                   # above the highest point drawn
+MAX_TEXT = 120                     # characters of the status text
 
 RED = (1.0, 0.0, 0.0, 1.0)
 MAGENTA = (1.0, 0.0, 1.0, 1.0)
 GREY = (0.5, 0.5, 0.5, 0.4)
-PART_COLOURS = {'rod': (0.25, 0.35, 0.8, 1.0), 'platform': (0.6, 0.65, 0.75, 0.8),
-                'crank_d': (0.1, 0.6, 0.6, 1.0), 'crank_e': (0.1, 0.6, 0.6, 1.0),
-                'joints': (0.15, 0.15, 0.15, 1.0), 'status': (1.0, 1.0, 1.0, 1.0)}
+WHITE = (1.0, 1.0, 1.0, 1.0)
+JOINT_COLOUR = (0.15, 0.15, 0.15, 1.0)
+PLATE_ALPHA = 0.8
+JOINTS, STATUS = 'joints', 'status'
+
+
+class Snapshot(NamedTuple):
+    """What the markers draw of one solution, plain numbers (picklable)."""
+
+    pose: tuple[float, ...]        # q, the machine's coordinates
+    stroke: tuple[float, ...]      # per leg, m
+    rate: tuple[float, ...]        # per leg, m/s
+    force: tuple[float, ...]       # per leg, N
+    status: Status
+    detail: str
+
+
+def snapshot(sol: Any) -> Snapshot:
+    """The :class:`Snapshot` of one solution of ``Machine.solve``; ValueError for a batch."""
+    if not isinstance(sol.status, Status):
+        raise ValueError('markers take one solution of solve, not a batch')
+    return Snapshot(tuple(float(v) for v in sol.pose), tuple(sol.stroke.tolist()),
+                    tuple(sol.rate.tolist()), tuple(sol.force.tolist()), sol.status,
+                    str(sol.detail))
 
 
 def force_colour(fraction: float) -> tuple[float, float, float, float]:
@@ -46,6 +62,19 @@ def force_colour(fraction: float) -> tuple[float, float, float, float]:
     return (1.0, 2.0 * (1.0 - r), 0.0, 1.0)
 
 
+def hex_colour(text: str, alpha: float = 1.0) -> tuple[float, float, float, float]:
+    """'#rrggbb' as RGBA in [0, 1]."""
+    return (int(text[1:3], 16) / 255, int(text[3:5], 16) / 255, int(text[5:7], 16) / 255, alpha)
+
+
+def triangles(corners: Sequence[str]) -> tuple[str, ...]:
+    """A plate through ``corners`` (going round) as a triangle fan from the first,
+    in both windings (seen from either side).
+    """
+    fan = [(corners[0], a, b) for a, b in zip(corners[1:-1], corners[2:])]
+    return tuple(p for tri in fan for p in tri) + tuple(p for a, b, c in fan for p in (a, c, b))
+
+
 def _set_colour(c: ColorRGBA, rgba: Sequence[float]) -> None:
     c.r, c.g, c.b, c.a = rgba
 
@@ -54,43 +83,54 @@ def _set_point(p: Point, xyz: Sequence[float]) -> None:
     p.x, p.y, p.z = xyz
 
 
-def _over_limits(sol: Solution, leg: int) -> bool:
-    lim = sol.model.limits
-    stroke = float(sol.stroke[leg])
-    return not (lim.stroke_min <= stroke <= lim.stroke_max
-                and abs(float(sol.rate[leg])) <= lim.max_speed
-                and abs(float(sol.force[leg])) <= lim.max_force)
-
-
 class MarkerBuilder:
-    """One MarkerArray, rewritten in place by :meth:`update`."""
+    """One MarkerArray of ``machine``'s ``model``, rewritten in place by
+    :meth:`update`: namespaces = the drawing's line parts, its plates,
+    ``joints``, ``status``; id 0 each.
+    """
 
-    def __init__(self, model: Model, frame_id: str) -> None:
+    def __init__(self, machine: Machine, model: Any, frame_id: str) -> None:
+        drawing = machine.drawing(model)
+        self.drawing = drawing
+        self.limits = machine.actuator_limits(model)
+        zero = (0.0,) * machine.dof
+        self.home = snapshot(machine.solve(model, zero, zero, zero))
+        self._last = drawing.points(zero)
+        low = [min(p[k] for p in self._last.values()) for k in range(3)]
+        high = [max(p[k] for p in self._last.values()) for k in range(3)]
+        self.size = math.dist(low, high)
+        self.plates = {name: triangles(corners) for name, corners in drawing.plates.items()}
+        self.namespaces = (*drawing.segments, *drawing.plates, JOINTS, STATUS)
+        self.colours: dict[str, tuple[float, float, float, float]] = {JOINTS: JOINT_COLOUR,
+                                                                      STATUS: WHITE}
         self.header = Header(stamp=Time(), frame_id=frame_id)
-        self.array = MarkerArray()
         self.markers: dict[str, Marker] = {}
-        kinds = {'platform': Marker.TRIANGLE_LIST, 'joints': Marker.SPHERE_LIST,
-                 'status': Marker.TEXT_VIEW_FACING}
-        sizes = {'platform': len(PLATE), 'joints': len(JOINTS), 'status': 0}
-        for ns in NAMESPACES:
-            m = Marker(ns=ns, id=0, type=kinds.get(ns, Marker.LINE_LIST), action=Marker.ADD)
+        for ns in self.namespaces:
+            m = Marker(ns=ns, id=0, action=Marker.ADD)
             m.header = self.header        # shared: one stamp to write
             m.pose.orientation.w = 1.0
-            m.points = [Point() for _ in range(sizes.get(ns, 2))]
-            if ns in WIDTH:
-                m.scale.x = WIDTH[ns]
-            elif ns == 'joints':
-                m.scale.x = m.scale.y = m.scale.z = JOINT_DIAMETER
-            elif ns == 'status':
-                m.scale.z = TEXT_HEIGHT
-            else:
+            if ns in drawing.segments:
+                m.type, n = Marker.LINE_LIST, 2
+                style = drawing.styles[ns]
+                m.scale.x = style.width * WIDTH_PER_STYLE * self.size
+                if style.colour is not None:
+                    self.colours[ns] = hex_colour(style.colour)
+            elif ns in self.plates:
+                m.type, n = Marker.TRIANGLE_LIST, len(self.plates[ns])
                 m.scale.x = m.scale.y = m.scale.z = 1.0
+                self.colours[ns] = hex_colour(drawing.plate_colours[ns], PLATE_ALPHA)
+            elif ns == JOINTS:
+                m.type, n = Marker.SPHERE_LIST, len(drawing.joints)
+                m.scale.x = m.scale.y = m.scale.z = JOINT_DIAMETER * self.size
+            else:
+                m.type, n = Marker.TEXT_VIEW_FACING, 0
+                m.scale.z = TEXT_HEIGHT * self.size
+            m.points = [Point() for _ in range(n)]
             self.markers[ns] = m
-        self.array.markers = [self.markers[ns] for ns in NAMESPACES]
-        self._last = mechanism_points(model, inverse_geometry(model, (0.0, 0.0, 0.0), _SCALAR))
+        self.array = MarkerArray(markers=[self.markers[ns] for ns in self.namespaces])
         self._draw(self._last)
         self._colour_void()
-        self.markers['status'].text = 'no solution yet'
+        self.markers[STATUS].text = 'no solution yet'
 
     @property
     def frame_id(self) -> str:
@@ -100,67 +140,76 @@ class MarkerBuilder:
     def frame_id(self, value: str) -> None:
         self.header.frame_id = value
 
-    def update(self, sol: Solution, sec: int, nanosec: int) -> MarkerArray:
-        """The markers of one solution (not a batch): publish before the next update."""
+    def update(self, snap: Snapshot, sec: int, nanosec: int) -> MarkerArray:
+        """The markers of one solution, stamped (sec, nanosec); the same array
+        at every call: publish (or serialize) it before the next.
+        """
         stamp = self.header.stamp
         stamp.sec, stamp.nanosec = int(sec), int(nanosec)
-        status = sol.status
-        if isinstance(status, Status):
-            severity = SEVERITY[status]
-        else:
-            raise ValueError('MarkerBuilder.update takes one solution of fsd.solve, '
-                             'not a batch')
         pts = None
-        if severity < SEVERITY[Status.UNREACHABLE]:
-            g = sol.geometric
-            if g is not None:
-                pts = mechanism_points(sol.model, g)
-                if not all(math.isfinite(v) for p in pts.values() for v in p):
-                    pts = None
+        if SEVERITY[snap.status] < SEVERITY[Status.UNREACHABLE]:
+            try:
+                pts = self.drawing.points(snap.pose)
+            except ValueError:                   # a pose the drawing cannot show
+                pts = None
+            if pts is not None and not all(math.isfinite(v) for p in pts.values() for v in p):
+                pts = None
         if pts is None:                          # unreachable, invalid input
             self._draw(self._last)
             self._colour_void()
         else:
             self._last = pts
             self._draw(pts)
-            self._colour(sol, status)
-        text = str(status) if not sol.detail else f'{status}: {sol.detail}'
-        self.markers['status'].text = (text if len(text) <= MAX_TEXT
-                                       else text[:MAX_TEXT - 3] + '...')
+            self._colour(snap)
+        text = str(snap.status) if not snap.detail else f'{snap.status}: {snap.detail}'
+        self.markers[STATUS].text = (text if len(text) <= MAX_TEXT
+                                     else text[:MAX_TEXT - 3] + '...')
         return self.array
 
     def clear(self) -> MarkerArray:
         """One DELETEALL marker (a new array)."""
-        m = Marker(action=Marker.DELETEALL)
-        m.header = Header(stamp=self.header.stamp, frame_id=self.header.frame_id)
-        return MarkerArray(markers=[m])
+        return clear_array(self.header.frame_id, self.header.stamp.sec, self.header.stamp.nanosec)
 
     def _draw(self, pts: dict) -> None:
-        for ns, (a, b) in SEGMENTS.items():
+        for ns, (a, b) in self.drawing.segments.items():
             p = self.markers[ns].points
             _set_point(p[0], pts[a])
             _set_point(p[1], pts[b])
-        for p, name in zip(self.markers['platform'].points, PLATE):
+        for ns, corners in self.plates.items():
+            for p, name in zip(self.markers[ns].points, corners):
+                _set_point(p, pts[name])
+        for p, name in zip(self.markers[JOINTS].points, self.drawing.joints):
             _set_point(p, pts[name])
-        for p, name in zip(self.markers['joints'].points, JOINTS):
-            _set_point(p, pts[name])
-        g = pts['G']
-        _set_point(self.markers['status'].pose.position, (g[0], g[1], g[2] + TEXT_ABOVE))
+        n = len(pts)
+        top = max(p[2] for p in pts.values())
+        _set_point(self.markers[STATUS].pose.position,
+                   (sum(p[0] for p in pts.values()) / n, sum(p[1] for p in pts.values()) / n,
+                    top + TEXT_ABOVE * self.size))
 
-    def _colour(self, sol: Solution, status: Status) -> None:
-        for ns, rgba in PART_COLOURS.items():
+    def _colour(self, snap: Snapshot) -> None:
+        for ns, rgba in self.colours.items():
             _set_colour(self.markers[ns].color, rgba)
-        max_force = sol.model.limits.max_force
-        for leg, ns in enumerate(LEG_NAMES):
-            if status is Status.NEAR_SINGULAR:
+        lim = self.limits
+        for leg, parts in enumerate(self.drawing.legs):
+            force = snap.force[leg]
+            if snap.status is Status.NEAR_SINGULAR:
                 rgba = MAGENTA
-            elif _over_limits(sol, leg):
+            elif not (lim.stroke_min[leg] <= snap.stroke[leg] <= lim.stroke_max[leg]
+                      and abs(snap.rate[leg]) <= lim.max_speed
+                      and abs(force) <= lim.max_force):
                 rgba = RED
             else:
-                rgba = force_colour(abs(float(sol.force[leg])) / max_force)
-            _set_colour(self.markers[ns].color, rgba)
+                rgba = force_colour(abs(force) / lim.max_force)
+            for ns in parts:
+                _set_colour(self.markers[ns].color, rgba)
 
     def _colour_void(self) -> None:
-        for ns in NAMESPACES:
-            _set_colour(self.markers[ns].color,
-                        PART_COLOURS['status'] if ns == 'status' else GREY)
+        for ns in self.namespaces:
+            _set_colour(self.markers[ns].color, WHITE if ns == STATUS else GREY)
+
+
+def clear_array(frame_id: str, sec: int = 0, nanosec: int = 0) -> MarkerArray:
+    """One DELETEALL marker: a viewer removes every marker of the topic."""
+    m = Marker(action=Marker.DELETEALL)
+    m.header = Header(stamp=Time(sec=int(sec), nanosec=int(nanosec)), frame_id=frame_id)
+    return MarkerArray(markers=[m])

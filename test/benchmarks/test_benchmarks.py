@@ -79,10 +79,19 @@ def test_twin_prints_the_real_time_factors_and_writes_the_figure(tmp_path):
     assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
 
 
-def test_node_prints_the_node_next_to_the_echo():
-    t = table(run('benchmarks.node', '--quick'), 'target')
-    for target in ('echo', 'node'):
+def test_node_prints_the_node_with_and_without_markers_next_to_the_echo():
+    rows = run('benchmarks.node', '--quick')
+    t = {k: v for k, v in table(rows, 'target').items() if not k.startswith(':')}
+    assert set(t) == {'echo', 'node, markers on', 'node, markers off'}
+    for target in t:
         median, p99, worst = numbers(t[target][:3])
         assert 0 < median <= p99 <= worst
         lost, sent = (int(v) for v in t[target][3].split(' / '))
         assert sent > 0 and 0 <= lost <= sent
+    ratios = table(rows, 'ratio to the echo')
+    for target in ('node, markers on', 'node, markers off'):
+        assert all(v > 0 for v in numbers(ratios[target]))
+    costs = table(rows, 'markers, per array')
+    for part in ("node's thread (snapshot, request, raw publish)",
+                 'renderer process (build, serialize)'):
+        assert all(v > 0 for v in numbers(costs[part]))

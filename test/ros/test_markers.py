@@ -1,8 +1,9 @@
-"""The mechanism's markers (ros/markers.py, issue 15): every drawn point is
-a joint position of the solver (eq. 5-8, mechanism.md "Points") in the
-REP-103 simulator base frame, colours are colours, no NaN for any status,
-and the array is the same messages with the same namespaces and ids at
-every update."""
+"""The markers of a machine's drawing (ros/markers.py): every drawn point is a
+point of the machine's drawing at the solved pose, for the 3-DOF machine the
+solver's joint positions (eq. 5-8, mechanism.md "Points") and for the hexapod
+its joints (S1), (S4), in the REP-103 simulator base frame; legs coloured by
+force and status, no NaN for any status, the same messages with the same
+namespaces and ids at every update."""
 from __future__ import annotations
 
 import math
@@ -16,13 +17,23 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.core import kernel as core_kernel
-from flight_sim_dynamics.ros.markers import (JOINTS, NAMESPACES, PLATE, SEGMENTS, MarkerBuilder,
-                                             force_colour)
-
+from flight_sim_dynamics.machines.api import machine_of
+from flight_sim_dynamics.ros.markers import (GREY, MAGENTA, RED, MarkerBuilder, force_colour,
+                                             snapshot, triangles)
 
 MODEL = fsd.load_model()
+HEXAPOD = fsd.load_model('config/stewart_6dof.yaml')
 ZERO = [0.0, 0.0, 0.0]
+ZERO6 = [0.0] * 6
 VOID = (fsd.Status.UNREACHABLE, fsd.Status.INVALID_INPUT)
+
+
+def builder(model=MODEL, frame: str = 'simulator_base') -> MarkerBuilder:
+    return MarkerBuilder(machine_of(model), model, frame)
+
+
+def update(b: MarkerBuilder, sol, sec: int = 0, nanosec: int = 0) -> MarkerArray:
+    return b.update(snapshot(sol), sec, nanosec)
 
 
 def expected_points(sol: fsd.Solution) -> dict[str, np.ndarray]:
@@ -62,8 +73,8 @@ def every_number(marker: Marker) -> list[float]:
     return values
 
 
-def check_well_formed(array: MarkerArray) -> None:
-    assert [m.ns for m in array.markers] == list(NAMESPACES)
+def check_well_formed(array: MarkerArray, b: MarkerBuilder) -> None:
+    assert [m.ns for m in array.markers] == list(b.namespaces)
     for m in array.markers:
         assert m.id == 0 and m.action == Marker.ADD
         assert all(math.isfinite(v) for v in every_number(m)), m.ns
@@ -71,18 +82,25 @@ def check_well_formed(array: MarkerArray) -> None:
             assert all(0.0 <= v <= 1.0 for v in (c.r, c.g, c.b, c.a)), m.ns
 
 
-def check_points(array: MarkerArray, sol: fsd.Solution) -> None:
-    want = expected_points(sol)
+def check_points(array: MarkerArray, b: MarkerBuilder, want: dict) -> None:
+    """Every part's points are the named points ``want`` of the drawing."""
     markers = by_ns(array)
-    for ns, (a, b) in SEGMENTS.items():
+    drawing = b.drawing
+    for ns, (first, second) in drawing.segments.items():
         got = markers[ns].points
         assert len(got) == 2
-        np.testing.assert_allclose(xyz(got[0]), want[a], rtol=0, atol=1e-9, err_msg=ns)
-        np.testing.assert_allclose(xyz(got[1]), want[b], rtol=0, atol=1e-9, err_msg=ns)
-    for p, name in zip(markers['joints'].points, JOINTS, strict=True):
+        np.testing.assert_allclose(xyz(got[0]), want[first], rtol=0, atol=1e-9, err_msg=ns)
+        np.testing.assert_allclose(xyz(got[1]), want[second], rtol=0, atol=1e-9, err_msg=ns)
+    for p, name in zip(markers['joints'].points, drawing.joints, strict=True):
         np.testing.assert_allclose(xyz(p), want[name], rtol=0, atol=1e-9, err_msg=name)
-    for p, name in zip(markers['platform'].points, PLATE, strict=True):
-        np.testing.assert_allclose(xyz(p), want[name], rtol=0, atol=1e-9, err_msg=name)
+    for ns, corners in drawing.plates.items():
+        for p, name in zip(markers[ns].points, triangles(corners), strict=True):
+            np.testing.assert_allclose(xyz(p), want[name], rtol=0, atol=1e-9, err_msg=name)
+
+
+def check_3dof(array: MarkerArray, b: MarkerBuilder, sol: fsd.Solution) -> None:
+    check_points(array, b, expected_points(sol))
+    markers = by_ns(array)
     # the legs are the solver's leg lengths, the rod and the cranks their constant lengths
     for i, ns in enumerate(fsd.LEG_NAMES):
         p, q = markers[ns].points
@@ -93,29 +111,86 @@ def check_points(array: MarkerArray, sol: fsd.Solution) -> None:
         assert abs(np.linalg.norm(xyz(q) - xyz(p)) - length) < 1e-9, ns
 
 
+def hexapod_points(sol) -> dict[str, np.ndarray]:
+    """B_i fixed, P_i = p + R p_i (S1), (S4) with R = Rz(yaw) Ry(pitch) Rx(roll),
+    S_i on the leg at the cylinder's length (or P_i on a shorter leg)."""
+    model, q = sol.model, np.asarray(sol.pose, dtype=float)
+    roll, pitch, yaw = q[3:]
+    cr, sr, cp, sp, cy, sy = (np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch),
+                              np.cos(yaw), np.sin(yaw))
+    R = np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                  [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                  [-sp, cp * sr, cp * cr]])
+    out = {}
+    for i in range(6):
+        B = np.asarray(model.base_joints[i])
+        P = model.home + q[:3] + R @ np.asarray(model.platform_joints[i])
+        u = (P - B) / np.linalg.norm(P - B)
+        out[f'B{i + 1}'], out[f'P{i + 1}'] = B, P
+        out[f'S{i + 1}'] = B + min(model.limits.length_min, np.linalg.norm(P - B)) * u
+    return out
+
+
 poses = st.tuples(st.floats(-0.15, 0.15), st.floats(-0.15, 0.2), st.floats(-0.4, 0.4))
 rates = st.tuples(*[st.floats(-0.5, 0.5)] * 3)
+poses6 = st.tuples(*[st.floats(-0.1, 0.1)] * 3, *[st.floats(-0.2, 0.2)] * 3)
+rates6 = st.tuples(*[st.floats(-0.5, 0.5)] * 6)
 
 
 @pytest.mark.parametrize('use_kernel', [True, False], ids=['kernel', 'python'])
 @settings(max_examples=60)
 @given(q=poses, qd=rates, qdd=rates)
-def test_points_are_the_solver_joint_positions(use_kernel, q, qd, qdd):
+def test_3dof_points_are_the_solver_joint_positions(use_kernel, q, qd, qdd):
     with core_kernel.use_kernel(use_kernel):
         sol = fsd.solve(MODEL, q, qd, qdd)
     assume(sol.status not in VOID)
-    builder = MarkerBuilder(MODEL, 'simulator_base')
-    array = builder.update(sol, 7, 11)
-    check_well_formed(array)
-    check_points(array, sol)
+    b = builder()
+    array = update(b, sol, 7, 11)
+    check_well_formed(array, b)
+    check_3dof(array, b, sol)
     assert all(m.header.stamp.sec == 7 and m.header.stamp.nanosec == 11
                and m.header.frame_id == 'simulator_base' for m in array.markers)
 
 
-def test_central_configuration_points_in_the_base_frame():
+@settings(max_examples=60)
+@given(q=poses6, qd=rates6, qdd=rates6)
+def test_hexapod_markers_are_its_joints_at_the_solved_pose(q, qd, qdd):
+    sol = fsd.solve(HEXAPOD, q, qd, qdd)
+    assume(sol.status not in VOID)
+    b = builder(HEXAPOD)
+    array = update(b, sol, 3, 4)
+    check_well_formed(array, b)
+    check_points(array, b, hexapod_points(sol))
+    markers = by_ns(array)
+    assert {f'cylinder_{i}' for i in range(1, 7)} | {f'rod_{i}' for i in range(1, 7)} \
+        | {'base', 'platform', 'joints', 'status'} == set(markers)
+    for i in range(6):   # cylinder + rod: the solver's leg length, the rod the extension
+        cylinder, rod = markers[f'cylinder_{i + 1}'].points, markers[f'rod_{i + 1}'].points
+        assert np.linalg.norm(xyz(rod[1]) - xyz(cylinder[0])) == pytest.approx(
+            sol.length[i], abs=1e-9)
+        assert np.linalg.norm(xyz(rod[1]) - xyz(rod[0])) == pytest.approx(
+            max(sol.length[i] - HEXAPOD.limits.length_min, 0.0), abs=1e-9)
+        # both parts of a leg in its force colour
+        assert markers[f'cylinder_{i + 1}'].color == markers[f'rod_{i + 1}'].color
+    assert all(m.header.stamp.sec == 3 and m.header.stamp.nanosec == 4 for m in array.markers)
+
+
+def test_hexapod_platform_moves_with_heave_and_roll():
+    b = builder(HEXAPOD)
+    home = by_ns(update(b, fsd.solve(HEXAPOD, ZERO6, ZERO6, ZERO6)))
+    z_home = [p.z for p in home['platform'].points]
+    base_home = [tuple(xyz(p)) for p in home['base'].points]
+    up = by_ns(update(b, fsd.solve(HEXAPOD, [0, 0, 0.05, 0, 0, 0], ZERO6, ZERO6)))
+    assert [p.z for p in up['platform'].points] == pytest.approx([z + 0.05 for z in z_home])
+    assert [tuple(xyz(p)) for p in up['base'].points] == base_home
+    rolled = update(b, fsd.solve(HEXAPOD, [0, 0, 0, 0.1, 0, 0], ZERO6, ZERO6))
+    heights = {tuple(xyz(p))[1] > 0: xyz(p)[2] for p in by_ns(rolled)['joints'].points[6:]}
+    assert heights[True] > heights[False]     # positive roll lifts the left (+Y) side
+
+
+def test_3dof_central_configuration_points_in_the_base_frame():
     """q = 0: G at the origin, legs B and C mirror images, A1 below and behind."""
-    sol = fsd.solve(MODEL, ZERO, ZERO, ZERO)
-    m = by_ns(MarkerBuilder(MODEL, 'base').update(sol, 0, 0))
+    m = by_ns(update(builder(MODEL, 'base'), fsd.solve(MODEL, ZERO, ZERO, ZERO)))
     np.testing.assert_allclose(xyz(m['rod'].points[1]), [0, 0, 0], atol=1e-12)
     geom = MODEL.geometry
     np.testing.assert_allclose(xyz(m['leg_a'].points[0]),
@@ -125,102 +200,152 @@ def test_central_configuration_points_in_the_base_frame():
     assert b[1] < 0 < c[1]            # B on the right: -Y in REP-103
 
 
-def test_positive_roll_lowers_the_right_corner():
-    sol = fsd.solve(MODEL, [0.0, 0.0, 0.2], ZERO, ZERO)
-    m = by_ns(MarkerBuilder(MODEL, 'base').update(sol, 0, 0))
+def test_3dof_positive_roll_lowers_the_right_corner():
+    m = by_ns(update(builder(), fsd.solve(MODEL, [0.0, 0.0, 0.2], ZERO, ZERO)))
     assert m['leg_b'].points[1].z < m['leg_c'].points[1].z
 
 
-@pytest.mark.parametrize('q', [[0.0, 5.0, 0.0], [float('nan'), 0.0, 0.0],
-                               [0.0, 0.0, float('inf')], [3.0, -2.0, 1.0]])
-def test_void_solution_redraws_the_last_pose_grey(q):
-    builder = MarkerBuilder(MODEL, 'simulator_base')
-    good = fsd.solve(MODEL, [0.05, 0.1, 0.1], ZERO, ZERO)
-    before = [[tuple(xyz(p)) for p in m.points] for m in builder.update(good, 1, 0).markers]
-    bad = fsd.solve(MODEL, q, ZERO, ZERO)
-    assert bad.status in VOID
-    array = builder.update(bad, 2, 0)
-    check_well_formed(array)
+@pytest.mark.parametrize('model, good, bad', [
+    (MODEL, [0.05, 0.1, 0.1], [0.0, 5.0, 0.0]),
+    (MODEL, [0.05, 0.1, 0.1], [float('nan'), 0.0, 0.0]),
+    (MODEL, [0.05, 0.1, 0.1], [3.0, -2.0, 1.0]),
+    (HEXAPOD, [0.02, 0, 0.03, 0.05, 0, 0], [0, 0, float('inf'), 0, 0, 0]),
+    (HEXAPOD, [0.02, 0, 0.03, 0.05, 0, 0], [0, 0, 0, 0, 0, float('nan')])],
+    ids=['3dof-unreachable', '3dof-nan', '3dof-far', 'hexapod-inf', 'hexapod-nan'])
+def test_void_solution_redraws_the_last_pose_grey(model, good, bad):
+    b, zero = builder(model), [0.0] * len(good)
+    good_sol = fsd.solve(model, good, zero, zero)
+    before = [[tuple(xyz(p)) for p in m.points] for m in update(b, good_sol, 1).markers]
+    bad_sol = fsd.solve(model, bad, zero, zero)
+    assert bad_sol.status in VOID
+    array = update(b, bad_sol, 2)
+    check_well_formed(array, b)
     assert [[tuple(xyz(p)) for p in m.points] for m in array.markers] == before
     markers = by_ns(array)
-    for ns in NAMESPACES[:-1]:
+    for ns in b.namespaces[:-1]:
         c = markers[ns].color
-        assert c.r == c.g == c.b and c.a < 1, ns
-    assert markers['status'].text.startswith(str(bad.status))
+        assert (c.r, c.g, c.b, c.a) == pytest.approx(GREY), ns
+    assert markers['status'].text.startswith(str(bad_sol.status))
     # the next reachable solution is drawn and coloured again
-    array = builder.update(good, 3, 0)
-    check_points(array, good)
-    assert by_ns(array)['leg_a'].color.g > 0.5 and by_ns(array)['status'].text == 'ok'
+    array = update(b, good_sol, 3)
+    assert [[tuple(xyz(p)) for p in m.points] for m in array.markers] == before
+    leg = b.drawing.legs[0][0]
+    assert by_ns(array)[leg].color.g > 0.5 and by_ns(array)['status'].text == 'ok'
 
 
-def test_void_first_solution_draws_the_central_configuration():
-    builder = MarkerBuilder(MODEL, 'simulator_base')
-    array = builder.update(fsd.solve(MODEL, [0.0, 9.0, 0.0], ZERO, ZERO), 0, 0)
-    check_well_formed(array)
-    check_points(array, fsd.solve(MODEL, ZERO, ZERO, ZERO))
+def test_void_first_solution_draws_home():
+    for model in (MODEL, HEXAPOD):
+        b, zero = builder(model), [0.0] * machine_of(model).dof
+        bad = [float('nan')] + zero[1:]
+        array = update(b, fsd.solve(model, bad, zero, zero))
+        check_well_formed(array, b)
+        check_points(array, b, {k: np.array(v) for k, v in b.drawing.points(zero).items()})
 
 
-def test_leg_colours_follow_force_and_status():
+def test_leg_colours_follow_force_limits_and_status():
     assert force_colour(0.0) == (0.0, 1.0, 0.0, 1.0)
     assert force_colour(0.5) == (1.0, 1.0, 0.0, 1.0)
-    assert force_colour(1.0) == force_colour(7.0) == force_colour(float('nan'))
+    assert force_colour(1.0) == force_colour(7.0) == force_colour(float('nan')) == RED
     assert force_colour(-1.0) == force_colour(0.0)
-    builder = MarkerBuilder(MODEL, 'simulator_base')
+    b = builder()
     sol = fsd.solve(MODEL, ZERO, ZERO, ZERO)
-    legs = [by_ns(builder.update(sol, 0, 0))[ns].color for ns in fsd.LEG_NAMES]
+    legs = [by_ns(update(b, sol))[ns].color for ns in fsd.LEG_NAMES]
     for c, f in zip(legs, sol.force):
         assert (c.r, c.g, c.b) == pytest.approx(force_colour(abs(f) / 2000.0)[:3], abs=1e-6)
     # a force over the limit: the leg red, status limit
     low = replace(MODEL, limits=replace(MODEL.limits, max_force=35.0))
     sol = fsd.solve(low, ZERO, ZERO, ZERO)
     assert sol.status is fsd.Status.LIMIT
-    m = by_ns(builder.update(sol, 0, 0))
+    m = by_ns(MarkerBuilder(machine_of(low), low, 'simulator_base').update(snapshot(sol), 0, 0))
     assert (m['leg_a'].color.r, m['leg_a'].color.g) == (1.0, 0.0)     # 38.6 N > 35 N
     assert m['leg_b'].color.g > 0.0                                   # 33.2 N < 35 N
     assert m['status'].text.startswith('limit')
+
+
+def test_hexapod_leg_past_its_stroke_is_red_the_others_by_force():
+    b = builder(HEXAPOD)
+    sol = fsd.solve(HEXAPOD, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0], ZERO6, ZERO6)
+    markers = by_ns(update(b, sol))
+    max_force = HEXAPOD.limits.max_force
+    for i in range(6):
+        c = markers[f'cylinder_{i + 1}'].color
+        assert (c.r, c.g, c.b) == pytest.approx(force_colour(abs(sol.force[i]) / max_force)[:3])
+    # a pose beyond the strokes: status limit, the legs out of their stroke red
+    q = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    heave = 0.0
+    while sol.status is not fsd.Status.LIMIT and heave < 1.0:
+        heave += 0.01
+        q[2] = heave
+        sol = fsd.solve(HEXAPOD, q, ZERO6, ZERO6)
+    assert sol.status is fsd.Status.LIMIT, sol.detail
+    limits = machine_of(HEXAPOD).actuator_limits(HEXAPOD)
+    out = [not (limits.stroke_min[i] <= sol.stroke[i] <= limits.stroke_max[i]) for i in range(6)]
+    assert any(out)
+    markers = by_ns(update(b, sol))
+    for i in range(6):
+        c = markers[f'rod_{i + 1}'].color
+        if out[i]:
+            assert (c.r, c.g, c.b, c.a) == RED
+        else:
+            assert (c.r, c.g, c.b) == pytest.approx(
+                force_colour(abs(sol.force[i]) / HEXAPOD.limits.max_force)[:3])
 
 
 def test_near_singular_legs_are_magenta():
     strict = replace(MODEL, limits=replace(MODEL.limits, max_kinematic_condition=1.0))
     sol = fsd.solve(strict, [0.05, 0.1, 0.1], ZERO, ZERO)
     assert sol.status is fsd.Status.NEAR_SINGULAR
-    array = MarkerBuilder(MODEL, 'simulator_base').update(sol, 0, 0)
-    check_well_formed(array)
-    check_points(array, sol)
+    b = builder()
+    array = update(b, sol)
+    check_well_formed(array, b)
+    check_3dof(array, b, sol)
     c = by_ns(array)['leg_c'].color
-    assert (c.r, c.g, c.b) == (1.0, 0.0, 1.0)
+    assert (c.r, c.g, c.b, c.a) == MAGENTA
+    hexapod = replace(HEXAPOD, limits=replace(HEXAPOD.limits, max_jacobian_condition=1.0))
+    sol = fsd.solve(hexapod, [0.02, 0, 0.03, 0.05, 0, 0], ZERO6, ZERO6)
+    assert sol.status is fsd.Status.NEAR_SINGULAR
+    markers = by_ns(update(builder(hexapod), sol))
+    assert all((markers[ns].color.r, markers[ns].color.g, markers[ns].color.b) == (1, 0, 1)
+               for parts in builder(hexapod).drawing.legs for ns in parts)
 
 
 def test_same_messages_same_ids_across_updates():
-    builder = MarkerBuilder(MODEL, 'simulator_base')
-    first = builder.update(fsd.solve(MODEL, ZERO, ZERO, ZERO), 0, 0)
+    b = builder()
+    first = update(b, fsd.solve(MODEL, ZERO, ZERO, ZERO))
     objects = [id(m) for m in first.markers]
     keys = [(m.ns, m.id, m.type) for m in first.markers]
     assert len(set((ns, i) for ns, i, _ in keys)) == len(keys)
     for k, q in enumerate(([0.1, 0.0, 0.2], [0.0, 9.0, 0.0], [-0.1, 0.1, -0.3])):
-        array = builder.update(fsd.solve(MODEL, q, ZERO, ZERO), k, 0)
+        array = update(b, fsd.solve(MODEL, q, ZERO, ZERO), k)
         assert array is first
         assert [id(m) for m in array.markers] == objects
         assert [(m.ns, m.id, m.type) for m in array.markers] == keys
-    builder.frame_id = 'elsewhere'
+    b.frame_id = 'elsewhere'
     assert all(m.header.frame_id == 'elsewhere' for m in first.markers)
-    clear = builder.clear()
+    clear = b.clear()
     assert [m.action for m in clear.markers] == [Marker.DELETEALL]
     assert clear.markers[0].header.frame_id == 'elsewhere'
 
 
-def test_batch_solution_is_refused():
+def test_a_batch_solution_is_refused():
     batch = fsd.solve_batch(MODEL, np.zeros((2, 3)), np.zeros((2, 3)), np.zeros((2, 3)))
     with pytest.raises(ValueError, match='batch'):
-        MarkerBuilder(MODEL, 'simulator_base').update(batch, 0, 0)
+        snapshot(batch)
 
 
-def test_the_array_serialises():
-    """What the node will publish: rclpy's serialisation reads it back equal."""
+def test_the_3dof_namespaces_are_the_documented_ones():
+    assert set(builder().namespaces) == {'leg_a', 'leg_b', 'leg_c', 'rod', 'platform',
+                                         'crank_d', 'crank_e', 'joints', 'status'}
+
+
+@pytest.mark.parametrize('model', [MODEL, HEXAPOD], ids=['3dof', 'hexapod'])
+def test_the_array_serialises(model):
+    """What the node publishes: rclpy's serialisation reads it back equal."""
     from rclpy.serialization import deserialize_message, serialize_message
 
-    array = MarkerBuilder(MODEL, 'simulator_base').update(
-        fsd.solve(MODEL, [0.05, 0.1, 0.2], ZERO, ZERO), 5, 6)
+    zero = [0.0] * machine_of(model).dof
+    q = [0.05] + [0.0] * (len(zero) - 1)
+    array = update(builder(model), fsd.solve(model, q, zero, zero), 5, 6)
     back = deserialize_message(serialize_message(array), MarkerArray)
     assert len(back.markers) == len(array.markers)
     for got, sent in zip(back.markers, array.markers):
