@@ -196,11 +196,14 @@ class PoseMap:
                              + [c for c in others if c in self.parasitic])
         self._checks = tuple((c, COMPONENTS.index(c), COMPONENTS.index(c) < 3,
                               self.parasitic.get(c)) for c in self.ignored)
-        # the Euler angles followed: their positions in q (None: held at zero)
+        # the Euler angles followed: their positions in q (None: held at zero);
+        # pitch and yaw held: E is the identity, the angular part taken as it is
         self._euler = tuple(names.index(c) if c in names else None
                             for c in COMPONENTS[3:])
-        #: the coordinates unwrapped across +-pi by the estimator
+        self._identity = self._euler[1] is None and self._euler[2] is None
+        #: the coordinates unwrapped across +-pi by the estimator (the angles)
         self.angles = tuple(i for i, unit in enumerate(self.units) if unit == 'rad')
+        self._linear = tuple(i for i, unit in enumerate(self.units) if unit != 'rad')
 
     def coordinates(self, msg: Motion) -> Vec:
         """The machine's components of a message, in its order."""
@@ -211,16 +214,30 @@ class PoseMap:
 
     def rates(self, q: Vec, twist: Motion) -> Vec:
         """The rates (qd) of a twist at the pose q: linear as given, angular as Euler rates (S2)."""
+        if self._identity:
+            return tuple([twist[i] for i in self.index])
         euler = euler_rates(self._angles(q), twist[3:])
         return tuple([twist[i] if i < 3 else euler[i - 3] for i in self.index])
 
     def accelerations(self, q: Vec, qd: Vec, accel: Motion) -> Vec:
         """The accelerations (qdd) of an acceleration at the pose q and rates qd (S3)."""
+        if self._identity:
+            return tuple([accel[i] for i in self.index])
         euler = euler_accelerations(self._angles(q), self._angles(qd), accel[3:])
         return tuple([accel[i] if i < 3 else euler[i - 3] for i in self.index])
 
     def check_acceleration(self, qdd: Sequence[float], max_linear: float, max_angular: float,
                            source: str = 'acceleration') -> None:
+        """:func:`check_acceleration` of the machine's coordinates."""
+        for i in self._linear:
+            if abs(qdd[i]) > max_linear:
+                break
+        else:
+            for i in self.angles:
+                if abs(qdd[i]) > max_angular:
+                    break
+            else:
+                return
         check_acceleration(qdd, self.names, self.units, max_linear, max_angular, source)
 
     def unfollowable(self, pose: Motion, twist: Motion | None, accel: Motion | None,
@@ -238,8 +255,9 @@ class PoseMap:
             if own is not None:
                 bad = abs(value) > tolerance and abs(value - own(solution)) > tolerance
             else:
-                bad = abs(value) > tolerance or any(
-                    rates is not None and abs(rates[i]) > tolerance for rates in (twist, accel))
+                bad = (abs(value) > tolerance
+                       or (twist is not None and abs(twist[i]) > tolerance)
+                       or (accel is not None and abs(accel[i]) > tolerance))
             if bad:
                 out.append(name)
         return tuple(out)
@@ -671,9 +689,9 @@ def check_limits(stroke: Sequence[float], rate: Sequence[float], force: Sequence
     anyway); legs named by ``labels`` (upper case).
     """
     usages = {}
-    for i, label in enumerate(labels):
+    for i, (label, low, high) in enumerate(zip(labels, limits.stroke_min.tolist(),
+                                               limits.stroke_max.tolist())):
         leg = label.upper()
-        low, high = float(limits.stroke_min[i]), float(limits.stroke_max[i])
         mid, half = 0.5 * (high + low), 0.5 * (high - low)
         usages[f'stroke {leg}'] = abs(stroke[i] - mid) / half
         usages[f'speed {leg}'] = abs(rate[i]) / limits.max_speed
