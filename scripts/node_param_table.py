@@ -64,8 +64,9 @@ def blocks() -> dict[tuple[str, str], str]:
     """(page, marker name) -> the table text."""
     bodies = '`<body>` is one of ' + ', '.join(f'`{b}`' for b in BODY_NAMES) + '.'
     node = '\n'.join(['Node parameters:', '', *table(prm.NODE_PARAMETERS), '',
-                      'Model parameters (the names of the YAML file; `load_model` reads them '
-                      'too):', '', *table(prm.MODEL_PARAMETERS), '', bodies])
+                      "The 3-DOF machine's model parameters (the names of its YAML file; "
+                      '`load_model` reads them too):', '', *table(prm.MODEL_PARAMETERS), '',
+                      bodies])
     hexapod = '\n'.join(table(STEWART.parameter_specs, fold=False,
                                defaults=dict(node_schema('stewart_6dof').defaults)))
     return {('node.md', 'node-parameters'): node,

@@ -11,6 +11,7 @@ the snapshot's pickle and the raw publish only (docs/node.md, "Markers").
 from __future__ import annotations
 
 import copyreg
+import math
 import os
 import pickle
 import signal
@@ -88,6 +89,8 @@ class MarkerPublisher:
         self._generation = 0                # a clear or close drops the tick under way
         self._lock = threading.Lock()       # publishing, against clear and close
         self._wake = threading.Event()
+        self._due = math.inf                # monotonic time of the next array
+        self._kicked = False                # woken by an offer for it
         self._closed = False
         self._child = subprocess.Popen(
             [sys.executable, '-m', __name__], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
@@ -97,8 +100,14 @@ class MarkerPublisher:
 
     # -- the node's calls (its thread) -------------------------------------------------
     def offer(self, header: tuple[int, int], solution: Any) -> None:
-        """The latest answered setpoint's stamp (sec, nanosec) and solution: kept only."""
+        """The latest answered setpoint's stamp (sec, nanosec) and solution: kept;
+        when an array is due, the thread is woken to draw it now, while the node
+        waits for its next setpoint.
+        """
         self._latest = (header, solution)
+        if not self._kicked and time.monotonic() >= self._due:
+            self._kicked = True
+            self._wake.set()
 
     def set_model(self, model: Any) -> None:
         self._model = model
@@ -154,17 +163,26 @@ class MarkerPublisher:
 
     # -- the publisher's thread ----------------------------------------------------------
     def _run(self) -> None:
-        due = time.monotonic()
-        rate = self._rate
+        """An array when one is due and an offer came, else half a period
+        later (no setpoints: at the rate all the same).
+        """
+        rate = due = 0.0
         while not self._closed:
-            if self._rate != rate:            # a new rate: its first tick now
+            if self._rate != rate:            # a new rate: its first array now
                 rate, due = self._rate, time.monotonic()
-            wait = None if not rate else due - time.monotonic()
-            if wait is None or wait > 0:
-                self._wake.wait(wait)
+                self._due = due if rate else math.inf
+            if not rate:
+                self._wake.wait()
                 self._wake.clear()
                 continue
-            due = max(due + 1.0 / rate, time.monotonic())    # late: no catching up
+            now = time.monotonic()
+            late = due + 0.5 / rate
+            if now < late and not (self._kicked and now >= due):
+                self._wake.wait(late - now)
+                self._wake.clear()
+                continue
+            due = max(due + 1.0 / rate, now)    # late: no catching up
+            self._due, self._kicked = due, False
             try:
                 if not self._tick():
                     return
@@ -230,9 +248,24 @@ def render(message: bytes, builder: MarkerBuilder | None) -> tuple[bytes, Marker
         return b'E' + f'{type(exc).__name__}: {exc}'.encode(), builder
 
 
+def idle_priority() -> None:
+    """This process runs only on a core nothing else wants (Linux SCHED_IDLE,
+    else the lowest nice): on a host of few cores, drawing never delays the
+    node's or its planner's threads.
+    """
+    try:
+        os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
+    except (AttributeError, OSError):
+        try:
+            os.nice(19)
+        except OSError:
+            pass
+
+
 def main() -> int:
     """The renderer: messages on stdin, answers on stdout, until stdin ends."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)    # the node ends it
+    idle_priority()
     source, sink = sys.stdin.fileno(), sys.stdout.fileno()
     builder = None
     while (message := _read(source)) is not None:

@@ -270,6 +270,18 @@ def test_a_model_parameter_changes_live_and_a_bad_one_is_refused(client, model, 
     assert not np.allclose(msgs[0].effort, fsd.solve(model, q, qd, qdd).force)
     [back] = client.set_params({'bodies.platform.mass': float(model.platform.mass)})
     assert back.successful
+    # the scene switches the hexapod's effects as the 3-DOF machine's
+    [scene] = client.set_params({'scene': 'quasi_static'})
+    assert scene.successful, scene.reason
+    [stamp] = stamps(1)
+    publish(client, stamp, q, twist, accel)
+    msgs = answer(client, stamp)
+    assert msgs is not None, client.explain()
+    quasi = fsd.load_model(HEXAPOD_FILE, scene='quasi_static')
+    assert_solved(msgs, fsd.solve(quasi, q, qd, qdd))
+    [unknown] = client.set_params({'scene': 'no_such_scene'})
+    assert not unknown.successful
+    assert client.set_params({'scene': 'full'})[0].successful
 
 
 def test_the_readme_one_liners_for_the_hexapod_are_answered(client):
@@ -394,6 +406,19 @@ def test_two_machines_side_by_side_in_two_namespaces(tmp_path, model):
             c.close()
         three.stop()
         six.stop()
+
+
+def test_a_bad_start_up_value_of_the_hexapod_ends_the_start():
+    """Checked by the hexapod's own declarations and builder, as the 3-DOF
+    machine's: one error line, exit status 2."""
+    for args in (('-p', 'limits.length_min:=-1.0'), ('-p', 'limits.length_max:=0.5')):
+        proc = NodeProcess(*args, params_file=HEXAPOD_FILE)
+        try:
+            assert proc.proc.wait(30.0) == 2, proc.output()[-2000:]
+            out = proc.output()
+            assert 'error: invalid parameters' in out and 'limits.length_' in out, out[-2000:]
+        finally:
+            proc.stop()
 
 
 def test_a_section_that_does_not_reach_the_node_is_refused():
