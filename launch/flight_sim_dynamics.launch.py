@@ -22,6 +22,7 @@ from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import LifecycleNode, Node
 
+from flight_sim_dynamics.config.files import read_params_sections
 from flight_sim_dynamics.config.machine_files import launch_params_file
 
 PACKAGE = 'flight_sim_dynamics'
@@ -38,12 +39,17 @@ def _nodes(context, *args, **kwargs):
         return value(name).lower() in ('true', '1')
     params_file = str(launch_params_file(value('machine'), value('params_file')))
     namespace = LaunchConfiguration('namespace')
+    # The file's sections for this node, by its fully qualified name, handed over as
+    # values: a section `flight_sim_dynamics:` (the packaged files') reaches the node
+    # in any namespace, where ROS would give it to the root namespace's node only.
+    node = '/' + '/'.join(filter(None, (value('namespace').strip('/'), PACKAGE)))
+    values = read_params_sections(params_file, node)
     overrides = {'autostart': flag('autostart'), 'use_sim_time': flag('use_sim_time')}
     if value('scene'):
         overrides['scene'] = value('scene')
     nodes = [LifecycleNode(
         package=PACKAGE, executable='dynamics_node', name=PACKAGE, namespace=namespace,
-        parameters=[params_file, overrides], output='screen')]
+        parameters=[values, overrides], output='screen')]
     if flag('twin'):
         nodes.append(Node(package=PACKAGE, executable='platform_sim', name='platform_sim',
                           namespace=namespace,

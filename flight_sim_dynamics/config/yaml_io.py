@@ -62,6 +62,12 @@ class _StrictLoader(Composer, _Parser, SafeConstructor, _Resolver):  # type: ign
         return super().compose_node(parent, index)
 
 
+# launch_ros writes the list values a launch file gives as a dict with PyYAML's
+# tuple tag; rcl reads them as sequences, and so does this loader
+_StrictLoader.add_constructor('tag:yaml.org,2002:python/tuple',
+                              SafeConstructor.construct_yaml_seq)
+
+
 def _no_duplicate_keys(node: Node, path: list[str], source: str) -> None:
     """ParameterError naming the first key given twice in a map."""
     if isinstance(node, SequenceNode):

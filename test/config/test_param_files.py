@@ -12,7 +12,7 @@ import yaml
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import parameters, schema, yaml_io
 from flight_sim_dynamics.config.errors import ParameterError
-from flight_sim_dynamics.config.files import params_files_in, section_applies
+from flight_sim_dynamics.config.files import params_files_in, read_params_sections, section_applies
 from flight_sim_dynamics.config.scenes import SceneError
 from flight_sim_dynamics.machines.staicu.model import BODY_NAMES
 
@@ -326,3 +326,15 @@ def test_a_number_followed_by_more_is_a_string_not_a_crash(tmp_path):
                     '        inertia: 1e400\n                  0.0, 0.1, 0.0]\n')
     with pytest.raises(ParameterError, match='bodies.piston_c.inertia'):
         fsd.load_model(path)
+
+
+def test_a_file_written_by_launch_ros_is_read(tmp_path):
+    """launch_ros writes a launch file's parameters given as a dict with list
+    values as PyYAML tuples (!!python/tuple); rcl reads them as lists, so does
+    the node's reader (its machine and values come from that file)."""
+    path = tmp_path / 'launch_params_x'
+    path.write_text('/sim/flight_sim_dynamics:\n  ros__parameters:\n'
+                    '    machine: stewart_6dof\n'
+                    '    geometry.home: !!python/tuple\n    - 0.0\n    - 0.0\n    - 1.1\n')
+    values = read_params_sections(path, '/sim/flight_sim_dynamics')
+    assert values == {'machine': 'stewart_6dof', 'geometry.home': [0.0, 0.0, 1.1]}
