@@ -23,6 +23,8 @@ from typing import Any, Callable, Iterable, Sequence
 import rclpy
 import rclpy.task
 from diagnostic_msgs.msg import DiagnosticArray
+from lifecycle_msgs.msg import Transition
+from lifecycle_msgs.srv import ChangeState
 from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.srv import (DescribeParameters, GetParameters, GetParameterTypes,
@@ -244,6 +246,9 @@ class Client:
     #: requests whose repetition leaves the node as one does (sent again, see :meth:`call`)
     IDEMPOTENT = frozenset({'get', 'set', 'atomic', 'list', 'describe', 'types', 'get_state',
                             'get_available_transitions', 'reset'})
+    #: before a new client's first request of a service that must not be sent twice,
+    #: one that changes nothing (a transition no state has: refused), sent until answered
+    PROBES = {'change_state': lambda: ChangeState.Request(transition=Transition(id=255))}
 
     def call(self, name: str, request: Any, timeout: float = 5.0) -> Any:
         """``request`` to the service ``name``, its response (``timeout`` s each way).
@@ -251,11 +256,17 @@ class Client:
         A service drops its response to a client whose response reader it has
         not matched yet (rmw_fastrtps waits only its writer's max_blocking_time
         for that match, which discovery on a loaded host can exceed), so until
-        a client's first answer an idempotent request is sent again every second."""
+        a client's first answer an idempotent request is sent again every
+        second, and a request that is not idempotent waits for a probe's answer."""
         client = self.srv[name]
         assert self.spin_until(client.service_is_ready, timeout), f'{name} service not ready'
         deadline = time.monotonic() + timeout
-        resend = name in self.IDEMPOTENT and client not in self._answered
+        if client not in self._answered and name in self.PROBES:
+            self._send(name, client, self.PROBES[name](), deadline, resend=True)
+        return self._send(name, client, request, deadline,
+                          resend=name in self.IDEMPOTENT and client not in self._answered)
+
+    def _send(self, name: str, client: Any, request: Any, deadline: float, resend: bool) -> Any:
         future = client.call_async(request)
         while True:
             remaining = max(0.0, deadline - time.monotonic())
