@@ -8,17 +8,14 @@
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#include "kernel_support.h"
 #include <float.h>
 #include <math.h>
 #include <string.h>
 
 /* The contracts with the Python side, as X-macro lists: the C enum and the
-   exported table (PyInit__kernel) come from one line; kernel.py checks them. */
-#define AS_ENUM(id, name) id,
-#define AS_NAME(id, name) name,
-/* id, id_END = id + size - 1: the next id follows the last double of this one */
-#define AS_OFFSET(id, name, size) id, id##_END = id + (size) - 1,
-#define AS_FIELD(id, name, size) {name, id, size},
+   exported table (PyInit__kernel) come from one line (the X-macros:
+   core/kernel_support.h); kernel.py checks them. */
 
 /* bodies with mass: the model's bodies (model.BODY_NAMES, any order), then the payload */
 #define BODY_LIST(X) \
@@ -57,8 +54,6 @@ enum { PACKED_MODEL(AS_OFFSET) P_SIZE };
     X(E_GRAVITY, "gravity") X(E_PLATFORM, "platform_inertia") X(E_PAYLOAD, "payload") \
     X(E_LEG, "leg_inertia") X(E_CRANK, "crank_inertia") X(E_VP, "velocity_products") \
     X(E_FRICTION, "friction")
-#define AS_INDEX(id, name) id##_INDEX,
-#define AS_BIT(id, name) id = 1 << id##_INDEX,
 enum { EFFECT_LIST(AS_INDEX) N_EFFECTS };
 enum { EFFECT_LIST(AS_BIT) E_HAS_PAYLOAD = 1 << N_EFFECTS };
 
@@ -117,9 +112,6 @@ static inline v3 mat_vec(const double *m, v3 c)
                m[6] * c.x + m[7] * c.y + m[8] * c.z);
 }
 static inline double clip0(double x) { return x > 0.0 ? x : 0.0; }
-/* numpy's maximum/minimum: NaN propagates (as in the batch path) */
-static inline double nmax(double a, double b) { return (a >= b || isnan(a)) ? a : b; }
-static inline double nmin(double a, double b) { return (a <= b || isnan(a)) ? a : b; }
 
 /* Python's float a % b for b > 0 (sign of the divisor) */
 static inline double pymod(double a, double b)
@@ -859,15 +851,6 @@ typedef struct {
     int servo;
 } tabulated_law;
 
-/* core.servo.deliver for one actuator */
-static double deliver(double command, double rate, double max_force, double max_speed)
-{
-    double force = nmin(nmax(command, -max_force), max_force);
-    double drive = max_force * nmax(0.0, 1.0 - fabs(rate) / max_speed);
-    if (force * rate > 0.0)
-        return (force > 0.0 ? 1.0 : -1.0) * nmin(fabs(force), drive);
-    return force;
-}
 
 /* M qdd = r by LU with partial pivoting; 0 unless M is surely within
    forward_dynamics.MAX_MASS_CONDITION (1e8): the Frobenius condition
@@ -998,19 +981,6 @@ static Py_ssize_t rk4(const double *P, int fx, const tabulated_law *law, double 
 }
 
 /* ---- Python bindings ---- */
-/* a C-contiguous float64 buffer of exactly n doubles (writable if asked) */
-static int get_doubles(PyObject *obj, Py_buffer *view, Py_ssize_t n, int writable,
-                       const char *name)
-{
-    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0)) < 0)
-        return -1;
-    if (view->len != n * (Py_ssize_t)sizeof(double)) {
-        PyErr_Format(PyExc_ValueError, "%s must be %zd doubles", name, n);
-        PyBuffer_Release(view);
-        return -1;
-    }
-    return 0;
-}
 
 /* The arguments of a one-sample binding: exactly `expected` of them, the
    effects bit set in args[1] and `n` floats from args[first] on; -1 with a
@@ -1210,8 +1180,6 @@ static struct PyModuleDef module = {
 };
 
 /* the declarations at the top, as Python objects (read by kernel.py) */
-typedef struct { const char *name; int offset, size; } field;
-#define AS_BIT_FIELD(id, name) {name, id, 1},
 static const field PACKED_FIELDS[] = { PACKED_MODEL(AS_FIELD) };
 static const field BODY_FIELDS[] = { BODY_ROW(AS_FIELD) };
 static const field RESULT_FIELDS[] = { RESULT_ROW(AS_FIELD) };
@@ -1219,41 +1187,9 @@ static const field EFFECT_FIELDS[] = { EFFECT_LIST(AS_BIT_FIELD) };
 static const char *const BODY_NAMES[] = { BODY_LIST(AS_NAME) };
 static const char *const STATUS_NAMES[] = { STATUS_LIST(AS_NAME) };
 static const char *const LOOP_NAMES[] = { LOOP_LIST(AS_NAME) };
-#define COUNT(a) (sizeof (a) / sizeof (a)[0])
 
-/* {name: (offset, size)}, or with bits_only {name: bit} */
-static PyObject *fields_dict(const field *f, size_t n, int bits_only)
-{
-    PyObject *d = PyDict_New();
-    for (size_t i = 0; d != NULL && i < n; i++) {
-        PyObject *v = bits_only ? PyLong_FromLong(f[i].offset)
-                                : Py_BuildValue("(ii)", f[i].offset, f[i].size);
-        if (v == NULL || PyDict_SetItemString(d, f[i].name, v) < 0)
-            Py_CLEAR(d);
-        Py_XDECREF(v);
-    }
-    return d;
-}
 
-static PyObject *names_tuple(const char *const *names, size_t n)
-{
-    PyObject *t = PyTuple_New((Py_ssize_t)n);
-    for (size_t i = 0; t != NULL && i < n; i++) {
-        PyObject *v = PyUnicode_FromString(names[i]);
-        if (v == NULL)
-            Py_CLEAR(t);
-        else
-            PyTuple_SET_ITEM(t, (Py_ssize_t)i, v);
-    }
-    return t;
-}
 
-static int add_object(PyObject *m, const char *name, PyObject *value)
-{
-    int rc = value == NULL ? -1 : PyModule_AddObjectRef(m, name, value);
-    Py_XDECREF(value);
-    return rc;
-}
 
 PyMODINIT_FUNC PyInit__kernel(void)
 {

@@ -11,6 +11,7 @@
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#include "kernel_support.h"
 #include <float.h>
 #include <math.h>
 #include <pthread.h>
@@ -18,12 +19,8 @@
 #include <string.h>
 
 /* The contracts with the Python side, as X-macro lists: the C enum and the
-   exported table (PyInit__kernel) come from one line; kernel.py checks them. */
-#define AS_ENUM(id, name) id,
-#define AS_NAME(id, name) name,
-/* id, id_END = id + size - 1: the next id follows the last double of this one */
-#define AS_OFFSET(id, name, size) id, id##_END = id + (size) - 1,
-#define AS_FIELD(id, name, size) {name, id, size},
+   exported table (PyInit__kernel) come from one line (the X-macros:
+   core/kernel_support.h); kernel.py checks them. */
 
 /* a body fixed to the platform (model.RigidBody) and a leg body (model.LegBody) */
 #define RIGID_ROW(X) X(R_MASS, "mass", 1) X(R_COM, "com", 3) X(R_INERTIA, "inertia", 9)
@@ -55,8 +52,6 @@ enum { PACKED_MODEL(AS_OFFSET) P_SIZE };
     X(E_GRAVITY, "gravity") X(E_PLATFORM, "platform_inertia") X(E_PAYLOAD, "payload") \
     X(E_LEG, "leg_inertia") X(E_CRANK, "crank_inertia") /* no cranks: no terms */ \
     X(E_VP, "velocity_products") X(E_FRICTION, "friction")
-#define AS_INDEX(id, name) id##_INDEX,
-#define AS_BIT(id, name) id = 1 << id##_INDEX,
 enum { EFFECT_LIST(AS_INDEX) N_EFFECTS };
 enum { EFFECT_LIST(AS_BIT) E_ALL = (1 << N_EFFECTS) - 1 };
 
@@ -621,9 +616,6 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
 
 /* ---- The twin's RK4 loop (core.simulation.integrate) for a tabulated force law ---- */
 
-/* NaN-propagating max and min, as numpy's maximum and minimum */
-static inline double nmax(double a, double b) { return (a >= b || isnan(a)) ? a : b; }
-static inline double nmin(double a, double b) { return (a <= b || isnan(a)) ? a : b; }
 
 /* core.servo.TabulatedLaw: the stage forces ff (stages x 6), and for a servo
    the leg lengths and rates of the reference, gains and actuator limits */
@@ -633,15 +625,6 @@ typedef struct {
     int servo;
 } tabulated_law;
 
-/* core.servo.deliver for one actuator */
-static double deliver(double command, double rate, double max_force, double max_speed)
-{
-    double force = nmin(nmax(command, -max_force), max_force);
-    double drive = max_force * nmax(0.0, 1.0 - fabs(rate) / max_speed);
-    if (force * rate > 0.0)
-        return (force > 0.0 ? 1.0 : -1.0) * nmin(fabs(force), drive);
-    return force;
-}
 
 /* The columns of the wrench of unit pose accelerations from rest, no weight
    (S10)-(S21): W[r][j] = d wrench_r / d qdd_j, the inertia of the platform,
@@ -873,21 +856,6 @@ static Py_ssize_t rk4(const double *P, int fx, const tabulated_law *law, double 
 
 /* ---- Python bindings ---- */
 
-/* a C-contiguous float64 buffer of exactly n doubles (writable if asked) */
-static int get_doubles(PyObject *obj, Py_buffer *view, Py_ssize_t n, int writable,
-                       const char *name)
-{
-    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT
-                           | (writable ? PyBUF_WRITABLE : 0)) < 0)
-        return -1;
-    if (view->len != n * (Py_ssize_t)sizeof(double) || view->format == NULL
-            || strcmp(view->format, "d") != 0) {
-        PyErr_Format(PyExc_ValueError, "%s must be %zd float64 numbers", name, n);
-        PyBuffer_Release(view);
-        return -1;
-    }
-    return 0;
-}
 
 /* six numbers of a list or tuple of exactly six Python floats (TypeError
    otherwise: solver.solve then checks and converts them) */
@@ -1182,8 +1150,6 @@ static struct PyModuleDef module = {
 };
 
 /* the declarations at the top, as Python objects (read by kernel.py) */
-typedef struct { const char *name; int offset, size; } field;
-#define AS_BIT_FIELD(id, name) {name, id, 1},
 static const field PACKED_FIELDS[] = { PACKED_MODEL(AS_FIELD) };
 static const field RIGID_FIELDS[] = { RIGID_ROW(AS_FIELD) };
 static const field LEG_FIELDS[] = { LEG_ROW(AS_FIELD) };
@@ -1191,41 +1157,9 @@ static const field RESULT_FIELDS[] = { RESULT_ROW(AS_FIELD) };
 static const field EFFECT_FIELDS[] = { EFFECT_LIST(AS_BIT_FIELD) };
 static const char *const STATUS_NAMES[] = { STATUS_LIST(AS_NAME) };
 static const char *const UNREACHABLE_NAMES[] = { UNREACHABLE_LIST(AS_NAME) };
-#define COUNT(a) (sizeof (a) / sizeof (a)[0])
 
-/* {name: (offset, size)}, or with bits_only {name: bit} */
-static PyObject *fields_dict(const field *f, size_t n, int bits_only)
-{
-    PyObject *d = PyDict_New();
-    for (size_t i = 0; d != NULL && i < n; i++) {
-        PyObject *v = bits_only ? PyLong_FromLong(f[i].offset)
-                                : Py_BuildValue("(ii)", f[i].offset, f[i].size);
-        if (v == NULL || PyDict_SetItemString(d, f[i].name, v) < 0)
-            Py_CLEAR(d);
-        Py_XDECREF(v);
-    }
-    return d;
-}
 
-static PyObject *names_tuple(const char *const *names, size_t n)
-{
-    PyObject *t = PyTuple_New((Py_ssize_t)n);
-    for (size_t i = 0; t != NULL && i < n; i++) {
-        PyObject *v = PyUnicode_FromString(names[i]);
-        if (v == NULL)
-            Py_CLEAR(t);
-        else
-            PyTuple_SET_ITEM(t, (Py_ssize_t)i, v);
-    }
-    return t;
-}
 
-static int add_object(PyObject *m, const char *name, PyObject *value)
-{
-    int rc = value == NULL ? -1 : PyModule_AddObjectRef(m, name, value);
-    Py_XDECREF(value);
-    return rc;
-}
 
 PyMODINIT_FUNC PyInit__kernel(void)
 {

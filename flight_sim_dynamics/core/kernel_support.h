@@ -1,0 +1,89 @@
+/* What the machines' kernels (machines/<name>/kernel.c) share, included by
+   each after Python.h: the X-macros of their contracts with the Python side
+   (kernel.py checks them), the exported tables, the buffer check of their
+   bindings, and the actuators' delivery rule of core.servo. */
+#ifndef FSD_KERNEL_SUPPORT_H
+#define FSD_KERNEL_SUPPORT_H
+
+#include <math.h>
+#include <string.h>
+
+/* The contracts as X-macro lists: the C enum and the exported table
+   (PyInit__kernel) come from one line. */
+#define AS_ENUM(id, name) id,
+#define AS_NAME(id, name) name,
+/* id, id_END = id + size - 1: the next id follows the last double of this one */
+#define AS_OFFSET(id, name, size) id, id##_END = id + (size) - 1,
+#define AS_FIELD(id, name, size) {name, id, size},
+#define AS_INDEX(id, name) id##_INDEX,
+#define AS_BIT(id, name) id = 1 << id##_INDEX,
+#define AS_BIT_FIELD(id, name) {name, id, 1},
+#define COUNT(a) (sizeof (a) / sizeof (a)[0])
+
+typedef struct { const char *name; int offset, size; } field;
+
+/* NaN-propagating max and min, as numpy's maximum and minimum */
+static inline double nmax(double a, double b) { return (a >= b || isnan(a)) ? a : b; }
+static inline double nmin(double a, double b) { return (a <= b || isnan(a)) ? a : b; }
+
+/* core.servo.deliver for one actuator */
+static double deliver(double command, double rate, double max_force, double max_speed)
+{
+    double force = nmin(nmax(command, -max_force), max_force);
+    double drive = max_force * nmax(0.0, 1.0 - fabs(rate) / max_speed);
+    if (force * rate > 0.0)
+        return (force > 0.0 ? 1.0 : -1.0) * nmin(fabs(force), drive);
+    return force;
+}
+
+/* a C-contiguous float64 buffer of exactly n doubles (writable if asked) */
+static int get_doubles(PyObject *obj, Py_buffer *view, Py_ssize_t n, int writable,
+                       const char *name)
+{
+    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT
+                           | (writable ? PyBUF_WRITABLE : 0)) < 0)
+        return -1;
+    if (view->len != n * (Py_ssize_t)sizeof(double) || view->format == NULL
+            || strcmp(view->format, "d") != 0) {
+        PyErr_Format(PyExc_ValueError, "%s must be %zd float64 numbers", name, n);
+        PyBuffer_Release(view);
+        return -1;
+    }
+    return 0;
+}
+
+/* {name: (offset, size)}, or with bits_only {name: bit} */
+static PyObject *fields_dict(const field *f, size_t n, int bits_only)
+{
+    PyObject *d = PyDict_New();
+    for (size_t i = 0; d != NULL && i < n; i++) {
+        PyObject *v = bits_only ? PyLong_FromLong(f[i].offset)
+                                : Py_BuildValue("(ii)", f[i].offset, f[i].size);
+        if (v == NULL || PyDict_SetItemString(d, f[i].name, v) < 0)
+            Py_CLEAR(d);
+        Py_XDECREF(v);
+    }
+    return d;
+}
+
+static PyObject *names_tuple(const char *const *names, size_t n)
+{
+    PyObject *t = PyTuple_New((Py_ssize_t)n);
+    for (size_t i = 0; t != NULL && i < n; i++) {
+        PyObject *v = PyUnicode_FromString(names[i]);
+        if (v == NULL)
+            Py_CLEAR(t);
+        else
+            PyTuple_SET_ITEM(t, (Py_ssize_t)i, v);
+    }
+    return t;
+}
+
+static int add_object(PyObject *m, const char *name, PyObject *value)
+{
+    int rc = value == NULL ? -1 : PyModule_AddObjectRef(m, name, value);
+    Py_XDECREF(value);
+    return rc;
+}
+
+#endif
