@@ -7,7 +7,6 @@ source; this module checks them against the package's own lists.
 """
 from __future__ import annotations
 
-import os
 from operator import attrgetter
 from types import ModuleType
 
@@ -41,32 +40,14 @@ def contract_problems(module: ModuleType) -> list[str]:
         problems.append(f'loop order {module.LOOPS} != kinematics.LOOPS {LOOPS}')
     if module.RESULTS_NOT_FINITE != RESULTS_NOT_FINITE:
         problems.append('status.RESULTS_NOT_FINITE differs')
-    for name, table, size in (('PACKED', module.PACKED, module.P_SIZE),
-                              ('BODY_ROW', module.BODY_ROW, module.BODY_SIZE),
-                              ('OUT', module.OUT, module.OUT_SIZE)):
-        spans = sorted(table.values())
-        if [o for o, _ in spans] != [0] + [o + n for o, n in spans[:-1]] or sum(
-                n for _, n in spans) != size:
-            problems.append(f'{name} does not cover its {size} doubles exactly once')
-    return problems
+    return problems + core_kernel.layout_problems((
+        ('PACKED', module.PACKED, module.P_SIZE),
+        ('BODY_ROW', module.BODY_ROW, module.BODY_SIZE),
+        ('OUT', module.OUT, module.OUT_SIZE)))
 
 
-try:
-    _problems = contract_problems(_kernel) if _kernel is not None else []
-except AttributeError as exc:       # built before the kernel exported its declarations
-    _problems = [str(exc)]
-if _problems:
-    IMPORT_ERROR = ('flight_sim_dynamics.machines.staicu._kernel was built from another '
-                    'version of kernel.c (' + '; '.join(_problems) + '); rebuild it')
-    _kernel = None
-    if os.environ.get('FSD_KERNEL') != '0':
-        raise ImportError(IMPORT_ERROR + ', or set FSD_KERNEL=0 to use the Python code')
-
-#: Set FSD_REQUIRE_KERNEL=1 to make a missing kernel an error at import (CI, benchmarks).
-if _kernel is None and os.environ.get('FSD_REQUIRE_KERNEL') == '1':
-    raise ImportError('flight_sim_dynamics.machines.staicu._kernel is required '
-                      f'(FSD_REQUIRE_KERNEL=1) but cannot be imported: {IMPORT_ERROR}; '
-                      'build it with `python setup.py build_ext --inplace` or `pip install .`')
+_kernel, IMPORT_ERROR = core_kernel.checked(f'{__package__}._kernel', _kernel, IMPORT_ERROR,
+                                            contract_problems)
 
 if _kernel is not None:
     P_SIZE, OUT_SIZE, BODY_SIZE = _kernel.P_SIZE, _kernel.OUT_SIZE, _kernel.BODY_SIZE
