@@ -12,10 +12,10 @@ package_name = 'flight_sim_dynamics'
 # solves (same results, slower). -ffp-contract=off: no fused multiply-add, as in Python.
 KERNEL_FLAGS = ['-O2', '-ffp-contract=off', '-fno-math-errno']
 # one per machine, in the machine's own folder: machines/<name>/kernel.c -> machines.<name>._kernel
-# (what the kernels share: core/kernel_support.h)
+# (what the kernels share: core/kernel_support.h, core/kernel_rk4.h)
 kernels = [Extension(f"{package_name}.machines.{source.split('/')[-2]}._kernel", sources=[source],
                      include_dirs=[f'{package_name}/core'],
-                     depends=[f'{package_name}/core/kernel_support.h'],
+                     depends=sorted(glob(f'{package_name}/core/kernel_*.h')),
                      optional=True, extra_compile_args=KERNEL_FLAGS)
            for source in sorted(glob(f'{package_name}/machines/*/kernel.c'))]
 

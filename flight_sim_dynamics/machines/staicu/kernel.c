@@ -9,6 +9,8 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include "kernel_support.h"
+
+#define DOF 3   /* pose coordinates (and legs): the size of kernel_rk4.h's rows */
 #include <float.h>
 #include <math.h>
 #include <string.h>
@@ -927,58 +929,7 @@ static int stage(const double *P, int fx, const tabulated_law *law, Py_ssize_t j
     return solve3(M, rhs, qdd);
 }
 
-/* RK4 rows k0..steps (core.simulation.integrate, same operations in the same order;
-   kernel.integrate_rows): returns the first row whose step did not complete. */
-static Py_ssize_t rk4(const double *P, int fx, const tabulated_law *law, double h,
-                      Py_ssize_t k0, Py_ssize_t steps, double *Q, double *QD,
-                      double *QDD, double *F)
-{
-    double q[3], qd[3];
-    memcpy(q, Q + 3 * k0, sizeof q);
-    memcpy(qd, QD + 3 * k0, sizeof qd);
-    for (Py_ssize_t k = k0; k <= steps; k++) {
-        double a1[3], a2[3], a3[3], a4[3], f1[3], f[3], q2[3], v2[3], q3[3], v3[3], q4[3],
-               v4[3];
-        memcpy(Q + 3 * k, q, sizeof q);
-        memcpy(QD + 3 * k, qd, sizeof qd);
-        if (!stage(P, fx, law, 2 * k, q, qd, a1, f1))
-            return k;
-        if (k < steps) {
-            for (int i = 0; i < 3; i++) {
-                q2[i] = q[i] + 0.5 * h * qd[i];
-                v2[i] = qd[i] + 0.5 * h * a1[i];
-            }
-            if (!stage(P, fx, law, 2 * k + 1, q2, v2, a2, f))
-                return k;
-            for (int i = 0; i < 3; i++) {
-                q3[i] = q[i] + 0.5 * h * v2[i];
-                v3[i] = qd[i] + 0.5 * h * a2[i];
-            }
-            if (!stage(P, fx, law, 2 * k + 1, q3, v3, a3, f))
-                return k;
-            for (int i = 0; i < 3; i++) {
-                q4[i] = q[i] + h * v3[i];
-                v4[i] = qd[i] + h * a3[i];
-            }
-            if (!stage(P, fx, law, 2 * k + 2, q4, v4, a4, f))
-                return k;
-            double qn[3], qdn[3];
-            int finite = 1;
-            for (int i = 0; i < 3; i++) {
-                qn[i] = q[i] + (h / 6.0) * (qd[i] + 2.0 * (v2[i] + v3[i]) + v4[i]);
-                qdn[i] = qd[i] + (h / 6.0) * (a1[i] + 2.0 * (a2[i] + a3[i]) + a4[i]);
-                finite = finite && isfinite(qn[i]) && isfinite(qdn[i]);
-            }
-            if (!finite)
-                return k;
-            memcpy(q, qn, sizeof q);
-            memcpy(qd, qdn, sizeof qd);
-        }
-        memcpy(QDD + 3 * k, a1, sizeof a1);
-        memcpy(F + 3 * k, f1, sizeof f1);
-    }
-    return steps + 1;
-}
+#include "kernel_rk4.h"
 
 /* ---- Python bindings ---- */
 
