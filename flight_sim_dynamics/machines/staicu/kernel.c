@@ -1140,8 +1140,6 @@ static const char *const STATUS_NAMES[] = { STATUS_LIST(AS_NAME) };
 static const char *const LOOP_NAMES[] = { LOOP_LIST(AS_NAME) };
 
 
-
-
 PyMODINIT_FUNC PyInit__kernel(void)
 {
     PyObject *m = PyModule_Create(&module);

@@ -1109,8 +1109,6 @@ static const char *const STATUS_NAMES[] = { STATUS_LIST(AS_NAME) };
 static const char *const UNREACHABLE_NAMES[] = { UNREACHABLE_LIST(AS_NAME) };
 
 
-
-
 PyMODINIT_FUNC PyInit__kernel(void)
 {
     PyObject *m = PyModule_Create(&module);
