@@ -929,6 +929,7 @@ static int stage(const double *P, int fx, const tabulated_law *law, Py_ssize_t j
     return solve3(M, rhs, qdd);
 }
 
+#define EFFECT_BITS_MAX ((E_HAS_PAYLOAD << 1) - 1)
 #include "kernel_rk4.h"
 
 /* ---- Python bindings ---- */
@@ -1058,63 +1059,6 @@ done:
     return result;
 }
 
-PyDoc_STRVAR(integrate_doc,
-"integrate(params, effects, ff, length_ref, rate_ref, kp, kd, max_force, max_speed,\n"
-"          servo, h, k0, steps, q, qd, qdd, force) -> int\n\n"
-"RK4 rows k0 to steps of a TabulatedLaw; the first row not completed (kernel.integrate_rows).");
-
-static PyObject *py_integrate(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
-{
-    if (nargs != 17) {
-        PyErr_SetString(PyExc_TypeError, "integrate() takes 17 arguments");
-        return NULL;
-    }
-    long fx = PyLong_AsLong(args[1]);
-    int servo = PyObject_IsTrue(args[9]);
-    double max_force = PyFloat_AsDouble(args[7]), max_speed = PyFloat_AsDouble(args[8]);
-    double h = PyFloat_AsDouble(args[10]);
-    Py_ssize_t k0 = PyLong_AsSsize_t(args[11]), steps = PyLong_AsSsize_t(args[12]);
-    if (PyErr_Occurred())
-        return NULL;
-    if (steps < 1 || k0 < 0 || k0 > steps || steps > (PY_SSIZE_T_MAX / 64)) {
-        PyErr_SetString(PyExc_ValueError, "need 0 <= k0 <= steps, steps >= 1");
-        return NULL;
-    }
-    /* buffers: params, ff, length_ref, rate_ref, kp, kd, q, qd, qdd, force */
-    static const int arg[10] = {0, 2, 3, 4, 5, 6, 13, 14, 15, 16};
-    static const char *const names[10] = {"packed model", "ff", "length_ref", "rate_ref",
-                                          "kp", "kd", "q", "qd", "qdd", "force"};
-    Py_ssize_t stages = 3 * (2 * steps + 1), rows = 3 * (steps + 1);
-    const Py_ssize_t sizes[10] = {P_SIZE, stages, stages, stages, 3, 3, rows, rows, rows, rows};
-    Py_buffer views[10];
-    int got = 0;
-    PyObject *result = NULL;
-    for (; got < 10; got++)
-        if (get_doubles(args[arg[got]], &views[got], sizes[got], got >= 6, names[got]) < 0)
-            goto done;
-    {
-        tabulated_law law;
-        law.ff = (const double *)views[1].buf;
-        law.length_ref = (const double *)views[2].buf;
-        law.rate_ref = (const double *)views[3].buf;
-        memcpy(law.kp, views[4].buf, sizeof law.kp);
-        memcpy(law.kd, views[5].buf, sizeof law.kd);
-        law.max_force = max_force;
-        law.max_speed = max_speed;
-        law.servo = servo;
-        Py_ssize_t reached;
-        Py_BEGIN_ALLOW_THREADS
-        reached = rk4((const double *)views[0].buf, (int)fx, &law, h, k0, steps,
-                      (double *)views[6].buf, (double *)views[7].buf, (double *)views[8].buf,
-                      (double *)views[9].buf);
-        Py_END_ALLOW_THREADS
-        result = PyLong_FromSsize_t(reached);
-    }
-done:
-    for (int i = 0; i < got; i++)
-        PyBuffer_Release(&views[i]);
-    return result;
-}
 
 static PyMethodDef methods[] = {
     {"solve", (PyCFunction)(void (*)(void))py_solve, METH_FASTCALL, solve_doc},
