@@ -12,7 +12,7 @@ import numpy as np
 
 from .kinematics import (LegAccelerations, LegPositions, LegVelocities, PlatformMotion, cross,
                          dot)
-from .model import LegBody, RigidBody, StewartModel
+from .model import RigidBody, StewartModel
 
 
 def has_inertia(model: StewartModel) -> bool:
@@ -30,10 +30,11 @@ def gravity_vector(model: StewartModel) -> np.ndarray:
 # The legs' wrenches (S14)-(S15) and what they carry to P_i (S20)
 # ---------------------------------------------------------------------------
 
-def axisymmetric_product(body: LegBody, u: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """I_k x with I_k = I_across Pi + I_along u u^T (S15)."""
-    along = dot(u, x)[..., None] * u
-    return body.inertia_across * (x - along) + body.inertia_along * along
+def axisymmetric_product(across: float, along: float, u: np.ndarray,
+                         x: np.ndarray) -> np.ndarray:
+    """I x with I = I_across Pi + I_along u u^T (S15)."""
+    axial = dot(u, x)[..., None] * u
+    return across * (x - axial) + along * axial
 
 
 def leg_forces(model: StewartModel, legs: LegPositions,
@@ -57,12 +58,14 @@ def leg_forces(model: StewartModel, legs: LegPositions,
 
 def leg_moment(model: StewartModel, legs: LegPositions, rates: LegVelocities,
                acc: LegAccelerations) -> np.ndarray:
-    """N_i = sum over cylinder and rod of I_k eps_i + omega_i x I_k omega_i (S15)."""
+    """N_i = sum over cylinder and rod of I_k eps_i + omega_i x I_k omega_i (S15):
+    the two turn together, so one product with I_1 + I_2.
+    """
     u, w, e = legs.u, rates.omega, acc.eps
-    N = np.zeros_like(u)
-    for body in (model.cylinder, model.rod):
-        N += axisymmetric_product(body, u, e) + cross(w, axisymmetric_product(body, u, w))
-    return N
+    cyl, rod = model.cylinder, model.rod
+    across, along = cyl.inertia_across + rod.inertia_across, cyl.inertia_along + rod.inertia_along
+    return (axisymmetric_product(across, along, u, e)
+            + cross(w, axisymmetric_product(across, along, u, w)))
 
 
 def carried_force(model: StewartModel, legs: LegPositions, F1: np.ndarray, F2: np.ndarray,
@@ -85,8 +88,10 @@ def carried_force(model: StewartModel, legs: LegPositions, F1: np.ndarray, F2: n
 def rigid_body_wrench(body: RigidBody, platform: PlatformMotion, g: np.ndarray | None,
                       inertia: bool) -> tuple[np.ndarray, np.ndarray]:
     """(F_0, N_0 + rho x F_0) about the platform origin (S16): rho = R c,
-    F_0 = m (a_c - g), N_0 = R I_c R^T eps + omega x R I_c R^T omega; the inertia
-    terms only if ``inertia``, the weight only if g is given.
+    F_0 = m (a_c - g), N_0 = R I_c R^T eps + omega x R I_c R^T omega, computed in
+    the body's frame as R (I_c eps_b + omega_b x I_c omega_b), eps_b = R^T eps,
+    omega_b = R^T omega; the inertia terms only if ``inertia``, the weight only
+    if g is given.
     """
     R = platform.R
     rho = R @ body.com
@@ -94,9 +99,9 @@ def rigid_body_wrench(body: RigidBody, platform: PlatformMotion, g: np.ndarray |
         w, e = platform.omega, platform.eps
         a_c = platform.a + cross(e, rho) + cross(w, cross(w, rho))
         F = body.mass * (a_c if g is None else a_c - g)
-        Ib = np.einsum('nij,jk,nlk->nil', R, body.inertia, R)          # R I_c R^T
-        M = (np.einsum('nij,nj->ni', Ib, e)
-             + cross(w, np.einsum('nij,nj->ni', Ib, w)))
+        wb, eb = np.einsum('nji,nj->ni', R, w), np.einsum('nji,nj->ni', R, e)
+        I = body.inertia
+        M = np.einsum('nij,nj->ni', R, eb @ I.T + cross(wb, wb @ I.T))
     else:
         F = np.broadcast_to(-body.mass * g, rho.shape)
         M = 0.0

@@ -156,6 +156,16 @@ def integrate_rows(model: StewartModel, law: tuple, step: float, k0: int, steps:
     return _kernel.integrate(params, bits, *law, step, k0, steps, *rows)
 
 
+def joint_angles(model: StewartModel, rows: np.ndarray) -> None:
+    """Fills in place the joint angles (the U-joints' in ``joints``, the
+    ``spherical_angles``) of the result rows of ``model`` that solve left to
+    this call: it computes them only where a joint-angle limit is on (they are
+    a third of its cost), from the row's pose and J.
+    """
+    params, _ = prepared(model)
+    _kernel.joint_angles(params, rows.reshape(-1, OUT_SIZE))
+
+
 def conditions(rows: np.ndarray) -> np.ndarray:
     """The condition of J of every result row, (N,) for (N, OUT_SIZE) rows:
     the row's own where solve computed it, else the kernel's (the same Jacobi

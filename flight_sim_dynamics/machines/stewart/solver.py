@@ -235,10 +235,13 @@ def solve_batch(model: StewartModel, q: np.ndarray, qd: np.ndarray,
     arrays = (Q, _as_batch('qd', qd, n), _as_batch('qdd', qdd, n))
     if kernel.enabled():
         rows = kernel.solve_rows(model, *arrays)
-        return _new_kernel_solution(_rows=rows, model=model, _inputs=arrays,
-                                    status=_KERNEL_STATUS_ARRAY[
-                                        rows[:, kernel.O_STATUS].astype(np.intp)])
-    return _solve_arrays(model, *arrays)
+        code = rows[:, kernel.O_STATUS].astype(np.intp)
+        # the detail's inputs: copies of the invalid samples' (which it names)
+        invalid = np.flatnonzero(code == SEVERITY[Status.INVALID_INPUT])
+        return _new_kernel_solution(_rows=rows, model=model,
+                                    _inputs=(invalid, *(a[invalid] for a in arrays)),
+                                    status=_KERNEL_STATUS_ARRAY[code])
+    return _solve_arrays(model, *(a.copy() for a in arrays))   # its pose: a copy of q
 
 
 def _solve_arrays(model: StewartModel, *arrays: np.ndarray) -> StewartSolution:
@@ -333,6 +336,18 @@ def _row_view(name: str):
     return view
 
 
+def _angle_view(name: str):
+    """``joints`` or ``spherical_angles``: the row view, once the kernel has filled
+    the joint angles that solve left (:func:`kernel.joint_angles`).
+    """
+    view = _row_view(name)
+
+    def angles(sol: StewartSolution) -> np.ndarray:
+        kernel.joint_angles(sol.model, sol.__dict__['_rows'])
+        return view(sol)
+    return angles
+
+
 def _kernel_detail(sol: StewartSolution) -> str | tuple:
     """The detail of a kernel solution: one string, or one per sample of a batch."""
     rows = sol.__dict__['_rows']
@@ -344,12 +359,15 @@ def _kernel_detail(sol: StewartSolution) -> str | tuple:
     code = rows[:, kernel.O_STATUS].astype(np.intp)
     info = rows[:, kernel.O_INFO].astype(np.intp)
     detail = [''] * len(rows)
+    invalid, *inputs = sol.__dict__['_inputs']      # the invalid samples' only
     for i in np.flatnonzero(code):
         values = SimpleNamespace(**{name: getattr(sol, name)[i] for name in
                                     ('length', 'rate', 'force', 'joints', 'spherical_angles',
                                      'jacobian_condition')})
+        j = np.searchsorted(invalid, i)
         detail[i] = _detail(sol.model, int(code[i]), int(info[i]), values,
-                            tuple(a[i] for a in sol.__dict__['_inputs']))
+                            tuple(a[j] for a in inputs) if j < invalid.size and invalid[j] == i
+                            else ())
     return tuple(detail)
 
 
@@ -372,7 +390,8 @@ class _KernelSolution(StewartSolution):
 
 if kernel.OUT:
     for _name in set(kernel.ROW_FIELDS) - {'status', 'info', 'jacobian_condition'}:
-        _lazy = _Lazy(_row_view(_name))
+        _lazy = _Lazy((_angle_view if _name in ('joints', 'spherical_angles') else _row_view)(
+            _name))
         _lazy.__set_name__(_KernelSolution, _name)
         setattr(_KernelSolution, _name, _lazy)
 _KernelSolution.__qualname__ = _KernelSolution.__name__ = 'StewartSolution'
@@ -409,4 +428,4 @@ def _as_batch(name: str, value: object, n: int | None) -> np.ndarray:
         raise ValueError(f'{name} must have shape (N, 6), got {arr.shape}')
     if n is not None and arr.shape[0] != n:
         raise ValueError(f'{name} has {arr.shape[0]} rows, q has {n}')
-    return arr.astype(float)
+    return np.ascontiguousarray(arr, dtype=float)     # the caller's own array if it is one

@@ -409,6 +409,35 @@ def test_the_kernel_path_refuses_what_is_not_six_numbers(value):
 
 
 @needs_kernel
+@pytest.mark.parametrize('name', NAMES)
+def test_joint_angles_are_computed_on_first_read_unless_a_limit_needs_them(name):
+    """Without joint-angle limits the kernel's solve leaves the U-joint and
+    spherical angles NOT_COMPUTED in its rows; the first read of ``joints`` or
+    ``spherical_angles`` computes them (kernel.joint_angles), bit for bit as a
+    solve whose limits need them does, and as the numpy code within rounding."""
+    model = MODELS[name]
+    assert model.limits.u_joint_max_angle is model.limits.spherical_joint_max_angle is None
+    limited = dataclasses.replace(model, limits=dataclasses.replace(
+        model.limits, u_joint_max_angle=10.0, spherical_joint_max_angle=10.0))
+    motion = random_motion(3, 'violent', n=200)
+    offset = kernel.OUT['spherical_angles'][0]
+    with use_kernel(True):
+        lazy, eager = (solver.solve_batch(m, *motion) for m in (model, limited))
+        single = solver.solve(model, *(a[7].tolist() for a in motion))
+    assert np.all(lazy.__dict__['_rows'][:, offset] == kernel.NOT_COMPUTED)
+    assert single.__dict__['_rows'][offset] == kernel.NOT_COMPUTED
+    assert not np.any(eager.__dict__['_rows'][:, offset] == kernel.NOT_COMPUTED)
+    np.testing.assert_array_equal(lazy.spherical_angles, eager.spherical_angles)
+    np.testing.assert_array_equal(lazy.joints, eager.joints)
+    np.testing.assert_array_equal(single.joints, eager.joints[7])
+    assert not np.any(lazy.__dict__['_rows'][:, offset] == kernel.NOT_COMPUTED)
+    with use_kernel(False):
+        slow = solver.solve_batch(model, *motion)
+    np.testing.assert_allclose(lazy.joints, slow.joints, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(lazy.spherical_angles, slow.spherical_angles, rtol=0, atol=1e-13)
+
+
+@needs_kernel
 def test_a_kernel_solution_is_one_row():
     """solve: one C call; its arrays are views of one result row, made on first
     access; the object reads as a StewartSolution."""
@@ -436,8 +465,12 @@ def test_a_solution_keeps_its_inputs(on):
         q[1] = 0.0
         assert sol.detail.startswith('q[1] (sway) is not finite (nan)')
         assert math.isnan(sol.pose[1]) and sol.pose[0] == 0.0
-        batch = solver.solve_batch(MODEL, np.array([q, Z]), np.zeros((2, 6)), np.zeros((2, 6)))
-    np.testing.assert_array_equal(batch.pose, [q, Z])
+        Q = np.array([q, Z])
+        Q[0, 1] = math.nan
+        batch = solver.solve_batch(MODEL, Q, np.zeros((2, 6)), np.zeros((2, 6)))
+        Q[0, 1] = Q[1, 0] = 0.5
+        assert batch.detail[0].startswith('q[1] (sway) is not finite (nan)')
+    np.testing.assert_array_equal(batch.pose, [[0.0, math.nan] + [0.0] * 4, Z])
 
 
 def test_numpy_code_runs_without_the_extension(monkeypatch):
