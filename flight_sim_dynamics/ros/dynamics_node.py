@@ -35,7 +35,8 @@ from .marker_publisher import MarkerPublisher
 from .process import end_spins, stop_requested
 from .service_thread import ServiceThread
 from .setpoints import (ACCEL, BAD_SETPOINT, ERROR, INACTIVE, LEVEL_NAMES, PLATFORM, POSE, TWIST,
-                        WARN, Outcome, Runtime, SetpointError, SetpointIntake, diagnostic_name)
+                        WARN, Answer, Outcome, Runtime, SetpointError, SetpointIntake,
+                        diagnostic_name)
 
 SUCCESS, FAILURE = TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE
 LATEST_STAMP_REUSE = 0.005       # s one clock reading serves the future-stamp check
@@ -163,6 +164,7 @@ class DynamicsNode(LifecycleNode):
         self._actuator_pub = self._joint_pub = self._diag_pub = None
         self._diag_timer = self._poll_timer = None
         self._markers: MarkerPublisher | None = None
+        self._answered_since = False             # an answer out since the last markers offer
         self._diag_name = diagnostic_name(self.get_fully_qualified_name())
         # timers on the steady clock: they tick with use_sim_time and no /clock
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -474,7 +476,7 @@ class DynamicsNode(LifecycleNode):
                 raise _Refused(next(iter(self._refused.values())))
             self._runtime = self._runtime_of(self._values())
             if self._intake is None:
-                self._intake = SetpointIntake(self._runtime)
+                self._intake = SetpointIntake(self._runtime, self._publish_answer)
             else:
                 self._intake.reconfigure(self._runtime)
                 self._intake.reset()
@@ -654,25 +656,34 @@ class DynamicsNode(LifecycleNode):
         except Exception as exc:  # noqa: BLE001
             self._internal_error(exc)
 
-    def _publish(self, outcome: Outcome) -> None:
-        answers, lines = outcome
-        if not answers:
-            self._log(outcome)
-            return
+    def _publish_answer(self, answer: Answer) -> None:
+        """One answer out, as soon as it is solved: the intake checks it and
+        counts it afterwards, off the round trip.
+        """
         config = self._runtime.config
         actuator, joints = self._actuator_msg, self._joint_msg
         actuator.header.frame_id = config.output_frame_id
         joints.header.frame_id = config.output_joint_states_frame_id
-        for answer in answers:
-            for msg in (actuator, joints):
-                msg.header.stamp.sec, msg.header.stamp.nanosec = answer.header
-            actuator.position, actuator.velocity, actuator.effort = \
-                answer.length, answer.rate, answer.force
-            joints.position, joints.velocity = answer.joints, answer.joint_rates
+        for msg in (actuator, joints):
+            msg.header.stamp.sec, msg.header.stamp.nanosec = answer.header
+        actuator.position, actuator.velocity, actuator.effort = \
+            answer.length, answer.rate, answer.force
+        joints.position, joints.velocity = answer.joints, answer.joint_rates
+        try:
             self._actuator_pub.publish(actuator)
             self._joint_pub.publish(joints)
-        self._markers.offer(self._intake.last_header, self._intake.last_solution)
-        self._log(([], lines))
+        except Exception:
+            if self.context.ok():
+                raise           # the intake's internal error
+            return              # shutting down: the shutdown's failure
+        self._answered_since = True
+
+    def _publish(self, outcome: Outcome) -> None:
+        """After the intake: the markers of the last answer, the log lines."""
+        if self._answered_since:
+            self._answered_since = False
+            self._markers.offer(self._intake.last_header, self._intake.last_solution)
+        self._log(outcome)
 
     def _log(self, outcome: Outcome) -> None:
         # rclpy fixes a severity per call site: one call site per severity

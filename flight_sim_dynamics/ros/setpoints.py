@@ -893,9 +893,13 @@ Outcome = tuple[list[Answer], list[tuple[int, str]]]
 
 
 class SetpointIntake:
-    """Messages in, :data:`Outcome` s out; an internal error is a ``solver_error``."""
+    """Messages in, :data:`Outcome` s out; an internal error is a ``solver_error``.
+    With ``publish``, each answer goes to it as soon as it is solved, before the
+    answer's limit checks and statistics (off the round trip), and the
+    outcome's answers are empty.
+    """
 
-    def __init__(self, runtime: Runtime) -> None:
+    def __init__(self, runtime: Runtime, publish: Callable[[Answer], None] | None = None) -> None:
         config = runtime.config
         self.runtime = runtime
         machine = runtime.machine
@@ -917,6 +921,7 @@ class SetpointIntake:
         self._stale: tuple[int, float] | None = None   # (activation stamp, until)
         self._answers: list[Answer] = []
         self._lines: list[tuple[int, str]] = []
+        self._publish = self._answers.append if publish is None else publish
 
     def _new_estimator(self, config: NodeConfig) -> DerivativeEstimator:
         # warming up: never estimates an acceleration from a rest it assumed
@@ -928,8 +933,9 @@ class SetpointIntake:
         return model, machine_of(model).actuator_limits(model)
 
     def _flush(self) -> Outcome:
-        out = (self._answers, self._lines)
-        self._answers, self._lines = [], []
+        out = (self._answers[:], self._lines)
+        self._answers.clear()
+        self._lines = []
         return out
 
     def receive(self, kind: str, msg: Any, now: float, latest_ns: int | None,
@@ -1080,7 +1086,7 @@ class SetpointIntake:
             return
         self._answered = sp.stamp_ns
         self.estimator.commit()
-        self._answers.append(answer)
+        self._publish(answer)
         self._assess(sol, sp, runtime, elapsed, answer)
         self.last_solution, self.last_header = sol, sp.header
 

@@ -591,3 +591,18 @@ def test_setpoints_stamped_before_an_activation_are_stale_for_a_while(stream_whi
     # precedes the last answered one)
     assert not _answered(intake, activation - 10 ** 8, 100.0 + STALE_WINDOW + 0.1)
     assert intake.stats.rejected.get(INACTIVE, 0) == (4 if stream_while_inactive else 0)
+
+
+# -- the answer first ------------------------------------------------------------------
+def test_an_answer_goes_out_before_its_checks_and_statistics():
+    """With a publish callback, each answer is handed over as soon as it is
+    solved: the intake has not counted it yet (its limit checks and statistics
+    come after, off the round trip), and the outcome carries no answers."""
+    handed = []
+    intake = SetpointIntake(Runtime(prm.load_model(), NodeConfig.from_values({})),
+                            publish=lambda a: handed.append((a.header, intake.stats.answered)))
+    stamp = 1_700_000_000 * 1_000_000_000
+    outcomes = [intake.receive(kind, _stamped(stamp), 0.0, None) for kind in (POSE, TWIST, ACCEL)]
+    assert handed == [(divmod(stamp, 1_000_000_000), 0)]
+    assert intake.stats.answered == 1
+    assert all(answers == [] for answers, _ in outcomes)

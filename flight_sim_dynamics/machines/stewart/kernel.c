@@ -198,8 +198,9 @@ static void leg_position_of(const double *P, int i, const platform_motion *pm,
 /* The joint angles of leg i of axis u: theta_1 = atan2(-e2 . u, e3 . u),
    theta_2 = atan2(a_1 . u, |a_1 x u|) (S5) (kinematics.leg_positions) and the
    spherical joint's acos(u . z), z = R e_3 (kinematics.spherical_joint_angles).
-   A third of a solve: solve computes them only where a joint-angle limit is on
-   (JOINT_ANGLES_NEEDED), else joint_angles() does on first read. */
+   A third of a sample: a batch computes them only where a joint-angle limit is
+   set (JOINT_ANGLES_NEEDED), else joint_angles() does on first read; a single
+   solve always (a node publishes them every cycle). */
 static void leg_angles(const double *P, int i, v3 u, v3 z, double *theta1, double *theta2,
                        double *spherical)
 {
@@ -507,7 +508,7 @@ static void void_row(double *out, int code, int info)
 __attribute__((flatten))
 #endif
 static void solve_one(const double *P, int fx, const double *q, const double *qd,
-                      const double *qdd, double *out)
+                      const double *qdd, int angles, double *out)
 {
     memcpy(out + O_POSE, q, 6 * sizeof(double));
     for (int j = 0; j < 18; j++) {          /* solver._first_bad_input */
@@ -523,7 +524,7 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
     leg_velocity w[6];
     leg_acceleration k[6];
     double *J = out + O_TWIST_JACOBIAN, *JL = out + O_JACOBIAN;
-    int degenerate = -1, angles = JOINT_ANGLES_NEEDED(P);
+    int degenerate = -1;
     v3 z = vec(pm.R[0][2], pm.R[1][2], pm.R[2][2]);
     for (int i = 0; i < 6; i++) {
         leg_position_of(P, i, &pm, &g[i]);                             /* (S4)-(S5) */
@@ -877,7 +878,7 @@ static PyObject *py_solve(PyObject *self, PyObject *const *args, Py_ssize_t narg
         return NULL;
     }
     double *out = (double *)ov.buf;
-    solve_one((const double *)pv.buf, fx, x, x + 6, x + 12, out);
+    solve_one((const double *)pv.buf, fx, x, x + 6, x + 12, 1, out);
     PyBuffer_Release(&pv);
     PyBuffer_Release(&ov);
     return Py_BuildValue("(iid)", (int)out[O_STATUS], (int)out[O_INFO], out[O_COND]);
@@ -920,6 +921,10 @@ static int usable_cpus(void)
 static void in_parallel(row_job run, const void *job, Py_ssize_t n)
 {
     Py_ssize_t parts = n / MIN_SAMPLES_PER_THREAD;
+    if (parts < 2) {                 /* one part: no thread, no look at the CPUs */
+        run(job, 0, n);
+        return;
+    }
     int cpus = usable_cpus();
     if (parts > cpus)
         parts = cpus;
@@ -955,14 +960,16 @@ static void solve_rows(const void *job, Py_ssize_t begin, Py_ssize_t end)
     const batch_job *b = (const batch_job *)job;
     for (Py_ssize_t i = begin; i < end; i++)
         solve_one(b->P, b->fx, b->q + 6 * i, b->qd + 6 * i, b->qdd + 6 * i,
-                  b->out + OUT_SIZE * i);
+                  JOINT_ANGLES_NEEDED(b->P), b->out + OUT_SIZE * i);
 }
 
 PyDoc_STRVAR(solve_batch_doc,
 "solve_batch(params, effects, q, qd, qdd, out) -> None\n\n"
 "N samples: q, qd, qdd C-contiguous (N, 6) float64 buffers, out a writable\n"
-"C-contiguous (N, OUT_SIZE) float64 buffer; each row as solve's. Releases the GIL\n"
-"and shares the samples out to one thread per usable CPU (at least 1024 each).");
+"C-contiguous (N, OUT_SIZE) float64 buffer; each row as solve's, but the joint\n"
+"angles left NOT_COMPUTED unless a joint-angle limit is set: joint_angles().\n"
+"Releases the GIL and shares the samples out to one thread per usable CPU (at\n"
+"least 1024 each).");
 
 static PyObject *py_solve_batch(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {

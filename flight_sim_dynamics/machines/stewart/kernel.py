@@ -68,8 +68,9 @@ if _kernel is not None:
     OUT_SIZE = _kernel.OUT_SIZE
     #: Result row layout: field -> (offset, size).
     OUT = dict(_kernel.OUT)
-    O_COND, O_STATUS, O_INFO = (OUT[name][0] for name in ('jacobian_condition', 'status',
-                                                          'info'))
+    O_COND, O_STATUS, O_INFO, O_SPHERICAL, O_TWIST_JACOBIAN = (
+        OUT[name][0] for name in ('jacobian_condition', 'status', 'info', 'spherical_angles',
+                                  'twist_jacobian'))
     #: Status of each kernel code.
     STATUS_BY_CODE = tuple(Status(name) for name in _kernel.STATUS)
     solve_one = _kernel.solve       # (params, bits, out, q, qd, qdd) -> (code, info, cond)
@@ -162,6 +163,8 @@ def joint_angles(model: StewartModel, rows: np.ndarray) -> None:
     this call: it computes them only where a joint-angle limit is on (they are
     a third of its cost), from the row's pose and J.
     """
+    if rows.ndim == 1 and rows[O_SPHERICAL] != NOT_COMPUTED:     # a single solve's
+        return
     params, _ = prepared(model)
     _kernel.joint_angles(params, rows.reshape(-1, OUT_SIZE))
 
@@ -171,6 +174,12 @@ def conditions(rows: np.ndarray) -> np.ndarray:
     the row's own where solve computed it, else the kernel's (the same Jacobi
     sweeps solve runs).
     """
+    if rows.ndim == 1:                  # a single solve's row
+        cond = np.array(rows[O_COND])
+        if cond != NOT_COMPUTED:
+            return cond
+        _kernel.conditions(rows[O_TWIST_JACOBIAN:O_TWIST_JACOBIAN + 36], cond.reshape(1))
+        return cond
     cond = rows[..., O_COND].copy()
     todo = np.flatnonzero(cond.reshape(-1) == NOT_COMPUTED)
     if todo.size:
