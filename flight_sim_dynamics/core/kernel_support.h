@@ -52,6 +52,24 @@ static int get_doubles(PyObject *obj, Py_buffer *view, Py_ssize_t n, int writabl
     return 0;
 }
 
+/* A C-contiguous float64 buffer of N rows of `row` numbers, writable if
+   asked: N, or -1 with a ValueError naming it */
+static Py_ssize_t get_rows(PyObject *obj, Py_buffer *view, Py_ssize_t row, int writable,
+                           const char *name)
+{
+    if (PyObject_GetBuffer(obj, view, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT
+                           | (writable ? PyBUF_WRITABLE : 0)) < 0)
+        return -1;
+    Py_ssize_t n = view->len / (row * (Py_ssize_t)sizeof(double));
+    if (view->len != n * row * (Py_ssize_t)sizeof(double) || view->format == NULL
+            || strcmp(view->format, "d") != 0) {
+        PyErr_Format(PyExc_ValueError, "%s must be (N, %zd) float64 numbers", name, row);
+        PyBuffer_Release(view);
+        return -1;
+    }
+    return n;
+}
+
 /* {name: (offset, size)}, or with bits_only {name: bit} */
 static PyObject *fields_dict(const field *f, size_t n, int bits_only)
 {

@@ -997,17 +997,12 @@ static PyObject *py_solve_batch(PyObject *self, PyObject *const *args, Py_ssize_
     Py_buffer views[5];     /* q (its size gives N), params, qd, qdd, out */
     int got = 0;
     PyObject *result = NULL;
-    if (PyObject_GetBuffer(args[2], &views[0], PyBUF_C_CONTIGUOUS) < 0)
+    Py_ssize_t n = get_rows(args[2], &views[0], 3, 0, "q");
+    if (n < 0)
         return NULL;
-    Py_ssize_t n = views[0].len / (Py_ssize_t)(3 * sizeof(double));
     static const int arg[5] = {2, 0, 3, 4, 5};
     static const char *const names[5] = {"q", "packed model", "qd", "qdd", "out"};
     const Py_ssize_t sizes[5] = {3 * n, P_SIZE, 3 * n, 3 * n, OUT_SIZE * n};
-    if (views[0].len != 3 * n * (Py_ssize_t)sizeof(double)) {
-        PyErr_SetString(PyExc_ValueError, "q must be (N, 3) doubles");
-        PyBuffer_Release(&views[0]);
-        return NULL;
-    }
     for (got = 1; got < 5; got++)
         if (get_doubles(args[arg[got]], &views[got], sizes[got], got == 4, names[got]) < 0)
             goto done;

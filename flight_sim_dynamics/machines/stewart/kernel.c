@@ -983,15 +983,9 @@ static PyObject *py_solve_batch(PyObject *self, PyObject *const *args, Py_ssize_
     Py_buffer views[5];     /* q (its size gives N), params, qd, qdd, out */
     int got = 0;
     PyObject *result = NULL;
-    if (PyObject_GetBuffer(args[2], &views[0], PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0)
+    Py_ssize_t n = get_rows(args[2], &views[0], 6, 0, "q");
+    if (n < 0)
         return NULL;
-    Py_ssize_t n = views[0].len / (Py_ssize_t)(6 * sizeof(double));
-    if (views[0].len != 6 * n * (Py_ssize_t)sizeof(double) || views[0].format == NULL
-            || strcmp(views[0].format, "d") != 0) {
-        PyErr_SetString(PyExc_ValueError, "q must be (N, 6) float64 numbers");
-        PyBuffer_Release(&views[0]);
-        return NULL;
-    }
     static const int arg[5] = {2, 0, 3, 4, 5};
     static const char *const names[5] = {"q", "packed model", "qd", "qdd", "out"};
     const Py_ssize_t sizes[5] = {6 * n, P_SIZE, 6 * n, 6 * n, OUT_SIZE * n};
@@ -1041,17 +1035,10 @@ static PyObject *py_conditions(PyObject *self, PyObject *const *args, Py_ssize_t
         PyErr_SetString(PyExc_TypeError, "conditions() takes 2 arguments");
         return NULL;
     }
-    Py_buffer out;
-    if (PyObject_GetBuffer(args[1], &out, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT
-                           | PyBUF_WRITABLE) < 0)
+    Py_buffer out, jv;
+    Py_ssize_t n = get_rows(args[1], &out, 1, 1, "out");
+    if (n < 0)
         return NULL;
-    Py_ssize_t n = out.len / (Py_ssize_t)sizeof(double);
-    Py_buffer jv;
-    if (out.format == NULL || strcmp(out.format, "d") != 0) {
-        PyErr_SetString(PyExc_ValueError, "out must be float64 numbers");
-        PyBuffer_Release(&out);
-        return NULL;
-    }
     if (get_doubles(args[0], &jv, 36 * n, 0, "jacobians") < 0) {
         PyBuffer_Release(&out);
         return NULL;
@@ -1106,17 +1093,9 @@ static PyObject *py_joint_angles(PyObject *self, PyObject *const *args, Py_ssize
     Py_buffer pv, rv;
     if (get_doubles(args[0], &pv, P_SIZE, 0, "packed model") < 0)
         return NULL;
-    if (PyObject_GetBuffer(args[1], &rv, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT
-                           | PyBUF_WRITABLE) < 0) {
+    Py_ssize_t n = get_rows(args[1], &rv, OUT_SIZE, 1, "rows");
+    if (n < 0) {
         PyBuffer_Release(&pv);
-        return NULL;
-    }
-    Py_ssize_t n = rv.len / (Py_ssize_t)(OUT_SIZE * sizeof(double));
-    if (rv.len != n * (Py_ssize_t)(OUT_SIZE * sizeof(double)) || rv.format == NULL
-            || strcmp(rv.format, "d") != 0) {
-        PyErr_SetString(PyExc_ValueError, "rows must be (N, OUT_SIZE) float64 numbers");
-        PyBuffer_Release(&pv);
-        PyBuffer_Release(&rv);
         return NULL;
     }
     angles_job job = {(const double *)pv.buf, (double *)rv.buf};
