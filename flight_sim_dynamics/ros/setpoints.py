@@ -951,7 +951,7 @@ class SetpointIntake:
             else:
                 self._stamped(kind, msg, now, latest_ns)
         except Exception as exc:  # noqa: BLE001 - nothing escapes
-            self.internal_error(exc)
+            self._internal(exc)
         return self._flush()
 
     def activate(self, stamp_ns: int, now: float) -> None:
@@ -1040,7 +1040,7 @@ class SetpointIntake:
             if self.sync.pending:
                 self._dispatch(*self.sync.poll(now))
         except Exception as exc:  # noqa: BLE001
-            self.internal_error(exc)
+            self._internal(exc)
         return self._flush()
 
     def _dispatch(self, released: list[Setpoint], rejected: list[Rejected]) -> None:
@@ -1059,7 +1059,7 @@ class SetpointIntake:
             try:
                 self._process(setpoint)
             except Exception as exc:  # noqa: BLE001 - one failure must not skip the others
-                self.internal_error(exc)
+                self._internal(exc)
 
     def _process(self, sp: Setpoint) -> None:
         """Estimate, solve, check; not answered: no trace (warming up: its pose
@@ -1087,8 +1087,8 @@ class SetpointIntake:
         self._answered = sp.stamp_ns
         self.estimator.commit()
         self._publish(answer)
-        self._assess(sol, sp, runtime, elapsed, answer)
         self.last_solution, self.last_header = sol, sp.header
+        self._assess(sol, sp, runtime, elapsed, answer)
 
     def _rates(self, sp: Setpoint, config: NodeConfig) -> tuple[Vec, Vec, Vec]:
         """q, qd, qdd of a setpoint: given (converted, :class:`PoseMap`) or estimated."""
@@ -1179,11 +1179,18 @@ class SetpointIntake:
         self.log(level, reason, message)
 
     def internal_error(self, exc: BaseException) -> Outcome:
+        """A failure outside the intake's own calls (the node's): counted, and
+        the outcome with its log line.
+        """
+        self._internal(exc)
+        return self._flush()
+
+    def _internal(self, exc: BaseException) -> None:
+        """A failure: a ``solver_error``, its line queued with the others."""
         try:
             self.reject(SOLVER_ERROR, f'internal error: {type(exc).__name__}: {exc}')
         except Exception:  # noqa: BLE001 - even reporting failed: stay up
             pass
-        return self._flush()
 
     def log(self, level: int, key: str, message: str | Callable[[], str]) -> None:
         """Throttled per ``key``; a callable message is built only when due."""

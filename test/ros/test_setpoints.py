@@ -26,7 +26,7 @@ from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_Q
                                                NON_FINITE, OK, OVERFLOW, PITCH, POSE,
                                                STAMP_BACKWARDS, STAMP_REPEATED, SWAY, TWIST,
                                                WARN, YAW, CycleStats, LogThrottle, Runtime,
-                                               SetpointError, SetpointIntake,
+                                               SOLVER_ERROR, SetpointError, SetpointIntake,
                                                StampSynchroniser,
                                                check_limits, pose_input,
                                                quaternion_to_rpy, rate_input,
@@ -606,3 +606,20 @@ def test_an_answer_goes_out_before_its_checks_and_statistics():
     assert handed == [(divmod(stamp, 1_000_000_000), 0)]
     assert intake.stats.answered == 1
     assert all(answers == [] for answers, _ in outcomes)
+
+
+def test_an_answer_that_cannot_go_out_is_counted_and_logged():
+    """A publish callback that raises: the setpoint is a ``solver_error``, and
+    the outcome carries its ERROR line (the node logs it); the next is tried."""
+    def refuse(answer):
+        raise RuntimeError('publisher gone')
+    intake = SetpointIntake(Runtime(prm.load_model(), NodeConfig.from_values({})),
+                            publish=refuse)
+    stamp = 1_700_000_000 * 1_000_000_000
+    lines = []
+    for k in range(2):
+        for kind in (POSE, TWIST, ACCEL):
+            lines += intake.receive(kind, _stamped(stamp + k * 10 ** 7), 0.0, None)[1]
+    assert intake.stats.rejected.get(SOLVER_ERROR, 0) == 2
+    assert intake.stats.answered == 0
+    assert [level for level, _ in lines].count(ERROR) >= 1

@@ -8,6 +8,7 @@ in the C source; this module checks them against the package's own lists.
 """
 from __future__ import annotations
 
+import threading
 from operator import attrgetter
 from types import ModuleType
 
@@ -159,14 +160,19 @@ def integrate_rows(model: StewartModel, law: tuple, step: float, k0: int, steps:
 
 def joint_angles(model: StewartModel, rows: np.ndarray) -> None:
     """Fills in place the joint angles (the U-joints' in ``joints``, the
-    ``spherical_angles``) of the result rows of ``model`` that solve left to
-    this call: it computes them only where a joint-angle limit is on (they are
-    a third of its cost), from the row's pose and J.
+    ``spherical_angles``) of the result rows of ``model`` that solve_batch left
+    to this call: it computes them only where a joint-angle limit is on (they
+    are a third of its cost), from the row's pose and J. One call at a time: a
+    row half filled by one is not taken for done by another.
     """
     if rows.ndim == 1 and rows[O_SPHERICAL] != NOT_COMPUTED:     # a single solve's
         return
     params, _ = prepared(model)
-    _kernel.joint_angles(params, rows.reshape(-1, OUT_SIZE))
+    with _FILLING:
+        _kernel.joint_angles(params, rows.reshape(-1, OUT_SIZE))
+
+
+_FILLING = threading.Lock()
 
 
 def conditions(rows: np.ndarray) -> np.ndarray:

@@ -343,7 +343,9 @@ def _angle_view(name: str):
     view = _row_view(name)
 
     def angles(sol: StewartSolution) -> np.ndarray:
-        kernel.joint_angles(sol.model, sol.__dict__['_rows'])
+        if not sol.__dict__.get('_angles_filled'):
+            kernel.joint_angles(sol.model, sol.__dict__['_rows'])
+            sol.__dict__['_angles_filled'] = True
         return view(sol)
     return angles
 
@@ -360,10 +362,14 @@ def _kernel_detail(sol: StewartSolution) -> str | tuple:
     info = rows[:, kernel.O_INFO].astype(np.intp)
     detail = [''] * len(rows)
     invalid, *inputs = sol.__dict__['_inputs']      # the invalid samples' only
+    # the rows as they are, nothing deferred computed for every row: a detail
+    # reads the joint angles only where a joint-angle limit is set and the
+    # condition only where it is beyond its limit, and solve_batch computed them
+    # there
+    raw = {name: _row_view(name)(sol) for name in ('length', 'rate', 'force', 'joints',
+                                                   'spherical_angles', 'jacobian_condition')}
     for i in np.flatnonzero(code):
-        values = SimpleNamespace(**{name: getattr(sol, name)[i] for name in
-                                    ('length', 'rate', 'force', 'joints', 'spherical_angles',
-                                     'jacobian_condition')})
+        values = SimpleNamespace(**{name: view[i] for name, view in raw.items()})
         j = np.searchsorted(invalid, i)
         detail[i] = _detail(sol.model, int(code[i]), int(info[i]), values,
                             tuple(a[j] for a in inputs) if j < invalid.size and invalid[j] == i

@@ -567,3 +567,30 @@ def test_the_binding_refuses_bad_arguments(args, error):
     out = np.zeros(kernel.OUT_SIZE)
     with pytest.raises(error):
         kernel._kernel.solve(*args(params, bits, out))
+
+
+@needs_kernel
+def test_threads_reading_a_batch_s_joint_angles_at_once_see_them_whole():
+    """The first read of a batch's deferred joint angles fills its rows in
+    place: two threads reading at once both get every angle, never a row
+    another thread is still filling (NOT_COMPUTED, or 0 in place of an angle)."""
+    import threading
+    motion = random_motion(5, 'violent', n=4096)
+    with use_kernel(True):
+        eager = solver.solve_batch(dataclasses.replace(MODEL, limits=dataclasses.replace(
+            MODEL.limits, u_joint_max_angle=10.0, spherical_joint_max_angle=10.0)), *motion)
+        for _ in range(150):
+            sol = solver.solve_batch(MODEL, *motion)
+            seen, start = [None, None], threading.Barrier(2)
+
+            def read(k, field):
+                start.wait()
+                seen[k] = getattr(sol, field).copy()
+            threads = [threading.Thread(target=read, args=(k, field)) for k, field in
+                       enumerate(('spherical_angles', 'joints'))]
+            for t in threads:
+                t.start()
+            for t in threads:
+                t.join()
+            np.testing.assert_array_equal(seen[0], eager.spherical_angles)
+            np.testing.assert_array_equal(seen[1], eager.joints)
