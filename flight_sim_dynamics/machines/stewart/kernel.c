@@ -1055,8 +1055,8 @@ static PyObject *py_conditions(PyObject *self, PyObject *const *args, Py_ssize_t
 PyDoc_STRVAR(joint_angles_doc,
 "joint_angles(params, rows) -> None\n\n"
 "Fills in place the joint angles (theta_1, theta_2 of each leg in 'joints',\n"
-"'spherical_angles') of every result row that solve left NOT_COMPUTED (its first\n"
-"spherical angle): rows a writable C-contiguous (N, OUT_SIZE) float64 buffer,\n"
+"'spherical_angles') of every result row that solve_batch left NOT_COMPUTED (its\n"
+"spherical angles): rows a writable C-contiguous (N, OUT_SIZE) float64 buffer,\n"
 "params the packed model the rows were solved with. Releases the GIL and shares\n"
 "the rows out as solve_batch does.");
 
