@@ -1,8 +1,8 @@
 /* The twin's RK4 loop (core.simulation.integrate) and its binding, written once
    for the machines' kernels: included by machines/<name>/kernel.c after its
    stage() (one RK4 stage: the accelerations and the delivered forces of a
-   state, 0 when it stops), its tabulated_law (core.servo.TabulatedLaw), DOF (its
-   number of coordinates and legs), P_SIZE and EFFECT_BITS_MAX (the largest
+   state, 0 when it stops; its force law: kernel_support.h's tabulated_law), DOF
+   (its number of coordinates and legs), P_SIZE and EFFECT_BITS_MAX (the largest
    effect bit set it takes). Rows k0..steps
    of Q, QD, QDD, F (DOF numbers each), the same operations in the same order as
    the Python loop; returns the first row whose step did not complete. */

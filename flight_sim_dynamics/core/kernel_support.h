@@ -1,12 +1,21 @@
 /* What the machines' kernels (machines/<name>/kernel.c) share, included by
-   each after Python.h: the X-macros of their contracts with the Python side
-   (kernel.py checks them), the exported tables, the buffer check of their
-   bindings, and the actuators' delivery rule of core.servo. */
+   each after Python.h and its DOF (coordinates and legs): the X-macros of
+   their contracts with the Python side (kernel.py checks them), the exported
+   tables, the buffer checks of their bindings, and the twin's force law and
+   the actuators' delivery rule of core.servo. */
 #ifndef FSD_KERNEL_SUPPORT_H
 #define FSD_KERNEL_SUPPORT_H
 
 #include <math.h>
 #include <string.h>
+
+/* core.servo.TabulatedLaw: the stage forces ff (stages x DOF), and for a
+   servo the leg lengths and rates of the reference, gains and actuator limits */
+typedef struct {
+    const double *ff, *length_ref, *rate_ref;
+    double kp[DOF], kd[DOF], max_force, max_speed;
+    int servo;
+} tabulated_law;
 
 /* The contracts as X-macro lists: the C enum and the exported table
    (PyInit__kernel) come from one line. */

@@ -8,9 +8,9 @@
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#define DOF 3   /* pose coordinates (and legs): the size of the shared headers' rows */
 #include "kernel_support.h"
 
-#define DOF 3   /* pose coordinates (and legs): the size of kernel_rk4.h's rows */
 #include <float.h>
 #include <math.h>
 #include <string.h>
@@ -845,14 +845,6 @@ static void affine_one(const double *P, int fx, const double *q, const double *q
 }
 
 /* ---- The twin's RK4 loop (core.simulation.integrate) for a tabulated force law ---- */
-/* core.servo.TabulatedLaw: the stage forces ff (stages x 3), and for a servo
-   the leg lengths and rates of the reference, gains and actuator limits */
-typedef struct {
-    const double *ff, *length_ref, *rate_ref;
-    double kp[3], kd[3], max_force, max_speed;
-    int servo;
-} tabulated_law;
-
 
 /* M qdd = r by LU with partial pivoting; 0 unless M is surely within
    forward_dynamics.MAX_MASS_CONDITION (1e8): the Frobenius condition

@@ -11,9 +11,9 @@
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#define DOF 6   /* pose coordinates (and legs): the size of the shared headers' rows */
 #include "kernel_support.h"
 
-#define DOF 6   /* pose coordinates (and legs): the size of kernel_rk4.h's rows */
 #include <float.h>
 #include <math.h>
 #include <pthread.h>
@@ -641,16 +641,6 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
 }
 
 /* ---- The twin's RK4 loop (core.simulation.integrate) for a tabulated force law ---- */
-
-
-/* core.servo.TabulatedLaw: the stage forces ff (stages x 6), and for a servo
-   the leg lengths and rates of the reference, gains and actuator limits */
-typedef struct {
-    const double *ff, *length_ref, *rate_ref;
-    double kp[6], kd[6], max_force, max_speed;
-    int servo;
-} tabulated_law;
-
 
 /* The columns of the wrench of unit pose accelerations from rest, no weight
    (S10)-(S21): W[r][j] = d wrench_r / d qdd_j, the inertia of the platform,
