@@ -6,10 +6,12 @@ subscriptions to its outputs on a harness :class:`~node_harness.Client`
 from __future__ import annotations
 
 import contextlib
+import itertools
 import math
 import tempfile
+import time
 from pathlib import Path
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import rclpy
 from geometry_msgs.msg import PoseStamped, TwistStamped
@@ -18,7 +20,7 @@ from sensor_msgs.msg import JointState
 from flight_sim_dynamics.machines.staicu.model import LEG_NAMES
 from flight_sim_dynamics.ros.platform_sim import SIM_TASK
 from flight_sim_dynamics.ros.process import SIM_MODULE, start_node, stop_node
-from node_harness import QOS, ROOT, Client, diagnostic_values
+from node_harness import PARAMS_FILE, QOS, ROOT, Client, NodeProcess, diagnostic_values
 
 
 def start_sim(*ros_args: str, namespace: str = '', params_file: Path | str | None = None):
@@ -33,6 +35,46 @@ def start_sim(*ros_args: str, namespace: str = '', params_file: Path | str | Non
 def sim_output(log) -> str:
     log.flush()
     return Path(log.name).read_text(errors='replace')
+
+
+@contextlib.contextmanager
+def node_and_twin(client_name: str, params_file: Path = PARAMS_FILE
+                  ) -> Iterator[tuple[Client, 'SimClient', object, object]]:
+    """The node and the twin on ``params_file``, one remap apart (the twin takes
+    the node's ``actuator_states`` as its commands), matched both ways before
+    anything is streamed: (client, twin, twin process, twin log).
+    """
+    node = NodeProcess('-p', 'diagnostics.period:=0.25', '-p', 'sync.wait:=0.5',
+                       params_file=params_file)
+    client = Client(client_name)
+    sim = log = None
+    try:
+        client.wait_for_node(node)
+        # what is published before matching is lost (seen in CI: 1 node answer and
+        # 13 twin commands): a probe round trip through the node, then through node
+        # and twin (probes at home, stamped long ago; the twin then holds them)
+        probes = itertools.count(time.time_ns() - 60 * 10**9, 5 * 10**6)
+        client.round_trip(lambda: next(probes))
+        sim, log = start_sim('-r', 'actuator_commands:=actuator_states',
+                             params_file=params_file)
+        twin = SimClient(client)
+        ok = client.spin_until(lambda: twin.ready() or sim.poll() is not None, 20.0)
+        assert ok and sim.poll() is None, 'twin not up:\n' + sim_output(log)[-3000:]
+        zero = (0.0, 0.0, 0.0)
+        deadline = time.monotonic() + 20.0
+        while not twin.has(lambda v: int(v['commands accepted']) > 0):
+            assert time.monotonic() < deadline, 'no probe reached the twin\n' + sim_output(log)
+            client.send(next(probes), zero, zero, zero)
+            client.spin_until(lambda: False, 0.3)
+        yield client, twin, sim, log
+    finally:
+        client.close()
+        node.stop()
+        if sim is not None:
+            stop_node(sim)
+            print(sim_output(log)[-2000:])
+            log.close()
+            Path(log.name).unlink(missing_ok=True)
 
 
 class SimClient:

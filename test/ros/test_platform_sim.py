@@ -14,7 +14,6 @@ real ``dynamics_node`` (one remap: ``actuator_commands:=actuator_states``).
 """
 from __future__ import annotations
 
-import itertools
 import os
 import re
 import subprocess
@@ -36,8 +35,9 @@ from flight_sim_dynamics.machines.staicu.model import LEG_NAMES
 from flight_sim_dynamics.machines.staicu.motions import MOTIONS
 from flight_sim_dynamics.ros.process import SIM_MODULE, stop_node
 from flight_sim_dynamics.ros.setpoints import quaternion_to_rpy
-from node_harness import PARAMS_FILE, QOS, ROOT, Client, NodeProcess
-from sim_harness import SimClient, command, own_twin, sim_output, stamp, start_sim
+from node_harness import PARAMS_FILE, QOS, ROOT, Client
+from sim_harness import (SimClient, command, node_and_twin, own_twin, sim_output, stamp,
+                         start_sim)
 
 pytestmark = pytest.mark.ros
 
@@ -58,37 +58,8 @@ RATE = 100.0
 
 @pytest.fixture(scope='module')
 def pipeline():
-    node = NodeProcess('-p', 'diagnostics.period:=0.25', '-p', 'sync.wait:=0.5',
-                       params_file=PARAMS_FILE)
-    client = Client('twin_test_client')
-    sim = log = None
-    try:
-        client.wait_for_node(node)
-        # matched both ways before the stream (what is published before is
-        # lost: seen in CI, 1 node answer and 13 twin commands): a probe round
-        # trip through the node, then through node and twin (probes at rest at
-        # the central pose, stamped long ago; the twin then holds them)
-        probes = itertools.count(time.time_ns() - 60 * 10**9, 5 * 10**6)
-        client.round_trip(lambda: next(probes))
-        sim, log = start_sim('-r', 'actuator_commands:=actuator_states')
-        twin = SimClient(client)
-        ok = client.spin_until(lambda: twin.ready() or sim.poll() is not None, 20.0)
-        assert ok and sim.poll() is None, 'twin not up:\n' + sim_output(log)[-3000:]
-        zero = (0.0, 0.0, 0.0)
-        deadline = time.monotonic() + 20.0
-        while not twin.has(lambda v: int(v['commands accepted']) > 0):
-            assert time.monotonic() < deadline, 'no probe reached the twin\n' + sim_output(log)
-            client.send(next(probes), zero, zero, zero)
-            client.spin_until(lambda: False, 0.3)
-        yield client, twin, sim, log
-    finally:
-        client.close()
-        node.stop()
-        if sim is not None:
-            stop_node(sim)
-            print(sim_output(log)[-2000:])
-            log.close()
-            Path(log.name).unlink(missing_ok=True)
+    with node_and_twin('twin_test_client') as running:
+        yield running
 
 
 def test_twin_waits_at_rest_before_the_first_command():

@@ -19,7 +19,6 @@ Also the rclpy-free parts: which params file the twin takes as its plant.
 """
 from __future__ import annotations
 
-import itertools
 import time
 from pathlib import Path
 
@@ -34,11 +33,10 @@ from flight_sim_dynamics.config.errors import ParameterError
 from flight_sim_dynamics.core.euler import euler_rates
 from flight_sim_dynamics.core.motion import PlannerSequence
 from flight_sim_dynamics.ros.platform_sim import check_command, plant_file, sim_config
-from flight_sim_dynamics.ros.process import stop_node
 from flight_sim_dynamics.ros.setpoints import (SetpointError, pose_map, quaternion_to_rpy,
                                                rpy_to_quaternion)
-from node_harness import PARAMS_FILE, ROOT, Client, NodeProcess
-from sim_harness import SimClient, command, own_twin, sim_output, stamp, start_sim
+from node_harness import PARAMS_FILE, ROOT
+from sim_harness import command, node_and_twin, own_twin, sim_output, stamp, start_sim
 
 pytestmark = pytest.mark.ros
 
@@ -301,26 +299,7 @@ def test_hexapod_twin_follows_the_nodes_commands(machine):
     motion-cueing sequence streamed as
     setpoints at 100 Hz: every one answered, and the twin follows (the bounds of
     :func:`test_hexapod_twin_follows_the_solvers_commands`)."""
-    node = NodeProcess('-p', 'diagnostics.period:=0.25', '-p', 'sync.wait:=0.5',
-                       params_file=STEWART_FILE)
-    client = Client('hexnode_client')
-    sim = log = None
-    try:
-        client.wait_for_node(node)
-        probes = itertools.count(time.time_ns() - 60 * 10**9, 5 * 10**6)
-        client.round_trip(lambda: next(probes))        # setpoints at home, both ways
-        sim, log = start_sim('-r', 'actuator_commands:=actuator_states',
-                             params_file=STEWART_FILE)
-        twin = SimClient(client)
-        ok = client.spin_until(lambda: twin.ready() or sim.poll() is not None, 20.0)
-        assert ok and sim.poll() is None, 'twin not up:\n' + sim_output(log)[-3000:]
-        zero = (0.0, 0.0, 0.0)
-        deadline = time.monotonic() + 20.0
-        while not twin.has(lambda v: int(v['commands accepted']) > 0):
-            assert time.monotonic() < deadline, 'no probe reached the twin\n' + sim_output(log)
-            client.send(next(probes), zero, zero, zero)
-            client.spin_until(lambda: False, 0.3)
-
+    with node_and_twin('hexnode_client', STEWART_FILE) as (client, twin, _, _):
         poses = pose_map(machine)
         sequence = PlannerSequence(machine.motions, ['cueing'])
         n = int(sequence.period * RATE) + 1
@@ -344,11 +323,3 @@ def test_hexapod_twin_follows_the_nodes_commands(machine):
         values = twin.diagnostics(lambda v: int(v['commands accepted']) >= n)
         assert values['rejected total'] == '0' and values['outcome'] == 'ok'
         assert twin.all_finite()
-    finally:
-        client.close()
-        node.stop()
-        if sim is not None:
-            stop_node(sim)
-            print(sim_output(log)[-2000:])
-            log.close()
-            Path(log.name).unlink(missing_ok=True)
