@@ -3,7 +3,8 @@
 ``actuator_states``): the node with its markers at the file's rate, the node
 without markers (``output.markers_rate:=0``) and a same-traffic rclpy echo (the
 node's three subscriptions and two JointStates, no solve), in rotating order;
-then what one markers array costs the node's thread and the renderer process.
+the ratios to the echo and of markers on to off; then what one markers array
+costs the node's thread and the renderer process.
 
     python -m benchmarks.node [--params FILE] [--rate 1000] [--seconds 5] [--repeats 3] [--quick]
 """
@@ -308,6 +309,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(table(['ratio to the echo', 'median', 'p99'],
                 [[target, f'{m["median"] / echo["median"]:.2f}x', f'{m["p99"] / echo["p99"]:.2f}x']
                  for target, m in figures.items() if target != ECHO]))
+    on, off = figures['node, markers on'], figures['node, markers off']
+    print(table(['the markers\' cost', 'median', 'p99'],
+                [['node, markers on / markers off', f'{on["median"] / off["median"]:.2f}x',
+                  f'{on["p99"] / off["p99"]:.2f}x']]))
     print(table(['markers, per array', 'median µs', 'p99 µs'],
                 marker_costs(params, 100 if args.quick else 1000)))
     return 0

@@ -91,6 +91,8 @@ def test_node_prints_the_node_with_and_without_markers_next_to_the_echo():
     ratios = table(rows, 'ratio to the echo')
     for target in ('node, markers on', 'node, markers off'):
         assert all(v > 0 for v in numbers(ratios[target]))
+    cost = table(rows, "the markers' cost")
+    assert all(v > 0 for v in numbers(cost['node, markers on / markers off']))
     costs = table(rows, 'markers, per array')
     for part in ("node's thread (snapshot, request, raw publish)",
                  'renderer process (build, serialize)'):
