@@ -710,20 +710,23 @@ def check_limits(stroke: Sequence[float], rate: Sequence[float], force: Sequence
                  limits: ActuatorLimits, warn_fraction: float,
                  labels: Sequence[str]) -> LimitReport:
     """Beyond a limit: ERROR, within ``warn_fraction`` of one: WARN (published
-    anyway); legs named by ``labels`` (upper case).
+    anyway); legs named by ``labels`` (upper case). A leg's usage of a limit:
+    its stroke's distance from mid-stroke over half the stroke, its speed and
+    force over the maxima.
     """
-    usages = {}
+    exceeded: list[str] = []
+    near: list[str] = []
     for i, (label, low, high) in enumerate(zip(labels, limits.stroke_min.tolist(),
                                                limits.stroke_max.tolist())):
-        leg = label.upper()
-        mid, half = 0.5 * (high + low), 0.5 * (high - low)
-        usages[f'stroke {leg}'] = abs(stroke[i] - mid) / half
-        usages[f'speed {leg}'] = abs(rate[i]) / limits.max_speed
-        usages[f'force {leg}'] = abs(force[i]) / limits.max_force
-    exceeded = tuple(name for name, u in usages.items() if u > 1.0)
-    near = tuple(name for name, u in usages.items() if warn_fraction <= u <= 1.0)
+        for what, usage in (('stroke', abs(stroke[i] - 0.5 * (high + low)) / (0.5 * (high - low))),
+                            ('speed', abs(rate[i]) / limits.max_speed),
+                            ('force', abs(force[i]) / limits.max_force)):
+            if usage > 1.0:             # a name made only for a limit reported
+                exceeded.append(f'{what} {label.upper()}')
+            elif usage >= warn_fraction:
+                near.append(f'{what} {label.upper()}')
     level = ERROR if exceeded else WARN if near else OK
-    return LimitReport(level, exceeded, near)
+    return LimitReport(level, tuple(exceeded), tuple(near))
 
 
 class CycleStats:
