@@ -34,9 +34,8 @@ from ..config.node_schema import MACHINE, NodeSchema, node_schema
 from .marker_publisher import MarkerPublisher
 from .process import end_spins, stop_requested
 from .service_thread import ServiceThread
-from .setpoints import (ACCEL, BAD_SETPOINT, ERROR, INACTIVE, LEVEL_NAMES, PLATFORM, POSE, TWIST,
-                        WARN, Answer, Outcome, Runtime, SetpointError, SetpointIntake,
-                        diagnostic_name)
+from .setpoints import (ACCEL, BAD_SETPOINT, INACTIVE, LEVEL_NAMES, PLATFORM, POSE, TWIST, Answer,
+                        Outcome, Runtime, SetpointError, SetpointIntake, diagnostic_name, log_at)
 
 SUCCESS, FAILURE = TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE
 LATEST_STAMP_REUSE = 0.005       # s one clock reading serves the future-stamp check
@@ -686,14 +685,8 @@ class DynamicsNode(LifecycleNode):
         self._log(outcome)
 
     def _log(self, outcome: Outcome) -> None:
-        # rclpy fixes a severity per call site: one call site per severity
         for level, text in outcome[1]:
-            if level >= ERROR:
-                self.get_logger().error(text)
-            elif level == WARN:
-                self.get_logger().warn(text)
-            else:
-                self.get_logger().info(text)
+            log_at(self.get_logger(), level, text)
 
     def _internal_error(self, exc: Exception) -> None:
         # not while shutting down: a failed publish then is the shutdown's

@@ -43,7 +43,7 @@ from ..machines.api import machine_of
 from .dynamics_node import _declared, default_qos, descriptor_for, plain
 from .process import end_spins, stop_requested
 from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, STAMP_BACKWARDS, STAMP_REPEATED, WARN,
-                        LogThrottle, SetpointError, diagnostic_name, number, pose_map,
+                        LogThrottle, SetpointError, diagnostic_name, log_at, number, pose_map,
                         rpy_to_quaternion)
 
 #: Seconds between two log lines of one rejection reason.
@@ -429,7 +429,7 @@ class PlatformSim(Node):
         skipped = self._throttle(key, time.monotonic())
         if skipped is not None:
             more = f' ({skipped} more since the last line)' if skipped else ''
-            (self.get_logger().error if error else self.get_logger().warn)(text + more)
+            log_at(self.get_logger(), ERROR if error else WARN, text + more)
 
     def _internal_error(self, exc: Exception) -> None:
         self._log('internal', f'internal error (the node carries on): '

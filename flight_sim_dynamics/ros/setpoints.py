@@ -868,6 +868,21 @@ class LogThrottle:
         return self._suppressed.pop(key, 0)
 
 
+def log_at(logger: Any, level: int, text: str) -> None:
+    """``text`` on rclpy's ``logger`` at ``level`` (OK: INFO, WARN, ERROR).
+
+    rclpy fixes a severity per call site (a ValueError from the second call
+    at another one): one call site per severity, here, for every logging
+    whose severity varies.
+    """
+    if level >= ERROR:
+        logger.error(text)
+    elif level == WARN:
+        logger.warning(text)
+    else:
+        logger.info(text)
+
+
 # -- from messages to answers -----------------------------------------------------
 class Runtime(NamedTuple):
     """What a cycle reads from the parameters, swapped as one reference."""

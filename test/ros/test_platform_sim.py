@@ -25,6 +25,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from geometry_msgs.msg import PoseStamped
+from rcl_interfaces.msg import Log
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
@@ -34,7 +36,7 @@ from flight_sim_dynamics.core.motion import PlannerSequence
 from flight_sim_dynamics.machines.staicu.model import LEG_NAMES
 from flight_sim_dynamics.machines.staicu.motions import MOTIONS
 from flight_sim_dynamics.ros.process import SIM_MODULE, stop_node
-from flight_sim_dynamics.ros.setpoints import quaternion_to_rpy
+from flight_sim_dynamics.ros.setpoints import NON_FINITE, quaternion_to_rpy
 from node_harness import PARAMS_FILE, QOS, ROOT, Client
 from sim_harness import (SimClient, command, node_and_twin, own_twin, sim_output, stamp,
                          start_sim)
@@ -54,6 +56,16 @@ pytestmark = pytest.mark.ros
 #: move, or moves wrongly, fails.
 TOLERANCE = 3e-2
 RATE = 100.0
+
+
+@pytest.fixture
+def strong(tmp_path) -> Path:
+    """The packaged 3-DOF machine with actuators strong and fast enough to
+    drive the plant out of its workspace (the twin's stop)."""
+    path = tmp_path / 'strong.yaml'
+    path.write_text('flight_sim_dynamics:\n  ros__parameters:\n    limits:\n'
+                    '      max_force: 1000000.0\n      max_speed: 100.0\n')
+    return path
 
 
 @pytest.fixture(scope='module')
@@ -191,15 +203,12 @@ def test_bad_commands_are_counted_and_nothing_non_finite_is_published(pipeline):
     assert twin.all_finite()
 
 
-def test_out_of_reach_command_stops_the_plant_and_a_reset_runs_it_again(tmp_path):
+def test_out_of_reach_command_stops_the_plant_and_a_reset_runs_it_again(strong):
     """Leg lengths 1 m beyond the central ones: the servos drive the plant out
     of its workspace (limits raised so the actuators can); it stops, ERROR,
     and keeps publishing its held state, finite. ``~/reset`` puts it back at
     rest at ``initial``, waiting for a command, and the next one runs it.
     """
-    strong = tmp_path / 'strong.yaml'
-    strong.write_text('flight_sim_dynamics:\n  ros__parameters:\n    limits:\n'
-                      '      max_force: 1000000.0\n      max_speed: 100.0\n')
     with own_twin('/lost', '-p', f'plant.params_file:={strong}') as (client, twin, pub, sim):
         model = fsd.load_model()
         rest = fsd.solve(model, [0, 0, 0], [0, 0, 0], [0, 0, 0])
@@ -227,6 +236,50 @@ def test_out_of_reach_command_stops_the_plant_and_a_reset_runs_it_again(tmp_path
         pub.publish(command(t0 - 10**9, position=rest.length, effort=rest.force))
         values = twin.diagnostics(lambda v: int(v['steps']) > 0 and v['outcome'] == 'ok')
         assert int(values['commands accepted']) == 2
+
+
+def test_a_rejection_then_a_stop_then_a_rejection_leave_the_twin_up_logging_each(strong):
+    """A rejected command (NaN: WARN), then commands that drive the plant out of
+    its workspace (the stop: ERROR), then another rejected one (WARN after the
+    ERROR): the twin stays up, logs each line at its severity (/rosout),
+    reports the stop on /diagnostics and a ``~/reset`` runs it again.
+    """
+    with own_twin('/warned', '-p', f'plant.params_file:={strong}') as (client, twin, pub, sim):
+        lines: list[Log] = []
+        rosout = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000,
+                            reliability=ReliabilityPolicy.RELIABLE,
+                            durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        client.node.create_subscription(Log, '/rosout', lambda m: lines.append(m)
+                                        if m.name == 'warned.platform_sim' else None, rosout)
+
+        def logged(level: int, text: str) -> bool:
+            return any(m.level == level and text in m.msg for m in lines)
+        assert client.spin_until(lambda: bool(lines), 10.0), 'no /rosout line of the twin'
+        rest = fsd.solve(fsd.load_model(), [0, 0, 0], [0, 0, 0], [0, 0, 0])
+        t0 = client.node.get_clock().now().nanoseconds
+        pub.publish(command(t0, position=rest.length, effort=rest.force))
+        pub.publish(command(t0 + 1, position=(float('nan'), 1.0, 1.0)))
+        assert client.spin_until(lambda: logged(Log.WARN, NON_FINITE), 10.0)
+        pub.publish(command(t0 + 2, position=rest.length + np.array([1.0, -1.0, 1.0]),
+                            effort=rest.force))
+        values = twin.diagnostics(lambda v: v['status'] == 'ERROR')
+        assert values['message'].startswith('stopped: ')
+        assert int(values['rejected non_finite']) == 1
+        pub.publish(command(t0 + 3, position=(1.0, 1.0)))
+        twin.diagnostics(lambda v: int(v['rejected bad_size']) == 1)
+        assert client.spin_until(lambda: logged(Log.ERROR, 'stopped: ')
+                                 and logged(Log.WARN, 'bad_size'), 10.0), \
+            [(m.level, m.msg) for m in lines]
+        assert sim.poll() is None
+        assert not logged(Log.ERROR, 'internal error')
+
+        client.srv['reset'] = client.node.create_client(Trigger, '/warned/platform_sim/reset')
+        response = client.call('reset', Trigger.Request(), timeout=10.0)
+        assert response.success, response.message
+        twin.diagnostics(lambda v: v['message'] == 'waiting for commands')
+        pub.publish(command(t0 + 4, position=rest.length, effort=rest.force))
+        values = twin.diagnostics(lambda v: int(v['steps']) > 0 and v['outcome'] == 'ok')
+        assert sim.poll() is None
 
 
 def test_commands_far_beyond_the_limits_are_rejected_and_the_held_one_stays():
