@@ -184,7 +184,9 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               '/clock)', 's', minimum=0.0, maximum=86400.0),
     ParamSpec('input.restart_jump', 'double', 1.0,
               'three setpoints in a row stamped more than this before the last answered one '
-              'are a planner restart: the stamp and estimator history is reset (0: never)',
+              'are a planner restart: the stamp and estimator history is reset; on the other '
+              'input only once the one that carried the last answered setpoint has been '
+              'silent this long (0: never)',
               's', minimum=0.0, maximum=86400.0),
     ParamSpec('input.max_points', 'integer', 1000,
               'most points in one platform_setpoint message; a longer message is rejected '

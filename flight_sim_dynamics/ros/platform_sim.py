@@ -43,8 +43,8 @@ from ..machines.api import machine_of
 from .dynamics_node import _declared, default_qos, descriptor_for, plain
 from .process import end_spins, stop_requested
 from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, STAMP_BACKWARDS, STAMP_REPEATED, WARN,
-                        LogThrottle, SetpointError, diagnostic_name, log_at, number, pose_map,
-                        rpy_to_quaternion)
+                        LogThrottle, RestartRule, SetpointError, diagnostic_name, log_at, number,
+                        pose_map, rpy_to_quaternion)
 
 #: Seconds between two log lines of one rejection reason.
 LOG_THROTTLE = 2.0
@@ -59,9 +59,6 @@ COMMAND_REASONS = (UNDECODABLE, BAD_NAMES, BAD_SIZE, NON_FINITE, BEYOND_LIMITS,
 #: beyond the stroke range by more than the range itself, is a fault upstream:
 #: held, the servos would drive the plant out of its workspace at full force.
 LIMIT_MARGIN = 10.0
-#: Commands in a row stamped before the last accepted one that are a restart
-#: of the stream (a planner restarted with its clock): accepted from then on.
-RESTART_AFTER = 3
 #: The status name of the twin in /diagnostics (``<node>: <task>``).
 SIM_TASK = 'platform simulation'
 
@@ -203,7 +200,7 @@ class CommandStats:
         self.restarts = 0
         self.last_rejection = ''
         self.last_stamp: int | None = None
-        self._behind = 0
+        self._restart = RestartRule()      # any stamps before the last: a planner restarted
         self.overruns = 0                    # ticks late or with dropped steps, total
         self.dropped_steps = 0
         self.new_period(None, 0.0)
@@ -215,17 +212,19 @@ class CommandStats:
         self._overruns_at_start = self.overruns
 
     def stamp(self, stamp_ns: int) -> None:
-        """Accept a command's stamp or raise SetpointError (:data:`RESTART_AFTER`)."""
+        """Accept a command's stamp or raise SetpointError; stamps before the
+        last accepted one that confirm a restart (:class:`.setpoints.RestartRule`)
+        are accepted.
+        """
         last = self.last_stamp
         if last is not None and stamp_ns <= last:
-            self._behind += 1
-            if self._behind < RESTART_AFTER:
+            if not self._restart.confirms(stamp_ns, last):
                 if stamp_ns == last:
                     raise SetpointError(STAMP_REPEATED, f'stamp {stamp_ns} ns repeated')
                 raise SetpointError(STAMP_BACKWARDS, f'stamp {stamp_ns} ns before the last '
                                                      f'accepted one ({last} ns)')
             self.restarts += 1
-        self._behind = 0
+        self._restart.clear()
         self.last_stamp = stamp_ns
 
     def reject(self, reason: str, message: str) -> None:

@@ -416,14 +416,45 @@ class Rejected(NamedTuple):
     message: str
 
 
+class RestartRule:
+    """A restarted stream told from its stamps, one rule for the node's
+    setpoints and the twin's commands: :data:`RESTART_CONFIRMATIONS` stamps in
+    a row, in increasing order, each more than ``jump_ns`` before the last
+    accepted one. Fewer, or out of order, are stray old messages.
+    """
+
+    def __init__(self, jump_ns: int = 0) -> None:
+        self.jump_ns = int(jump_ns)
+        self._behind: list[int] = []       # the confirmations so far, in a row
+
+    def confirms(self, stamp_ns: int, last_ns: int) -> bool:
+        """Whether ``stamp_ns`` (not after ``last_ns``) completes a restart."""
+        behind = self._behind
+        if last_ns - stamp_ns <= self.jump_ns:
+            behind.clear()
+            return False
+        if behind and stamp_ns <= behind[-1]:
+            behind.clear()
+        behind.append(stamp_ns)
+        if len(behind) < RESTART_CONFIRMATIONS:
+            return False
+        behind.clear()
+        return True
+
+    def clear(self) -> None:
+        """A stamp accepted in order: the confirmations start again."""
+        self._behind.clear()
+
+
 class StampSynchroniser:
     """Join pose, twist and accel by exact stamp (bounded wait); release in
     stamp order, once the pose and every active stream are there (a stream
     waited for ``wait`` s in vain is inactive until its next message); older
-    incomplete ones first. :data:`RESTART_CONFIRMATIONS` increasing setpoints
-    more than ``restart_jump`` s behind are a planner restart; at most
-    ``max_pending`` stamps wait; for ``join_window`` s partial setpoints are
-    ``joining``. Methods return (released, rejected); poll faster than ``wait``.
+    incomplete ones first. Setpoints more than ``restart_jump`` s behind are a
+    planner restart by :class:`RestartRule` (:meth:`_restarted`: on either
+    input); at most ``max_pending`` stamps wait; for ``join_window`` s partial
+    setpoints are ``joining``. Methods return (released, rejected); poll faster
+    than ``wait``.
     """
 
     def __init__(self, wait: float = 0.05, max_pending: int = 64,
@@ -431,9 +462,9 @@ class StampSynchroniser:
         self.wait = float(wait)
         self.join_window = float(join_window)
         self.max_pending = int(max_pending)
-        self.restart_jump_ns = int(round(float(restart_jump) * 1e9))
+        self.restart = RestartRule(round(float(restart_jump) * 1e9))
         self.restarts = 0
-        self._behind: list[int] = []       # setpoints in a row far behind
+        self._heard: dict[str, float] = {}     # input (POSE, PLATFORM) -> its last message's time
         self._pending: dict[int, Setpoint] = {}
         self.last_released: int | None = None
         self._last_source: str | None = None     # the input of last_released
@@ -454,7 +485,7 @@ class StampSynchroniser:
         self._pending.clear()
         self.last_released = None
         self._discarded.clear()
-        self._behind.clear()
+        self.restart.clear()
         self._newest = {TWIST: None, ACCEL: None}
         self._first_pose = None
 
@@ -481,6 +512,7 @@ class StampSynchroniser:
         """Add one message of ``kind`` (``pose``, ``twist`` or ``accel``)."""
         released: list[Setpoint] = []
         rejected: list[Rejected] = []
+        self._heard[POSE] = now
         joining = self._joining(now)
         stream_joining = kind != POSE and self._stream_joining(kind, now)
         seen = self._discarded.get(stamp_ns)
@@ -505,7 +537,7 @@ class StampSynchroniser:
                                              'newer one)'))
                 self.active[kind] = True
                 return released, rejected
-            if not self._restarted(stamp_ns, last, POSE):
+            if not self._restarted(stamp_ns, last, POSE, now):
                 rejected.append(_not_after_last(kind, stamp_ns, last))
                 return released, rejected
         pending = self._pending
@@ -553,8 +585,10 @@ class StampSynchroniser:
         """A whole setpoint in one message, under the stamp rules of :meth:`add`."""
         released: list[Setpoint] = []
         rejected: list[Rejected] = []
+        self._heard[PLATFORM] = now
         last = self.last_released
-        if last is not None and stamp_ns <= last and not self._restarted(stamp_ns, last, kind):
+        if (last is not None and stamp_ns <= last
+                and not self._restarted(stamp_ns, last, kind, now)):
             rejected.append(_not_after_last(kind, stamp_ns, last))
             return released, rejected
         pending = self._pending
@@ -603,20 +637,20 @@ class StampSynchroniser:
         until = self._stream_join_until.setdefault(kind, now + self.join_window)
         return now < until
 
-    def _restarted(self, stamp_ns: int, last: int, source: str) -> bool:
-        """This setpoint (not after ``last``) confirms a planner restart; only
-        the input (``source``) that carried ``last`` can restart: another one
-        lagging behind it is refused, so outputs stay in stamp order.
+    def _restarted(self, stamp_ns: int, last: int, source: str, now: float) -> bool:
+        """This setpoint (not after ``last``), arrived at ``now`` on ``source``,
+        confirms a planner restart (:class:`RestartRule`). On another input
+        than the one that carried ``last``, only once that one has been silent
+        for ``restart_jump`` s: an input lagging behind a live one is refused,
+        so outputs stay in stamp order.
         """
-        behind = self._behind
-        if (not self.restart_jump_ns or last - stamp_ns <= self.restart_jump_ns
-                or source != self._last_source):
-            behind.clear()
+        rule = self.restart
+        jump = rule.jump_ns
+        if not jump or (source != self._last_source and now - self._heard.get(
+                self._last_source, -math.inf) < jump * 1e-9):
+            rule.clear()
             return False
-        if behind and stamp_ns <= behind[-1]:
-            behind.clear()
-        behind.append(stamp_ns)
-        if len(behind) < RESTART_CONFIRMATIONS:
+        if not rule.confirms(stamp_ns, last):
             return False
         self.reset()
         self.restarts += 1
@@ -659,8 +693,7 @@ class StampSynchroniser:
                                      'has no pose with the same stamp'))
             return
         self.last_released, self._last_source = entry.stamp_ns, entry.source
-        if self._behind:
-            self._behind.clear()
+        self.restart.clear()
         released.append(entry)
 
     def _drop_before_first_pose(self, first: int, rejected: list) -> None:
@@ -1178,7 +1211,7 @@ class SetpointIntake:
             self.estimator = self._new_estimator(new)
         self.sync.wait = new.sync_wait
         self.sync.max_pending = new.sync_max_pending
-        self.sync.restart_jump_ns = int(round(new.input_restart_jump * 1e9))
+        self.sync.restart.jump_ns = round(new.input_restart_jump * 1e9)
         self.throttle.period = new.diagnostics_log_throttle
 
     def reset(self, reason: str | None = None) -> Outcome:

@@ -121,6 +121,37 @@ def test_one_stray_old_setpoint_is_not_a_restart(client, model):
     assert counter(after, 'planner restarts') == counter(before, 'planner restarts')
 
 
+def test_a_planner_restarted_on_the_other_input_is_a_restart(client, model, node):
+    """100 ``platform_setpoint`` points at wall-clock stamps, then a restarted
+    planner on pose/twist/accel stamped from 1 s after the epoch, at 100 Hz
+    for 3 s: answered from the restart on (once the platform input has been
+    silent for ``input.restart_jump`` = 1 s), to the last; one restart counted."""
+    rate = 100.0
+    wall = now_ns() - 5_000_000_000
+    platform = [wall + k * 10_000_000 for k in range(100)]
+    first = len(client.actuator)
+    for k in range(0, 100, 10):
+        client.send_platform(platform[k], [(Q, QD, QDD)] * 10,
+                             offsets_ns=[j * 10_000_000 for j in range(10)])
+    assert client.spin_until(lambda: set(platform) <= {
+        stamp_ns(m) for _, m in client.actuator[first:]}, 10.0), client.explain()
+    before = client.wait_diagnostics(lambda v: 'planner restarts' in v, 3.0)
+    restarted = [1_000_000_000 + k * 10_000_000 for k in range(300)]
+    first, start = len(client.actuator), time.monotonic()
+    for k, stamp in enumerate(restarted):
+        client.spin_until(lambda: time.monotonic() - start >= k / rate, 1.0)   # paced
+        client.send(stamp, Q, QD, QDD)
+    assert client.spin_until(lambda: any(stamp_ns(m) == restarted[-1]
+                                         for _, m in client.actuator[first:]), 10.0), \
+        client.explain()
+    got = [stamp_ns(m) for _, m in client.actuator[first:]]
+    assert got == restarted[-len(got):]
+    after = client.wait_diagnostics(
+        lambda v: counter(v, 'setpoints answered') >= counter(before, 'setpoints answered')
+        + len(got), 3.0)
+    assert counter(after, 'planner restarts') == counter(before, 'planner restarts') + 1
+
+
 def test_a_far_future_accel_without_pose_leaves_no_trace(unchecked, model):
     """Issue 12 #3: an AccelStamped stamped 2038 is rejected (no_pose) and the
     three-topic setpoints after it are answered with their own accelerations

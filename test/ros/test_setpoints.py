@@ -26,8 +26,8 @@ from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_Q
                                                NON_FINITE, OK, OVERFLOW, PITCH, POSE,
                                                STAMP_BACKWARDS, STAMP_REPEATED, SWAY, TWIST,
                                                WARN, YAW, CycleStats, LogThrottle, Runtime,
-                                               SOLVER_ERROR, SetpointError, SetpointIntake,
-                                               StampSynchroniser,
+                                               SOLVER_ERROR, RestartRule, SetpointError,
+                                               SetpointIntake, StampSynchroniser,
                                                check_limits, pose_input,
                                                quaternion_to_rpy, rate_input,
                                                pose_map, rpy_to_quaternion)
@@ -552,6 +552,70 @@ def test_sync_a_lagging_second_input_is_no_restart():
     rewound = [stamps(sync.add_complete(50 * second + k, 'p', 't', 'a', now=0.0)[0])
                for k in range(3)]
     assert sync.restarts == 1 and rewound[-1] == [50 * second + 2]
+
+
+def test_sync_a_restart_on_the_other_input_is_recognised():
+    """100 platform_setpoint points at wall-clock stamps, then a restarted
+    planner on pose/twist/accel stamped from 1 s after the epoch: once the
+    platform input has been silent for ``restart_jump`` s, a restart, told as
+    on the same input (the third setpoint on); while it is live, the other
+    input lagging behind it is refused (test above)."""
+    second = 1_000_000_000
+    wall = 1_764_000_000 * second
+    sync = StampSynchroniser(wait=10.0, restart_jump=1.0)
+    out = []
+    for k in range(100):
+        out += sync.add_complete(wall + k * 10_000_000, 'p', 't', 'a', now=k * 0.01)[0]
+    assert stamps(out) == [wall + k * 10_000_000 for k in range(100)]
+
+    def restarted(start: float) -> list[int]:
+        sent, got = [second + k * 10_000_000 for k in range(300)], []
+        for k, stamp in enumerate(sent):
+            for kind in (POSE, TWIST, ACCEL):
+                got += stamps(sync.add(kind, stamp, kind, now=start + k * 0.01)[0])
+        return sent, got
+    # the restarted planner starts 0.5 s after the last platform point (0.99 s):
+    # its setpoints of the first 0.5 s are refused; the silence is 1 s from the
+    # 50th (at 1.995 s), which with the next two confirms the restart
+    sent, got = restarted(1.495)
+    assert sync.restarts == 1 and got == sent[52:]
+    # restarted once more, later than restart_jump after the last point: 298 of 300
+    sent, got = restarted(10.0)
+    assert sync.restarts == 2 and got == sent[2:]
+
+
+@pytest.mark.parametrize('jump_ns', [0, 5])
+def test_restart_rule(jump_ns):
+    """Three stamps in a row, increasing, each more than the jump before the
+    last accepted one; a repeated or decreasing one starts the count again."""
+    rule = RestartRule(jump_ns)
+    last = 100
+    assert [rule.confirms(s, last) for s in (10, 11, 12)] == [False, False, True]
+    assert [rule.confirms(s, last) for s in (10, 11, 11, 12, 13)] == [False] * 4 + [True]
+    assert [rule.confirms(s, last) for s in (10, 11, 100 - jump_ns, 12, 13, 14)] == \
+        [False] * 5 + [True]
+    rule.clear()
+    assert [rule.confirms(s, last) for s in (10, 11)] == [False, False]
+    rule.clear()                       # a stamp accepted in order: the count starts again
+    assert [rule.confirms(s, last) for s in (12, 13, 14)] == [False, False, True]
+
+
+def test_the_twin_tells_a_restart_of_its_commands_by_the_same_rule():
+    """platform_sim's commands: three in a row, increasing, before the last
+    accepted one are a restart (accepted, counted); a repeated stamp is not."""
+    from flight_sim_dynamics.ros.platform_sim import CommandStats
+    stats = CommandStats()
+
+    def outcome(stamp: int) -> str:
+        try:
+            stats.stamp(stamp)
+        except SetpointError as exc:
+            return exc.reason
+        return 'accepted'
+    assert outcome(100) == 'accepted'
+    assert [outcome(100) for _ in range(3)] == [STAMP_REPEATED] * 3
+    assert [outcome(s) for s in (10, 11, 12, 13)] == [STAMP_BACKWARDS] * 2 + ['accepted'] * 2
+    assert stats.restarts == 1 and stats.last_stamp == 13
 
 
 # -- activation: what a stream published while the node was inactive ------------
