@@ -32,9 +32,15 @@ pytestmark = pytest.mark.ros
 
 STOPS = 10
 SEED = 15
-# s from a stop request to the exit, whatever the backlog (here 0.2 s; a node
-# that answers its backlog of 20,000 setpoints first: 5.4 s)
-STOP_BOUND = 2.0
+# s the node is kept stopped while its backlog is published: well inside its DDS
+# participant's lease (rmw_fastrtps: 20 s from its last announcement, sent every
+# 3 s). A participant silent for longer is taken for gone, its readers unmatched,
+# and what was published for them never delivered: on a loaded 2-core host the
+# 60,000 messages took 23 s to publish and the node then received none of them.
+MAX_STOPPED = 10.0
+# setpoints of the backlog at least left to answer at the stop request: answers
+# in flight then (seen: 0-250 under load) are a small part of it
+MIN_LEFT = 2000
 
 
 def assert_silent_stop(proc: NodeProcess, what: str, repeat_after: float | None = None) -> None:
@@ -97,12 +103,14 @@ def test_node_stops_silently_under_a_1khz_stream(client):
 
 
 def test_a_stop_ends_a_node_whatever_its_backlog(client):
-    """A Ctrl-C reaches a node with a backlog of 3 x 20,000 queued messages (the
-    node was stopped with SIGSTOP while they were sent): the node exits 0
-    within STOP_BOUND s, not after answering them. rclpy's EventsExecutor
-    returns from a timed spin only once its queue is empty, which the spin
-    loop's look at the stop request waited for: a backlog that grows faster
-    than it is answered held the node past any deadline."""
+    """A Ctrl-C reaches a node with a backlog of up to 3 x 20,000 queued messages
+    (the node stopped with SIGSTOP while they were sent, at most MAX_STOPPED s):
+    the node exits 0 without answering them: of what was left at the stop
+    request, it answers at most what it had in hand (half of it here, at least
+    MIN_LEFT setpoints left); a node that does not exit within 30 s is killed
+    (exit status -9). The time from the stop request to the exit is printed,
+    not bounded: the teardown alone (no backlog) takes 0.3 s on a quiet host
+    and 0.7-3 s at load average 6-8 on 2 cores."""
     backlog = 20_000
     depth = [f'qos_overrides./{kind}_setpoint.subscription.depth:={backlog}'
              for kind in ('pose', 'twist', 'accel')]
@@ -118,25 +126,50 @@ def test_a_stop_ends_a_node_whatever_its_backlog(client):
         msgs = [PoseStamped(), TwistStamped(), AccelStamped()]
         msgs[0].pose.orientation.w = 1.0
         base = time.time_ns()
+        sent = 0
         os.kill(node.proc.pid, signal.SIGSTOP)
         try:
-            for i in range(backlog):
-                stamp = Time(nanoseconds=base + (i + 1) * 1_000).to_msg()
+            stopped = time.monotonic()
+            while sent < backlog and time.monotonic() - stopped < MAX_STOPPED:
+                sent += 1
+                stamp = Time(nanoseconds=base + sent * 1_000).to_msg()
                 for pub, msg in zip(pubs, msgs):
                     msg.header.stamp = stamp
                     pub.publish(msg)
         finally:
             os.kill(node.proc.pid, signal.SIGCONT)
-        # answering has begun: the backlog is being worked through
-        assert client.spin_until(lambda: any(stamp_ns(m) > base for _, m in client.actuator),
-                                 20.0), node.output()[-3000:]
+        last = base + sent * 1_000
+        first = len(client.actuator)
+
+        def latest() -> int:
+            return max((stamp_ns(m) for _, m in client.actuator[first:]), default=0)
+        # the backlog is being worked through
+        assert client.spin_until(lambda: latest() > base, 20.0), \
+            f'none of {sent} answered\n' + client.explain()
+        left = (last - latest()) // 1_000                  # setpoints yet to answer
+        assert left >= MIN_LEFT, f'a backlog of {sent} setpoints, {left} left: too small'
         start = time.monotonic()
+        client.watch = None
         rc = node.stop(timeout=30.0)
         took = time.monotonic() - start
+        # what it answered before it ended: once no answer has come for 0.5 s
+        count, quiet_since = len(client.actuator), time.monotonic()
+
+        def quiet() -> bool:
+            nonlocal count, quiet_since
+            if len(client.actuator) != count:
+                count, quiet_since = len(client.actuator), time.monotonic()
+            return time.monotonic() - quiet_since >= 0.5
+        client.spin_until(quiet, 10.0)
+        unanswered = (last - latest()) // 1_000
+        print(f'backlog of {sent} setpoints, {left} left at the stop request, '
+              f'{unanswered} never answered; exit {took:.2f} s after the request')
     finally:
         node.stop()
-    assert rc == 0, node.output()[-3000:]
-    assert took < STOP_BOUND, f'exit {took:.1f} s after the stop request'
+    out = node.output()
+    assert rc == 0, out[-3000:]
+    assert 'FATAL' not in out and 'Traceback' not in out, out[-3000:]
+    assert unanswered >= left // 2, f'{left - unanswered} of {left} answered after the stop'
 
 
 def test_planner_stops_silently_while_streaming():
