@@ -49,6 +49,9 @@ class Drawing:
     views: tuple[View, ...]                     # animate's views
     plate_colours: Mapping[str, str]            # flat part -> its colour
     home: str = 'home'                          # what q = 0 is called ('the central ...')
+    #: the platform's home position in the drawing's frame: the origin of the
+    #: setpoints' frame (docs/node.md "Frame"), where the RViz markers put theirs
+    origin: Point3 = (0.0, 0.0, 0.0)
 
     def leg_of(self, part: str) -> int | None:
         """The leg (index) a line part belongs to, None for the others."""

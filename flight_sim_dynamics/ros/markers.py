@@ -1,8 +1,10 @@
 """Any machine's drawing (:attr:`Machine.drawing`, core/drawing.py) as one
 MarkerArray, one marker per part updated in place: each line part, each plate,
-the joints and a status text. Legs coloured by |force| / max_force (red beyond
-a limit of the leg, magenta near singular); a pose without a drawing redraws
-the last one grey. No rclpy here (the node publishes it: ros/marker_publisher.py).
+the joints and a status text, in the setpoints' frame (origin at the
+platform's home position, :attr:`Drawing.origin`: where the poses put it).
+Legs coloured by |force| / max_force (red beyond a limit of the leg, magenta
+near singular); a pose without a drawing redraws the last one grey. No rclpy
+here (the node publishes it: ros/marker_publisher.py).
 """
 from __future__ import annotations
 
@@ -171,6 +173,8 @@ class MarkerBuilder:
         return clear_array(self.header.frame_id, self.header.stamp.sec, self.header.stamp.nanosec)
 
     def _draw(self, pts: dict) -> None:
+        ox, oy, oz = self.drawing.origin       # the drawing's frame -> the setpoints'
+        pts = {name: (x - ox, y - oy, z - oz) for name, (x, y, z) in pts.items()}
         for ns, (a, b) in self.drawing.segments.items():
             p = self.markers[ns].points
             _set_point(p[0], pts[a])

@@ -47,7 +47,9 @@ def test_the_renderer_answers_the_serialized_array(model):
     array = deserialize_message(reply[1:], MarkerArray)
     assert array.markers[0].header.frame_id == 'frame_b'
     zero = [0.0] * fsd.machine_of(model).dof
-    home = builder.drawing.points(zero)
+    # in the setpoints' frame: origin at the platform's home position
+    home = {k: tuple(np.subtract(v, builder.drawing.origin))
+            for k, v in builder.drawing.points(zero).items()}
     first, second = builder.drawing.segments[array.markers[0].ns]
     got = array.markers[0].points
     assert (got[0].x, got[0].y, got[0].z) == pytest.approx(home[first])

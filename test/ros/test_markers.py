@@ -1,9 +1,10 @@
 """The markers of a machine's drawing (ros/markers.py): every drawn point is a
 point of the machine's drawing at the solved pose, for the 3-DOF machine the
 solver's joint positions (eq. 5-8, mechanism.md "Points") and for the hexapod
-its joints (S1), (S4), in the REP-103 simulator base frame; legs coloured by
-force and status, no NaN for any status, the same messages with the same
-namespaces and ids at every update."""
+its joints (S1), (S4), in the setpoints' frame (REP-103 simulator base, origin
+at the platform's home position: where the setpoints and the twin's poses put
+it); legs coloured by force and status, no NaN for any status, the same
+messages with the same namespaces and ids at every update."""
 from __future__ import annotations
 
 import math
@@ -20,6 +21,7 @@ from flight_sim_dynamics.core import kernel as core_kernel
 from flight_sim_dynamics.machines.api import machine_of
 from flight_sim_dynamics.ros.markers import (GREY, MAGENTA, RED, MarkerBuilder, force_colour,
                                              snapshot, triangles)
+from flight_sim_dynamics.ros.setpoints import pose_map
 
 MODEL = fsd.load_model()
 HEXAPOD = fsd.load_model('config/stewart_6dof.yaml')
@@ -111,16 +113,21 @@ def check_3dof(array: MarkerArray, b: MarkerBuilder, sol: fsd.Solution) -> None:
         assert abs(np.linalg.norm(xyz(q) - xyz(p)) - length) < 1e-9, ns
 
 
-def hexapod_points(sol) -> dict[str, np.ndarray]:
-    """B_i fixed, P_i = p + R p_i (S1), (S4) with R = Rz(yaw) Ry(pitch) Rx(roll),
-    S_i on the leg at the cylinder's length (or P_i on a shorter leg)."""
-    model, q = sol.model, np.asarray(sol.pose, dtype=float)
-    roll, pitch, yaw = q[3:]
+def rotation_zyx(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """R = Rz(yaw) Ry(pitch) Rx(roll)."""
     cr, sr, cp, sp, cy, sy = (np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch),
                               np.cos(yaw), np.sin(yaw))
-    R = np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                  [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                  [-sp, cp * sr, cp * cr]])
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+def hexapod_points(sol) -> dict[str, np.ndarray]:
+    """B_i fixed, P_i = p + R p_i (S1), (S4), S_i on the leg at the cylinder's
+    length (or P_i on a shorter leg), in the base frame moved to the platform's
+    home position (origin at ``home``, where the poses put it)."""
+    model, q = sol.model, np.asarray(sol.pose, dtype=float)
+    R = rotation_zyx(*q[3:])
     out = {}
     for i in range(6):
         B = np.asarray(model.base_joints[i])
@@ -128,7 +135,7 @@ def hexapod_points(sol) -> dict[str, np.ndarray]:
         u = (P - B) / np.linalg.norm(P - B)
         out[f'B{i + 1}'], out[f'P{i + 1}'] = B, P
         out[f'S{i + 1}'] = B + min(model.limits.length_min, np.linalg.norm(P - B)) * u
-    return out
+    return {name: p - model.home for name, p in out.items()}
 
 
 poses = st.tuples(st.floats(-0.15, 0.15), st.floats(-0.15, 0.2), st.floats(-0.4, 0.4))
@@ -173,6 +180,36 @@ def test_hexapod_markers_are_its_joints_at_the_solved_pose(q, qd, qdd):
         # both parts of a leg in its force colour
         assert markers[f'cylinder_{i + 1}'].color == markers[f'rod_{i + 1}'].color
     assert all(m.header.stamp.sec == 3 and m.header.stamp.nanosec == 4 for m in array.markers)
+
+
+@pytest.mark.parametrize('model', [MODEL, HEXAPOD], ids=['3dof', 'hexapod'])
+@pytest.mark.parametrize('pose', [(0.0,) * 6, (0.05, -0.03, 0.08, 0.2, -0.1, 0.15),
+                                  (-0.1, 0.0, -0.05, -0.3, 0.0, 0.0)])
+def test_markers_and_poses_share_one_origin(model, pose):
+    """The platform as the markers draw it is where a pose message of the same
+    q puts it (a setpoint, the twin's ``platform_pose``; all in
+    ``simulator_base``): the 3-DOF platform point G at the position; the
+    hexapod's platform joints at position + R p_i. At home the platform is at
+    the origin (the hexapod's was drawn 1 m up, at ``geometry.home``)."""
+    machine = machine_of(model)
+    poses = pose_map(machine)
+    full = dict(zip(('surge', 'sway', 'heave', 'roll', 'pitch', 'yaw'), pose))
+    q = [full[c] for c in machine.coordinates]
+    sol = fsd.solve(model, q, [0.0] * len(q), [0.0] * len(q))
+    assert sol.status not in VOID
+    x, y, z, roll, pitch, yaw = poses.message(q)
+    markers = by_ns(update(builder(model), sol))
+    if model is MODEL:
+        drawn = {'G': xyz(markers['rod'].points[1])}
+        want = {'G': np.array([x, y, z])}
+    else:
+        drawn = dict(zip(machine.drawing(model).joints,
+                         (xyz(p) for p in markers['joints'].points)))
+        R = rotation_zyx(roll, pitch, yaw)
+        want = {f'P{i + 1}': np.array([x, y, z]) + R @ np.asarray(p)
+                for i, p in enumerate(model.platform_joints)}
+    for name, point in want.items():
+        np.testing.assert_allclose(drawn[name], point, rtol=0, atol=1e-9, err_msg=name)
 
 
 def test_hexapod_platform_moves_with_heave_and_roll():
@@ -239,7 +276,8 @@ def test_void_first_solution_draws_home():
         bad = [float('nan')] + zero[1:]
         array = update(b, fsd.solve(model, bad, zero, zero))
         check_well_formed(array, b)
-        check_points(array, b, {k: np.array(v) for k, v in b.drawing.points(zero).items()})
+        home = {k: np.subtract(v, b.drawing.origin) for k, v in b.drawing.points(zero).items()}
+        check_points(array, b, home)
 
 
 def test_leg_colours_follow_force_limits_and_status():

@@ -73,4 +73,5 @@ def drawing(model: StewartModel) -> Drawing:
         leg_names=tuple(str(i) for i in LEGS), plates={'base': base, 'platform': platform},
         styles=STYLES, legend=(('cylinders', 'cylinder_1'), ('rods', 'rod_1')),
         views=(View('3-D view', None), View('side view (from the right)', 0, 'X, m (forward)')),
-        plate_colours={'base': '#c8c8c8', 'platform': '#9aa6bf'}, home='home')
+        plate_colours={'base': '#c8c8c8', 'platform': '#9aa6bf'}, home='home',
+        origin=tuple(float(v) for v in model.home))
