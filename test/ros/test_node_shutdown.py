@@ -39,8 +39,9 @@ SEED = 15
 # 60,000 messages took 23 s to publish and the node then received none of them.
 MAX_STOPPED = 10.0
 # setpoints of the backlog at least left to answer at the stop request: answers
-# in flight then (seen: 0-250 under load) are a small part of it
-MIN_LEFT = 2000
+# in flight then (seen: 0-255 under load) are a small part of it (seen: 3,200-8,900
+# left at load average 6-16 on 2 cores)
+MIN_LEFT = 1000
 
 
 def assert_silent_stop(proc: NodeProcess, what: str, repeat_after: float | None = None) -> None:
