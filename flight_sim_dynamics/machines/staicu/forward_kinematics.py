@@ -10,6 +10,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ...core.machine import check_forward_options
 from ...core.status import Status
 from ...core.vectors import backend
 from .dynamics import actuator_jacobian
@@ -48,8 +49,10 @@ def forward_kinematics(model: Model, lengths: Sequence[float],
     lengths (20, then 200 steps: the assembly mode of ``initial``), then from
     seed poses, keeping the working mode (the sign of det dL/dq at the centre).
     Never raises for bad numbers (the status says); ValueError for an argument
-    that is not three numbers (:func:`.solver.three_numbers`).
+    that is not three numbers (:func:`.solver.three_numbers`) and for bad options
+    (:func:`~flight_sim_dynamics.core.machine.check_forward_options`).
     """
+    check_forward_options(tolerance, max_iterations)
     arrays = []
     for name, value in (('lengths', lengths), ('initial', initial)):
         arr = np.array(three_numbers(name, value))
