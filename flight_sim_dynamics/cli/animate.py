@@ -25,8 +25,8 @@ from ..core.drawing import Point3
 from ..core.machine import Machine
 from ..machines import MACHINES
 from ..machines.api import poses_along
-from .csv_io import atomic_output, read_table
-from .main import CliError, load_model
+from .csv_io import atomic_output, read_table, require_columns
+from .main import CliError, load_model, refuse_other_machine
 
 #: Sampling rate of a built-in motion (--motion), Hz.
 MOTION_RATE = 100.0
@@ -74,7 +74,11 @@ class Frame:
 def read_solved(path: str, machine: Machine = MACHINES[0]) -> Solved:
     """Read the output of ``solve`` (CSV, '-' for standard input, or .npz)."""
     pose_columns = machine.coordinates
-    table = read_table(path, required=required_columns(machine), optional=pose_columns)
+    every = {c for m in MACHINES for c in required_columns(m) + m.coordinates}
+    table = read_table(path, required=(), optional=tuple(sorted(every)))
+    refuse_other_machine(table.names, machine, lambda m: leg_columns(m, 'length'),
+                         'the output of solve', table.path)
+    require_columns(table.names, required_columns(machine), table.path)
     words = table.text.get('status', ['ok'] * len(table))
     pose = None
     if all(n in table.names for n in pose_columns):

@@ -124,14 +124,22 @@ def parse_header(raw: bytes, path: str, *, required: Sequence[str],
         raise CsvError(f'unknown column{"s" if len(unknown) > 1 else ""} {listed}{also}; '
                        f'expected exactly the columns {expected} (any order)',
                        path=path, line=1, column=unknown[0][0] + 1, name=unknown[0][1])
+    require_columns(names, required, path)
+    return names
+
+
+def require_columns(names: Sequence[str], required: Sequence[str], path: str) -> None:
+    """CsvError (line 1) naming the ``required`` columns a header ``names`` lacks,
+    with the header's names that are close to them.
+    """
+    missing = [n for n in required if n not in names]
     if missing:
         near = [f"'{n}' (column {j + 1}){_did_you_mean(n, missing)}"
-                for j, n in unknown if _did_you_mean(n, missing)]
+                for j, n in enumerate(names) if n not in required and _did_you_mean(n, missing)]
         raise CsvError(f'missing column{"s" if len(missing) > 1 else ""} '
                        f"{', '.join(repr(m) for m in missing)}; "
-                       f'the header must name {expected} (any order)'
+                       f"the header must name {','.join(required)} (any order)"
                        + (f"; it has {', '.join(near)}" if near else ''), path=path, line=1)
-    return names
 
 
 def _did_you_mean(name: str, candidates: Sequence[str]) -> str:

@@ -12,7 +12,7 @@ import math
 import os
 import sys
 from collections import Counter
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -148,7 +148,8 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
                         '(default full, the paper\'s model)')
     p.add_argument('--cond', action='store_true',
                    help='also write cond, the exact condition number of Q (an SVD per row; '
-                        'the 3-DOF machine)')
+                        'the 3-DOF machine only: a hexapod\'s one condition figure, '
+                        'jacobian_condition, is always written)')
     p.add_argument('--joints', action='store_true',
                    help='also write the joint variables (the 3-DOF machine\'s 12 of eq. (13), '
                         'a hexapod\'s U-joint angles and length per leg), their rates '
@@ -191,14 +192,35 @@ def report_not_ok(prefix: str, status: Sequence, detail: Sequence,
               f'at {where(bad[0])}: {status[bad[0]]}: {detail[bad[0]]}', file=sys.stderr)
 
 
-def other_machines_trajectory(names: set[str], machine: Machine) -> Machine | None:
-    """The machine whose trajectory columns ``names`` are, when they are not
-    ``machine``'s: its pose coordinates exactly, among all machines' coordinates.
+def other_machine(names: Iterable[str], machine: Machine,
+                  columns: Callable[[Machine], Sequence[str]]) -> Machine | None:
+    """The machine a table is for, told by its header ``names``, when it is not
+    ``machine``: the one whose ``columns`` (e.g. its pose coordinates, its
+    ``length_<leg>``) the header holds exactly, among every machine's.
     """
-    given = names & {c for m in MACHINES for c in m.coordinates}
-    if given == set(machine.coordinates):
+    given = set(names) & {c for m in MACHINES for c in columns(m)}
+    if given == set(columns(machine)):
         return None
-    return next((m for m in MACHINES if set(m.coordinates) == given), None)
+    return next((m for m in MACHINES if set(columns(m)) == given), None)
+
+
+def refuse_other_machine(names: Iterable[str], machine: Machine,
+                         columns: Callable[[Machine], Sequence[str]], what: str,
+                         path: str) -> None:
+    """CsvError (line 1) when the header ``names`` is ``what`` (e.g. 'a
+    trajectory') of a machine other than ``machine`` (:func:`other_machine`),
+    saying how to give that machine.
+    """
+    other = other_machine(names, machine, columns)
+    if other is None:
+        return
+    how = ("give its parameter file with --params (packaged: "
+           + ', '.join(f'config/{name}.yaml' for name in other.parameter_files) + ')'
+           if other.parameter_files else
+           f'leave --params out (the packaged {other.title}) or give one of its files')
+    raise CsvError(f"{what} of the {other.title} ({', '.join(columns(other))}), but the "
+                   f'parameters (--params) describe the {machine.title}, whose columns are '
+                   f"{','.join(columns(machine))}: {how}", path=path, line=1)
 
 
 def read_trajectory(path: str | os.PathLike[str], model: Any,
@@ -214,12 +236,7 @@ def read_trajectory(path: str | os.PathLike[str], model: Any,
     raw = csv_io.read_bytes(path, limit)
     header = raw.partition(b'\n')[0].decode('utf-8', 'replace').lstrip('\ufeff')
     named = {n.strip() for n in header.split(',')}
-    other = other_machines_trajectory(named, machine)
-    if other is not None:
-        raise CsvError(f"a trajectory of the {other.title} ({', '.join(other.coordinates)}), "
-                       f"but the parameter file describes the {machine.title}, whose "
-                       f"trajectories are {','.join(trajectory_columns(machine))}",
-                       path=shown, line=1)
+    refuse_other_machine(named, machine, lambda m: m.coordinates, 'a trajectory', shown)
     rates, accelerations = (any(n in named for n in group) for group in (rate_names, acc_names))
     required = (('t',) + pose + (rate_names if rates else ())
                 + (acc_names if accelerations else ()))
@@ -306,8 +323,10 @@ def cmd_forward(args: argparse.Namespace) -> int:
     if args.lengths or args.output is None:
         raise CliError('--csv takes no lengths on the command line, and needs -o OUTPUT')
     lengths = per_leg(machine, 'length')
-    table = csv_io.read_csv(args.csv, required=lengths, allow_extra=True,
-                            text_columns=('status',))
+    table = csv_io.read_csv(args.csv, required=(), allow_extra=True, text_columns=('status',))
+    refuse_other_machine(table.names, machine, lambda m: per_leg(m, 'length'),
+                         'leg lengths', table.path)
+    csv_io.require_columns(table.names, lengths, table.path)
     results = poses_along(model, np.column_stack([table[n] for n in lengths]))
     status = [str(r.status) for r in results]
     extra = ['t'] if 't' in table.names else []

@@ -102,14 +102,15 @@ def test_renders_a_gif_and_a_still(tmp_path, capsys):
     assert png.read_bytes().startswith(b'\x89PNG\r\n\x1a\n')
 
 
-def test_a_3dof_file_read_as_a_hexapod_names_the_missing_column(tmp_path, capsys):
+def test_a_3dof_file_read_as_a_hexapod_names_its_machine_and_the_columns(tmp_path, capsys):
     assert main(['example', 'vertical', '--rate', '10', '-o', str(tmp_path / 'traj.csv')]) == 0
     assert main(['solve', str(tmp_path / 'traj.csv'), '-o', str(tmp_path / 'out.csv')]) == 0
     capsys.readouterr()
     assert main(['animate', str(tmp_path / 'out.csv'), '--params', PARAMS, '-o',
                  str(tmp_path / 'm.png')]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "'length_1'" in err[0]
+    assert len(err) == 1 and 'length_1' in err[0] and MACHINE.title in err[0]
+    assert fsd.machine_of(fsd.load_model()).title in err[0]
     assert not (tmp_path / 'm.png').exists()
 
 
