@@ -5,6 +5,7 @@ the six legs end at the base joints, rows without a solution are drawn as
 such, and the GIF and the still render."""
 from __future__ import annotations
 
+import io
 import math
 from pathlib import Path
 
@@ -140,3 +141,47 @@ def test_motion_errors_are_one_line(tmp_path, capsys, argv, expect):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and expect in err[0]
     assert not (tmp_path / 'm.png').exists()
+
+
+def _scene(model, motion: str, rows: slice) -> tuple[animate.Scene, list[animate.Frame]]:
+    solved = animate.solve_motion(model, motion)
+    drawn = animate.frames(model, solved, np.arange(len(solved.t))[rows])
+    return animate.Scene(model, drawn, 'test'), drawn
+
+
+@pytest.mark.parametrize('model, motion', [(MODEL, 'violent'), (fsd.load_model(), 'vertical')],
+                         ids=['hexapod', '3-DOF'])
+def test_a_movie_draws_the_whole_figure_once_not_per_frame(tmp_path, model, motion):
+    """Issue 29: each frame was a whole redraw (0.6 s of axes, ticks and texts): a
+    10 s hexapod GIF took 2.5 min. The figure is drawn whole a bounded number of
+    times, whatever the number of frames."""
+    scene, drawn = _scene(model, motion, slice(0, 40, 2))
+    whole = []
+    draw = scene.fig.draw
+    scene.fig.draw = lambda renderer: (whole.append(1), draw(renderer))[1]
+    animate.render(scene, drawn, str(tmp_path / 'm.gif'), 'pillow', 25.0, 20, io.StringIO())
+    assert len(drawn) == 20 and len(whole) <= 2
+    with Image.open(tmp_path / 'm.gif') as image:
+        assert image.n_frames == len(drawn)
+
+
+@pytest.mark.parametrize('model, motion', [(MODEL, 'violent'), (fsd.load_model(), 'vertical')],
+                         ids=['hexapod', '3-DOF'])
+def test_each_movie_frame_is_the_picture_of_a_whole_draw(model, motion):
+    """The frames drawn on the background are the frames a whole draw makes (the
+    3-D view's depth order, the bars under their limit lines, grey unsolved frames)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    scene, drawn = _scene(model, motion, slice(0, None, 25))
+    scene.start(40)
+    for frame in drawn:
+        picture = scene.picture(frame).astype(int)
+        reference, _ = _scene(model, motion, slice(0, None, 25))
+        reference.fig.set_dpi(40)
+        canvas = FigureCanvasAgg(reference.fig)
+        reference.draw(frame)
+        canvas.draw()
+        whole = np.asarray(canvas.buffer_rgba()).astype(int)
+        assert picture.shape == whole.shape
+        differ = np.abs(picture - whole).max(axis=2) > 60
+        assert differ.mean() < 0.002, (frame.row, differ.sum())
