@@ -21,6 +21,7 @@ name it brings its own (:attr:`Machine.parameters`, :attr:`Machine.from_params`)
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping
@@ -56,6 +57,18 @@ def check_forward_options(tolerance: float, max_iterations: int) -> None:
     if (isinstance(max_iterations, (bool, np.bool_))
             or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1):
         raise ValueError(f'max_iterations must be an integer >= 1, got {max_iterations!r:.80}')
+
+
+def quiet_floating_point(function: Callable[..., Any]) -> Callable[..., Any]:
+    """``function`` with numpy's floating-point warnings off: a machine's call
+    whose status judges numbers that overflow (e.g. leg lengths of 1e308) warns
+    nobody through numpy (a RuntimeWarning naming numpy's source lines).
+    """
+    @functools.wraps(function)
+    def quiet(*args: Any, **kwargs: Any) -> Any:
+        with np.errstate(all='ignore'):
+            return function(*args, **kwargs)
+    return quiet
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ...core.machine import check_forward_options
+from ...core.machine import check_forward_options, quiet_floating_point
 from ...core.status import Status
 from ...core.vectors import backend
 from .dynamics import actuator_jacobian
@@ -41,6 +41,7 @@ def _lengths_and_jacobian(model: Model, q: tuple[float, float, float]
     return np.array(g.length, dtype=float), np.array(actuator_jacobian(K), dtype=float)
 
 
+@quiet_floating_point
 def forward_kinematics(model: Model, lengths: Sequence[float],
                        initial: Sequence[float] = (0.0, 0.0, 0.0), *,
                        tolerance: float = 1e-12, max_iterations: int = 50) -> ForwardSolution:

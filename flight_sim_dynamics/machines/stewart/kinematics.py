@@ -14,7 +14,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ...core.machine import check_forward_options
+from ...core.machine import check_forward_options, quiet_floating_point
 from ...core.status import SINGULAR, Status
 from .model import MIN_LENGTH, U_JOINT_TOLERANCE, StewartModel
 
@@ -266,6 +266,7 @@ def _lengths_and_jacobian(model: StewartModel, q: np.ndarray
     return legs.L[0], J_L, not degenerate_legs(legs).any()
 
 
+@quiet_floating_point
 def forward_kinematics(model: StewartModel, lengths: Sequence[float],
                        initial: Sequence[float] = (0.0,) * 6, *, tolerance: float = 1e-12,
                        max_iterations: int = 50) -> ForwardSolution:
