@@ -1,6 +1,7 @@
 """Command line: ``flight-sim-dynamics COMMAND`` (``--help`` lists them; ``node``,
 ``sim``, ``demo-planner`` and ``demo`` are handed to their module). Every error
-is exit status 2, one line ``error: ...`` on standard error, no partial output.
+is exit status 2, one line ``error: ...`` on standard error, no partial output
+(a file is written whole or not at all; ``solve -o -`` streams its rows).
 """
 from __future__ import annotations
 
@@ -139,7 +140,9 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
                         + '; missing rates or accelerations are estimated from the poses as '
                         'the node does')
     p.add_argument('-o', '--output', required=True, metavar='CSV_OR_NPZ',
-                   help="results to write ('-' for standard output): "
+                   help="results to write ('-' for standard output: the rows as they are "
+                        f'solved, {SOLVE_BLOCK_ROWS:,} at a time, an error part way leaving '
+                        'those before it): '
                         + '; '.join(f"the {m.title}'s " + ','.join(output_columns(m))
                                     + ',status' for m in MACHINES)
                         + '; a name ending in .npz writes numpy\'s .npz (a float64 array per '

@@ -185,3 +185,19 @@ def test_each_movie_frame_is_the_picture_of_a_whole_draw(model, motion):
         assert picture.shape == whole.shape
         differ = np.abs(picture - whole).max(axis=2) > 60
         assert differ.mean() < 0.002, (frame.row, differ.sum())
+
+
+def test_a_movie_writer_encodes_the_pictures_as_they_are(tmp_path):
+    """Formats other than GIF (.mp4: ffmpeg) go through matplotlib's writer, fed
+    the pictures by a figure that holds only them: checked with its pillow writer."""
+    rng = np.random.default_rng(3)
+    size = (2.0, 1.0)
+    pictures = [np.dstack([np.full((40, 80), v, np.uint8) for v in rng.integers(0, 256, 3)]
+                          + [np.full((40, 80), 255, np.uint8)]) for _ in range(4)]
+    animate.write_movie(str(tmp_path / 'm.gif'), iter(pictures), 'pillow', 10.0, 40, size)
+    with Image.open(tmp_path / 'm.gif') as image:
+        assert image.n_frames == 4 and image.size == (80, 40)
+        for k, picture in enumerate(pictures):
+            image.seek(k)
+            got = np.asarray(image.convert('RGB')).astype(int)
+            assert np.abs(got - picture[..., :3]).max() <= 8
