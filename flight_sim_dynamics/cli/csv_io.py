@@ -200,28 +200,37 @@ class CsvReader:
         """The reader of the file ``path`` (``-``: standard input), closed at the end."""
         stdin = os.fspath(path) == '-'
         try:
-            with contextlib.nullcontext(sys.stdin.buffer) if stdin else open(path, 'rb') as f:
-                yield cls(f, _display(path), limit)
+            f = sys.stdin.buffer if stdin else open(path, 'rb')
         except IsADirectoryError:
             raise CsvError('is a directory, not a CSV file', path=_display(path)) from None
         except OSError as exc:
             raise CsvError(f'cannot read: {exc.strerror or exc}', path=_display(path)) from None
+        with contextlib.nullcontext(f) if stdin else f:
+            yield cls(f, _display(path), limit)
 
-    def _counted(self, data: bytes) -> bytes:
+    def _counted(self, read: Callable[[], bytes]) -> bytes:
+        """What ``read`` reads of the stream, counted against the limit."""
+        try:
+            data = read()
+        except IsADirectoryError:
+            raise CsvError('is a directory, not a CSV file', path=self.path) from None
+        except OSError as exc:
+            raise CsvError(f'cannot read: {exc.strerror or exc}', path=self.path) from None
         self.size += len(data)
         _check_size(self.size, self.limit, self.path)
         return data
 
+    def _left(self) -> int:
+        return -1 if self.limit is None else self.limit + 1 - self.size
+
     def _read_line(self) -> bytes:
-        return self._counted(self.stream.readline(-1 if self.limit is None
-                                                  else self.limit + 1 - self.size))
+        return self._counted(lambda: self.stream.readline(self._left()))
 
     def _read(self, rows: int | None) -> bytes:
         """The next ``rows`` lines (None: the rest of the file)."""
         if rows is None:
-            return self._counted(self.stream.read(-1 if self.limit is None
-                                                  else self.limit + 1 - self.size))
-        return self._counted(b''.join(itertools.islice(self.stream, rows)))
+            return self._counted(lambda: self.stream.read(self._left()))
+        return self._counted(lambda: b''.join(itertools.islice(self.stream, rows)))
 
     def table(self, *, required: Sequence[str], allow_extra: bool = False,
               text_columns: Sequence[str] = (), skip_extra: bool = False) -> Table:
@@ -272,7 +281,7 @@ class CsvReader:
         MiB at a time; else the blank header is the error, nothing more is read).
         """
         while True:
-            chunk = self._counted(self.stream.read(1 << 20))
+            chunk = self._counted(lambda: self.stream.read(1 << 20))
             if chunk.strip():
                 return False
             if not chunk:
