@@ -1,7 +1,9 @@
 """``flight-sim-dynamics solve`` end to end on a --rows-row trajectory CSV (a
 built-in motion of the machine of --params, every column; default the 3-DOF
 machine's general motion): wall time of the command as a subprocess, CSV out
-and .npz out, median of --repeats.
+and .npz out, median of --repeats, and its peak resident memory (the largest of
+the runs: solve reads, solves and writes in blocks of rows, so that it does not
+grow with the file).
 
     python -m benchmarks.csv [--rows 100000] [--repeats 3] [--quick]
     python -m benchmarks.csv --params config/stewart_6dof.yaml --motion violent
@@ -9,6 +11,7 @@ and .npz out, median of --repeats.
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import subprocess
 import sys
@@ -34,11 +37,17 @@ def write_trajectory(path: Path, rows: int, machine: Machine, motion: str) -> No
                header=','.join(trajectory_columns(machine)), comments='')
 
 
-def wall_s(argv: list[str]) -> float:
+def wall_s_and_peak_mib(argv: list[str]) -> tuple[float, float]:
+    """Wall time (s) and peak resident memory (MiB, the kernel's ru_maxrss) of a run."""
     start = time.perf_counter()
-    subprocess.run(argv, cwd=ROOT, check=True, stdout=subprocess.DEVNULL,
-                   stderr=subprocess.DEVNULL)
-    return time.perf_counter() - start
+    proc = subprocess.Popen(argv, cwd=ROOT, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - start
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    if proc.returncode:
+        raise subprocess.CalledProcessError(proc.returncode, argv)
+    return wall, usage.ru_maxrss / 1024.0       # KiB on Linux
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -67,11 +76,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         for label, cmd in (('CSV in, CSV out', solve + [f'{tmp}/out.csv']),
                            ('CSV in, .npz out', solve + [f'{tmp}/out.npz']),
                            ('start-up only (import)', start)):
-            s = statistics.median(wall_s(cmd) for _ in range(repeats))
+            runs = [wall_s_and_peak_mib(cmd) for _ in range(repeats)]
+            s = statistics.median(wall for wall, _ in runs)
             per_row = '-' if cmd is start else f'{1e6 * s / rows:.2f}'
-            figures.append([label, f'{s:.3f}', per_row])
-    print(header(f'{machine.title}, {args.motion} motion, {rows:,} rows, median of {repeats}'))
-    print(table(['flight-sim-dynamics solve', 'wall s', 'us per row'], figures))
+            figures.append([label, f'{s:.3f}', per_row, f'{max(peak for _, peak in runs):.0f}'])
+        size = src.stat().st_size / 2 ** 20
+    print(header(f'{machine.title}, {args.motion} motion, {rows:,} rows ({size:.0f} MiB), '
+                 f'median of {repeats}'))
+    print(table(['flight-sim-dynamics solve', 'wall s', 'us per row', 'peak MiB'], figures))
     return 0
 
 

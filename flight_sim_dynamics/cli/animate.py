@@ -15,7 +15,7 @@ import sys
 import tempfile
 import time
 from dataclasses import dataclass
-from typing import Sequence, TextIO
+from typing import Iterator, Sequence, TextIO
 
 import numpy as np
 
@@ -25,8 +25,8 @@ from ..core.drawing import Point3
 from ..core.machine import Machine
 from ..machines import MACHINES
 from ..machines.api import poses_along
-from .csv_io import atomic_output, read_table
-from .main import CliError, load_model
+from .csv_io import atomic_output, read_table, require_columns
+from .main import CliError, load_model, refuse_other_machine
 
 #: Sampling rate of a built-in motion (--motion), Hz.
 MOTION_RATE = 100.0
@@ -74,7 +74,11 @@ class Frame:
 def read_solved(path: str, machine: Machine = MACHINES[0]) -> Solved:
     """Read the output of ``solve`` (CSV, '-' for standard input, or .npz)."""
     pose_columns = machine.coordinates
-    table = read_table(path, required=required_columns(machine), optional=pose_columns)
+    every = {c for m in MACHINES for c in required_columns(m) + m.coordinates}
+    table = read_table(path, required=(), optional=tuple(sorted(every)))
+    refuse_other_machine(table.names, machine, lambda m: leg_columns(m, 'length'),
+                         'the output of solve', table.path)
+    require_columns(table.names, required_columns(machine), table.path)
     words = table.text.get('status', ['ok'] * len(table))
     pose = None
     if all(n in table.names for n in pose_columns):
@@ -260,22 +264,81 @@ def run(args: argparse.Namespace) -> int:
 
 def render(scene: Scene, frames: Sequence[Frame], output: str, encoder: str, fps: float,
            dpi: int, progress: TextIO | None = None) -> None:
-    """Encode every frame into ``output`` atomically, progress on ``progress``."""
-    from matplotlib import animation
-
+    """Encode every frame into ``output`` atomically, progress on ``progress``.
+    The scene is drawn whole once; each frame redraws only what moves on a copy
+    of that background (:meth:`Scene.picture`: a whole figure's axes, ticks and
+    texts cost ~0.5 s a frame); a GIF is written by Pillow with one palette for
+    every frame (:func:`write_gif`), another format by matplotlib's writer.
+    """
     progress = sys.stderr if progress is None else progress
-    writer = animation.writers[encoder](fps=fps)
-    suffix = os.path.splitext(output)[1].lower()
     report = Progress(len(frames), output, progress)
+    scene.start(dpi)
+
+    def pictures() -> Iterator[np.ndarray]:
+        for k, frame in enumerate(frames):
+            yield scene.picture(frame)
+            report.done(k + 1)
+
+    suffix = os.path.splitext(output)[1].lower()
     with tempfile.TemporaryDirectory(prefix='fsd-animate-') as tmp:
         movie = os.path.join(tmp, 'movie' + suffix)
-        with writer.saving(scene.fig, movie, dpi):
-            for k, frame in enumerate(frames):
-                scene.draw(frame)
-                writer.grab_frame()
-                report.done(k + 1)
+        if encoder == 'pillow':
+            write_gif(movie, pictures(), fps, palette_of(scene, frames))
+        else:
+            write_movie(movie, pictures(), encoder, fps, dpi, scene.fig.get_size_inches())
         with atomic_output(output) as f, open(movie, 'rb') as src:
             shutil.copyfileobj(src, f)
+
+
+#: Frames whose colours make a GIF's palette (as many more as a frame kind needs).
+PALETTE_FRAMES = 6
+
+
+def palette_of(scene: Scene, frames: Sequence[Frame]):
+    """A 256-colour palette (a Pillow image) of the colours of a few frames:
+    some spread over the motion and the first of each kind (status, solved or not).
+    """
+    from PIL import Image
+
+    kinds = {(f.solved, f.status): f for f in reversed(frames)}
+    spread = [frames[int(i)] for i in np.linspace(0, len(frames) - 1, PALETTE_FRAMES)]
+    # every second pixel is enough to see each colour, at a quarter of the cost
+    mosaic = np.concatenate([scene.picture(f)[::2, ::2, :3] for f in
+                             spread + list(kinds.values())])
+    return Image.fromarray(mosaic).quantize(256)
+
+
+def write_gif(path: str, pictures: Iterator[np.ndarray], fps: float, palette) -> None:
+    """A looping GIF of ``pictures`` (RGBA arrays) at ``fps``, each mapped to
+    ``palette`` (no dither: flat colours stay flat; an adaptive palette per
+    frame, Pillow's default, costs ~70 ms a frame).
+    """
+    from PIL import Image
+
+    images = [Image.fromarray(np.ascontiguousarray(rgba[..., :3])).quantize(
+        palette=palette, dither=Image.Dither.NONE) for rgba in pictures]
+    images[0].save(path, save_all=True, append_images=images[1:],
+                   duration=int(1000 / fps), loop=0)
+
+
+def write_movie(path: str, pictures: Iterator[np.ndarray], encoder: str, fps: float, dpi: int,
+                size: tuple[float, float]) -> None:
+    """``pictures`` encoded by matplotlib's movie writer ``encoder``, shown by a
+    figure of ``size`` inches at ``dpi`` that holds nothing but them.
+    """
+    from matplotlib import animation
+    from matplotlib.figure import Figure
+
+    writer = animation.writers[encoder](fps=fps)
+    sheet = Figure(figsize=size, dpi=dpi)
+    shown = None
+    with writer.saving(sheet, path, dpi):
+        for rgba in pictures:
+            if shown is None:
+                shown = sheet.figimage(rgba)
+            else:
+                shown.set_data(rgba)
+            writer.grab_frame()
 
 
 class Progress:
@@ -438,6 +501,56 @@ class Scene:
         ax.grid(True, axis='y', alpha=0.3)
         self.void_text = ax.text((n - 1) / 2, 0.5 * (lo + hi), '', ha='center', va='center',
                                  color='0.35', fontsize='medium', fontweight='bold')
+
+    def moving(self) -> list:
+        """The artists :meth:`draw` changes."""
+        out = []
+        for _, _, parts in self.views:
+            out += [*parts['plates'].values(), *parts['lines'].values(), parts['joints']]
+        return out + [*self.bars, *self.values, self.void_text, self.status]
+
+    def start(self, dpi: int) -> None:
+        """Draw what does not move, at ``dpi``, as the background of :meth:`picture`."""
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.collections import Collection
+
+        self.fig.set_dpi(dpi)
+        self.canvas = FigureCanvasAgg(self.fig)
+        moving = self.moving()
+        self.canvas.draw()          # every artist once: the 3-D views' depth order
+        # in each axes the moving artists and what is drawn above them, in drawing order
+        self.layers = []
+        for ax in self.fig.axes:
+            mine = [a for a in moving if a.axes is ax]
+            if not mine:
+                continue
+            floor = min(a.get_zorder() for a in mine)
+            added = {id(a) for a in (*ax.lines, *ax.patches, *ax.texts, *ax.collections)}
+            layer = [a for a in ax.get_children() if any(a is m for m in mine)
+                     or (id(a) in added and a.get_zorder() >= floor)]
+            # a 3-D view orders its polygons by depth, each frame (Axes3D.draw)
+            depth = [a for a in layer if isinstance(a, Collection)
+                     and hasattr(a, 'do_3d_projection')]
+            self.layers.append((layer, depth, min((a.get_zorder() for a in depth), default=0)))
+        self.top = [a for a in moving if a.axes is None]
+        for artist in [a for layer, _, _ in self.layers for a in layer] + self.top:
+            artist.set_animated(True)
+        self.canvas.draw()
+        self.background = self.canvas.copy_from_bbox(self.fig.bbox)
+
+    def picture(self, frame: Frame) -> np.ndarray:
+        """The pixels (rows, columns, RGBA) of ``frame`` (after :meth:`start`)."""
+        self.draw(frame)
+        self.canvas.restore_region(self.background)
+        for layer, depth, lowest in self.layers:
+            for k, artist in enumerate(sorted(depth, key=lambda a: a.do_3d_projection(),
+                                              reverse=True)):
+                artist.set_zorder(lowest + k)
+            for artist in sorted(layer, key=lambda a: a.get_zorder()):
+                self.fig.draw_artist(artist)
+        for artist in self.top:
+            self.fig.draw_artist(artist)
+        return np.array(self.canvas.buffer_rgba())
 
     def draw(self, frame: Frame) -> None:
         """Move every artist to ``frame``."""

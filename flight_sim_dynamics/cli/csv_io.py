@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import contextlib
 import difflib
+import io
+import itertools
 import os
 import re
 import signal
@@ -17,7 +19,7 @@ import threading
 import time
 import zipfile
 from dataclasses import dataclass, field
-from typing import IO, Iterator, Sequence
+from typing import IO, Callable, Iterator, Optional, Sequence
 
 import numpy as np
 
@@ -48,7 +50,8 @@ class CsvError(ValueError):
 class Table:
     """A parsed table: ``data[i, j]`` is column ``names[j]`` of the row read
     from line ``lines[i]``; ``skipped``: the columns not read; ``text``: the
-    words of the ``text_columns``, one per row.
+    words of the ``text_columns``, one per row; ``estimated``: columns not read
+    but computed from the others (a trajectory's rates from its poses).
     """
 
     path: str
@@ -57,6 +60,7 @@ class Table:
     lines: np.ndarray     # (N,) int, 1-based line numbers (header = 1)
     skipped: tuple[str, ...] = ()
     text: dict[str, list[str]] = field(default_factory=dict)
+    estimated: tuple[str, ...] = ()
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.data[:, self.names.index(name)]
@@ -124,14 +128,22 @@ def parse_header(raw: bytes, path: str, *, required: Sequence[str],
         raise CsvError(f'unknown column{"s" if len(unknown) > 1 else ""} {listed}{also}; '
                        f'expected exactly the columns {expected} (any order)',
                        path=path, line=1, column=unknown[0][0] + 1, name=unknown[0][1])
+    require_columns(names, required, path)
+    return names
+
+
+def require_columns(names: Sequence[str], required: Sequence[str], path: str) -> None:
+    """CsvError (line 1) naming the ``required`` columns a header ``names`` lacks,
+    with the header's names that are close to them.
+    """
+    missing = [n for n in required if n not in names]
     if missing:
         near = [f"'{n}' (column {j + 1}){_did_you_mean(n, missing)}"
-                for j, n in unknown if _did_you_mean(n, missing)]
+                for j, n in enumerate(names) if n not in required and _did_you_mean(n, missing)]
         raise CsvError(f'missing column{"s" if len(missing) > 1 else ""} '
                        f"{', '.join(repr(m) for m in missing)}; "
-                       f'the header must name {expected} (any order)'
+                       f"the header must name {','.join(required)} (any order)"
                        + (f"; it has {', '.join(near)}" if near else ''), path=path, line=1)
-    return names
 
 
 def _did_you_mean(name: str, candidates: Sequence[str]) -> str:
@@ -148,8 +160,9 @@ def read_csv(path: str | os.PathLike[str], *, required: Sequence[str],
     with ``allow_extra`` or ``skip_extra``; at most ``limit`` bytes); CsvError
     at the first problem.
     """
-    return parse_csv(read_bytes(path, limit), _display(path), required=required,
-                     allow_extra=allow_extra, text_columns=text_columns, skip_extra=skip_extra)
+    with CsvReader.open(path, limit) as reader:
+        return reader.table(required=required, allow_extra=allow_extra,
+                            text_columns=text_columns, skip_extra=skip_extra)
 
 
 def parse_csv(data: bytes, path: str = '<input>', *, required: Sequence[str],
@@ -159,19 +172,127 @@ def parse_csv(data: bytes, path: str = '<input>', *, required: Sequence[str],
     words (``Table.text``); ``skip_extra`` leaves out the columns not in
     ``required`` (``Table.skipped``).
     """
-    data = data.removeprefix(b'\xef\xbb\xbf')
-    if not data.strip():
-        raise CsvError('the file is empty; expected a header line '
-                       f"{','.join(required)} and rows of numbers", path=path, line=1)
-    header, _, body = data.partition(b'\n')
-    all_names = parse_header(header, path, required=required,
-                             allow_extra=allow_extra or skip_extra)
-    # trailing blank lines are fine; any other blank line is a row of missing values
-    body = body.rstrip(b' \t\r\n')
-    if not body:
-        raise CsvError('no data rows after the header', path=path, line=2)
-    skip = [j for j, name in enumerate(all_names)
-            if name in text_columns or (skip_extra and name not in required)]
+    return CsvReader(io.BytesIO(data), path).table(
+        required=required, allow_extra=allow_extra, text_columns=text_columns,
+        skip_extra=skip_extra)
+
+
+_BLANK = b' \t\r\n'
+
+
+class CsvReader:
+    """A CSV file read whole (:meth:`table`) or a block of rows at a time
+    (:meth:`tables`: memory bounded by the block, not the file), the same checks
+    either way; :attr:`names`: the header's names as written, not yet checked.
+    """
+
+    def __init__(self, stream: IO[bytes], path: str, limit: int | None = None) -> None:
+        self.stream, self.path, self.limit = stream, path, limit
+        self.size = 0
+        self.header = self._read_line().removeprefix(b'\xef\xbb\xbf')
+        self.names = tuple(cell.strip() for cell in
+                           self.header.decode('utf-8', 'replace').rstrip('\r\n').split(','))
+
+    @classmethod
+    @contextlib.contextmanager
+    def open(cls, path: str | os.PathLike[str], limit: int | None = None
+             ) -> Iterator['CsvReader']:
+        """The reader of the file ``path`` (``-``: standard input), closed at the end."""
+        stdin = os.fspath(path) == '-'
+        try:
+            f = sys.stdin.buffer if stdin else open(path, 'rb')
+        except IsADirectoryError:
+            raise CsvError('is a directory, not a CSV file', path=_display(path)) from None
+        except OSError as exc:
+            raise CsvError(f'cannot read: {exc.strerror or exc}', path=_display(path)) from None
+        with contextlib.nullcontext(f) if stdin else f:
+            yield cls(f, _display(path), limit)
+
+    def _counted(self, read: Callable[[], bytes]) -> bytes:
+        """What ``read`` reads of the stream, counted against the limit."""
+        try:
+            data = read()
+        except IsADirectoryError:
+            raise CsvError('is a directory, not a CSV file', path=self.path) from None
+        except OSError as exc:
+            raise CsvError(f'cannot read: {exc.strerror or exc}', path=self.path) from None
+        self.size += len(data)
+        _check_size(self.size, self.limit, self.path)
+        return data
+
+    def _left(self) -> int:
+        return -1 if self.limit is None else self.limit + 1 - self.size
+
+    def _read_line(self) -> bytes:
+        return self._counted(lambda: self.stream.readline(self._left()))
+
+    def _read(self, rows: int | None) -> bytes:
+        """The next ``rows`` lines (None: the rest of the file)."""
+        if rows is None:
+            return self._counted(lambda: self.stream.read(self._left()))
+        return self._counted(lambda: b''.join(itertools.islice(self.stream, rows)))
+
+    def table(self, *, required: Sequence[str], allow_extra: bool = False,
+              text_columns: Sequence[str] = (), skip_extra: bool = False) -> Table:
+        """Every row of the file as one table (:func:`read_csv`)."""
+        return next(self.tables(required=required, allow_extra=allow_extra,
+                                text_columns=text_columns, skip_extra=skip_extra))
+
+    def tables(self, *, required: Sequence[str], allow_extra: bool = False,
+               text_columns: Sequence[str] = (), skip_extra: bool = False,
+               rows: int | None = None) -> Iterator[Table]:
+        """The file's rows as tables of at most ``rows`` rows (None: one table),
+        each checked as :func:`read_csv` checks a file; its ``lines`` the file's.
+        """
+        if not self.header.strip() and self._rest_is_blank():
+            raise CsvError('the file is empty; expected a header line '
+                           f"{','.join(required)} and rows of numbers", path=self.path, line=1)
+        header = self.header.removesuffix(b'\n')
+        all_names = parse_header(header, self.path, required=required,
+                                 allow_extra=allow_extra or skip_extra)
+        skip = [j for j, name in enumerate(all_names)
+                if name in text_columns or (skip_extra and name not in required)]
+        line, held, first = 2, b'', True
+        while True:
+            chunk = self._read(rows)
+            end = rows is None or not chunk or chunk.count(b'\n') < rows
+            body = held + chunk
+            # trailing blank lines are fine; any other blank line is a row of missing
+            # values: blank lines at a block's end wait for what follows them
+            kept = body.rstrip(_BLANK)
+            if end:
+                held = b''
+            elif not kept:
+                held, kept = body, b''
+            else:
+                held = body[body.index(b'\n', len(kept)) + 1:]
+            if kept:
+                table = _table(kept, self.path, all_names, skip, required, text_columns, line)
+                line += len(table)
+                first = False
+                yield table
+            elif first and end:
+                raise CsvError('no data rows after the header', path=self.path, line=2)
+            if end:
+                return
+
+    def _rest_is_blank(self) -> bool:
+        """Whether nothing but white space follows a blank header line (read a
+        MiB at a time; else the blank header is the error, nothing more is read).
+        """
+        while True:
+            chunk = self._counted(lambda: self.stream.read(1 << 20))
+            if chunk.strip():
+                return False
+            if not chunk:
+                return True
+
+
+def _table(body: bytes, path: str, all_names: Sequence[str], skip: Sequence[int],
+           required: Sequence[str], text_columns: Sequence[str], first_line: int) -> Table:
+    """The rows of ``body`` (no trailing blank line; the first at ``first_line``)
+    as a checked table of the header ``all_names``, without the columns ``skip``.
+    """
     keep = [j for j in range(len(all_names)) if j not in skip]
     rows = body.split(b'\n')
     values = None
@@ -183,17 +304,17 @@ def parse_csv(data: bytes, path: str = '<input>', *, required: Sequence[str],
             values = _parse(b'\n'.join(b','.join(c[j] for j in keep) for c in cells),
                             len(rows), len(keep))
     if values is None:
-        _raise_first_error(rows, all_names, path, keep)
+        _raise_first_error(rows, all_names, path, keep, first_line)
     bad = ~np.isfinite(values)
     if bad.any():  # e.g. 1e999: a valid literal, but not a finite double
         i, k = np.argwhere(bad)[0]
         cell = rows[i].split(b',')[keep[k]].decode().strip()
-        raise CsvError(f"'{cell}' is not a finite number", path=path, line=int(i) + 2,
-                       column=keep[k] + 1, name=all_names[keep[k]])
+        raise CsvError(f"'{cell}' is not a finite number", path=path,
+                       line=int(i) + first_line, column=keep[k] + 1, name=all_names[keep[k]])
     text = {all_names[j]: [c[j].decode('utf-8', 'replace').strip() for c in cells]
             for j in skip if all_names[j] in text_columns}
     return Table(path=path, names=tuple(all_names[j] for j in keep), data=values,
-                 lines=np.arange(2, len(rows) + 2),
+                 lines=np.arange(first_line, len(rows) + first_line),
                  skipped=tuple(all_names[j] for j in skip if all_names[j] not in text_columns),
                  text=text)
 
@@ -216,11 +337,11 @@ def _parse(body: bytes, nrows: int, ncol: int) -> np.ndarray | None:
 
 
 def _raise_first_error(rows: list[bytes], names: Sequence[str], path: str,
-                       keep: Sequence[int]) -> None:
+                       keep: Sequence[int], first_line: int = 2) -> None:
     """CsvError at the first malformed cell of ``rows`` in the columns ``keep``."""
     ncol = len(names)
     for i, raw in enumerate(rows):
-        line = i + 2
+        line = i + first_line
         try:
             text = raw.decode('utf-8').rstrip('\r')
         except UnicodeDecodeError:
@@ -435,28 +556,99 @@ def write_csv(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarr
     """Write a header and ``data`` exactly, atomically; ``text = (name, words)``
     appends a column of words.
     """
-    data, words = _checked(names, data, text)
-    header = ','.join(names) + (',' + text[0] if text is not None else '')
-    with atomic_output(path) as f:
-        f.write((header + '\n').encode())
-        for part in _format_blocks(data, words):     # written as formatted
-            f.write(part)
+    with table_writer(path, names, None if text is None else text[0], npz=False) as write:
+        write(data, None if text is None else text[1])
 
 
 def write_npz(path: str | os.PathLike[str], names: Sequence[str], data: np.ndarray,
               text: tuple[str, Sequence[str]] | None = None) -> None:
     """:func:`write_csv` as numpy's .npz (module docstring), atomically."""
-    data, words = _checked(names, data, text)
-    arrays = {name: data[:, j] for j, name in enumerate(names)}
-    order = list(names)
-    if text is not None:
-        arrays[text[0]] = np.asarray(words, dtype=str)
-        order.append(text[0])
-    if len(set(order)) != len(order) or NAMES_KEY in order:
+    with table_writer(path, names, None if text is None else text[0], npz=True) as write:
+        write(data, None if text is None else text[1])
+
+
+#: ``write(data, words)``: rows of a table, and their words (one per row) if it has a text column.
+RowWriter = Callable[[np.ndarray, Optional[Sequence[str]]], None]
+
+
+@contextlib.contextmanager
+def table_writer(path: str | os.PathLike[str], names: Sequence[str], text: str | None = None,
+                 *, npz: bool | None = None) -> Iterator[RowWriter]:
+    """A table written a block of rows at a time (memory bounded by the block),
+    atomically (:func:`atomic_output`: all of it, or nothing if the block
+    raises): CSV, or .npz (``npz``; None: by the suffix); ``text`` the name of a
+    last column of words.
+    """
+    if npz is None:
+        npz = is_npz(path)
+    order = list(names) + ([text] if text is not None else [])
+    if npz and (len(set(order)) != len(order) or NAMES_KEY in order):
         raise ValueError(f'column names must be distinct and not {NAMES_KEY!r}: {order}')
-    arrays[NAMES_KEY] = np.asarray(order, dtype=str)
     with atomic_output(path) as f:
-        np.savez(f, **arrays)
+        if not npz:
+            f.write((','.join(order) + '\n').encode())
+
+            def write(data: np.ndarray, words: Sequence[str] | None = None) -> None:
+                data, words = _checked(names, data, None if text is None else (text, words))
+                for part in _format_blocks(data, words):     # written as formatted
+                    f.write(part)
+
+            yield write
+            return
+        # .npz: each column spilled to its own file beside the output, zipped at the end
+        folder = None if os.fspath(path) == '-' else os.path.dirname(os.path.realpath(path))
+        with tempfile.TemporaryDirectory(prefix='.fsd-npz-', dir=folder) as spill, \
+                contextlib.ExitStack() as files:
+            columns = [files.enter_context(open(os.path.join(spill, f'{j}.f8'), 'wb'))
+                       for j in range(len(names))]
+            codes = files.enter_context(open(os.path.join(spill, 'text.u1'), 'wb'))
+            vocabulary: dict[str, int] = {}
+            rows = 0
+
+            def write(data: np.ndarray, words: Sequence[str] | None = None) -> None:
+                nonlocal rows
+                data, words = _checked(names, data, None if text is None else (text, words))
+                for j, column in enumerate(columns):
+                    column.write(np.ascontiguousarray(data[:, j], dtype='<f8').tobytes())
+                if words is not None:
+                    code = [vocabulary.setdefault(w, len(vocabulary)) for w in words]
+                    if len(vocabulary) > 256:
+                        raise ValueError(f'text column {text!r}: more than 256 distinct words')
+                    codes.write(np.asarray(code, dtype=np.uint8).tobytes())
+                rows += data.shape[0]
+
+            yield write
+            for spilled in (*columns, codes):
+                spilled.close()
+            _zip_columns(f, spill, names, text, list(vocabulary), rows, order)
+
+
+def _zip_columns(f: IO[bytes], spill: str, names: Sequence[str], text: str | None,
+                 vocabulary: list[str], rows: int, order: list[str]) -> None:
+    """The .npz of the spilled columns (as numpy.savez writes it: a stored .npy each)."""
+    from numpy.lib import format as npy
+
+    def member(name: str, dtype: np.dtype, chunks: Iterator[bytes]) -> None:
+        with zf.open(f'{name}.npy', 'w', force_zip64=True) as out:
+            npy.write_array_header_1_0(out, {'descr': npy.dtype_to_descr(dtype),
+                                             'fortran_order': False, 'shape': (rows,)})
+            for chunk in chunks:
+                out.write(chunk)
+
+    def pieces(spilled: str, size: int = 1 << 20) -> Iterator[bytes]:
+        with open(os.path.join(spill, spilled), 'rb') as src:
+            while chunk := src.read(size):
+                yield chunk
+
+    with zipfile.ZipFile(f, 'w', compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
+        for j, name in enumerate(names):
+            member(name, np.dtype('<f8'), pieces(f'{j}.f8'))
+        if text is not None:
+            words = np.asarray(vocabulary or [''], dtype=str)
+            member(text, words.dtype, (words[np.frombuffer(chunk, dtype=np.uint8)].tobytes()
+                                       for chunk in pieces('text.u1')))
+        with zf.open(f'{NAMES_KEY}.npy', 'w') as out:
+            npy.write_array(out, np.asarray(order, dtype=str))
 
 
 def _checked(names: Sequence[str], data: np.ndarray, text: tuple[str, Sequence[str]] | None

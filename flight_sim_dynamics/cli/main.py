@@ -1,6 +1,7 @@
 """Command line: ``flight-sim-dynamics COMMAND`` (``--help`` lists them; ``node``,
 ``sim``, ``demo-planner`` and ``demo`` are handed to their module). Every error
-is exit status 2, one line ``error: ...`` on standard error, no partial output.
+is exit status 2, one line ``error: ...`` on standard error, no partial output
+(a file is written whole or not at all; ``solve -o -`` streams its rows).
 """
 from __future__ import annotations
 
@@ -8,20 +9,22 @@ import argparse
 import contextlib
 import dataclasses
 import importlib
+import itertools
 import math
 import os
 import sys
 from collections import Counter
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterable, Iterator, Sequence
 
 import numpy as np
 
 import flight_sim_dynamics as fsd
 
 from . import csv_io
+from ..config.errors import shorten
 from ..config.parameters import packaged_values
 from ..config.scenes import SceneError
-from ..core.estimator import estimate_rows
+from ..core.estimator import DerivativeEstimator, estimate_rows
 from ..core.machine import Machine
 from ..core.motion import Motion
 from ..machines import MACHINES
@@ -137,7 +140,9 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
                         + '; missing rates or accelerations are estimated from the poses as '
                         'the node does')
     p.add_argument('-o', '--output', required=True, metavar='CSV_OR_NPZ',
-                   help="results to write ('-' for standard output): "
+                   help="results to write ('-' for standard output: the rows as they are "
+                        f'solved, {SOLVE_BLOCK_ROWS:,} at a time, an error part way leaving '
+                        'those before it): '
                         + '; '.join(f"the {m.title}'s " + ','.join(output_columns(m))
                                     + ',status' for m in MACHINES)
                         + '; a name ending in .npz writes numpy\'s .npz (a float64 array per '
@@ -148,24 +153,28 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
                         '(default full, the paper\'s model)')
     p.add_argument('--cond', action='store_true',
                    help='also write cond, the exact condition number of Q (an SVD per row; '
-                        'the 3-DOF machine)')
+                        'the 3-DOF machine only: a hexapod\'s one condition figure, '
+                        'jacobian_condition, is always written)')
     p.add_argument('--joints', action='store_true',
                    help='also write the joint variables (the 3-DOF machine\'s 12 of eq. (13), '
                         'a hexapod\'s U-joint angles and length per leg), their rates '
                         '(<name>_rate) and accelerations (<name>_acc)')
 
 
-def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond: bool = False
-                ) -> tuple[tuple[str, ...], np.ndarray, list[str]]:
+def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond: bool = False,
+                not_ok: NotOk | None = None) -> tuple[tuple[str, ...], np.ndarray, list[str]]:
     """Solve every row of a trajectory table: (column names, data, statuses);
     ``exact_cond``: the machine's costly fields too (the 3-DOF machine's cond).
+    The rows that are not ok are counted in ``not_ok`` (None: reported now).
     """
     machine = fsd.machine_of(model)
     data, n = table.data, len(table.data)
     sol = fsd.solve_batch(model, *(data[:, [table.names.index(c) for c in group]] for group in (
         machine.coordinates, rate_columns(machine), acceleration_columns(machine))))
-    report_not_ok(f'{table.path}: ', sol.status, sol.detail,
-                  lambda i: f'line {int(table.lines[i])}')
+    counted = NotOk() if not_ok is None else not_ok
+    counted.add(sol.status, sol.detail, lambda i: f'line {int(table.lines[i])}')
+    if not_ok is None:
+        counted.report(f'{table.path}: ')
     columns = [table['t']] + [np.asarray(getattr(sol, field), dtype=float).reshape(n, -1)
                               for field in PER_LEG_FIELDS + machine.sample_fields]
     names = output_columns(machine)
@@ -180,79 +189,146 @@ def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond:
     return names, np.column_stack(columns), [str(s) for s in sol.status]
 
 
+class NotOk:
+    """The rows that are not ok, counted over one table or many (blocks of a file)."""
+
+    def __init__(self) -> None:
+        self.counts: Counter[str] = Counter()
+        self.rows = 0
+        self.first: tuple[str, object, object] | None = None
+
+    def add(self, status: Sequence, detail: Sequence, where: Callable[[int], str]) -> None:
+        """Count the rows of ``status``, the first not ok placed by ``where``."""
+        words = [str(s) for s in status]
+        bad = [i for i, w in enumerate(words) if w != 'ok']
+        self.rows += len(words)
+        self.counts.update(words[i] for i in bad)
+        if bad and self.first is None:
+            self.first = (where(bad[0]), status[bad[0]], detail[bad[0]])
+
+    def report(self, prefix: str) -> None:
+        """Summarise them on standard error (nothing if every row is ok)."""
+        if self.first is not None:
+            summary = ', '.join(f'{n} {w}' for w, n in sorted(self.counts.items()))
+            where, status, detail = self.first
+            print(f'warning: {prefix}{sum(self.counts.values())} of {self.rows} rows are not ok '
+                  f'({summary}); first at {where}: {status}: {detail}', file=sys.stderr)
+
+
 def report_not_ok(prefix: str, status: Sequence, detail: Sequence,
                   where: Callable[[int], str]) -> None:
     """Summarise the rows that are not ok on standard error, the first placed by ``where``."""
-    words = [str(s) for s in status]
-    bad = [i for i, w in enumerate(words) if w != 'ok']
-    if bad:
-        summary = ', '.join(f'{n} {w}' for w, n in sorted(Counter(words[i] for i in bad).items()))
-        print(f'warning: {prefix}{len(bad)} of {len(words)} rows are not ok ({summary}); first '
-              f'at {where(bad[0])}: {status[bad[0]]}: {detail[bad[0]]}', file=sys.stderr)
+    counted = NotOk()
+    counted.add(status, detail, where)
+    counted.report(prefix)
 
 
-def other_machines_trajectory(names: set[str], machine: Machine) -> Machine | None:
-    """The machine whose trajectory columns ``names`` are, when they are not
-    ``machine``'s: its pose coordinates exactly, among all machines' coordinates.
+def other_machine(names: Iterable[str], machine: Machine,
+                  columns: Callable[[Machine], Sequence[str]]) -> Machine | None:
+    """The machine a table is for, told by its header ``names``, when it is not
+    ``machine``: the one whose ``columns`` (e.g. its pose coordinates, its
+    ``length_<leg>``) the header holds exactly, among every machine's.
     """
-    given = names & {c for m in MACHINES for c in m.coordinates}
-    if given == set(machine.coordinates):
+    given = set(names) & {c for m in MACHINES for c in columns(m)}
+    if given == set(columns(machine)):
         return None
-    return next((m for m in MACHINES if set(m.coordinates) == given), None)
+    return next((m for m in MACHINES if set(columns(m)) == given), None)
+
+
+def refuse_other_machine(names: Iterable[str], machine: Machine,
+                         columns: Callable[[Machine], Sequence[str]], what: str,
+                         path: str) -> None:
+    """CsvError (line 1) when the header ``names`` is ``what`` (e.g. 'a
+    trajectory') of a machine other than ``machine`` (:func:`other_machine`),
+    saying how to give that machine.
+    """
+    other = other_machine(names, machine, columns)
+    if other is None:
+        return
+    how = ("give its parameter file with --params (packaged: "
+           + ', '.join(f'config/{name}.yaml' for name in other.parameter_files) + ')'
+           if other.parameter_files else
+           f'leave --params out (the packaged {other.title}) or give one of its files')
+    raise CsvError(f"{what} of the {other.title} ({', '.join(columns(other))}), but the "
+                   f'parameters (--params) describe the {machine.title}, whose columns are '
+                   f"{','.join(columns(machine))}: {how}", path=path, line=1)
 
 
 def read_trajectory(path: str | os.PathLike[str], model: Any,
                     limit: int | None = None) -> csv_io.Table:
-    """The trajectory table of ``path`` (at most ``limit`` bytes) for the
-    model's machine, rates or accelerations it lacks estimated from the poses
-    as the node does (a note). Another machine's trajectory is a CsvError.
+    """The trajectory table of ``path`` (at most ``limit`` bytes), as one
+    table (:func:`trajectory_tables`).
+    """
+    table, = trajectory_tables(path, model, limit)      # (and its warnings, at its end)
+    return table
+
+
+def trajectory_tables(path: str | os.PathLike[str], model: Any, limit: int | None = None,
+                      rows: int | None = None) -> Iterator[csv_io.Table]:
+    """The trajectory of ``path`` (at most ``limit`` bytes) for the model's
+    machine, in tables of at most ``rows`` rows (None: one), rates or
+    accelerations it lacks estimated from the poses as the node does (a note;
+    the estimate runs on across the tables). Another machine's trajectory is a
+    CsvError.
     """
     machine = fsd.machine_of(model)
     pose, rate_names, acc_names = (machine.coordinates, rate_columns(machine),
                                    acceleration_columns(machine))
-    shown = '<stdin>' if os.fspath(path) == '-' else os.fspath(path)
-    raw = csv_io.read_bytes(path, limit)
-    header = raw.partition(b'\n')[0].decode('utf-8', 'replace').lstrip('\ufeff')
-    named = {n.strip() for n in header.split(',')}
-    other = other_machines_trajectory(named, machine)
-    if other is not None:
-        raise CsvError(f"a trajectory of the {other.title} ({', '.join(other.coordinates)}), "
-                       f"but the parameter file describes the {machine.title}, whose "
-                       f"trajectories are {','.join(trajectory_columns(machine))}",
-                       path=shown, line=1)
-    rates, accelerations = (any(n in named for n in group) for group in (rate_names, acc_names))
-    required = (('t',) + pose + (rate_names if rates else ())
-                + (acc_names if accelerations else ()))
-    table = csv_io.parse_csv(raw, shown, required=required, skip_extra=True)
-    if table.skipped:
-        print(f"note: {table.path}: ignoring column{'s' if len(table.skipped) > 1 else ''} "
-              f"{', '.join(repr(n) for n in table.skipped)}; a trajectory has "
-              + ','.join(trajectory_columns(machine)), file=sys.stderr)
-    if rates and accelerations:
-        return table
-    values = getattr(model, 'values', {})      # the 3-DOF model's estimator parameters
-    method = values.get('estimator.method', 'backward2')
-    gap = values.get('estimator.max_gap', 0.5)
-    t, q = table['t'], table.data[:, [table.names.index(n) for n in pose]]
-    qd_in = table.data[:, [table.names.index(n) for n in rate_names]] if rates else None
-    angles = tuple(j for j, unit in enumerate(machine.units) if unit == 'rad')
-    qd, qdd = estimate_rows(t, q, qd_in, method, gap, angles)
-    added = [(names, v) for names, v, given in ((rate_names, qd, rates),
-                                                (acc_names, qdd, accelerations)) if not given]
-    table = dataclasses.replace(table, names=table.names + sum((n for n, _ in added), ()),
-                                data=np.column_stack([table.data] + [v for _, v in added]))
-    what = ' and '.join(w for w, given in (('rates', rates), ('accelerations', accelerations))
-                        if not given)
-    print(f'note: {table.path}: no {what} columns: estimated from the poses as the node '
-          f'does ({method} backward differences, causal; the first rows start from '
-          'rest)', file=sys.stderr)
-    restart = ~((np.diff(t) > 0.0) & (np.diff(t) <= gap))
-    if restart.any():
-        print(f'warning: {table.path}: the estimate starts again from rest at '
-              f'{int(restart.sum())} row(s), first line '
-              f'{int(table.lines[int(np.argmax(restart)) + 1])}: t does not increase, or '
-              f'steps by more than estimator.max_gap = {gap:g} s', file=sys.stderr)
-    return table
+    with csv_io.CsvReader.open(path, limit) as reader:
+        named = set(reader.names)
+        refuse_other_machine(named, machine, lambda m: m.coordinates, 'a trajectory',
+                             reader.path)
+        rates, accelerations = (any(n in named for n in group)
+                                for group in (rate_names, acc_names))
+        required = (('t',) + pose + (rate_names if rates else ())
+                    + (acc_names if accelerations else ()))
+        tables = reader.tables(required=required, skip_extra=True, rows=rows)
+        first = next(tables)
+        if first.skipped:
+            print(f"note: {first.path}: ignoring column{'s' if len(first.skipped) > 1 else ''} "
+                  f"{', '.join(repr(n) for n in first.skipped)}; a trajectory has "
+                  + ','.join(trajectory_columns(machine)), file=sys.stderr)
+        if rates and accelerations:
+            yield first
+            yield from tables
+            return
+        values = getattr(model, 'values', {})      # the 3-DOF model's estimator parameters
+        method = values.get('estimator.method', 'backward2')
+        gap = values.get('estimator.max_gap', 0.5)
+        what = ' and '.join(w for w, given in (('rates', rates),
+                                                ('accelerations', accelerations)) if not given)
+        print(f'note: {first.path}: no {what} columns: estimated from the poses as the node '
+              f'does ({method} backward differences, causal; the first rows start from '
+              'rest)', file=sys.stderr)
+        angles = tuple(j for j, unit in enumerate(machine.units) if unit == 'rad')
+        estimator = DerivativeEstimator(method, gap, angles=angles)
+        restarts, first_restart, last_t = 0, None, None
+        for table in itertools.chain([first], tables):
+            t, q = table['t'], table.data[:, [table.names.index(n) for n in pose]]
+            qd_in = table.data[:, [table.names.index(n) for n in rate_names]] if rates else None
+            qd, qdd = estimate_rows(t, q, qd_in, estimator=estimator)
+            added = [(names, v) for names, v, given in ((rate_names, qd, rates),
+                                                        (acc_names, qdd, accelerations))
+                     if not given]
+            steps = np.diff(t if last_t is None else np.concatenate([[last_t], t]))
+            restart = ~((steps > 0.0) & (steps <= gap))
+            if restart.any() and first_restart is None:
+                first_restart = int(table.lines[int(np.argmax(restart))
+                                                + (1 if last_t is None else 0)])
+            restarts += int(restart.sum())
+            last_t = float(t[-1])
+            yield dataclasses.replace(
+                table, names=table.names + sum((n for n, _ in added), ()),
+                data=np.column_stack([table.data] + [v for _, v in added]),
+                estimated=sum((n for n, _ in added), ()))
+        if restarts:
+            print(f'warning: {first.path}: the estimate starts again from rest at '
+                  f'{restarts} row(s), first line {first_restart}: t does not increase, or '
+                  f'steps by more than estimator.max_gap = {gap:g} s', file=sys.stderr)
+
+
+#: Rows ``solve`` reads, solves and writes at a time: its memory does not grow with the file.
+SOLVE_BLOCK_ROWS = 65536
 
 
 def cmd_solve(args: argparse.Namespace) -> int:
@@ -261,10 +337,18 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if args.cond and not machine.costly_fields:
         raise CliError(f'--cond: the {machine.title} has no condition number beyond '
                        f"{', '.join(machine.sample_fields)}, which solve always writes")
-    table = read_trajectory(args.input, model)
-    names, data, status = solve_table(model, table, joints=args.joints, exact_cond=args.cond)
-    write = csv_io.write_npz if csv_io.is_npz(args.output) else csv_io.write_csv
-    write(args.output, names, data, text=('status', status))
+    tables = trajectory_tables(args.input, model, rows=SOLVE_BLOCK_ROWS)
+    first = next(tables)        # a bad header: an error before any output
+    not_ok = NotOk()
+    names, data, status = solve_table(model, first, joints=args.joints, exact_cond=args.cond,
+                                      not_ok=not_ok)
+    with csv_io.table_writer(args.output, names, 'status') as write:
+        write(data, status)
+        del data, status
+        for table in tables:
+            write(*solve_table(model, table, joints=args.joints, exact_cond=args.cond,
+                               not_ok=not_ok)[1:])
+    not_ok.report(f'{first.path}: ')
     return 0
 
 
@@ -306,8 +390,10 @@ def cmd_forward(args: argparse.Namespace) -> int:
     if args.lengths or args.output is None:
         raise CliError('--csv takes no lengths on the command line, and needs -o OUTPUT')
     lengths = per_leg(machine, 'length')
-    table = csv_io.read_csv(args.csv, required=lengths, allow_extra=True,
-                            text_columns=('status',))
+    table = csv_io.read_csv(args.csv, required=(), allow_extra=True, text_columns=('status',))
+    refuse_other_machine(table.names, machine, lambda m: per_leg(m, 'length'),
+                         'leg lengths', table.path)
+    csv_io.require_columns(table.names, lengths, table.path)
     results = poses_along(model, np.column_stack([table[n] for n in lengths]))
     status = [str(r.status) for r in results]
     extra = ['t'] if 't' in table.names else []
@@ -450,7 +536,8 @@ def refuse_replacing_an_input(args: argparse.Namespace) -> None:
 
 
 def _one_line(message: object) -> str:
-    return ' '.join(str(message).split())
+    """``message`` on one line, each huge word (an echoed value) cut (:func:`shorten`)."""
+    return shorten(' '.join(str(message).split()))
 
 
 def main(argv: Sequence[str] | None = None) -> int:

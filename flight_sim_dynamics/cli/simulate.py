@@ -7,20 +7,21 @@ from the plant's machine (:func:`columns`).
 from __future__ import annotations
 
 import argparse
+import math
 import sys
-from typing import NamedTuple
+from typing import NamedTuple, Sequence
 
 import numpy as np
 
 import flight_sim_dynamics as fsd
 
-from ..core.interpolation import ForceHistory, Reference
+from ..core.interpolation import ForceHistory, Reference, SampleError
 from ..core.machine import Machine
 from ..core.servo import DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, Servo
-from ..core.simulation import DEFAULT_STEP
+from ..core.simulation import DEFAULT_STEP, step_count
 from ..machines import MACHINES
 from ..machines.api import servo_for_bandwidth, simulate
-from .csv_io import read_table, write_csv
+from .csv_io import CsvError, Table, read_table, write_csv
 from .columns import per_leg, trajectory_columns
 from .main import CliError, load_model, read_trajectory, report_not_ok
 
@@ -107,13 +108,53 @@ def _split(option: str, values: list[float] | None, n: int, what: str
     return values[:n], values[n:]
 
 
+def located(exc: SampleError, table: Table, columns: Sequence[str]) -> CsvError:
+    """The error of a bad sample of ``table`` (its ``columns`` in the order of the
+    sample's, after ``t``) at its file, line and column; a value estimated from
+    the file's (a rate from the poses) blames the value the file gives.
+    """
+    name = 't' if exc.column is None else columns[exc.column]
+    # <c>_acc is estimated from <c>_rate, <c>_rate from <c>: the first the file gives
+    base = name.removesuffix('_acc').removesuffix('_rate')
+    source = next((c for c in (name, base + '_rate', base)
+                   if c in table.names and c not in table.estimated), name)
+    row = exc.row
+    if source != name:                      # the largest of the rows the estimate used
+        lo = max(0, row - 2)
+        row = lo + int(np.argmax(np.abs(table[source][lo:row + 1])))
+        reason = f'is too large: the {name} estimated from it is not finite'
+    else:
+        reason = exc.reason
+    value = float(table[source][row])
+    return CsvError(f'{source} = {value!r} {reason}', path=table.path,
+                    line=int(table.lines[row]), name=source)
+
+
+def check_duration(table: Table, step: float) -> None:
+    """CsvError at the last row when the file's times need too many steps of
+    ``step`` (a valid step: else the simulation names it).
+    """
+    if math.isfinite(step) and step > 0:
+        try:
+            step_count(float(table['t'][0]), float(table['t'][-1]), step)
+        except ValueError as exc:
+            raise CsvError(f"t = {float(table['t'][-1])!r}: {exc}", path=table.path,
+                           line=int(table.lines[-1]), name='t') from None
+
+
 def _reference(args: argparse.Namespace, plant, machine: Machine, names: Columns) -> Reference:
     if args.reference is not None:
         table = read_trajectory(args.reference, plant, limit=MAX_INPUT_BYTES)
         dof = machine.dof
-        cols = [np.column_stack([table[n] for n in names.trajectory[k:k + dof]])
-                for k in (1, 1 + dof, 1 + 2 * dof)]
-        return Reference.from_samples(table['t'], *cols, dof=dof)
+        groups = [names.trajectory[k:k + dof] for k in (1, 1 + dof, 1 + 2 * dof)]
+        cols = [np.column_stack([table[n] for n in group]) for group in groups]
+        try:
+            reference = Reference.from_samples(table['t'], *cols, dof=dof)
+        except SampleError as exc:
+            group = {'q': 0, 'qd': 1, 'qdd': 2}.get(exc.name, 0)
+            raise located(exc, table, groups[group]) from None
+        check_duration(table, args.step)
+        return reference
     motion = machine.motions.get(args.motion)
     if motion is None:
         choices = ', '.join(repr(m) for m in machine.motions)
@@ -142,8 +183,13 @@ def run(args: argparse.Namespace) -> int:
     gains = _split('--gains', args.gains, len(machine.legs), 'kp then kd of each leg')
     if args.forces is not None:
         table = read_table(args.forces, required=names.forces, limit=MAX_INPUT_BYTES)
-        forces = ForceHistory(table['t'], np.column_stack([table[n] for n in names.forces[1:]]),
-                              len(machine.legs))
+        try:
+            forces = ForceHistory(table['t'], np.column_stack([table[n] for n in
+                                                               names.forces[1:]]),
+                                  len(machine.legs))
+        except SampleError as exc:
+            raise located(exc, table, names.forces[1:]) from None
+        check_duration(table, args.step)
         sim = simulate(plant, forces=forces, initial=initial, step=args.step)
     else:
         reference = _reference(args, plant, machine, names)

@@ -2,7 +2,22 @@
 from __future__ import annotations
 
 import difflib
+import re
 from typing import Any, Iterable
+
+
+#: Longest word of a message shown whole (a value echoed: a name, a path).
+LONGEST_WORD = 256
+
+
+def shorten(text: str, longest: int = LONGEST_WORD) -> str:
+    """``text`` with each word (a run without white space) longer than
+    ``longest`` characters cut to that length, ``<its start>... (N characters)``,
+    so that a message echoing a huge value (a 200 KB machine name) stays
+    readable; a shortened text is its own shortening.
+    """
+    return re.sub(r'\S{%d,}' % (longest + 1),
+                  lambda m: f'{m[0][:longest - 3]}... ({len(m[0])} characters)', text)
 
 
 class ParameterError(ValueError):
@@ -13,7 +28,7 @@ class ParameterError(ValueError):
         text = repr(value)
         if len(text) > 200:
             text = text[:200] + f'... ({len(text)} characters)'
-        super().__init__(f"parameter '{key}' = {text}: {reason}")
+        super().__init__(shorten(f"parameter '{key}' = {text}: {reason}"))
 
 
 def did_you_mean(name: str, known: Iterable[str]) -> str:

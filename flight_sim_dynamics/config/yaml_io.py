@@ -3,7 +3,8 @@
 :data:`MAX_FILE_BYTES`; no directory, NUL byte, non-UTF-8 text, anchor, alias or
 key given twice. A plain value is a number only as a decimal (integers of at most
 19 digits), a boolean only as true/false, null as ``~``, ``null`` or nothing;
-anything else (``yes``, ``0x10``, ``010``, a date) is a string, as rcl reads it.
+anything else (``yes``, ``0x10``, ``010``, a date) is a string, as rcl reads it. A
+``!!set`` is refused (no order: it would give a vector in hash order).
 """
 from __future__ import annotations
 
@@ -68,22 +69,38 @@ _StrictLoader.add_constructor('tag:yaml.org,2002:python/tuple',
                               SafeConstructor.construct_yaml_seq)
 
 
-def _no_duplicate_keys(node: Node, path: list[str], source: str) -> None:
-    """ParameterError naming the first key given twice in a map."""
+#: YAML's unordered collection: a set's items come out in hash order, not as written
+_SET_TAG = 'tag:yaml.org,2002:set'
+
+
+def _parameter_name(path: list[str]) -> str:
+    """The dotted name of a node's ``path``: the parameter's own name inside ``ros__parameters``."""
+    if 'ros__parameters' in path[:2]:
+        path = path[path.index('ros__parameters') + 1:]
+    return '.'.join(path)
+
+
+def _check_nodes(node: Node, path: list[str], source: str) -> None:
+    """ParameterError naming the first key given twice in a map, or the first
+    ``!!set`` (no order: a vector given as one would be read in hash order).
+    """
+    if node.tag == _SET_TAG:
+        items = ', '.join(str(key.value) for key, _ in node.value
+                          if isinstance(key, ScalarNode))
+        raise ParameterError(_parameter_name(path) or '(the document)', f'!!set {{{items}}}',
+                             f'a set has no order: give a list [...] in {source}')
     if isinstance(node, SequenceNode):
         for i, item in enumerate(node.value):
-            _no_duplicate_keys(item, path + [f'[{i}]'], source)
+            _check_nodes(item, path + [f'[{i}]'], source)
     elif isinstance(node, MappingNode):
         seen = set()
         for key, value in node.value:
             name = path + [str(key.value)]
             if isinstance(key, ScalarNode) and key.value in seen:
-                if 'ros__parameters' in name[:2]:       # the parameter's own name
-                    name = name[name.index('ros__parameters') + 1:]
-                raise ParameterError('.'.join(name), None, f'given twice in {source}')
+                raise ParameterError(_parameter_name(name), None, f'given twice in {source}')
             if isinstance(key, ScalarNode):
                 seen.add(key.value)
-            _no_duplicate_keys(value, name, source)
+            _check_nodes(value, name, source)
 
 
 def read_bytes(path: str | os.PathLike[str], key: str) -> bytes:
@@ -131,7 +148,7 @@ def read_yaml(path: str | os.PathLike[str], key: str = 'params_file') -> Any:
         node = loader.get_single_node()
         if node is None:
             return None
-        _no_duplicate_keys(node, [], source)
+        _check_nodes(node, [], source)
         return loader.construct_document(node)
     except yaml.YAMLError as exc:
         message = str(exc).replace('"<unicode string>", ', '')

@@ -141,12 +141,15 @@ class DerivativeEstimator:
 
 def estimate_rows(t: np.ndarray, q: np.ndarray, qd: np.ndarray | None = None,
                   method: str = 'backward2', max_gap: float = 0.5,
-                  angles: tuple[int, ...] = DEFAULT_ANGLES) -> tuple[np.ndarray, np.ndarray]:
+                  angles: tuple[int, ...] = DEFAULT_ANGLES, *,
+                  estimator: DerivativeEstimator | None = None
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """Rates (``qd`` where given) and accelerations of the samples (t, q) as the
     node estimates them, row by row (:meth:`DerivativeEstimator.update`; the
-    coordinates ``angles`` unwrapped).
+    coordinates ``angles`` unwrapped); ``estimator``: one whose history the rows
+    continue (e.g. the rows before them; its own method, gap and angles).
     """
-    est = DerivativeEstimator(method, max_gap, angles=angles)
+    est = DerivativeEstimator(method, max_gap, angles=angles) if estimator is None else estimator
     rates, accs = np.empty_like(q), np.empty_like(q)
     for k, (tk, qk) in enumerate(zip(np.asarray(t).tolist(), q.tolist())):
         given = None if qd is None else tuple(qd[k].tolist())

@@ -21,6 +21,18 @@ class MotionLike(Protocol):
     def trajectory(self, t: np.ndarray) -> Trajectory: ...
 
 
+class SampleError(ValueError):
+    """A bad sample of an input: ``name`` (``t``, ``q``, ``qd``, ``qdd``,
+    ``force``), its ``row`` (0-based) and ``column`` (None: the time), and what
+    is wrong with its value (``reason``), so that a caller can name where it read it.
+    """
+
+    def __init__(self, message: str, name: str, row: int, column: int | None = None,
+                 reason: str = '') -> None:
+        super().__init__(message)
+        self.name, self.row, self.column, self.reason = name, row, column, reason or message
+
+
 def finite_rows(name: str, value: object, n: int | None = None, columns: int = 3
                 ) -> np.ndarray:
     """An (N, columns) array of finite numbers, or ValueError naming ``name``."""
@@ -34,7 +46,8 @@ def finite_rows(name: str, value: object, n: int | None = None, columns: int = 3
     bad = np.argwhere(~np.isfinite(arr))
     if bad.size:
         i, j = bad[0]
-        raise ValueError(f'{name}[{i}, {j}] is not finite ({arr[i, j]})')
+        raise SampleError(f'{name}[{i}, {j}] is not finite ({arr[i, j]})', name, int(i), int(j),
+                          'is not finite')
     return arr
 
 
@@ -44,12 +57,15 @@ def sample_times(t: object) -> np.ndarray:
     if arr.ndim != 1 or arr.size < 2:
         raise ValueError(f'times must be a list of at least 2 numbers, got shape {arr.shape}')
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f't[{int(np.argmin(np.isfinite(arr)))}] is not finite')
+        i = int(np.argmin(np.isfinite(arr)))
+        raise SampleError(f't[{i}] is not finite', 't', i, reason='is not finite')
     steps = np.diff(arr)
     if not np.all(steps > 0):
         i = int(np.argmin(steps > 0))
-        raise ValueError(f'times must increase strictly: t[{i + 1}] = {float(arr[i + 1])!r} '
-                         f'after t[{i}] = {float(arr[i])!r}')
+        raise SampleError(f'times must increase strictly: t[{i + 1}] = {float(arr[i + 1])!r} '
+                          f'after t[{i}] = {float(arr[i])!r}', 't', i + 1,
+                          reason='does not increase: times must increase strictly (the row '
+                          f'before: t = {float(arr[i])!r})')
     return arr
 
 
@@ -97,9 +113,11 @@ class ForceHistory:
         if bad.size:        # the largest force among the rows the interval's slopes use
             lo = max(0, int(bad[0]) - 2)
             k = lo + int(np.argmax(np.abs(self.force[lo:bad[0] + 4]).max(axis=1)))
-            raise ValueError(f'the forces of the row at t = {float(self.t[k])!r} s '
-                             f'({np.abs(self.force[k]).max():.3g} N) are too large to '
-                             'interpolate (the spline overflows)')
+            raise SampleError(f'the forces of the row at t = {float(self.t[k])!r} s '
+                              f'({np.abs(self.force[k]).max():.3g} N) are too large to '
+                              'interpolate (the spline overflows)', 'force', k,
+                              int(np.argmax(np.abs(self.force[k]))),
+                              'is too large to interpolate (the spline overflows)')
 
     def __call__(self, times: np.ndarray) -> np.ndarray:
         """Forces (N, legs) at ``times`` (within [start, end], else ValueError)."""
@@ -150,8 +168,23 @@ class Reference:
         """
         times = sample_times(t)
         n = times.size
+        names = ('q', 'qd', 'qdd')
         values = np.stack([finite_rows(name, value, n, dof)
-                           for name, value in (('q', q), ('qd', qd), ('qdd', qdd))])
+                           for name, value in zip(names, (q, qd, qdd))])
+        with np.errstate(over='ignore', invalid='ignore'):
+            # each basis polynomial and its first two derivatives stay below 64 on [0, 1]:
+            # this bounds q, qd and qdd on each interval (a step under 1 s divides them)
+            h = np.diff(times)[:, None]
+            ends = np.abs(values[:, :-1]) + np.abs(values[:, 1:])
+            bound = 64.0 * (ends[0] + h * ends[1] + h * h * ends[2]) / np.minimum(h, 1.0) ** 2
+        bad = np.argwhere(~np.isfinite(bound))
+        if bad.size:            # the largest value of the interval's two rows
+            i, j = (int(x) for x in bad[0])
+            g, k = max(((g, k) for g in range(3) for k in (i, i + 1)),
+                       key=lambda gk: abs(values[gk[0], gk[1], j]))
+            raise SampleError(f'{names[g]}[{k}, {j}] = {values[g, k, j]:.3g} is too large to '
+                              'interpolate (the spline overflows)', names[g], k, j,
+                              'is too large to interpolate (the spline overflows)')
 
         def motion(at: np.ndarray) -> Trajectory:
             at = np.atleast_1d(np.asarray(at, dtype=float))

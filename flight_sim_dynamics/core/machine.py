@@ -9,6 +9,7 @@ Each machine implements the same calls on its own model type, with vectors of
 ``solve(model, q, qd, qdd)``                       one sample: lengths, forces, status
 ``solve_batch(model, Q, Qd, Qdd)``                 N samples, arrays (N, dof)
 ``forward_kinematics(model, lengths, initial=0)``  the pose of given leg lengths
+                                                   (:func:`check_forward_options`)
 ``forward_dynamics(model, q, qd, force)``          accelerations of given forces
 ``actuator_limits(model)``                         strokes, speed and force allowed
 =================================================  ===============================
@@ -20,6 +21,8 @@ name it brings its own (:attr:`Machine.parameters`, :attr:`Machine.from_params`)
 """
 from __future__ import annotations
 
+import functools
+import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping
 
@@ -40,6 +43,32 @@ class ModelValueError(ValueError):
     def __init__(self, key: str, message: str) -> None:
         super().__init__(message)
         self.key = key
+
+
+def check_forward_options(tolerance: float, max_iterations: int) -> None:
+    """The options of every machine's ``forward_kinematics``: ValueError for a
+    ``tolerance`` (m, on max |L(q) - L*|) that is not a finite number > 0 and for
+    ``max_iterations`` that is not an integer >= 1 (a bool is not one).
+    """
+    if (isinstance(tolerance, bool) or not isinstance(tolerance, (int, float, np.floating,
+                                                                   np.integer))
+            or not (math.isfinite(tolerance) and tolerance > 0)):
+        raise ValueError(f'tolerance must be a finite number > 0 (m), got {tolerance!r:.80}')
+    if (isinstance(max_iterations, (bool, np.bool_))
+            or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1):
+        raise ValueError(f'max_iterations must be an integer >= 1, got {max_iterations!r:.80}')
+
+
+def quiet_floating_point(function: Callable[..., Any]) -> Callable[..., Any]:
+    """``function`` with numpy's floating-point warnings off: a machine's call
+    whose status judges numbers that overflow (e.g. leg lengths of 1e308) warns
+    nobody through numpy (a RuntimeWarning naming numpy's source lines).
+    """
+    @functools.wraps(function)
+    def quiet(*args: Any, **kwargs: Any) -> Any:
+        with np.errstate(all='ignore'):
+            return function(*args, **kwargs)
+    return quiet
 
 
 @dataclass(frozen=True)

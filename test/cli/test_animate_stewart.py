@@ -5,6 +5,7 @@ the six legs end at the base joints, rows without a solution are drawn as
 such, and the GIF and the still render."""
 from __future__ import annotations
 
+import io
 import math
 from pathlib import Path
 
@@ -102,14 +103,15 @@ def test_renders_a_gif_and_a_still(tmp_path, capsys):
     assert png.read_bytes().startswith(b'\x89PNG\r\n\x1a\n')
 
 
-def test_a_3dof_file_read_as_a_hexapod_names_the_missing_column(tmp_path, capsys):
+def test_a_3dof_file_read_as_a_hexapod_names_its_machine_and_the_columns(tmp_path, capsys):
     assert main(['example', 'vertical', '--rate', '10', '-o', str(tmp_path / 'traj.csv')]) == 0
     assert main(['solve', str(tmp_path / 'traj.csv'), '-o', str(tmp_path / 'out.csv')]) == 0
     capsys.readouterr()
     assert main(['animate', str(tmp_path / 'out.csv'), '--params', PARAMS, '-o',
                  str(tmp_path / 'm.png')]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "'length_1'" in err[0]
+    assert len(err) == 1 and 'length_1' in err[0] and MACHINE.title in err[0]
+    assert fsd.machine_of(fsd.load_model()).title in err[0]
     assert not (tmp_path / 'm.png').exists()
 
 
@@ -139,3 +141,63 @@ def test_motion_errors_are_one_line(tmp_path, capsys, argv, expect):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and expect in err[0]
     assert not (tmp_path / 'm.png').exists()
+
+
+def _scene(model, motion: str, rows: slice) -> tuple[animate.Scene, list[animate.Frame]]:
+    solved = animate.solve_motion(model, motion)
+    drawn = animate.frames(model, solved, np.arange(len(solved.t))[rows])
+    return animate.Scene(model, drawn, 'test'), drawn
+
+
+@pytest.mark.parametrize('model, motion', [(MODEL, 'violent'), (fsd.load_model(), 'vertical')],
+                         ids=['hexapod', '3-DOF'])
+def test_a_movie_draws_the_whole_figure_once_not_per_frame(tmp_path, model, motion):
+    """Issue 29: each frame was a whole redraw (0.6 s of axes, ticks and texts): a
+    10 s hexapod GIF took 2.5 min. The figure is drawn whole a bounded number of
+    times, whatever the number of frames."""
+    scene, drawn = _scene(model, motion, slice(0, 40, 2))
+    whole = []
+    draw = scene.fig.draw
+    scene.fig.draw = lambda renderer: (whole.append(1), draw(renderer))[1]
+    animate.render(scene, drawn, str(tmp_path / 'm.gif'), 'pillow', 25.0, 20, io.StringIO())
+    assert len(drawn) == 20 and len(whole) <= 2
+    with Image.open(tmp_path / 'm.gif') as image:
+        assert image.n_frames == len(drawn)
+
+
+@pytest.mark.parametrize('model, motion', [(MODEL, 'violent'), (fsd.load_model(), 'vertical')],
+                         ids=['hexapod', '3-DOF'])
+def test_each_movie_frame_is_the_picture_of_a_whole_draw(model, motion):
+    """The frames drawn on the background are the frames a whole draw makes (the
+    3-D view's depth order, the bars under their limit lines, grey unsolved frames)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    scene, drawn = _scene(model, motion, slice(0, None, 25))
+    scene.start(40)
+    for frame in drawn:
+        picture = scene.picture(frame).astype(int)
+        reference, _ = _scene(model, motion, slice(0, None, 25))
+        reference.fig.set_dpi(40)
+        canvas = FigureCanvasAgg(reference.fig)
+        reference.draw(frame)
+        canvas.draw()
+        whole = np.asarray(canvas.buffer_rgba()).astype(int)
+        assert picture.shape == whole.shape
+        differ = np.abs(picture - whole).max(axis=2) > 60
+        assert differ.mean() < 0.002, (frame.row, differ.sum())
+
+
+def test_a_movie_writer_encodes_the_pictures_as_they_are(tmp_path):
+    """Formats other than GIF (.mp4: ffmpeg) go through matplotlib's writer, fed
+    the pictures by a figure that holds only them: checked with its pillow writer."""
+    rng = np.random.default_rng(3)
+    size = (2.0, 1.0)
+    pictures = [np.dstack([np.full((40, 80), v, np.uint8) for v in rng.integers(0, 256, 3)]
+                          + [np.full((40, 80), 255, np.uint8)]) for _ in range(4)]
+    animate.write_movie(str(tmp_path / 'm.gif'), iter(pictures), 'pillow', 10.0, 40, size)
+    with Image.open(tmp_path / 'm.gif') as image:
+        assert image.n_frames == 4 and image.size == (80, 40)
+        for k, picture in enumerate(pictures):
+            image.seek(k)
+            got = np.asarray(image.convert('RGB')).astype(int)
+            assert np.abs(got - picture[..., :3]).max() <= 8

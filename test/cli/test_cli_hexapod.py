@@ -211,6 +211,32 @@ def test_cond_and_wrong_lengths_are_usage_errors(tmp_path, capsys):
     assert 'six leg lengths' in one_error_line(capsys.readouterr().err)
 
 
+@pytest.mark.parametrize('command', ['forward', 'animate'])
+def test_forward_and_animate_tell_the_machine_from_the_columns(tmp_path, capsys, command):
+    """Issue 29: without --params they read a hexapod's solve output as the 3-DOF
+    machine's ("did you mean 'length_c'?"); either way round, the error names the
+    table's machine and the files to give, as solve does for trajectories."""
+    trajectory(tmp_path / 'traj.csv', 'gentle', rate=2.0)
+    hexapod_out, three_dof_out = tmp_path / 'hexa.csv', tmp_path / 'paper.csv'
+    assert cli.main(['solve', str(tmp_path / 'traj.csv'), '--params', HEXAPOD_FILE,
+                     '-o', str(hexapod_out)]) == 0
+    assert cli.main(['example', 'vertical', '--rate', '2', '-o', str(tmp_path / 'v.csv')]) == 0
+    assert cli.main(['solve', str(tmp_path / 'v.csv'), '-o', str(three_dof_out)]) == 0
+    capsys.readouterr()
+    output = tmp_path / ('poses.csv' if command == 'forward' else 'still.png')
+    for table, params, machine, other in ((hexapod_out, [], MACHINE, cli.DEFAULT_MACHINE),
+                                          (three_dof_out, ['--params', HEXAPOD_FILE],
+                                           cli.DEFAULT_MACHINE, MACHINE)):
+        argv = (['forward', '--csv', str(table)] if command == 'forward'
+                else ['animate', str(table)]) + params + ['-o', str(output)]
+        assert cli.main(argv) == 2
+        line = one_error_line(capsys.readouterr().err)
+        assert str(table) in line and 'line 1' in line, line
+        assert machine.title in line and other.title in line and 'did you mean' not in line
+        assert all(f'{name}.yaml' in line for name in machine.parameter_files), line
+        assert not output.exists()
+
+
 # ----------------------------------------------------------------------------
 # forward
 # ----------------------------------------------------------------------------

@@ -209,6 +209,17 @@ def test_a_bad_value_in_a_hexapod_file(tmp_path, body, key, words):
     _raises(_file(tmp_path, lines), key, *words)
 
 
+@pytest.mark.parametrize('body, key', [
+    ('machine: stewart_6dof\ngeometry:\n  home: !!set {1.0, 0.0, 0.5}', 'geometry.home'),
+    ('machine: stewart_6dof\npayload:\n  com: !!set {0.0, 0.1, 0.2}', 'payload.com'),
+    ('limits:\n  stroke_min: !!set {0.1}', 'limits.stroke_min'),
+    ('payload:\n  inertia: !!set {1.0, 0.0}', 'payload.inertia'),
+])
+def test_a_set_is_refused_in_either_machines_file(tmp_path, body, key):
+    """A set has no order: read as a vector it would come in hash order (issue 29)."""
+    _raises(_file(tmp_path, body), key)
+
+
 def test_a_hexapod_key_in_a_3dof_file_is_unknown(tmp_path):
     for body, key in (('geometry:\n  home: [0.0, 0.0, 1.0]', 'geometry.home'),
                       ('limits:\n  length_min: 0.9', 'limits.length_min'),

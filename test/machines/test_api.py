@@ -241,3 +241,27 @@ def test_arguments_of_the_other_machines_size_are_the_machines_value_error(machi
                  lambda: fsd.forward_dynamics(model, wrong, wrong, wrong)):
         with pytest.raises(ValueError):
             call()
+
+
+@pytest.mark.parametrize('machine', sorted(DIRECT))
+@pytest.mark.parametrize('options', [
+    {'tolerance': float('inf')}, {'tolerance': float('nan')}, {'tolerance': 0.0},
+    {'tolerance': -1e-9}, {'tolerance': None}, {'tolerance': '1e-9'}, {'tolerance': True},
+    {'max_iterations': -5}, {'max_iterations': 0}, {'max_iterations': None},
+    {'max_iterations': 2.0}, {'max_iterations': True}, {'max_iterations': '10'},
+], ids=repr)
+def test_bad_forward_kinematics_options_are_a_value_error_on_either_machine(machine, options):
+    """Issue 29: tolerance=inf returned ok for any lengths, a negative max_iterations
+    reported "after -5 iterations", None raised TypeError."""
+    load, solver, forward_kinematics, _ = DIRECT[machine]
+    model = load()
+    dof = fsd.machine_of(model).dof
+    lengths = solver.solve(model, [0.01] * dof, [0.0] * dof, [0.0] * dof).length
+    for call in (fsd.forward_kinematics, forward_kinematics):
+        with pytest.raises(ValueError) as info:
+            call(model, lengths, **options)
+        assert type(info.value) is ValueError
+        assert next(iter(options)) in str(info.value)
+    # the same call with good options of the same kinds solves
+    good = {'tolerance': 1e-10, 'max_iterations': 50}
+    assert fsd.forward_kinematics(model, lengths, **good).status == fsd.Status.OK

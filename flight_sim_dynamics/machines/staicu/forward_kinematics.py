@@ -10,6 +10,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ...core.machine import check_forward_options, quiet_floating_point
 from ...core.status import Status
 from ...core.vectors import backend
 from .dynamics import actuator_jacobian
@@ -40,6 +41,7 @@ def _lengths_and_jacobian(model: Model, q: tuple[float, float, float]
     return np.array(g.length, dtype=float), np.array(actuator_jacobian(K), dtype=float)
 
 
+@quiet_floating_point
 def forward_kinematics(model: Model, lengths: Sequence[float],
                        initial: Sequence[float] = (0.0, 0.0, 0.0), *,
                        tolerance: float = 1e-12, max_iterations: int = 50) -> ForwardSolution:
@@ -48,8 +50,10 @@ def forward_kinematics(model: Model, lengths: Sequence[float],
     lengths (20, then 200 steps: the assembly mode of ``initial``), then from
     seed poses, keeping the working mode (the sign of det dL/dq at the centre).
     Never raises for bad numbers (the status says); ValueError for an argument
-    that is not three numbers (:func:`.solver.three_numbers`).
+    that is not three numbers (:func:`.solver.three_numbers`) and for bad options
+    (:func:`~flight_sim_dynamics.core.machine.check_forward_options`).
     """
+    check_forward_options(tolerance, max_iterations)
     arrays = []
     for name, value in (('lengths', lengths), ('initial', initial)):
         arr = np.array(three_numbers(name, value))

@@ -14,6 +14,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ...core.machine import check_forward_options, quiet_floating_point
 from ...core.status import SINGULAR, Status
 from .model import MIN_LENGTH, U_JOINT_TOLERANCE, StewartModel
 
@@ -265,6 +266,7 @@ def _lengths_and_jacobian(model: StewartModel, q: np.ndarray
     return legs.L[0], J_L, not degenerate_legs(legs).any()
 
 
+@quiet_floating_point
 def forward_kinematics(model: StewartModel, lengths: Sequence[float],
                        initial: Sequence[float] = (0.0,) * 6, *, tolerance: float = 1e-12,
                        max_iterations: int = 50) -> ForwardSolution:
@@ -274,8 +276,10 @@ def forward_kinematics(model: StewartModel, lengths: Sequence[float],
     unreachable when the iteration stalls at a minimum of |L - L*| > 0
     (J_L^T (L - L*) ~ 0: no pose has these lengths nearby); not_converged
     otherwise (e.g. stalled against a singular or degenerate pose). Never raises for bad
-    numbers; ValueError for arguments that are not six numbers each.
+    numbers; ValueError for arguments that are not six numbers each and for bad
+    options (:func:`~flight_sim_dynamics.core.machine.check_forward_options`).
     """
+    check_forward_options(tolerance, max_iterations)
     target, start = six_numbers('lengths', lengths), six_numbers('initial', initial)
     zero = np.zeros(6)
     if not (np.all(np.isfinite(target)) and np.all(np.isfinite(start))):

@@ -302,11 +302,21 @@ def from_dict(params: Mapping, effects: Effects | None = None) -> StewartModel:
     base = _points('geometry.base_joints', geo['base_joints'])
     plat = _points('geometry.platform_joints', geo['platform_joints'])
     axes = _points('geometry.base_axes', geo['base_axes'])
-    norms = np.linalg.norm(axes, axis=1)
+    home = _numbers('geometry.home', geo['home'], 3)
+    with np.errstate(over='ignore', invalid='ignore'):    # finite numbers whose norms overflow
+        norms = np.linalg.norm(axes, axis=1)
+        reach = np.linalg.norm(home + plat - base, axis=1)
+    if not np.all(np.isfinite(norms)):
+        raise _error('geometry.base_axes', 'geometry.base_axes: too large (the length of an '
+                     'axis is beyond the floating-point range)')
+    if not np.all(np.isfinite(reach)):
+        key = max((('geometry.base_joints', base), ('geometry.platform_joints', plat),
+                   ('geometry.home', home)), key=lambda kv: float(np.abs(kv[1]).max()))[0]
+        raise _error(key, f'{key}: too large (a leg\'s length at home is beyond the '
+                     'floating-point range)')
     if np.any(norms < 1e-9):
         raise _error('geometry.base_axes',
                      f'geometry.base_axes: axis of leg {int(np.argmin(norms)) + 1} is zero')
-    home = _numbers('geometry.home', geo['home'], 3)
     bodies = _section('bodies', params['bodies'], {'platform', 'cylinder', 'rod'})
     payload = params.get('payload', {'mass': 0.0, 'com': [0.0] * 3, 'inertia': [0.0] * 9})
     model = StewartModel(
