@@ -35,16 +35,50 @@ NODE_SPECS = {spec.name: spec for spec in NODE_PARAMETERS}
 
 def load_model(path: str | os.PathLike[str] | None = None,
                scene: Scene | str | os.PathLike[str] | None = None) -> Any:
-    """The model of a parameter file (None: the packaged 3-DOF machine) and a
-    scene (a name from config/scenes or a path; None: the file's ``scene``
-    parameter, else ``full``): the machine the file names (``machine: <name>``),
-    else the 3-DOF machine (:func:`.parameters.load_model`). Raises
-    :class:`ParameterError` for any bad file or value.
+    """The model of a parameter file (None: the packaged 3-DOF machine; a name:
+    the packaged file of that name, :func:`params_path`) and a scene (a name
+    from config/scenes or a path; None: the file's ``scene`` parameter, else
+    ``full``): the machine the file names (``machine: <name>``), else the 3-DOF
+    machine (:func:`.parameters.load_model`). Raises :class:`ParameterError`
+    for any bad file or value.
     """
+    path = None if path is None else params_path(path)
     flat = None if path is None else read_params_sections(path)    # read once (a FIFO)
     if flat is not None and 'machine' in flat:
         return load_named_model(flat, path, scene)
     return parameters.model_of_params(flat, path, scene)
+
+
+def packaged_names() -> list[str]:
+    """The names of the packaged parameter files (config/<name>.yaml): the 3-DOF
+    machine's, then the other machines'.
+    """
+    return [default_params_path().stem, *sorted(PACKAGED)]
+
+
+def params_path(path: str | os.PathLike[str]) -> str | os.PathLike[str]:
+    """A parameter file given by its path, or by the name of a packaged file
+    (a string without a ``.yaml`` / ``.yml`` suffix or a folder, as scenes are
+    named: ``'stewart_6dof'``), found where the packaged 3-DOF file is
+    (:func:`.files.default_params_path`: the installed share directory), so
+    from any folder. A file of that name in the working directory is still
+    read as a file; an unknown name is a :class:`ParameterError` listing the
+    packaged names.
+    """
+    if not isinstance(path, str) or path.endswith(('.yaml', '.yml')) or os.sep in path \
+            or (os.altsep and os.altsep in path):
+        return path
+    names = packaged_names()
+    if path in names:
+        return packaged_path(path)
+    try:
+        if Path(path).exists():
+            return path
+    except (OSError, ValueError):       # a name too long for the file system, a NUL
+        pass
+    raise ParameterError('params_file', path, 'no such file, nor the name of a packaged '
+                                              f"parameter file ({', '.join(names)})"
+                         + did_you_mean(path, names))
 
 
 def packaged_path(name: str) -> Path:

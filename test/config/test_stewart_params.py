@@ -81,6 +81,33 @@ def test_a_file_naming_only_a_packaged_machine_is_that_machine(tmp_path, name):
     assert fields(model) == fields(PACKAGED[name])
 
 
+@pytest.mark.parametrize('name', sorted(PACKAGED))
+def test_a_packaged_file_by_its_name_from_any_folder(tmp_path, monkeypatch, name):
+    monkeypatch.chdir(tmp_path)
+    assert fields(fsd.load_model(name)) == fields(PACKAGED[name])
+
+
+def test_the_3dof_file_by_its_name():
+    q = ([0.02, 0.05, 0.1], [0.1, 0.0, 0.2], [1.0, 2.0, 3.0])
+    np.testing.assert_array_equal(fsd.solve(fsd.load_model('flight_sim_dynamics'), *q).force,
+                                  fsd.solve(fsd.load_model(), *q).force)
+
+
+def test_an_unknown_name_lists_the_packaged_ones(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ParameterError) as info:
+        fsd.load_model('stewart_6dog')
+    assert info.value.key == 'params_file'
+    for name in ('flight_sim_dynamics', *sorted(PACKAGED)):
+        assert name in str(info.value)
+
+
+def test_a_file_without_a_suffix_is_still_read_as_a_file(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    _file(tmp_path, 'machine: stewart_6dof\nbodies:\n  platform:\n    mass: 200.0', 'mine')
+    assert fsd.load_model('mine').platform.mass == 200.0
+
+
 def test_a_partial_file_overrides_the_packaged_machine_of_its_name(tmp_path):
     path = _file(tmp_path, 'machine: stewart_6dof\nbodies:\n  platform:\n    mass: 200.0\n'
                            'limits:\n  max_force: 5000.0\n  u_joint_max_angle: 0.7')
