@@ -10,8 +10,10 @@ commanded against simulated motion, every coordinate, to ``<output>_twin.png``.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
+import warnings
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -23,6 +25,7 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 
+from ..config.errors import IgnoredParameterWarning
 from ..config.machine_files import load_model
 from ..config.parameters import default_params_path
 from ..core.machine import Machine
@@ -32,6 +35,7 @@ from ..machines.api import machine_of
 from ..ros.dynamics_node import default_qos
 from ..ros.node import spin_until
 from ..ros.planner import PlannerNode
+from ..ros.platform_sim import SIM_TASK
 from ..ros.process import SIM_MODULE, start_node, stop_node, stop_on_signals, stop_requested
 from ..ros.setpoints import DIAGNOSTIC_TASK, LEVEL_NAMES, pose_map, quaternion_to_rpy
 
@@ -97,15 +101,37 @@ def round_trip(executor: Any, planner: PlannerNode, monitor: Monitor,
     return answered
 
 
+#: Below this real-time factor (median of the twin's diagnostics periods within
+#: the run) the demo warns: the twin's poses lag the commands, the tracking
+#: figures measure the lag, not the servos.
+REAL_TIME_WARNING = 0.9
+
+
 class TwinMonitor(Node):
-    """Records the twin's ``platform_pose`` as (stamp ns, the machine's coordinates)."""
+    """Records the twin's ``platform_pose`` as (stamp ns, the machine's coordinates)
+    and the real-time factors of its /diagnostics as (monotonic s received, factor).
+    """
 
     def __init__(self, machine: Machine, **kwargs: Any) -> None:
         super().__init__('demo_twin_monitor', **kwargs)
         self.poses = pose_map(machine)
         self.rows: list[tuple[float, ...]] = []
+        self.factors: list[tuple[float, float]] = []
         self.sub = self.create_subscription(PoseStamped, 'platform_pose', self._on_pose,
                                             default_qos())
+        self.diag_sub = self.create_subscription(DiagnosticArray, '/diagnostics',
+                                                 self._on_diagnostics, 10)
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            if status.name.endswith(': ' + SIM_TASK):
+                values = {kv.key: kv.value for kv in status.values}
+                try:
+                    factor = float(values.get('real-time factor', ''))
+                except ValueError:          # 'no samples': the twin not started yet
+                    continue
+                if math.isfinite(factor):
+                    self.factors.append((time.monotonic(), factor))
 
     def _on_pose(self, msg: PoseStamped) -> None:
         p, o = msg.pose.position, msg.pose.orientation
@@ -214,6 +240,24 @@ def plot_tracking(t: np.ndarray, simulated: np.ndarray, commanded: np.ndarray,
     fig.savefig(path, dpi=110)
 
 
+def twin_speed(factors: Sequence[float], threshold: float = REAL_TIME_WARNING) -> str:
+    """The twin's speed over the run from ``factors``, the real-time factors of
+    its diagnostics periods within the run: a line starting ``warning:`` when it
+    did not keep real time (the median below ``threshold``) or none came.
+    """
+    if not len(factors):
+        return ('warning: no real-time factor in the twin\'s diagnostics during the run: '
+                'whether it kept real time is unknown')
+    median = float(np.median(factors))
+    figures = (f'{median:.2f}x real time (median of {len(factors)} diagnostics periods, '
+               f'min {min(factors):.2f}x)')
+    if median >= threshold:
+        return f'twin speed {figures}'
+    return (f'warning: the twin ran at {figures}: its poses lag the commands and the '
+            'tracking error above measures that lag, not the servos (is the compiled kernel '
+            'built? docs/kernel.md)')
+
+
 def twin_summary(t: np.ndarray, simulated: np.ndarray, commanded: np.ndarray,
                  machine: Machine = MACHINES[0]) -> str:
     """One line: poses and max / RMS tracking error per coordinate."""
@@ -260,9 +304,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     params_file = args.params or default_params_path()
     parser = build_parser()
     try:
-        machine = machine_of(load_model(params_file))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter('always', IgnoredParameterWarning)
+            machine = machine_of(load_model(params_file))
     except (OSError, ValueError) as exc:
         parser.error(f'--params: {exc}')
+    for warning in caught:          # the node logs them too, in its log file
+        print(f'[demo] note: --params {warning.message}')
     names = args.motions or list(machine.planner_motions)
     unknown = [name for name in names if name not in machine.planner_motions]
     if unknown:
@@ -323,6 +371,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f'[demo] node up; planner: {", ".join(sequence.names)} at {args.rate:g} Hz, '
               f'{sequence.period:.1f} s')
         planner.start()
+        run_start = time.monotonic()
         t0_ns = planner._t0_ns
         labels = tuple(label.upper() for label in machine.leg_labels)
         live = LiveSummary(time.monotonic(), labels)
@@ -342,6 +391,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             if time.monotonic() - live.last_time >= 1.0:
                 summary()
         spin(lambda: len(monitor.stamps) >= planner.sent, timeout=5.0)
+        run_end = time.monotonic()
         summary(final=True)
         received = len(monitor.stamps)
         latency = sorted((r - s) * 1e-6 for r, s in zip(monitor.received_at, monitor.stamps))
@@ -365,6 +415,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                  timeout=3.0)
             t, simulated, commanded = tracking(twin, sequence, t0_ns, end_ns)
             print(f'[demo] twin: {twin_summary(t, simulated, commanded, machine)}')
+            print('[demo] ' + twin_speed([f for at, f in twin.factors
+                                          if run_start <= at <= run_end]))
             twin_ok = len(t) > 0 and not twin_down()
             if len(t):
                 twin_png = args.output.with_name(args.output.stem + '_twin.png')

@@ -11,6 +11,7 @@ import importlib
 import math
 import os
 import sys
+import warnings
 from collections import Counter
 from typing import Any, Callable, Sequence
 
@@ -19,7 +20,7 @@ import numpy as np
 import flight_sim_dynamics as fsd
 
 from . import csv_io
-from ..config.parameters import packaged_values
+from ..config.errors import IgnoredParameterWarning
 from ..config.scenes import SceneError
 from ..core.estimator import estimate_rows
 from ..core.machine import Machine
@@ -53,7 +54,9 @@ def load_model(params: str | None, scene: str | None = None, option: str = '--pa
     if params is not None and not os.path.isfile(params):
         raise CliError(f"{option} {params}: no such file")
     try:
-        model = fsd.load_model(params, scene=scene)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter('always', IgnoredParameterWarning)
+            model = fsd.load_model(params, scene=scene)
     except SceneError as exc:           # before its parent class ParameterError
         raise CliError(f'{scene_option}: {exc}') from None
     except fsd.ParameterError as exc:
@@ -63,14 +66,12 @@ def load_model(params: str | None, scene: str | None = None, option: str = '--pa
         raise CliError(f"{option} {params or '(packaged defaults)'}: the {machine.title} "
                        f"('{machine.name}'): this command serves the "
                        + ' and the '.join(m.title for m in machines))
-    # (the 3-DOF model keeps its file's values: the note compares them with the packaged ones)
-    unused = [k for k, v in getattr(model, 'values', {}).items()
-              if k.split('.')[0] in ('payload', 'friction')
-              and not getattr(model.effects, k.split('.')[0]) and v != packaged_values().get(k)]
-    if unused:
-        print(f"note: {option} {params}: {', '.join(unused)} not simulated: scene "
-              f"'{model.scene}' leaves {' and '.join(sorted({k.split('.')[0] for k in unused}))} "
-              'off', file=sys.stderr)
+    for warning in caught:
+        if issubclass(warning.category, IgnoredParameterWarning):
+            print(f'note: {option} {warning.message}', file=sys.stderr)
+        else:
+            warnings.warn_explicit(warning.message, warning.category, warning.filename,
+                                   warning.lineno)
     return model
 
 

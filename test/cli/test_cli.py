@@ -702,3 +702,16 @@ def test_the_demo_twin_figure_shows_its_labels_whole(tmp_path, monkeypatch):
                 extent = label.get_window_extent(renderer)
                 assert box.x0 <= extent.x0 and extent.x1 <= box.x1, label.get_text()
                 assert box.y0 <= extent.y0 and extent.y1 <= box.y1, label.get_text()
+
+
+def test_the_demo_warns_when_the_twin_does_not_keep_real_time():
+    """From the real-time factors of the twin's diagnostics within the run: a
+    twin at 0.15x real time (the Python loop) gets a warning, one keeping up
+    (a first period partly spent waiting for commands included) none, and no
+    factor at all is said too."""
+    pytest.importorskip('rclpy')
+    from flight_sim_dynamics.cli import demo
+    slow = demo.twin_speed([0.4, 0.15, 0.16, 0.15, 0.14])
+    assert slow.startswith('warning') and '0.15' in slow
+    assert not demo.twin_speed([0.3, 1.0, 0.999, 1.0, 1.001]).startswith('warning')
+    assert demo.twin_speed([]).startswith('warning')
