@@ -226,10 +226,10 @@ def measure(params: str | None, cycles: int, error_rate: float) -> Measured:
                      for v in vs])
     absent = [v for v in vs if v.absent]
     if absent:
-        effects += ('\n\nnote: ' + ', '.join(f'`{v.key}`' for v in absent)
-                    + ' add effects absent from this model ('
-                    + '; '.join(v.absent for v in absent) + '): their rows time the computing '
-                    'of nothing; the --params file gives these parameters to model them')
+        effects += ('\n\nnote: effects absent from this model ('
+                    + '; '.join(v.absent for v in absent) + '): the rows of '
+                    + ', '.join(f'`{v.key}`' for v in absent) + ' time the computing of '
+                    'nothing; the --params file gives these parameters to model them')
     estimator = table(['streamed', 'estimator', 'rate Hz', f'max force error, {focus}'],
                       [[s, m, f'{r:g}', pct(e, focus)] for s, m, r, e in estimates])
     points = [(v.key, 'absent' if v.absent else v.kind, errors[v.key][focus], timing[v.key][0])
