@@ -167,15 +167,30 @@ class LiveSummary:
                 f'forces {"/".join(self.labels)} {text} N  status {status}')
 
 
+SEGMENT_FONT_SIZE = 8      # pt, the motions' names above a figure's first axes
+
+
 def _shade_segments(axes, sequence: PlannerSequence) -> None:
-    """The motions of the sequence as grey bands, named above the first axes."""
+    """The motions of the sequence as grey bands, named on a top axis of the
+    first axes (its title moved above them).
+    """
+    from matplotlib import rcParams
+
+    centres, names = [], []
     for label, start, end in sequence.segments:
         if label == 'return':
             continue
         for ax in axes:
             ax.axvspan(start, end, color='0.93', zorder=0)
-        axes[0].text(0.5 * (start + end), 1.0, label, transform=axes[0].get_xaxis_transform(),
-                     ha='center', va='bottom', fontsize=8)
+            ax.axvline(start, color='0.6', lw=0.6, zorder=0)
+        centres.append(0.5 * (start + end))
+        names.append(label)
+    top = axes[0].secondary_xaxis('top')
+    top.set_xticks(centres, names, fontsize=SEGMENT_FONT_SIZE)
+    top.tick_params(length=0, pad=2)
+    if axes[0].get_title():     # above the names (matplotlib places it at the axes' top)
+        axes[0].set_title(axes[0].get_title(), fontsize='medium',
+                          pad=rcParams['axes.titlepad'] + SEGMENT_FONT_SIZE + 4)
 
 
 def plot(monitor: Monitor, sequence: PlannerSequence, t0_ns: int, path: Path,
