@@ -57,14 +57,15 @@ def variants(params: str | None = None) -> list[Variant]:
     ``full`` plus each effect no scene adds (of the parameters ``params``; only
     the effects its machine models).
     """
-    full = load_model(params, scene='full', machines=MACHINES)
+    # every scene in turn: a payload the full scene leaves out is no news here
+    full = load_model(params, scene='full', machines=MACHINES, notes=False)
     modelled = fsd.machine_of(full).effects
     absent = absent_effects(full)
     out = [Variant('full', 'reference', full)]
     added = set()
     for name in available_scenes():
         if name != 'full':
-            model = load_model(params, scene=name, machines=MACHINES)
+            model = load_model(params, scene=name, machines=MACHINES, notes=False)
             extra = set(model.effects.enabled()) - set(full.effects.enabled())
             added |= extra
             out.append(Variant(name, 'adds' if extra else 'scene', model,

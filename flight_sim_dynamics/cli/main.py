@@ -46,10 +46,11 @@ class CliError(Exception):
 
 def load_model(params: str | None, scene: str | None = None, option: str = '--params',
                scene_option: str = '--scene', *,
-               machines: Sequence[Machine] = (DEFAULT_MACHINE,)) -> Any:
+               machines: Sequence[Machine] = (DEFAULT_MACHINE,), notes: bool = True) -> Any:
     """The model of ``--params`` and ``--scene``, of one of the ``machines`` a
-    command serves; a CliError names the option at fault, a note the file's
-    values of an effect the scene leaves off.
+    command serves; a CliError names the option at fault, a note (unless not
+    ``notes``: a command that sets the scenes itself) the file's values of an
+    effect the scene leaves off.
     """
     if params is not None and not os.path.isfile(params):
         raise CliError(f"{option} {params}: no such file")
@@ -68,7 +69,8 @@ def load_model(params: str | None, scene: str | None = None, option: str = '--pa
                        + ' and the '.join(m.title for m in machines))
     for warning in caught:
         if issubclass(warning.category, IgnoredParameterWarning):
-            print(f'note: {option} {warning.message}', file=sys.stderr)
+            if notes:
+                print(f'note: {option} {warning.message}', file=sys.stderr)
         else:
             warnings.warn_explicit(warning.message, warning.category, warning.filename,
                                    warning.lineno)

@@ -94,12 +94,15 @@ def test_effects_the_default_hexapod_lacks_are_said_absent_not_exact(quick_run):
     assert not any(v.absent for k, v in keys.items() if k not in ('payload', 'full + friction'))
 
 
-def test_a_payload_of_the_params_file_is_no_longer_absent(tmp_path):
+def test_a_payload_of_the_params_file_is_no_longer_absent(tmp_path, capsys):
+    """... and bench, which sets the scenes itself, notes no payload the full
+    scene leaves out."""
     path = tmp_path / 'heavy.yaml'
     path.write_text('flight_sim_dynamics:\n  ros__parameters:\n    machine: stewart_6dof\n'
                     '    payload: {mass: 80.0}\n')
     keys = {v.key: v for v in bench.variants(str(path))}
     assert not keys['payload'].absent and keys['full + friction'].absent
+    assert 'note:' not in capsys.readouterr().err
 
 
 def test_the_hexapod_cli_notes_a_payload_the_scene_leaves_out(tmp_path, capsys):
