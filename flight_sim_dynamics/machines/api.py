@@ -5,7 +5,7 @@ and calls its function, with the machine's vectors (three numbers for the
 3-DOF machine, six for a hexapod)::
 
     import flight_sim_dynamics as fsd
-    hexa = fsd.load_model('config/stewart_6dof.yaml')
+    hexa = fsd.load_model('stewart_6dof')
     sol = fsd.solve(hexa, q, qd, qdd)                # sol.length, .force, .status
     fd = fsd.forward_dynamics(hexa, q, qd, sol.force)
     fsd.machine_of(hexa).coordinates                 # ('surge', 'sway', 'heave', ...)
