@@ -111,9 +111,8 @@ def params_path(path: str | os.PathLike[str]) -> str | os.PathLike[str]:
     (a string without a ``.yaml`` / ``.yml`` suffix or a folder, as scenes are
     named: ``'stewart_6dof'``), found where the packaged 3-DOF file is
     (:func:`.files.default_params_path`: the installed share directory), so
-    from any folder. A file of that name in the working directory is still
-    read as a file; an unknown name is a :class:`ParameterError` listing the
-    packaged names.
+    from any folder. Another name is read as a file when one of that name
+    exists, else it is a :class:`ParameterError` listing the packaged names.
     """
     if not isinstance(path, str) or path.endswith(('.yaml', '.yml')) or os.sep in path \
             or (os.altsep and os.altsep in path):
