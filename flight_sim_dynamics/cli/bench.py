@@ -58,14 +58,14 @@ def variants(params: str | None = None) -> list[Variant]:
     the effects its machine models).
     """
     # every scene in turn: a payload the full scene leaves out is no news here
-    full = load_model(params, scene='full', machines=MACHINES, notes=False)
+    full = load_model(params, scene='full', machines=MACHINES, show_notes=False)
     modelled = fsd.machine_of(full).effects
     absent = absent_effects(full)
     out = [Variant('full', 'reference', full)]
     added = set()
     for name in available_scenes():
         if name != 'full':
-            model = load_model(params, scene=name, machines=MACHINES, notes=False)
+            model = load_model(params, scene=name, machines=MACHINES, show_notes=False)
             extra = set(model.effects.enabled()) - set(full.effects.enabled())
             added |= extra
             out.append(Variant(name, 'adds' if extra else 'scene', model,

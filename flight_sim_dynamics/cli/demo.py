@@ -13,7 +13,6 @@ import argparse
 import math
 import sys
 import time
-import warnings
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -25,8 +24,7 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 
-from ..config.errors import IgnoredParameterWarning
-from ..config.machine_files import load_model
+from ..config.machine_files import load_model_noting
 from ..config.parameters import default_params_path
 from ..core.machine import Machine
 from ..core.motion import PlannerSequence
@@ -319,13 +317,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     params_file = args.params or default_params_path()
     parser = build_parser()
     try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter('always', IgnoredParameterWarning)
-            machine = machine_of(load_model(params_file))
+        model, notes = load_model_noting(params_file)
     except (OSError, ValueError) as exc:
         parser.error(f'--params: {exc}')
-    for warning in caught:          # the node logs them too, in its log file
-        print(f'[demo] note: --params {warning.message}')
+    machine = machine_of(model)
+    for note in notes:          # the node logs them too, in its log file
+        print(f'[demo] note: --params {note}')
     names = args.motions or list(machine.planner_motions)
     unknown = [name for name in names if name not in machine.planner_motions]
     if unknown:

@@ -11,7 +11,6 @@ import importlib
 import math
 import os
 import sys
-import warnings
 from collections import Counter
 from typing import Any, Callable, Sequence
 
@@ -20,7 +19,7 @@ import numpy as np
 import flight_sim_dynamics as fsd
 
 from . import csv_io
-from ..config.errors import IgnoredParameterWarning
+from ..config.machine_files import load_model_noting
 from ..config.scenes import SceneError
 from ..core.estimator import estimate_rows
 from ..core.machine import Machine
@@ -46,18 +45,16 @@ class CliError(Exception):
 
 def load_model(params: str | None, scene: str | None = None, option: str = '--params',
                scene_option: str = '--scene', *,
-               machines: Sequence[Machine] = (DEFAULT_MACHINE,), notes: bool = True) -> Any:
+               machines: Sequence[Machine] = (DEFAULT_MACHINE,), show_notes: bool = True) -> Any:
     """The model of ``--params`` and ``--scene``, of one of the ``machines`` a
     command serves; a CliError names the option at fault, a note (unless not
-    ``notes``: a command that sets the scenes itself) the file's values of an
-    effect the scene leaves off.
+    ``show_notes``: a command that sets the scenes itself) the file's values of
+    an effect the scene leaves off.
     """
     if params is not None and not os.path.isfile(params):
         raise CliError(f"{option} {params}: no such file")
     try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter('always', IgnoredParameterWarning)
-            model = fsd.load_model(params, scene=scene)
+        model, notes = load_model_noting(params, scene=scene)
     except SceneError as exc:           # before its parent class ParameterError
         raise CliError(f'{scene_option}: {exc}') from None
     except fsd.ParameterError as exc:
@@ -67,13 +64,8 @@ def load_model(params: str | None, scene: str | None = None, option: str = '--pa
         raise CliError(f"{option} {params or '(packaged defaults)'}: the {machine.title} "
                        f"('{machine.name}'): this command serves the "
                        + ' and the '.join(m.title for m in machines))
-    for warning in caught:
-        if issubclass(warning.category, IgnoredParameterWarning):
-            if notes:
-                print(f'note: {option} {warning.message}', file=sys.stderr)
-        else:
-            warnings.warn_explicit(warning.message, warning.category, warning.filename,
-                                   warning.lineno)
+    for note in notes if show_notes else ():
+        print(f'note: {option} {note}', file=sys.stderr)
     return model
 
 

@@ -45,6 +45,18 @@ def load_model(path: str | os.PathLike[str] | None = None,
     machine (:func:`.parameters.load_model`). Raises :class:`ParameterError`
     for any bad file or value.
     """
+    model, notes = load_model_noting(path, scene)
+    for note in notes:
+        warnings.warn(note, IgnoredParameterWarning, stacklevel=2)
+    return model
+
+
+def load_model_noting(path: str | os.PathLike[str] | None = None,
+                      scene: Scene | str | os.PathLike[str] | None = None
+                      ) -> tuple[Any, list[str]]:
+    """:func:`load_model` and its notes (:func:`ignored_note`) returned, not
+    warned: for a command that prints them.
+    """
     path = None if path is None else params_path(path)
     flat = None if path is None else read_params_sections(path)    # read once (a FIFO)
     if flat is not None and 'machine' in flat:
@@ -52,9 +64,7 @@ def load_model(path: str | os.PathLike[str] | None = None,
     else:
         model = parameters.model_of_params(flat, path, scene)
     note = None if flat is None else ignored_note(flat, str(Path(path)), model)
-    if note is not None:
-        warnings.warn(note, IgnoredParameterWarning, stacklevel=2)
-    return model
+    return model, [] if note is None else [note]
 
 
 def ignored_values(given: Mapping[str, Any], reference: Mapping[str, Any],
