@@ -705,16 +705,25 @@ def test_the_demo_twin_figure_shows_its_labels_whole(tmp_path, monkeypatch):
 
 
 def test_the_demo_warns_when_the_twin_does_not_keep_real_time():
-    """From the real-time factors of the twin's diagnostics within the run: a
-    twin at 0.15x real time (the Python loop) gets a warning, one keeping up
-    (a first period partly spent waiting for commands included) none, and no
-    factor at all is said too."""
+    """From the twin's diagnostics within the run: a twin at 0.15x real time
+    (the Python loop) or one that dropped steps in a stall gets a warning, one
+    keeping up none, and no factor at all is said too."""
     pytest.importorskip('rclpy')
     from flight_sim_dynamics.cli import demo
     slow = demo.twin_speed([0.4, 0.15, 0.16, 0.15, 0.14])
-    assert slow.startswith('warning') and '0.15' in slow
-    assert not demo.twin_speed([0.3, 1.0, 0.999, 1.0, 1.001]).startswith('warning')
+    assert slow.startswith('warning') and '0.20' in slow
+    assert not demo.twin_speed([0.95, 1.0, 0.999, 1.0, 1.001]).startswith('warning')
+    assert demo.twin_speed([0.95, 1.0, 0.999, 1.0, 1.001], dropped=120).startswith('warning')
     assert demo.twin_speed([]).startswith('warning')
+
+
+def test_the_demo_counts_the_twins_dropped_steps_within_the_run():
+    pytest.importorskip('rclpy')
+    from flight_sim_dynamics.cli import demo
+    monitor = types.SimpleNamespace(speed=[(0.5, math.nan, 3), (1.5, 0.4, 5), (2.5, 1.0, 5),
+                                           (3.5, 0.5, 105), (4.5, 1.0, 110)])
+    factors, dropped = demo.TwinMonitor.speed_within(monitor, 1.0, 4.0)
+    assert factors == [0.4, 1.0, 0.5] and dropped == 102
 
 
 @pytest.mark.parametrize('figure', ['forces', 'twin'])
