@@ -6,13 +6,13 @@ node around the 3-DOF machine.
 Python API (model/data style)::
 
     import flight_sim_dynamics as fsd
-    model = fsd.load_model()                 # packaged defaults, or a YAML path
+    model = fsd.load_model()                 # packaged defaults, or a YAML path / packaged name
     sol = fsd.solve(model, q, qd, qdd)       # one cycle: sol.length, .force, ...
     batch = fsd.solve_batch(model, Q, Qd, Qdd)   # N x 3 arrays
     fd = fsd.forward_dynamics(model, q, qd, force)   # fd.acceleration, fd.status
     sim = fsd.simulate(model, reference=motion, feedforward=model)   # the twin
 
-    hexa = fsd.load_model('config/stewart_6dof.yaml')   # a file naming its machine
+    hexa = fsd.load_model('stewart_6dof')    # a packaged file by its name (config/<name>.yaml)
     sol = fsd.solve(hexa, q6, qd6, qdd6)     # the same calls, six numbers each
     fsd.machine_of(hexa).coordinates         # surge, sway, heave, roll, pitch, yaw
 

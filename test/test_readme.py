@@ -15,7 +15,9 @@ def test_the_readme_has_python_blocks():
 
 
 @pytest.mark.parametrize('index', range(len(BLOCKS)))
-def test_readme_python_block_runs(index, capsys):
+def test_readme_python_block_runs(index, capsys, tmp_path, monkeypatch):
+    """From any folder, not only the repository root."""
+    monkeypatch.chdir(tmp_path)
     exec(compile(BLOCKS[index], f'README.md python block {index + 1}', 'exec'), {})
     assert 'ok' in capsys.readouterr().out
 

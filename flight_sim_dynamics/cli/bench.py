@@ -26,6 +26,7 @@ from ..config.scenes import available_scenes
 from ..core.estimator import ESTIMATORS, estimate_rows
 from ..core.machine import Machine
 from ..machines import MACHINES
+from ..machines.api import absent_effects
 from .main import load_model
 
 DOCS_DIR = 'docs'
@@ -42,6 +43,13 @@ class Variant:
     key: str
     kind: str          # 'reference', 'scene', 'drops' (full minus one effect), 'adds'
     model: object
+    absent: str = ''   # adds only effects the model's parameters leave empty: why (absent_effects)
+
+
+def _absent(full, model, absent: dict[str, str]) -> str:
+    """Why ``model`` adds nothing to ``full``: every effect it adds is absent."""
+    added = sorted(set(model.effects.enabled()) - set(full.effects.enabled()))
+    return '; '.join(absent[e] for e in added) if added and set(added) <= set(absent) else ''
 
 
 def variants(params: str | None = None) -> list[Variant]:
@@ -49,16 +57,19 @@ def variants(params: str | None = None) -> list[Variant]:
     ``full`` plus each effect no scene adds (of the parameters ``params``; only
     the effects its machine models).
     """
-    full = load_model(params, scene='full', machines=MACHINES)
+    # every scene in turn: a payload the full scene leaves out is no news here
+    full = load_model(params, scene='full', machines=MACHINES, show_notes=False)
     modelled = fsd.machine_of(full).effects
+    absent = absent_effects(full)
     out = [Variant('full', 'reference', full)]
     added = set()
     for name in available_scenes():
         if name != 'full':
-            model = load_model(params, scene=name, machines=MACHINES)
+            model = load_model(params, scene=name, machines=MACHINES, show_notes=False)
             extra = set(model.effects.enabled()) - set(full.effects.enabled())
             added |= extra
-            out.append(Variant(name, 'adds' if extra else 'scene', model))
+            out.append(Variant(name, 'adds' if extra else 'scene', model,
+                               _absent(full, model, absent)))
     for effect in full.effects.enabled():
         if effect not in modelled:
             continue
@@ -66,8 +77,9 @@ def variants(params: str | None = None) -> list[Variant]:
             full.effects.without(effect), scene=f'full_without_{effect}')))
     for effect in modelled:
         if not getattr(full.effects, effect) and effect not in added:
-            out.append(Variant(f'full + {effect}', 'adds', full.with_effects(
-                replace(full.effects, **{effect: True}), scene=f'full_with_{effect}')))
+            model = full.with_effects(replace(full.effects, **{effect: True}),
+                                      scene=f'full_with_{effect}')
+            out.append(Variant(f'full + {effect}', 'adds', model, _absent(full, model, absent)))
     return out
 
 
@@ -153,15 +165,16 @@ def plot(points: list[tuple[str, str, float, float]], peak: float, path: str,
     positive = [p[2] for p in points if p[2] > 0]
     floor = 10 ** (math.floor(math.log10(min(positive, default=1.0))) - 1)
     colour = {'reference': 'black', 'scene': 'tab:blue', 'drops': 'tab:red', 'adds': 'tab:green',
-              'estimated': 'tab:orange'}
+              'estimated': 'tab:orange', 'absent': '0.75'}
     fig = Figure(figsize=(11.0, 0.32 * len(points) + 1.8), dpi=110, layout='constrained')
     ax_e, ax_t = fig.subplots(1, 2, sharey=True, width_ratios=(3, 2))
     y = np.arange(len(points))
     colours = [colour[p[1]] for p in points]
     ax_e.barh(y, [max(p[2], floor) for p in points], left=floor / 10, color=colours)
     for k, p in enumerate(points):
-        ax_e.text(max(p[2], floor) * 1.15, k, 'exact' if p[2] == 0 else f'{p[2]:.3g} N',
-                  va='center', fontsize=8)
+        text = 'absent from the model' if p[1] == 'absent' else \
+            'exact' if p[2] == 0 else f'{p[2]:.3g} N'
+        ax_e.text(max(p[2], floor) * 1.15, k, text, va='center', fontsize=8)
         ax_t.text(p[3], k, f' {p[3]:.1f} us', va='center', fontsize=8)
     ax_e.set_xscale('log')
     ax_e.set_xlim(floor / 10, max(positive, default=1.0) * 20)
@@ -209,11 +222,19 @@ def measure(params: str | None, cycles: int, error_rate: float) -> Measured:
     effects = table(['variant', 'kind', 'median us', 'p99 us']
                     + [f'max force error, {name}' for name in machine.bench_motions],
                     [[f'`{v.key}`', v.kind, f'{timing[v.key][0]:.1f}', f'{timing[v.key][1]:.1f}']
-                     + [pct(errors[v.key][name], name) for name in machine.bench_motions]
+                     + ['absent from the model' if v.absent else
+                        pct(errors[v.key][name], name) for name in machine.bench_motions]
                      for v in vs])
+    absent = [v for v in vs if v.absent]
+    if absent:
+        effects += ('\n\nnote: effects absent from this model ('
+                    + '; '.join(v.absent for v in absent) + '): the rows of '
+                    + ', '.join(f'`{v.key}`' for v in absent) + ' time the computing of '
+                    'nothing; the --params file gives these parameters to model them')
     estimator = table(['streamed', 'estimator', 'rate Hz', f'max force error, {focus}'],
                       [[s, m, f'{r:g}', pct(e, focus)] for s, m, r, e in estimates])
-    points = [(v.key, v.kind, errors[v.key][focus], timing[v.key][0]) for v in vs]
+    points = [(v.key, 'absent' if v.absent else v.kind, errors[v.key][focus], timing[v.key][0])
+              for v in vs]
     points += [(f'full, {s} at {r:g} Hz', 'estimated', e, timing['full'][0])
                for s, m, r, e in estimates if m == FIGURE_ESTIMATOR]
     return Measured(effects=effects, estimator=estimator, peak=peak, focus=focus,

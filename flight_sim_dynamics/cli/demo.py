@@ -10,6 +10,7 @@ commanded against simulated motion, every coordinate, to ``<output>_twin.png``.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -23,7 +24,7 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 
-from ..config.machine_files import load_model
+from ..config.machine_files import load_model_noting
 from ..config.parameters import default_params_path
 from ..core.machine import Machine
 from ..core.motion import PlannerSequence
@@ -32,6 +33,7 @@ from ..machines.api import machine_of
 from ..ros.dynamics_node import default_qos
 from ..ros.node import spin_until
 from ..ros.planner import PlannerNode
+from ..ros.platform_sim import SIM_TASK
 from ..ros.process import SIM_MODULE, start_node, stop_node, stop_on_signals, stop_requested
 from ..ros.setpoints import DIAGNOSTIC_TASK, LEVEL_NAMES, pose_map, quaternion_to_rpy
 
@@ -97,15 +99,48 @@ def round_trip(executor: Any, planner: PlannerNode, monitor: Monitor,
     return answered
 
 
+#: Below this real-time factor (mean of the twin's diagnostics periods within
+#: the run), or with steps dropped, the demo warns: the twin's poses lag the
+#: commands, the tracking figures measure the lag, not the servos.
+REAL_TIME_WARNING = 0.9
+
+
 class TwinMonitor(Node):
-    """Records the twin's ``platform_pose`` as (stamp ns, the machine's coordinates)."""
+    """Records the twin's ``platform_pose`` as (stamp ns, the machine's coordinates)
+    and its /diagnostics as (monotonic s received, real-time factor of the
+    period or NaN, steps dropped in all).
+    """
 
     def __init__(self, machine: Machine, **kwargs: Any) -> None:
         super().__init__('demo_twin_monitor', **kwargs)
         self.poses = pose_map(machine)
         self.rows: list[tuple[float, ...]] = []
+        self.speed: list[tuple[float, float, int]] = []
         self.sub = self.create_subscription(PoseStamped, 'platform_pose', self._on_pose,
                                             default_qos())
+        self.diag_sub = self.create_subscription(DiagnosticArray, '/diagnostics',
+                                                 self._on_diagnostics, 10)
+
+    def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            if status.name.endswith(': ' + SIM_TASK):
+                values = {kv.key: kv.value for kv in status.values}
+                try:
+                    factor = float(values.get('real-time factor', ''))
+                except ValueError:          # 'no samples': the twin not started yet
+                    factor = math.nan
+                dropped = values.get('steps dropped', '0')
+                self.speed.append((time.monotonic(), factor,
+                                   int(dropped) if dropped.isdigit() else 0))
+
+    def speed_within(self, start: float, end: float) -> tuple[list[float], int]:
+        """The real-time factors of the periods reported within [start, end]
+        (monotonic s) and the steps dropped meanwhile.
+        """
+        before = [d for at, _, d in self.speed if at < start]
+        within = [(f, d) for at, f, d in self.speed if start <= at <= end]
+        dropped = within[-1][1] - (before[-1] if before else 0) if within else 0
+        return [f for f, _ in within if math.isfinite(f)], dropped
 
     def _on_pose(self, msg: PoseStamped) -> None:
         p, o = msg.pose.position, msg.pose.orientation
@@ -141,15 +176,30 @@ class LiveSummary:
                 f'forces {"/".join(self.labels)} {text} N  status {status}')
 
 
+SEGMENT_FONT_SIZE = 8      # pt, the motions' names above a figure's first axes
+
+
 def _shade_segments(axes, sequence: PlannerSequence) -> None:
-    """The motions of the sequence as grey bands, named above the first axes."""
+    """The motions of the sequence as grey bands, named on a top axis of the
+    first axes (its title moved above them).
+    """
+    from matplotlib import rcParams
+
+    centres, names = [], []
     for label, start, end in sequence.segments:
         if label == 'return':
             continue
         for ax in axes:
             ax.axvspan(start, end, color='0.93', zorder=0)
-        axes[0].text(0.5 * (start + end), 1.0, label, transform=axes[0].get_xaxis_transform(),
-                     ha='center', va='bottom', fontsize=8)
+            ax.axvline(start, color='0.6', lw=0.6, zorder=0)
+        centres.append(0.5 * (start + end))
+        names.append(label)
+    top = axes[0].secondary_xaxis('top')
+    top.set_xticks(centres, names, fontsize=SEGMENT_FONT_SIZE)
+    top.tick_params(length=0, pad=2)
+    if axes[0].get_title():     # above the names (matplotlib places it at the axes' top)
+        axes[0].set_title(axes[0].get_title(), fontsize='medium',
+                          pad=rcParams['axes.titlepad'] + SEGMENT_FONT_SIZE + 4)
 
 
 def plot(monitor: Monitor, sequence: PlannerSequence, t0_ns: int, path: Path,
@@ -214,6 +264,27 @@ def plot_tracking(t: np.ndarray, simulated: np.ndarray, commanded: np.ndarray,
     fig.savefig(path, dpi=110)
 
 
+def twin_speed(factors: Sequence[float], dropped: int = 0,
+               threshold: float = REAL_TIME_WARNING) -> str:
+    """The twin's speed over the run: ``factors`` are the real-time factors of
+    its diagnostics periods within the run, ``dropped`` the steps it dropped
+    (the plant held still); a line starting ``warning:`` when it did not keep
+    real time (the mean below ``threshold``, or steps dropped) or no factor came.
+    """
+    if not len(factors):
+        return ('warning: no real-time factor in the twin\'s diagnostics during the run: '
+                'whether it kept real time is unknown')
+    mean = float(np.mean(factors))
+    figures = (f'{mean:.2f}x real time (mean of {len(factors)} diagnostics periods, '
+               f'min {min(factors):.2f}x), {dropped} steps dropped')
+    if mean >= threshold and not dropped:
+        return f'twin speed {figures}'
+    return (f'warning: the twin did not keep real time: {figures}; its poses lag the '
+            'commands and the tracking error above measures that lag, not the servos '
+            '(the Python loop instead of the compiled kernel, docs/kernel.md, or a loaded '
+            'host)')
+
+
 def twin_summary(t: np.ndarray, simulated: np.ndarray, commanded: np.ndarray,
                  machine: Machine = MACHINES[0]) -> str:
     """One line: poses and max / RMS tracking error per coordinate."""
@@ -260,9 +331,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     params_file = args.params or default_params_path()
     parser = build_parser()
     try:
-        machine = machine_of(load_model(params_file))
+        model, notes = load_model_noting(params_file)
     except (OSError, ValueError) as exc:
         parser.error(f'--params: {exc}')
+    machine = machine_of(model)
+    for note in notes:          # the node logs them too, in its log file
+        print(f'[demo] note: --params {note}')
     names = args.motions or list(machine.planner_motions)
     unknown = [name for name in names if name not in machine.planner_motions]
     if unknown:
@@ -323,6 +397,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f'[demo] node up; planner: {", ".join(sequence.names)} at {args.rate:g} Hz, '
               f'{sequence.period:.1f} s')
         planner.start()
+        run_start = time.monotonic()
         t0_ns = planner._t0_ns
         labels = tuple(label.upper() for label in machine.leg_labels)
         live = LiveSummary(time.monotonic(), labels)
@@ -342,6 +417,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             if time.monotonic() - live.last_time >= 1.0:
                 summary()
         spin(lambda: len(monitor.stamps) >= planner.sent, timeout=5.0)
+        run_end = time.monotonic()
         summary(final=True)
         received = len(monitor.stamps)
         latency = sorted((r - s) * 1e-6 for r, s in zip(monitor.received_at, monitor.stamps))
@@ -365,6 +441,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                  timeout=3.0)
             t, simulated, commanded = tracking(twin, sequence, t0_ns, end_ns)
             print(f'[demo] twin: {twin_summary(t, simulated, commanded, machine)}')
+            print('[demo] ' + twin_speed(*twin.speed_within(run_start, run_end)))
             twin_ok = len(t) > 0 and not twin_down()
             if len(t):
                 twin_png = args.output.with_name(args.output.stem + '_twin.png')

@@ -22,7 +22,7 @@ import flight_sim_dynamics as fsd
 
 from . import csv_io
 from ..config.errors import shorten
-from ..config.parameters import packaged_values
+from ..config.machine_files import load_model_noting
 from ..config.scenes import SceneError
 from ..core.estimator import DerivativeEstimator, estimate_rows
 from ..core.machine import Machine
@@ -48,15 +48,16 @@ class CliError(Exception):
 
 def load_model(params: str | None, scene: str | None = None, option: str = '--params',
                scene_option: str = '--scene', *,
-               machines: Sequence[Machine] = (DEFAULT_MACHINE,)) -> Any:
+               machines: Sequence[Machine] = (DEFAULT_MACHINE,), show_notes: bool = True) -> Any:
     """The model of ``--params`` and ``--scene``, of one of the ``machines`` a
-    command serves; a CliError names the option at fault, a note the file's
-    values of an effect the scene leaves off.
+    command serves; a CliError names the option at fault, a note (unless not
+    ``show_notes``: a command that sets the scenes itself) the file's values of
+    an effect the scene leaves off.
     """
     if params is not None and not os.path.isfile(params):
         raise CliError(f"{option} {params}: no such file")
     try:
-        model = fsd.load_model(params, scene=scene)
+        model, notes = load_model_noting(params, scene=scene)
     except SceneError as exc:           # before its parent class ParameterError
         raise CliError(f'{scene_option}: {exc}') from None
     except fsd.ParameterError as exc:
@@ -66,14 +67,8 @@ def load_model(params: str | None, scene: str | None = None, option: str = '--pa
         raise CliError(f"{option} {params or '(packaged defaults)'}: the {machine.title} "
                        f"('{machine.name}'): this command serves the "
                        + ' and the '.join(m.title for m in machines))
-    # (the 3-DOF model keeps its file's values: the note compares them with the packaged ones)
-    unused = [k for k, v in getattr(model, 'values', {}).items()
-              if k.split('.')[0] in ('payload', 'friction')
-              and not getattr(model.effects, k.split('.')[0]) and v != packaged_values().get(k)]
-    if unused:
-        print(f"note: {option} {params}: {', '.join(unused)} not simulated: scene "
-              f"'{model.scene}' leaves {' and '.join(sorted({k.split('.')[0] for k in unused}))} "
-              'off', file=sys.stderr)
+    for note in notes if show_notes else ():
+        print(f'note: {option} {note}', file=sys.stderr)
     return model
 
 

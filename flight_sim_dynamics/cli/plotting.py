@@ -52,9 +52,12 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 
 def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
                        title: str, unsolved: np.ndarray | None = None,
-                       actuators: tuple[str, ...] = ACTUATORS):
-    """A two-axes figure: the forces (N) of ``actuators`` above, their powers
-    (W) below, vs t (s); ``unsolved`` rows are shaded, not drawn as 0 N.
+                       actuators: tuple[str, ...] = ACTUATORS,
+                       length_error: np.ndarray | None = None):
+    """A figure of the forces (N) of ``actuators`` above, their powers (W)
+    below, vs t (s), and with ``length_error`` (m, one column per actuator:
+    ``simulate``'s leg length minus its reference) a third axes of that
+    tracking error in mm; ``unsolved`` rows are shaded, not drawn as 0 N.
     """
     from matplotlib.figure import Figure
 
@@ -63,11 +66,24 @@ def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
     power = np.asarray(power, dtype=float).reshape(len(t), -1).copy()
     unsolved = np.zeros(len(t), bool) if unsolved is None else np.asarray(unsolved, bool)
     force[unsolved], power[unsolved] = np.nan, np.nan
-    fig = Figure(figsize=(8.0, 7.0), dpi=100, layout='constrained')
-    ax_f, ax_p = fig.subplots(2, 1, sharex=True)
+    tracked = length_error is not None
+    fig = Figure(figsize=(8.0, 9.5 if tracked else 7.0), dpi=100, layout='constrained')
+    axes = fig.subplots(3 if tracked else 2, 1, sharex=True,
+                        height_ratios=(1.0, 1.0, 0.8) if tracked else None)
+    ax_f, ax_p = axes[:2]
     for k, (name, f, p) in enumerate(zip(actuators, force.T, power.T)):
         ax_f.plot(t, f, label=f'actuator {name}', **leg_style(k))
         ax_p.plot(t, p, label=f'actuator {name}', **leg_style(k))
+    if tracked:
+        error = 1e3 * np.asarray(length_error, dtype=float).reshape(len(t), -1)
+        ax_e = axes[2]
+        for k, (name, e) in enumerate(zip(actuators, error.T)):
+            ax_e.plot(t, e, label=f'actuator {name}', **leg_style(k))
+        peak = float(np.nanmax(np.abs(error))) if error.size else 0.0
+        ax_e.set_title(f'Tracking error of the leg lengths (max {peak:.3g} mm)',
+                       fontsize='medium')
+        ax_e.set_ylabel('simulated - reference\nleg length (mm)')
+        ax_e.axhline(0.0, color='0.4', linewidth=0.8)
     step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     for k, (first, last) in enumerate(_runs(unsolved)):
         for ax in (ax_f, ax_p):
@@ -82,8 +98,8 @@ def force_power_figure(t: np.ndarray, force: np.ndarray, power: np.ndarray, *,
     ax_f.set_title(f'Input forces of the {count} actuators', fontsize='medium')
     ax_p.set_ylabel('power $P = f\\,\\dot{L}$ (W)\n+ the actuator drives the motion')
     ax_p.set_title(f'Powers of the {count} actuators', fontsize='medium')
-    ax_p.set_xlabel('time $t$ (s)')
-    for ax in (ax_f, ax_p):
+    axes[-1].set_xlabel('time $t$ (s)')
+    for ax in axes:
         ax.grid(True, alpha=0.35)
         ax.legend(**legend)
         ax.margins(x=0)
@@ -98,7 +114,8 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help='output of solve, CSV or .npz (needs t, force_<leg>, power_<leg>: '
                         + '; '.join(f"the {m.title}'s " + ','.join(plot_columns(m)[1:])
                                     for m in MACHINES)
-                        + "), or of simulate (its powers: force x rate)")
+                        + "), or of simulate (its powers: force x rate; closed loop: its leg "
+                          "length tracking error too)")
     p.add_argument('-o', '--output', required=True, metavar='IMAGE',
                    help='image to write; the format follows the extension (.png, .svg, .pdf)')
     p.add_argument('--title', default=None,
@@ -125,7 +142,8 @@ def run(args: argparse.Namespace) -> int:
     fmt = output_format(args.output)      # fail before reading a large file
     if not 1 <= args.dpi <= 1200:
         raise CliError(f'--dpi must be between 1 and 1200, got {args.dpi}')
-    every = tuple({c for m in MACHINES for field in ('length', 'force', 'power', 'rate')
+    every = tuple({c for m in MACHINES
+                   for field in ('length', 'force', 'power', 'rate', 'length_error')
                    for c in per_leg(m, field)})
     table = read_table(args.input, required=('t',), optional=every)
     machine = machine_of_columns(table.names, 'force')
@@ -154,8 +172,11 @@ def run(args: argparse.Namespace) -> int:
     lengths = [n for n in per_leg(machine, 'length') if n in table.names]
     unsolved = (np.all(np.column_stack([table[n] for n in lengths]) == 0.0, axis=1)
                 if lengths else None)
+    # simulate's closed loop: its leg length tracking error, drawn too
+    errors = per_leg(machine, 'length_error')
+    length_error = legs(errors) if set(errors) <= set(table.names) else None
     fig = force_power_figure(table['t'], force, power, title=title, unsolved=unsolved,
-                             actuators=actuators)
+                             actuators=actuators, length_error=length_error)
     with atomic_output(args.output) as f:
         fig.savefig(f, format=fmt, dpi=args.dpi)
     return 0

@@ -370,6 +370,23 @@ def legend_entries(survey: Survey, styles: _Styles) -> tuple[list, list[str]]:
     return [e[0] for e in entries], [e[1] for e in entries]
 
 
+def _plain_log_ticks(bar: Any, lo: float, hi: float) -> None:
+    """The log colour bar's ticks as plain numbers (3, 10, 100; not 3x10^0), and
+    within less than a decade a few round values, since a log axis would label
+    at most one.
+    """
+    from matplotlib.ticker import FixedLocator, FuncFormatter, MaxNLocator, NullLocator
+
+    axis = bar.ax.yaxis
+    if hi / lo < 10.0:
+        ticks = [t for t in MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10]).tick_values(lo, hi)
+                 if lo <= t <= hi]
+        axis.set_major_locator(FixedLocator(ticks))
+        axis.set_minor_locator(NullLocator())
+    axis.set_major_formatter(FuncFormatter(lambda v, _: f'{v:g}'))
+    axis.set_minor_formatter(FuncFormatter(lambda v, _: ''))
+
+
 def plot(survey: Survey, path: str, dpi: int) -> None:
     """One panel per map, in the maps' rows; one colour scale for all."""
     import matplotlib
@@ -401,12 +418,16 @@ def plot(survey: Survey, path: str, dpi: int) -> None:
         for k in range(ncol):
             if k < len(g):
                 mesh = _draw_panel(axes[i, k], g[k], styles, norm, cmap)
-                if k:
+                # the left neighbour's label names the same axis (heave beside heave);
+                # a new quantity (pitch beside heave) keeps its own
+                if k and (g[k].names[1], g[k].units[1]) == (g[k - 1].names[1],
+                                                            g[k - 1].units[1]):
                     axes[i, k].set_ylabel('')
             else:
                 axes[i, k].set_visible(False)
-    fig.colorbar(mesh, ax=axes, label=f'{survey.condition_label}, log scale',
-                 extend='max' if top > hi else 'neither', shrink=0.5, pad=0.01)
+    bar = fig.colorbar(mesh, ax=axes, label=f'{survey.condition_label}, log scale',
+                       extend='max' if top > hi else 'neither', shrink=0.5, pad=0.01)
+    _plain_log_ticks(bar, lo, hi)
     handles, labels = legend_entries(survey, styles)
     fig.legend(handles, labels, loc='outside lower center', ncol=2 if ncol > 2 else 1,
                fontsize=8, frameon=False,

@@ -31,6 +31,12 @@ class ParameterError(ValueError):
         super().__init__(shorten(f"parameter '{key}' = {text}: {reason}"))
 
 
+class IgnoredParameterWarning(UserWarning):
+    """Values of a parameter file the model does not use: parameters of an
+    effect its scene leaves out (e.g. ``payload.mass`` with the ``full`` scene).
+    """
+
+
 def did_you_mean(name: str, known: Iterable[str]) -> str:
     """``; did you mean 'x'?`` for the closest known name (difflib), else ''."""
     close = difflib.get_close_matches(str(name), list(known), n=1, cutoff=0.6)

@@ -13,13 +13,16 @@ machine. The machine's own builder checks the values; every bad file is one
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
+from ..core.effects import EFFECT_NAMES
 from ..core.machine import Machine, ModelValueError
 from ..machines import MACHINES, PACKAGED, machine_named
+from ..machines.api import absent_effects
 from . import parameters
-from .errors import ParameterError, did_you_mean
+from .errors import IgnoredParameterWarning, ParameterError, did_you_mean
 from .files import default_params_path, read_params_sections
 from .scenes import DEFAULT_SCENE, Scene, SceneError, load_scene, scenes_dir
 from .schema import NODE_PARAMETERS, SPECS
@@ -35,16 +38,106 @@ NODE_SPECS = {spec.name: spec for spec in NODE_PARAMETERS}
 
 def load_model(path: str | os.PathLike[str] | None = None,
                scene: Scene | str | os.PathLike[str] | None = None) -> Any:
-    """The model of a parameter file (None: the packaged 3-DOF machine) and a
-    scene (a name from config/scenes or a path; None: the file's ``scene``
-    parameter, else ``full``): the machine the file names (``machine: <name>``),
-    else the 3-DOF machine (:func:`.parameters.load_model`). Raises
-    :class:`ParameterError` for any bad file or value.
+    """The model of a parameter file (None: the packaged 3-DOF machine; a name:
+    the packaged file of that name, :func:`params_path`) and a scene (a name
+    from config/scenes or a path; None: the file's ``scene`` parameter, else
+    ``full``): the machine the file names (``machine: <name>``), else the 3-DOF
+    machine (:func:`.parameters.load_model`). Raises :class:`ParameterError`
+    for any bad file or value.
     """
+    model, notes = load_model_noting(path, scene)
+    for note in notes:
+        warnings.warn(note, IgnoredParameterWarning, stacklevel=2)
+    return model
+
+
+def load_model_noting(path: str | os.PathLike[str] | None = None,
+                      scene: Scene | str | os.PathLike[str] | None = None
+                      ) -> tuple[Any, list[str]]:
+    """:func:`load_model` and its notes (:func:`ignored_note`) returned, not
+    warned: for a command that prints them.
+    """
+    path = None if path is None else params_path(path)
     flat = None if path is None else read_params_sections(path)    # read once (a FIFO)
     if flat is not None and 'machine' in flat:
-        return load_named_model(flat, path, scene)
-    return parameters.model_of_params(flat, path, scene)
+        model = load_named_model(flat, path, scene)
+    else:
+        model = parameters.model_of_params(flat, path, scene)
+    note = None if flat is None else ignored_note(flat, str(Path(path)), model)
+    return model, [] if note is None else [note]
+
+
+def ignored_values(given: Mapping[str, Any], reference: Mapping[str, Any],
+                   model: Any) -> list[str]:
+    """The names in ``given`` (a file's values, dotted names) of parameters of an
+    effect the scene of ``model`` leaves out (the effect's own name or group:
+    ``payload.*``, ``friction.*``, ``gravity``) that would change its forces:
+    not ``reference``'s value (the packaged file's, which a copied file
+    repeats), and of an effect that is there (:func:`.machines.api.absent_effects`:
+    no 0 kg payload).
+    """
+    absent = absent_effects(model)
+    return sorted(key for key, value in given.items()
+                  if (group := key.split('.')[0]) in EFFECT_NAMES
+                  and not getattr(model.effects, group) and group not in absent
+                  and (key not in reference or value != reference[key]))
+
+
+def ignored_note(flat: Mapping[str, Any], source: str, model: Any) -> str | None:
+    """What the file ``source`` (its parameters ``flat``) gives that ``model``
+    does not use (:func:`ignored_values`, against
+    the packaged file of its machine: the named one, else the 3-DOF machine's;
+    a machine of one's own: the first packaged file of its kind), or None.
+    """
+    name = flat.get('machine')
+    if name is None:
+        reference = parameters.packaged_values()
+    else:
+        kind = machine_named(name) if isinstance(name, str) else None
+        packaged = name if name in PACKAGED else next(iter(getattr(kind, 'parameter_files', ())),
+                                                     None)
+        reference = {} if packaged is None else \
+            _model_names(read_params_sections(packaged_path(packaged)))
+    names = ignored_values(_model_names(flat), reference, model)
+    return ignored_message(names, model.scene, f'{source}: ') if names else None
+
+
+def ignored_message(names: Sequence[str], scene: str, where: str = '') -> str:
+    """The note on ``names`` (:func:`ignored_values`) that scene ``scene`` leaves out."""
+    effect = ' and '.join(sorted({key.split('.')[0] for key in names}))
+    return (f"{where}{', '.join(names)} not simulated: scene '{scene}' leaves {effect} out; "
+            f'a scene with {effect} simulates it (docs/scenes.md)')
+
+
+def packaged_names() -> list[str]:
+    """The names of the packaged parameter files (config/<name>.yaml): the 3-DOF
+    machine's, then the other machines'.
+    """
+    return [default_params_path().stem, *sorted(PACKAGED)]
+
+
+def params_path(path: str | os.PathLike[str]) -> str | os.PathLike[str]:
+    """A parameter file given by its path, or by the name of a packaged file
+    (a string without a ``.yaml`` / ``.yml`` suffix or a folder, as scenes are
+    named: ``'stewart_6dof'``), found where the packaged 3-DOF file is
+    (:func:`.files.default_params_path`: the installed share directory), so
+    from any folder. Another name is read as a file when one of that name
+    exists, else it is a :class:`ParameterError` listing the packaged names.
+    """
+    if not isinstance(path, str) or path.endswith(('.yaml', '.yml')) or os.sep in path \
+            or (os.altsep and os.altsep in path):
+        return path
+    names = packaged_names()
+    if path in names:
+        return packaged_path(path)
+    try:
+        if Path(path).exists():
+            return path
+    except (OSError, ValueError):       # a name too long for the file system, a NUL
+        pass
+    raise ParameterError('params_file', path, 'no such file, nor the name of a packaged '
+                                              f"parameter file ({', '.join(names)})"
+                         + did_you_mean(path, names))
 
 
 def packaged_path(name: str) -> Path:

@@ -5,7 +5,7 @@ and calls its function, with the machine's vectors (three numbers for the
 3-DOF machine, six for a hexapod)::
 
     import flight_sim_dynamics as fsd
-    hexa = fsd.load_model('config/stewart_6dof.yaml')
+    hexa = fsd.load_model('stewart_6dof')
     sol = fsd.solve(hexa, q, qd, qdd)                # sol.length, .force, .status
     fd = fsd.forward_dynamics(hexa, q, qd, sol.force)
     fsd.machine_of(hexa).coordinates                 # ('surge', 'sway', 'heave', ...)
@@ -131,3 +131,18 @@ def servo_for_bandwidth(model: Any, hz: float = DEFAULT_BANDWIDTH_HZ,
     (:meth:`flight_sim_dynamics.core.servo.Servo.for_bandwidth`).
     """
     return Servo.for_bandwidth(machine_of(model), model, hz, damping)
+
+
+def absent_effects(model: Any) -> dict[str, str]:
+    """The effects whose parameters are all zero in ``model`` (so that switching
+    them on changes nothing), each with the parameters that make it so: the
+    payload (no mass, no inertia), friction (no viscous nor Coulomb coefficient).
+    """
+    out = {}
+    payload = getattr(model, 'payload', None)
+    if payload is not None and payload.mass == 0 and not np.any(payload.inertia):
+        out['payload'] = 'payload.mass 0 kg'
+    friction = getattr(model, 'friction', None)
+    if friction is not None and not np.any(friction.viscous) and not np.any(friction.coulomb):
+        out['friction'] = 'friction.viscous and friction.coulomb 0'
+    return out

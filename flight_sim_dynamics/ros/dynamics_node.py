@@ -30,6 +30,7 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
 
 from ..config import parameters as prm
+from ..config.machine_files import ignored_message, ignored_values
 from ..config.node_schema import MACHINE, NodeSchema, node_schema
 from .marker_publisher import MarkerPublisher
 from .process import end_spins, stop_requested
@@ -492,6 +493,12 @@ class DynamicsNode(LifecycleNode):
         unknown = sorted(n for n in self._given if not self.has_parameter(n))
         if unknown and not self._unknown_reported:
             self.get_logger().warn('ignoring unknown parameters (typo?): ' + ', '.join(unknown))
+        if not self._unknown_reported:      # values given for an effect the scene leaves out
+            values, model = self._values(), self._runtime.model
+            ignored = ignored_values({n: values[n] for n in self._given if n in values},
+                                     self._schema.defaults, model)
+            if ignored:
+                self.get_logger().warn(ignored_message(ignored, model.scene))
         self._unknown_reported = True
         self.get_logger().info(
             f'configured: {self._schema.machine.title}, {len(self._values())} parameters; '

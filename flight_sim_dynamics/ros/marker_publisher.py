@@ -2,7 +2,7 @@
 
 The node's thread only keeps the latest answered solution (:meth:`MarkerPublisher.offer`).
 A thread of the publisher, at the rate, hands a :class:`~.markers.Snapshot` of
-it to a renderer process (``python -m flight_sim_dynamics.ros.marker_publisher``:
+it to a renderer process (``python -P -m flight_sim_dynamics.ros.marker_publisher``:
 :class:`~.markers.MarkerBuilder` and rclpy's serialization, the work that holds
 the interpreter lock for a tenth of a millisecond per array) and publishes the
 serialized array it gets back. In the node's process a tick holds the lock for
@@ -29,7 +29,7 @@ from visualization_msgs.msg import MarkerArray
 from ..core.machine import Machine
 from ..machines.api import machine_of
 from .markers import MarkerBuilder, Snapshot, clear_array, snapshot
-from .process import node_env
+from .process import node_env, python_module
 
 LOG_THROTTLE = 5.0       # s between two log lines of failed markers
 JOIN_TIMEOUT = 2.0       # s for the renderer to end at close
@@ -93,7 +93,7 @@ class MarkerPublisher:
         self._kicked = False                # woken by an offer for it
         self._closed = False
         self._child = subprocess.Popen(
-            [sys.executable, '-m', __name__], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+            python_module(__name__), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
             env=node_env(), start_new_session=True)   # ends when our end of its pipe closes
         self._thread = threading.Thread(target=self._run, name='markers', daemon=True)
         self._thread.start()

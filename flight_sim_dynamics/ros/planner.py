@@ -23,7 +23,7 @@ from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rclpy.node import Node
 from rclpy.time import Time
 
-from ..config.machine_files import load_model
+from ..config.machine_files import load_model_noting
 from ..core.machine import Machine
 from ..core.motion import PlannerSequence
 from ..machines import MACHINES
@@ -176,7 +176,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         build_parser().error('--no-twist needs --no-accel (accelerations without rates '
                              'are not a stream the node expects)')
     try:
-        machine = MACHINES[0] if args.params is None else machine_of(load_model(args.params))
+        # only the file's machine: what its scene leaves out is the node's note
+        machine = MACHINES[0] if args.params is None else \
+            machine_of(load_model_noting(args.params)[0])
     except (OSError, ValueError) as exc:
         build_parser().error(f'--params: {exc}')
     example = args.example or machine.planner_example

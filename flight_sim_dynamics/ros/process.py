@@ -19,6 +19,18 @@ NODE_MODULE = 'flight_sim_dynamics.ros.node'
 SIM_MODULE = 'flight_sim_dynamics.ros.sim_node'
 # the child imports this very package, not another install
 PACKAGE_PARENT = str(Path(__file__).resolve().parents[2])
+# -P (Python >= 3.11): ``python -m`` puts no working directory first on sys.path, so
+# a child started in a source checkout (the repository root) imports the package
+# found through PYTHONPATH (node_env: PACKAGE_PARENT), not the un-built source tree
+SAFE_PATH = ('-P',) if sys.version_info >= (3, 11) else ()
+
+
+def python_module(module: str) -> list[str]:
+    """The command line running ``module`` with this interpreter: ``python -P -m
+    MODULE`` (with :func:`node_env`'s environment, it imports this package,
+    whatever the child's working directory holds).
+    """
+    return [sys.executable, *SAFE_PATH, '-m', module]
 
 
 def node_env(env: dict[str, str] | None = None) -> dict[str, str]:
@@ -33,10 +45,11 @@ def node_env(env: dict[str, str] | None = None) -> dict[str, str]:
 def node_command(params_file: Path | str | None = None, ros_args: Sequence[str] = (), *,
                  executor: str | None = None, launcher: Sequence[str] | None = None,
                  module: str = NODE_MODULE) -> list[str]:
-    """``python -m MODULE [--executor E] --ros-args [--params-file F] ROS_ARGS``;
-    ``launcher`` replaces ``python -m MODULE`` (e.g. a profiling wrapper).
+    """``python -P -m MODULE [--executor E] --ros-args [--params-file F] ROS_ARGS``
+    (:func:`python_module`); ``launcher`` replaces ``python -P -m MODULE`` (e.g. a
+    profiling wrapper).
     """
-    cmd = list(launcher) if launcher is not None else [sys.executable, '-m', module]
+    cmd = list(launcher) if launcher is not None else python_module(module)
     if executor:
         cmd += ['--executor', executor]
     cmd.append('--ros-args')

@@ -105,3 +105,8 @@ def test_the_figure_caption_describes_the_bar_chart_and_the_docs_page_has_it(qui
     assert 'bar' in caption and 'x =' not in caption, caption
     docs = (Path(__file__).resolve().parents[2] / 'docs' / 'scenes.md').read_text()
     assert caption in docs and 'dotted floor' not in docs
+
+
+def test_the_3dof_machines_payload_and_friction_are_not_absent():
+    """Its packaged file gives both (140 kg, 20 N s/m): their rows are measured."""
+    assert not any(v.absent for v in bench.variants())

@@ -79,3 +79,37 @@ def test_estimated_accelerations_of_six_coordinates_get_better_with_rate():
 def test_update_docs_is_for_the_default_machine(capsys):
     assert cli.main(['bench', '--quick', '--update-docs', '--params', PARAMS]) == 2
     assert '--out-dir' in capsys.readouterr().err
+
+
+def test_effects_the_default_hexapod_lacks_are_said_absent_not_exact(quick_run):
+    """stewart_6dof.yaml has neither payload (0 kg) nor friction (0): their
+    rows say the effect is absent from the model, and a note says why."""
+    rc, out, md = quick_run
+    table = rows(md)
+    for key in ('payload', 'full + friction'):
+        assert all('absent' in cell for cell in table[key][4:]), table[key]
+    assert 'payload.mass 0 kg' in md and 'friction' in md.split('note:', 1)[1]
+    keys = {v.key: v for v in bench.variants(PARAMS)}
+    assert keys['payload'].absent and keys['full + friction'].absent
+    assert not any(v.absent for k, v in keys.items() if k not in ('payload', 'full + friction'))
+
+
+def test_a_payload_of_the_params_file_is_no_longer_absent(tmp_path, capsys):
+    """... and bench, which sets the scenes itself, notes no payload the full
+    scene leaves out."""
+    path = tmp_path / 'heavy.yaml'
+    path.write_text('flight_sim_dynamics:\n  ros__parameters:\n    machine: stewart_6dof\n'
+                    '    payload: {mass: 80.0}\n')
+    keys = {v.key: v for v in bench.variants(str(path))}
+    assert not keys['payload'].absent and keys['full + friction'].absent
+    assert 'note:' not in capsys.readouterr().err
+
+
+def test_the_hexapod_cli_notes_a_payload_the_scene_leaves_out(tmp_path, capsys):
+    path = tmp_path / 'heavy.yaml'
+    path.write_text('flight_sim_dynamics:\n  ros__parameters:\n    machine: stewart_6dof\n'
+                    '    payload: {mass: 80.0}\n')
+    assert cli.main(['example', 'gentle', '--params', str(path), '-o',
+                     str(tmp_path / 'g.csv')]) == 0
+    err = capsys.readouterr().err
+    assert 'note:' in err and 'payload.mass' in err, err

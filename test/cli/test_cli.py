@@ -702,3 +702,68 @@ def test_the_demo_twin_figure_shows_its_labels_whole(tmp_path, monkeypatch):
                 extent = label.get_window_extent(renderer)
                 assert box.x0 <= extent.x0 and extent.x1 <= box.x1, label.get_text()
                 assert box.y0 <= extent.y0 and extent.y1 <= box.y1, label.get_text()
+
+
+def test_the_demo_warns_when_the_twin_does_not_keep_real_time():
+    """From the twin's diagnostics within the run: a twin at 0.15x real time
+    (the Python loop) or one that dropped steps in a stall gets a warning, one
+    keeping up none, and no factor at all is said too."""
+    pytest.importorskip('rclpy')
+    from flight_sim_dynamics.cli import demo
+    slow = demo.twin_speed([0.4, 0.15, 0.16, 0.15, 0.14])
+    assert slow.startswith('warning') and '0.20' in slow
+    assert not demo.twin_speed([0.95, 1.0, 0.999, 1.0, 1.001]).startswith('warning')
+    assert demo.twin_speed([0.95, 1.0, 0.999, 1.0, 1.001], dropped=120).startswith('warning')
+    assert demo.twin_speed([]).startswith('warning')
+
+
+def test_the_demo_counts_the_twins_dropped_steps_within_the_run():
+    pytest.importorskip('rclpy')
+    from flight_sim_dynamics.cli import demo
+    monitor = types.SimpleNamespace(speed=[(0.5, math.nan, 3), (1.5, 0.4, 5), (2.5, 1.0, 5),
+                                           (3.5, 0.5, 105), (4.5, 1.0, 110)])
+    factors, dropped = demo.TwinMonitor.speed_within(monitor, 1.0, 4.0)
+    assert factors == [0.4, 1.0, 0.5] and dropped == 102
+
+
+@pytest.mark.parametrize('figure', ['forces', 'twin'])
+@pytest.mark.parametrize('params', [None, 'stewart_6dof'])
+def test_the_demo_figures_name_the_motions_clear_of_the_titles(tmp_path, monkeypatch, figure,
+                                                               params):
+    """demo.png and demo_twin.png: each motion's name above the first axes
+    overlaps no title (the axes' own, the figure's)."""
+    pytest.importorskip('matplotlib')
+    pytest.importorskip('rclpy')
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.text import Text
+
+    from flight_sim_dynamics.cli import demo
+    from flight_sim_dynamics.core.motion import PlannerSequence
+    machine = fsd.machine_of(fsd.load_model(params))
+    saved = []
+    original = Figure.savefig
+    monkeypatch.setattr(Figure, 'savefig',
+                        lambda self, *a, **k: (saved.append(self), original(self, *a, **k)))
+    sequence = PlannerSequence(machine.motions, list(machine.planner_motions))
+    t = np.linspace(0.0, sequence.period, 400)
+    q = np.array([sequence.sample(x)[0] for x in t])
+    if figure == 'forces':
+        monitor = types.SimpleNamespace(stamps=list((t * 1e9).astype(np.int64)),
+                                        effort=(400.0 + 0 * q).tolist(),
+                                        velocity=(0.1 + 0 * q).tolist())
+        demo.plot(monitor, sequence, 0, tmp_path / 'demo.png', machine.leg_labels)
+    else:
+        demo.plot_tracking(t, q + 1e-4, q, sequence, tmp_path / 'demo_twin.png', machine)
+    fig, = saved
+    renderer = FigureCanvasAgg(fig).get_renderer()
+    fig.draw(renderer)
+    texts = [t for t in fig.findobj(Text) if t.get_visible() and t.get_text()]
+    names = [t for t in texts if t.get_text() in machine.planner_motions]
+    assert {t.get_text() for t in names} == set(machine.planner_motions)
+    titles = [fig._suptitle] + [ax.title for ax in fig.axes]
+    for title in (t for t in titles if t is not None and t.get_text()):
+        box = title.get_window_extent(renderer)
+        for name in names:
+            assert not box.overlaps(name.get_window_extent(renderer)), \
+                (title.get_text(), name.get_text())

@@ -191,3 +191,24 @@ def test_forces_may_be_solves_npz(vertical, tmp_path):
         assert cli.main(['simulate', '--forces', str(vertical / forces), '--params',
                          str(vertical / 'payload.yaml'), '-o', str(out)]) == 0
     assert a.read_text() == b.read_text()
+
+
+def test_plot_of_simulates_output_shows_its_tracking_error(tmp_path, monkeypatch):
+    """The closed loop's leg length error, one curve per leg in mm; solve's
+    output (no error columns) keeps its two axes."""
+    pytest.importorskip('matplotlib')
+    from matplotlib.figure import Figure
+    saved = []
+    original = Figure.savefig
+    monkeypatch.setattr(Figure, 'savefig',
+                        lambda self, *a, **k: (saved.append(self), original(self, *a, **k)))
+    out = tmp_path / 'o.csv'
+    assert cli.main(['simulate', '--motion', 'violent', '-o', str(out)]) == 0
+    assert cli.main(['plot', str(out), '-o', str(tmp_path / 'o.png')]) == 0
+    fig, = saved
+    sim = read(out)
+    drawn = [np.asarray(line.get_ydata()) for ax in fig.axes for line in ax.get_lines()]
+    for leg in 'abc':
+        want = 1e3 * sim[f'length_error_{leg}']
+        assert np.abs(want).max() > 0.0
+        assert any(len(y) == len(want) and np.allclose(y, want) for y in drawn), leg

@@ -51,3 +51,27 @@ def test_bad_map_options_are_one_line_errors(tmp_path, capsys, option):
     assert main(['workspace', '--params', PARAMS, '-o', str(tmp_path / 'ws.png')] + option) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith('error: --')
+
+
+def test_every_map_names_its_axes_and_the_colour_bar_reads_plainly(tmp_path, monkeypatch):
+    """The roll-pitch maps beside surge-heave say pitch on their vertical axis;
+    the colour bar of a condition range under a decade has several ticks, as
+    plain numbers (no 3x10^0)."""
+    pytest.importorskip('matplotlib')
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    saved = []
+    original = Figure.savefig
+    monkeypatch.setattr(Figure, 'savefig',
+                        lambda self, *a, **k: (saved.append(self), original(self, *a, **k)))
+    assert main(['workspace', '--params', PARAMS, '-o', str(tmp_path / 'ws.png'),
+                 '--resolution', '30', '--yaws', '0', '20']) == 0
+    fig, = saved
+    FigureCanvasAgg(fig).draw()
+    maps = [ax for ax in fig.axes if ax.get_title()]
+    assert len(maps) == 3
+    assert [ax.get_ylabel().split(' ')[0] for ax in maps] == ['heave', 'pitch', '']
+    bar, = (ax for ax in fig.axes if ax.get_ylabel().startswith('condition'))
+    labels = [t.get_text() for t in bar.get_yticklabels() if t.get_text()]
+    assert len(labels) >= 3, labels
+    assert all(float(text) > 0 for text in labels), labels

@@ -81,6 +81,33 @@ def test_a_file_naming_only_a_packaged_machine_is_that_machine(tmp_path, name):
     assert fields(model) == fields(PACKAGED[name])
 
 
+@pytest.mark.parametrize('name', sorted(PACKAGED))
+def test_a_packaged_file_by_its_name_from_any_folder(tmp_path, monkeypatch, name):
+    monkeypatch.chdir(tmp_path)
+    assert fields(fsd.load_model(name)) == fields(PACKAGED[name])
+
+
+def test_the_3dof_file_by_its_name():
+    q = ([0.02, 0.05, 0.1], [0.1, 0.0, 0.2], [1.0, 2.0, 3.0])
+    np.testing.assert_array_equal(fsd.solve(fsd.load_model('flight_sim_dynamics'), *q).force,
+                                  fsd.solve(fsd.load_model(), *q).force)
+
+
+def test_an_unknown_name_lists_the_packaged_ones(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ParameterError) as info:
+        fsd.load_model('stewart_6dog')
+    assert info.value.key == 'params_file'
+    for name in ('flight_sim_dynamics', *sorted(PACKAGED)):
+        assert name in str(info.value)
+
+
+def test_a_file_without_a_suffix_is_still_read_as_a_file(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    _file(tmp_path, 'machine: stewart_6dof\nbodies:\n  platform:\n    mass: 200.0', 'mine')
+    assert fsd.load_model('mine').platform.mass == 200.0
+
+
 def test_a_partial_file_overrides_the_packaged_machine_of_its_name(tmp_path):
     path = _file(tmp_path, 'machine: stewart_6dof\nbodies:\n  platform:\n    mass: 200.0\n'
                            'limits:\n  max_force: 5000.0\n  u_joint_max_angle: 0.7')
@@ -349,3 +376,39 @@ def test_the_3dof_loader_refuses_a_file_naming_a_machine(tmp_path, name):
         with pytest.raises(ParameterError) as info:
             call()
         assert info.value.key == 'machine' and str(path) in str(info.value)
+
+
+# -- values the scene does not use ------------------------------------------------------
+def test_a_payload_the_scene_leaves_out_is_warned_about(tmp_path):
+    """A file's payload (or friction) under a scene without the effect changes
+    nothing: load_model says so; with the effect, or as the packaged files give
+    it, nothing is said."""
+    from flight_sim_dynamics.config.errors import IgnoredParameterWarning
+    path = _file(tmp_path, 'machine: stewart_6dof\npayload:\n  mass: 80.0\nfriction:\n'
+                           '  viscous: [1.0, 1.0, 1.0, 1.0, 1.0, 1.0]')
+    with pytest.warns(IgnoredParameterWarning) as caught:
+        fsd.load_model(path)
+    text = str(caught[0].message)
+    assert 'payload.mass' in text and 'friction.viscous' in text and str(path) in text
+    with pytest.warns(IgnoredParameterWarning) as caught:      # friction still left out
+        assert fsd.load_model(path, scene='payload').payload.mass == 80.0
+    text = str(caught[0].message)
+    assert 'friction.viscous' in text and 'payload.mass' not in text
+
+
+def test_what_is_warned_about_is_what_the_scene_leaves_out(tmp_path):
+    import warnings
+
+    from flight_sim_dynamics.config.errors import IgnoredParameterWarning
+    payload_only = _file(tmp_path, 'machine: stewart_6dof\npayload:\n  mass: 80.0')
+    with warnings.catch_warnings():
+        warnings.simplefilter('error', IgnoredParameterWarning)
+        fsd.load_model(payload_only, scene='payload')
+        fsd.load_model('stewart_6dof')
+        fsd.load_model(CONFIG / 'stewart_tsai2000.yaml')
+        fsd.load_model()
+        fsd.load_model(_dump(tmp_path, _tree('stewart_6dof')))      # a copy of the packaged file
+    three = tmp_path / 'three.yaml'
+    three.write_text(HEADER + '    payload:\n      mass: 80.0\n')
+    with pytest.warns(IgnoredParameterWarning, match='payload.mass'):
+        fsd.load_model(three)

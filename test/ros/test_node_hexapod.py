@@ -431,3 +431,29 @@ def test_a_section_that_does_not_reach_the_node_is_refused():
         assert 'error:' in proc.output() and 'machine' in proc.output()
     finally:
         proc.stop()
+
+
+def test_a_payload_the_scene_leaves_out_is_logged(tmp_path):
+    """``payload: {mass: 80}`` with the scene ``full``: the node says it simulates
+    no payload (a log line naming the parameter); with ``scene: payload``, or
+    the packaged files' own values, it says nothing."""
+    lines = []
+    for scene in ('full', 'payload'):
+        path = tmp_path / f'{scene}.yaml'
+        path.write_text(yaml.safe_dump({'flight_sim_dynamics': {'ros__parameters': {
+            'machine': 'stewart_6dof', 'scene': scene, 'payload': {'mass': 80.0}}}}))
+        proc = NodeProcess(params_file=path)
+        try:
+            assert proc.wait_output('active: answering setpoints'), proc.output()[-2000:]
+            lines.append([line for line in proc.output().splitlines()
+                          if 'payload.mass' in line and 'WARN' in line])
+        finally:
+            proc.stop()
+    proc = NodeProcess(params_file=ROOT / 'config' / 'flight_sim_dynamics.yaml')
+    try:      # the packaged 3-DOF file gives its 140 kg payload: no news with scene full
+        assert proc.wait_output('active: answering setpoints'), proc.output()[-2000:]
+        lines.append([line for line in proc.output().splitlines() if 'not simulated' in line])
+    finally:
+        proc.stop()
+    assert len(lines[0]) == 1 and "'full'" in lines[0][0], lines
+    assert lines[1] == [] and lines[2] == [], lines

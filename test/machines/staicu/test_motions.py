@@ -97,7 +97,7 @@ def test_demo_live_summary_has_no_final_line_at_zero_rate():
 
 def test_node_command_and_environment():
     cmd = process.node_command('p.yaml', ['-p', 'a:=1'], executor='single')
-    assert cmd == [sys.executable, '-m', 'flight_sim_dynamics.ros.node', '--executor', 'single',
+    assert cmd == [*process.python_module('flight_sim_dynamics.ros.node'), '--executor', 'single',
                    '--ros-args', '--params-file', 'p.yaml', '-p', 'a:=1']
     assert process.node_command(None, launcher=['x'])[0:2] == ['x', '--ros-args']
     env = process.node_env({'PYTHONPATH': 'elsewhere'})
