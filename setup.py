@@ -35,7 +35,7 @@ setup(
     python_requires='>=3.10',
     # matplotlib is optional: only plot, animate, bench, workspace and the demo draw figures
     # (pip install '.[plot]'); the library and the node never import it.
-    install_requires=['setuptools', 'numpy', 'PyYAML'],
+    install_requires=['setuptools', 'numpy', 'PyYAML', 'scipy'],
     extras_require={'plot': ['matplotlib'],
                     'test': ['pytest', 'hypothesis', 'matplotlib']},
     zip_safe=False,
