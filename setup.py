@@ -49,6 +49,7 @@ setup(
             'flight-sim-dynamics = flight_sim_dynamics.__main__:main',
             'dynamics_node = flight_sim_dynamics.ros.node:main',
             'platform_sim = flight_sim_dynamics.ros.sim_node:main',
+            'motion_cueing = flight_sim_dynamics.ros.motion_cueing:main',
         ],
     },
 )

@@ -114,6 +114,11 @@ class GuardedParameters:
         """
         return None
 
+    def _refused_before_validation(self) -> None:
+        """A set request refused before the on-set callback saw it (a type, a
+        bound, a read-only or undeclared name): a node's hook to count it.
+        """
+
     def _given_parameters(self) -> dict[str, Parameter]:
         """The start-up values (overrides, all declared by rclpy), undeclared
         again to be declared with their specs (:meth:`_declare_specs`).
@@ -279,6 +284,7 @@ class GuardedParameters:
         problem = next(filter(None, problems), None)
         if problem:     # refused before the on-set callback, which logs the others
             self.get_logger().warn(f'{self.REJECTED}: {problem}')
+            self._refused_before_validation()
         result = _failed(problem) if problem else self._apply(params)
         if result.successful:
             result.reason = '; '.join(filter(None, notes))
