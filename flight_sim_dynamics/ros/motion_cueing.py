@@ -73,6 +73,10 @@ CUEING_NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'may give a cueing group, the defaults of cueing.*); empty: the --params-file '
               'with a section for the dynamics node, else the packaged 3-DOF machine', '',
               max_length=4096),
+    ParamSpec('scene', 'string', '',
+              "the machine's scene the limiter solves with (a name from config/scenes or a "
+              "file; empty: the params file's, as the dynamics node reads it)", '',
+              max_length=4096),
     ParamSpec('autostart', 'bool', True,
               'configure and activate at start-up (a bad parameter then ends the process, '
               'exit 2); false: start unconfigured and wait for a lifecycle manager', ''),
@@ -86,7 +90,7 @@ CUEING_NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('diagnostics.period', 'double', 1.0, 'period of the /diagnostics message', 's',
               minimum=0.01, maximum=3600.0),
 )
-_READ_ONLY = frozenset({'params_file', 'autostart'})
+_READ_ONLY = frozenset({'params_file', 'scene', 'autostart'})
 _NODE_NAMES = frozenset(s.name for s in CUEING_NODE_PARAMETERS)
 
 
@@ -251,11 +255,16 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
         # the dynamics node next to it: in its namespace
         self._dynamics = f"{self.get_namespace().rstrip('/')}/{NODE_NAME}"
         path_given = given.get('params_file')
-        path = plant_file(plain(path_given.value) if path_given is not None else '',
-                          params_files, self._dynamics, 'params_file')
+        path = plain(path_given.value) if path_given is not None else ''
+        path = plant_file(path if isinstance(path, str) else '', params_files, self._dynamics,
+                          'params_file')
         source = path or 'the packaged 3-DOF machine'
+        scene = plain(given['scene'].value) if 'scene' in given else ''
+        scene = scene if isinstance(scene, str) else ''   # another type: refused below
         try:
-            self.model = load_model(path)
+            self.model = load_model(path, scene or None)
+        except prm.SceneError as exc:
+            raise prm.ParameterError('scene', scene, str(exc)) from None
         except prm.ParameterError:
             raise
         except (OSError, ValueError) as exc:
@@ -266,6 +275,7 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
         defaults = {s.name: s.default for s in CUEING_NODE_PARAMETERS + PARAMETER_SPECS}
         defaults.update(from_file)
         defaults['params_file'] = path or ''
+        defaults['scene'] = self.model.scene
         self._source = source
         self._specs = {s.name: s for s in CUEING_NODE_PARAMETERS + PARAMETER_SPECS}
         # the machine's own parameters reach this node too under a '/**' section
@@ -386,7 +396,8 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
         dropped = ', '.join(getattr(self._planner, 'dropped', ())) or 'none'
         p = config.params
         self.get_logger().info(
-            f'configured: {self.machine.title} ({self._source}), {p.rate:g} Hz, limiter '
+            f'configured: {self.machine.title} ({self._source}, scene {self.model.scene}), '
+            f'{p.rate:g} Hz, limiter '
             f'{p.limiter}; channels not cued: {dropped}; vehicle_imu in, pose/twist/'
             'accel_setpoint out, /diagnostics')
         return SUCCESS
