@@ -285,3 +285,30 @@ SIM_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('diagnostics.period', 'double', 1.0,
               'period of the /diagnostics message', 's', minimum=0.01, maximum=3600.0),
 )
+
+# Parameters of the motion-cueing node motion_cueing (docs/cueing_node.md), besides the
+# cueing group it declares from flight_sim_dynamics.cueing.params.PARAMETER_SPECS.
+CUEING_NODE_NAME = 'motion_cueing'
+CUEING_NODE_PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec('params_file', 'string', '',
+              "the machine's parameter file, the dynamics node's (it names the machine; its "
+              'cueing group gives the defaults of cueing.*); empty: the --params-file of the '
+              'command line with a section for the dynamics node, else the packaged 3-DOF '
+              'machine', '', max_length=MAX_PATH),
+    ParamSpec('scene', 'string', '',
+              'scene the limiter solves the machine with, a name from config/scenes or a '
+              "file (empty: the parameter file's, as the dynamics node reads it)", '',
+              max_length=MAX_PATH),
+    ParamSpec('autostart', 'bool', True,
+              'configure and activate at start-up (a bad parameter then ends the process, '
+              'exit 2); false: start unconfigured and wait for a lifecycle manager', ''),
+    ParamSpec('input.timeout', 'double', 0.2,
+              'no vehicle_imu message for this long: the input is stale and the planner is '
+              'fed the vehicle at rest (its first sample), the platform washes back to '
+              'neutral', 's', minimum=0.0, exclusive_minimum=True, maximum=3600.0),
+    ParamSpec('output.frame_id', 'string', 'simulator_base',
+              'header.frame_id of the setpoints (the REP-103 simulator base frame, as the '
+              "dynamics node's setpoints)", '', max_length=MAX_NAME),
+    ParamSpec('diagnostics.period', 'double', 1.0,
+              'period of the /diagnostics message', 's', minimum=0.01, maximum=3600.0),
+)

@@ -33,8 +33,8 @@ from sensor_msgs.msg import Imu
 
 from ..config import parameters as prm
 from ..config.files import NODE_NAME, params_files_in, read_params_sections
+from ..config.schema import CUEING_NODE_NAME, CUEING_NODE_PARAMETERS
 from ..config.machine_files import load_model
-from ..core.parameter_spec import ParamSpec
 from ..cueing.params import PARAMETER_SPECS, PREFIX, CueingParams, cueing_params_flat
 from ..cueing.planner import Planner
 from ..machines.api import machine_of
@@ -48,7 +48,6 @@ from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, RESTART_CONFIRMATION
                         STAMP_BACKWARDS, STAMP_REPEATED, WARN, LogThrottle, SetpointError,
                         diagnostic_name, fmt_stamp, number)
 
-CUEING_NODE_NAME = 'motion_cueing'
 #: The status name of the node in /diagnostics (``<node>: <task>``).
 CUEING_TASK = 'motion cueing'
 SUCCESS, FAILURE = TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE
@@ -66,32 +65,7 @@ MAX_CATCH_UP = 0.1
 #: rate within NEUTRAL_RATE (m/s or rad/s).
 NEUTRAL_POSITION = 1e-4
 NEUTRAL_RATE = 1e-3
-#: The parameters of the node itself (the ``cueing.*`` ones are the planner's).
-CUEING_NODE_PARAMETERS: tuple[ParamSpec, ...] = (
-    ParamSpec('params_file', 'string', '',
-              "the machine's parameter file (the dynamics node's: it names the machine and "
-              'may give a cueing group, the defaults of cueing.*); empty: the --params-file '
-              'with a section for the dynamics node, else the packaged 3-DOF machine', '',
-              max_length=4096),
-    ParamSpec('scene', 'string', '',
-              "the machine's scene the limiter solves with (a name from config/scenes or a "
-              "file; empty: the params file's, as the dynamics node reads it)", '',
-              max_length=4096),
-    ParamSpec('autostart', 'bool', True,
-              'configure and activate at start-up (a bad parameter then ends the process, '
-              'exit 2); false: start unconfigured and wait for a lifecycle manager', ''),
-    ParamSpec('input.timeout', 'double', 0.2,
-              'no vehicle_imu message for this long: the input is stale and the planner is '
-              'fed the vehicle at rest (its first sample): the platform washes back to '
-              'neutral', 's', minimum=0.0, exclusive_minimum=True, maximum=3600.0),
-    ParamSpec('output.frame_id', 'string', 'simulator_base',
-              'header.frame_id of the setpoints (the REP-103 simulator base frame)', '',
-              max_length=256),
-    ParamSpec('diagnostics.period', 'double', 1.0, 'period of the /diagnostics message', 's',
-              minimum=0.01, maximum=3600.0),
-)
 _READ_ONLY = frozenset({'params_file', 'scene', 'autostart'})
-_NODE_NAMES = frozenset(s.name for s in CUEING_NODE_PARAMETERS)
 
 
 def imu_qos() -> QoSProfile:

@@ -19,7 +19,8 @@ from rcl_interfaces.msg import Parameter as RclParameter
 from rcl_interfaces.srv import GetParameters, SetParameters, SetParametersAtomically
 from sensor_msgs.msg import Imu
 
-from flight_sim_dynamics.ros.motion_cueing import CUEING_NODE_NAME, CUEING_TASK
+from flight_sim_dynamics.config.schema import CUEING_NODE_NAME
+from flight_sim_dynamics.ros.motion_cueing import CUEING_TASK
 from flight_sim_dynamics.ros.process import CUEING_MODULE
 from flight_sim_dynamics.ros.setpoints import diagnostic_name, quaternion_to_rpy
 from node_harness import QOS, ROOT, Client, NodeProcess, stamp_ns
