@@ -30,11 +30,12 @@ pytestmark = pytest.mark.ros
 PARAMS_FILE = ROOT / 'config' / 'stewart_6dof.yaml'
 G = 9.80665
 RATE = 200.0            # Hz, the cueing node's output in these tests (a light load)
-#: a washout that returns within about two seconds (the tests wait for neutral)
+#: a washout that is back at neutral about three seconds after the vehicle stops (the
+#: tests wait for it; omega_b = 0: no slow return term)
 CUEING_ARGS = ('-p', f'cueing.rate:={RATE}', '-p', 'diagnostics.period:=0.25',
                '-p', 'input.timeout:=0.1',
                '-p', 'cueing.translation.omega:=[3.0, 3.0, 3.0]',
-               '-p', 'cueing.translation.omega_b:=[0.5, 0.5, 0.5]',
+               '-p', 'cueing.translation.omega_b:=[0.0, 0.0, 0.0]',
                '-p', 'cueing.rotation.omega:=[3.0, 3.0, 3.0]',
                '-p', 'cueing.tilt.omega:=[4.0, 4.0]',
                '-p', 'cueing.tilt.rate_limit:=0.2')
@@ -272,4 +273,62 @@ def test_requests_a_lifecycle_client_can_send_leave_it_running(chain):
     assert client.call('cue_state', GetState.Request()).current_state.label == 'active'
     count = len(client.poses)
     assert client.spin_until(lambda: len(client.poses) > count + 10, 5.0)
+    assert cue.alive()
+
+
+def test_a_planner_change_mid_run_waits_for_neutral_without_a_jump(chain):
+    client, _, cue = chain
+    client.settle()
+    gain = rclpy.parameter.Parameter('cueing.translation.gain', value=[0.3, 0.3, 0.25])
+    rng = np.random.default_rng(2)
+    start = time.monotonic()
+    first = len(client.poses)
+    t, changed = 0.0, False
+    while t < 2.0:                       # the vehicle keeps moving after the change
+        client.imu(client.next_stamp(), *vehicle(t))
+        if not changed and t > 1.0:      # accelerating: the platform away from neutral
+            assert max(abs(v) for v in client.poses[-1][1]) > 0.01, client.poses[-1]
+            result = client.call('cue_set', SetParameters.Request(
+                parameters=[gain.to_parameter_msg()])).results[0]
+            assert result.successful, result.reason
+            changed = True
+        t += rng.uniform(0.005, 0.015)
+        client.spin_until(lambda: time.monotonic() - start >= t, 1.0)
+    pending = client.cue_diagnostics(lambda v: True)
+    assert pending['parameter change pending'].startswith('yes'), pending
+    assert client.call('cue_get', GetParameters.Request(
+        names=['cueing.translation.gain'])).values[0].double_array_value.tolist() == \
+        [0.3, 0.3, 0.25]
+    client.settle()
+    client.cue_diagnostics(lambda v: v['parameter change pending'] == 'no', 5.0)
+    assert 'the new planner took over' in cue.output()
+    motion = np.array([p for _, p in client.poses[first:]])
+    steps = np.abs(np.diff(motion, axis=0)).max(axis=0)
+    assert np.all(steps[:3] < 2.0 / RATE) and np.all(steps[3:] < 1.0 / RATE), steps
+
+
+def test_deactivate_stops_the_setpoints_and_activate_starts_at_neutral(chain):
+    client, _, cue = chain
+    client.settle()
+    deactivate = ChangeState.Request(transition=Transition(
+        id=Transition.TRANSITION_DEACTIVATE))
+    activate = ChangeState.Request(transition=Transition(id=Transition.TRANSITION_ACTIVATE))
+    try:
+        assert client.call('cue_change', deactivate, timeout=10.0).success
+        assert client.call('cue_state', GetState.Request()).current_state.label == 'inactive'
+        count = len(client.poses)
+        client.imu(client.next_stamp(), (1.0, 0.0, G), (0.0, 0.0, 0.0))
+        values = client.cue_diagnostics(lambda v: v['rejected inactive'] != '0'
+                                        and v['lifecycle state'] == 'inactive', 5.0)
+        assert values['input'] == 'inactive'
+        # what was queued before the deactivation may still arrive; nothing after
+        client.spin_until(lambda: False, 0.3)
+        count = len(client.poses)
+        client.spin_until(lambda: False, 0.5)
+        assert len(client.poses) == count
+    finally:
+        assert client.call('cue_change', activate, timeout=10.0).success
+    assert client.spin_until(lambda: len(client.poses) > count + 20, 5.0)
+    assert all(max(map(abs, p)) == 0.0 for _, p in client.poses[count:count + 20])
+    client.cue_diagnostics(lambda v: v['input'] == 'waiting for vehicle_imu', 5.0)
     assert cue.alive()
