@@ -75,7 +75,7 @@ WASHOUT_SPECS: tuple[ParamSpec, ...] = (
             exclusive=True, maximum=MAX_OMEGA),
     _triple('tilt.zeta', (1.0, 1.0), 'tilt low-pass damping (pitch, roll)', exclusive=True,
             maximum=MAX_ZETA),
-    _spec('tilt.rate_limit', 'double', math.radians(3.0),
+    _spec('tilt.rate_limit', 'double', math.pi / 60.0,
           'largest tilt rate, applied sample by sample (3 deg/s: about the threshold at '
           'which people notice rotation)', 'rad/s', minimum=0.0, exclusive_minimum=True,
           maximum=100.0),
