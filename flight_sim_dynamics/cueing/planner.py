@@ -12,22 +12,21 @@ channels a machine lacks are dropped (:attr:`Planner.dropped`).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
 from ..machines.api import machine_of
 from .limiter import make_limiter
-from .params import CueingParams
-from .washout import CHANNELS, Washout
+from .params import G, CueingParams
+from .washout import CHANNELS, Desired, Washout
 
 #: :attr:`CueSample.status` values
 OK = 'ok'
 INPUT_HELD = 'input_held'        # a non-finite input sample: the last finite one was used
 
 
-@dataclass(frozen=True)
-class CueSample:
+class CueSample(NamedTuple):
     """One output sample: ``q``, ``qd``, ``qdd`` in the machine's coordinates
     (``machine_of(model).coordinates``); ``given_up`` in [0, 1] how much of the
     washout's cue the limiter gave up (0: nothing); ``limit`` the limit that
@@ -59,40 +58,54 @@ class Planner:
         self.index = np.array([CHANNELS.index(c) for c in coordinates])
         #: the channels the machine lacks: not cued (reported)
         self.dropped: tuple[str, ...] = tuple(c for c in CHANNELS if c not in coordinates)
+        # the washout's 18 numbers (q, qd, qdd) the machine takes, in its order
+        self._take = (None if coordinates == CHANNELS else
+                      [row * 6 + i for row in range(3) for i in self.index.tolist()])
+        self._dof = len(coordinates)
         self.washout = Washout(params)
         self.limiter = make_limiter(model, params)
         self.held = 0                 # non-finite input samples replaced by the last finite one
-        self.last_desired = None      # the washout's sample (6 channels) of the last step
-        self._last_f, self._last_omega = np.array([0.0, 0.0, 9.80665]), np.zeros(3)
+        #: the washout's q, qd, qdd (18 numbers, six channels each) of the last step
+        self.last_values: list[float] | None = None
+        self._last = np.array([0.0, 0.0, G, 0.0, 0.0, 0.0])
+
+    @property
+    def last_desired(self) -> Desired | None:
+        """The washout's sample (six channels) of the last step."""
+        if self.last_values is None:
+            return None
+        out = np.array(self.last_values).reshape(3, 6)
+        return Desired(out[0], out[1], out[2])
 
     def reset(self) -> None:
         """At rest, at home; the next sample is the new rest reference."""
         self.washout.reset()
         self.limiter.reset()
         self.held = 0
-        self.last_desired = None
-        self._last_f[:] = (0.0, 0.0, 9.80665)
-        self._last_omega[:] = 0.0
+        self.last_values = None
+        self._last[:] = (0.0, 0.0, G, 0.0, 0.0, 0.0)
 
     def step(self, f: np.ndarray, omega: np.ndarray) -> CueSample:
         """One output sample of the vehicle's specific force ``f`` (3,) m/s² and
         angular velocity ``omega`` (3,) rad/s at this output time. A non-finite
-        input is replaced by the last finite one (status :data:`INPUT_HELD`; zero
-        deviation if none came yet: the platform stays home).
+        input is replaced by the last finite one (status :data:`INPUT_HELD`; the
+        vehicle at rest if none came yet: the platform stays home).
         """
+        washout = self.washout
         status = OK
-        if not (np.isfinite(f).all() and np.isfinite(omega).all()):
+        if washout.load(f, omega):
+            self._last[:] = washout.input
+        else:
+            washout.input[:] = self._last
             status = INPUT_HELD
             self.held += 1
-            f, omega = self._last_f, self._last_omega
-        else:
-            self._last_f[:] = f
-            self._last_omega[:] = omega
-        desired = self.washout.step(f, omega)
-        self.last_desired = desired
-        idx = self.index
-        out = self.limiter.step(desired.q[idx], desired.qd[idx], desired.qdd[idx])
-        return CueSample(out.q, out.qd, out.qdd, out.given_up, out.limit, status)
+        values = washout.advance()
+        self.last_values = values
+        take = self._take
+        out = np.array(values if take is None else [values[i] for i in take])
+        dof = self._dof
+        lim = self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:])
+        return CueSample(lim.q, lim.qd, lim.qdd, lim.given_up, lim.limit, status)
 
 
 @dataclass(frozen=True)
@@ -169,7 +182,7 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     planner = Planner(model, params)
     n, dof = len(grid), len(planner.index)
     q, qd, qdd = np.empty((n, dof)), np.empty((n, dof)), np.empty((n, dof))
-    dq, dqd, dqdd = np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6))
+    desired = np.empty((n, 18))
     given_up = np.empty(n)
     limit = np.empty(n, dtype=object)
     every = max(1, n // 100)
@@ -178,13 +191,13 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     for k in range(n):
         sample = step(f_in[k], w_in[k])
         q[k], qd[k], qdd[k] = sample.q, sample.qd, sample.qdd
-        d = planner.last_desired
-        dq[k], dqd[k], dqdd[k] = d.q, d.qd, d.qdd
+        desired[k] = planner.last_values
         given_up[k] = sample.given_up
         limit[k] = sample.limit
         if progress is not None and k % every == 0:
             progress(k, n)
     if progress is not None:
         progress(n, n)
-    return CueRun(grid, q, qd, qdd, given_up, limit, dq, dqd, dqdd, f_in.copy(), w_in.copy(),
+    return CueRun(grid, q, qd, qdd, given_up, limit, desired[:, :6], desired[:, 6:12],
+                  desired[:, 12:], f_in.copy(), w_in.copy(),
                   planner.machine.coordinates, planner.dropped, repeated, planner.held)

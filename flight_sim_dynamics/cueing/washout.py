@@ -79,17 +79,19 @@ def continuous_model(params: CueingParams) -> tuple[np.ndarray, np.ndarray]:
 
 
 def step_matrix(params: CueingParams) -> np.ndarray:
-    """M (19 + 6 + 24, 19 + 6 + 6): ``[X[n]; out[n]] = M [X[n-1]; slope]``, X the
-    filter states and the input, ``slope = (u[n] - u[n-1]) · rate``, ``out`` the
-    linear outputs (p, p', p'', β, β', β'', y, y', y'').
+    """M (19 + 24, 19 + 6 + 6): ``[x[n]; out[n]] = M [x[n-1]; u[n-1]; u[n]]``,
+    x the filter states, u the input deviation (Δf, Δω), ``out`` the linear
+    outputs (p, p', p'', β, β', β'', y, y', y''), the input a straight line
+    between samples (module docstring).
     """
     A, B = continuous_model(params)
-    Aa = np.zeros((_X, _X))
+    rate = params.rate
+    Aa = np.zeros((_X, _X))          # the states and the input; the input's slope held
     Aa[:_N, :_N], Aa[:_N, _N:] = A, B
     Ba = np.zeros((_X, _U))
     Ba[_N:, :] = np.eye(_U)
     Phi, Gam, _, _, _ = cont2discrete((Aa, Ba, np.eye(_X), np.zeros((_X, _U))),
-                                      1.0 / params.rate, method='zoh')
+                                      1.0 / rate, method='zoh')
     # outputs of the new state X and the slope s: x' = A x + B u, x'' = A x' + B s
     Cx, Cs = np.zeros((_OUT, _X)), np.zeros((_OUT, _U))
     xdot = np.hstack([A, B])                          # x' as a function of X
@@ -107,9 +109,13 @@ def step_matrix(params: CueingParams) -> np.ndarray:
         Cx[_Y + j, y] = 1.0
         Cx[_YD + j, yd] = 1.0
         Cx[_YDD + j] = xdot[yd]
-    M = np.zeros((_X + _OUT, _X + _U))
-    M[:_X, :_X], M[:_X, _X:] = Phi, Gam
-    M[_X:, :_X], M[_X:, _X:] = Cx @ Phi, Cx @ Gam + Cs
+    # [X[n]; out[n]] = S [X[n-1]; s], s = rate (u[n] - u[n-1]): in x[n-1], u[n-1], u[n]
+    S = np.vstack([np.hstack([Phi, Gam]), np.hstack([Cx @ Phi, Cx @ Gam + Cs])])
+    M = np.zeros((_N + _OUT, _N + 2 * _U))
+    rows = list(range(_N)) + list(range(_X, _X + _OUT))       # x[n] and out[n]
+    M[:, :_N] = S[rows, :_N]
+    M[:, _N:_X] = S[rows, _N:_X] - rate * S[rows, _X:]
+    M[:, _X:] = rate * S[rows, _X:]
     return M
 
 
@@ -131,6 +137,11 @@ class Washout:
     velocity ``omega`` (3,) rad/s (REP-103 body axes) at one output time and
     returns the platform's :class:`Desired`. The first sample after
     construction or :meth:`reset` is the rest reference.
+
+    :meth:`load` and :meth:`advance` are :meth:`step` in two halves, without
+    allocation (the planner's loop): ``load`` takes the input and says whether
+    it is finite, :attr:`input` may then be changed, ``advance`` returns the
+    18 numbers q, qd, qdd (6 each) as a list.
     """
 
     def __init__(self, params: CueingParams) -> None:
@@ -139,10 +150,15 @@ class Washout:
         self._rate = float(params.rate)
         self._M = step_matrix(params)
         self._rmax = params.tilt_rate_limit * self.dt      # rad per sample
-        self._vec = np.zeros(_X + _U)
-        self._res = np.zeros(_X + _OUT)
-        self._u = np.zeros(_U)
+        # [x (19), u[n-1] (6), u[n] (6)]: the product's operand, updated in place
+        self._vec = np.zeros(_N + 2 * _U)
+        self._res = np.zeros(_N + _OUT)
+        self._x, self._prev, self._now = self._vec[:_N], self._vec[_N:_X], self._vec[_X:]
+        self._res_x, self._res_out = self._res[:_N], self._res[_N:]
+        #: the vehicle's input of the current sample (f, omega), as loaded
+        self.input = np.zeros(_U)
         self._ref = np.zeros(_U)
+        self._zero = np.zeros(_U)
         self.reset()
 
     def reset(self) -> None:
@@ -153,22 +169,24 @@ class Washout:
         self._roll = 0.0
         self.tilt_limited = (False, False)   # (pitch, roll) rate-limited at the last step
 
-    def step(self, f: np.ndarray, omega: np.ndarray) -> Desired:
-        """One output sample (module docstring); ``f``, ``omega`` finite."""
-        u, vec = self._u, self._vec
+    def load(self, f: np.ndarray, omega: np.ndarray) -> bool:
+        """Take one sample's input into :attr:`input`; whether it is finite."""
+        u = self.input
         u[:3] = f
         u[3:] = omega
+        check = u.dot(self._zero)        # 0 unless an element is NaN or infinite
+        return check == 0.0
+
+    def advance(self) -> list[float]:
+        """One output sample of :attr:`input` (finite): q, qd, qdd, 6 numbers each."""
         if not self._started:
-            self._ref[:] = u
+            self._ref[:] = self.input
             self._started = True
-        u -= self._ref
-        s = vec[_X:]
-        np.subtract(u, vec[_N:_X], out=s)
-        s *= self._rate
-        np.matmul(self._M, vec, out=self._res)
-        vec[:_X] = self._res[:_X]
-        vec[_N:_X] = u                     # the input state exactly (no drift)
-        o = self._res[_X:].tolist()
+        np.subtract(self.input, self._ref, out=self._now)
+        np.dot(self._M, self._vec, out=self._res)
+        self._x[:] = self._res_x
+        self._prev[:] = self._now
+        o = self._res_out.tolist()
         pitch_w, pitch_d, pitch_dd = _tilt(o[_Y], o[_YD], o[_YDD], -1.0)
         roll_w, roll_d, roll_dd = _tilt(o[_Y + 1], o[_YD + 1], o[_YDD + 1], 1.0)
         # the rate limit (design, tilt coordination): when it holds, the tilt moves at ±r
@@ -186,9 +204,13 @@ class Washout:
         self._pitch += step_p
         self._roll += step_r
         self.tilt_limited = (limited_p, limited_r)
-        out = np.array(((o[0], o[1], o[2], o[_B] + self._roll, o[_B + 1] + self._pitch,
-                         o[_B + 2]),
-                        (o[3], o[4], o[5], o[_BD] + roll_d, o[_BD + 1] + pitch_d, o[_BD + 2]),
-                        (o[6], o[7], o[8], o[_BDD] + roll_dd, o[_BDD + 1] + pitch_dd,
-                         o[_BDD + 2])))
+        return [o[0], o[1], o[2], o[_B] + self._roll, o[_B + 1] + self._pitch, o[_B + 2],
+                o[3], o[4], o[5], o[_BD] + roll_d, o[_BD + 1] + pitch_d, o[_BD + 2],
+                o[6], o[7], o[8], o[_BDD] + roll_dd, o[_BDD + 1] + pitch_dd, o[_BDD + 2]]
+
+    def step(self, f: np.ndarray, omega: np.ndarray) -> Desired:
+        """One output sample (module docstring); ValueError for a non-finite input."""
+        if not self.load(f, omega):
+            raise ValueError(f'non-finite input: f = {list(f)}, omega = {list(omega)}')
+        out = np.array(self.advance()).reshape(3, 6)
         return Desired(out[0], out[1], out[2])
