@@ -142,8 +142,19 @@ def tightened(model: Any, stroke: float, fraction: float) -> Any:
     return replace(model, limits=replace(limits, **changes))
 
 
+def _floats(value: Any) -> list[float]:
+    """A sample's numbers as a list of floats (the hot path works on them:
+    for six numbers Python's floats are quicker than numpy's ufuncs).
+    """
+    if type(value) is np.ndarray:
+        return value.astype(float, copy=False).ravel().tolist()
+    return [float(v) for v in value]
+
+
 class InverseDynamicsLimiter:
-    """``limiter: inverse_dynamics`` (module docstring; cueing_limiter.md)."""
+    """``limiter: inverse_dynamics`` (module docstring; cueing_limiter.md).
+    The state (:attr:`q`, :attr:`qd`, :attr:`qdd`) is the last sample published.
+    """
 
     def __init__(self, model: Any, settings: Any, rate: float) -> None:
         self.machine = machine_of(model)
@@ -153,12 +164,12 @@ class InverseDynamicsLimiter:
         self.tight = tightened(model, float(settings['margin.stroke']),
                                float(settings['margin.fraction']))
         self.tight_limits = self.machine.actuator_limits(self.tight)
-        linear = np.array([unit == 'm' for unit in self.machine.units])
-        braking = np.asarray(settings['braking'], dtype=float)
-        recovery = np.asarray(settings['recovery.acceleration'], dtype=float)
+        linear = [unit == 'm' for unit in self.machine.units]
+        braking = [float(v) for v in settings['braking']]
+        recovery = [float(v) for v in settings['recovery.acceleration']]
         # per coordinate: 1 / braking deceleration, largest pull-back acceleration
-        self.inverse_braking = 1.0 / np.where(linear, braking[0], braking[1])
-        self.recovery = np.where(linear, recovery[0], recovery[1])
+        self.inverse_braking = [1.0 / (braking[0] if lin else braking[1]) for lin in linear]
+        self.recovery = [recovery[0] if lin else recovery[1] for lin in linear]
         omega = float(settings['recovery.omega'])
         self.kp, self.kd = omega * omega, 2.0 * omega
         self._solve = self.machine.solve
@@ -167,20 +178,40 @@ class InverseDynamicsLimiter:
     def reset(self) -> None:
         """At rest at home, caught up (the washout starts there)."""
         n = self.machine.dof
-        self.q, self.qd, self.qdd = np.zeros(n), np.zeros(n), np.zeros(n)
+        self._q, self._qd, self._qdd = [0.0] * n, [0.0] * n, [0.0] * n
+
+    @property
+    def q(self) -> np.ndarray:
+        return np.array(self._q)
+
+    @property
+    def qd(self) -> np.ndarray:
+        return np.array(self._qd)
+
+    @property
+    def qdd(self) -> np.ndarray:
+        return np.array(self._qdd)
 
     # -- checks ------------------------------------------------------------
 
-    def _braking(self, qd: np.ndarray) -> tuple[float, np.ndarray]:
+    def _advance(self, q: list, qd: list, a0: list, a1: list) -> tuple[list, list]:
+        """:func:`advance` on floats, the same operations in the same order."""
+        dt = self.dt
+        c, h = dt * dt / 6.0, 0.5 * dt
+        return ([x + dt * v + c * (2.0 * u + w) for x, v, u, w in zip(q, qd, a0, a1)],
+                [v + h * (u + w) for v, u, w in zip(qd, a0, a1)])
+
+    def _braking(self, qd: list) -> tuple[float, list]:
         """(L3) The time ``tau`` a braking from rate ``qd`` takes (each
         coordinate at most its braking deceleration, all stopping together,
         a straight line in pose space) and its deceleration ``-qd / tau``
         (``tau`` at least one period: at rest, no deceleration).
         """
-        tau = float(np.max(np.abs(qd) * self.inverse_braking))
-        return tau, qd * (-1.0 / max(tau, self.dt))
+        tau = max([abs(v) * k for v, k in zip(qd, self.inverse_braking)])
+        scale = -1.0 / (tau if tau > self.dt else self.dt)
+        return tau, [v * scale for v in qd]
 
-    def _refused(self, q: np.ndarray, qd: np.ndarray, a: np.ndarray) -> str:
+    def _refused(self, q: list, qd: list, a: list) -> str:
         """(L2) '' when the sample (q, qd, a) and the braking from it are within
         the tightened limits, else the limit that refuses it. Three solves: the
         sample's, and both ends of the braking from it (L3): its first step
@@ -189,18 +220,20 @@ class InverseDynamicsLimiter:
         at ``q2 + tau2 qd2 / 2``, checked :data:`STOP_MARGIN` periods of the
         sample's rate further, with the rate qd2 (the worst of the way).
         """
-        tight, solve = self.tight, self._solve
+        tight, solve, ok = self.tight, self._solve, Status.OK
         sol = solve(tight, q, qd, a)
-        if sol.status is not Status.OK:
+        if sol.status is not ok:
             return self._limit_name(sol)
         brake = self._braking(qd)[1]
-        q2, qd2 = advance(q, qd, a, brake, self.dt)
+        q2, qd2 = self._advance(q, qd, a, brake)
         sol = solve(tight, q2, qd2, brake)
-        if sol.status is not Status.OK:
+        if sol.status is not ok:
             return self._limit_name(sol)
         tau, brake = self._braking(qd2)
-        sol = solve(tight, q2 + (0.5 * tau) * qd2 + self.stop_margin * qd, qd2, brake)
-        if sol.status is not Status.OK:
+        half, extra = 0.5 * tau, self.stop_margin
+        stop = [x + half * v + extra * w for x, v, w in zip(q2, qd2, qd)]
+        sol = solve(tight, stop, qd2, brake)
+        if sol.status is not ok:
             return self._limit_name(sol)
         return ''
 
@@ -225,34 +258,34 @@ class InverseDynamicsLimiter:
 
     # -- the cycle -----------------------------------------------------------
 
-    def _publish(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, given_up: float,
-                 limit: str) -> Limited:
-        self.q, self.qd, self.qdd = q, qd, qdd
-        return Limited(q, qd, qdd, given_up, limit)
+    def _publish(self, q: list, qd: list, qdd: list, given_up: float, limit: str) -> Limited:
+        self._q, self._qd, self._qdd = q, qd, qdd
+        return Limited(np.array(q), np.array(qd), np.array(qdd), given_up, limit)
 
     def step(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> Limited:
         """The sample to publish for the washout's sample (q, qd, qdd)."""
-        x_q, x_qd, x_a, dt = self.q, self.qd, self.qdd, self.dt
-        if not math.isfinite(float(np.sum(q) + np.sum(qd) + np.sum(qdd))) and not (
-                np.isfinite(q).all() and np.isfinite(qd).all() and np.isfinite(qdd).all()):
-            # (L5) nothing to follow: brake to rest and hold there
-            brake = self._braking(x_qd)[1]
-            return self._publish(*advance(x_q, x_qd, x_a, brake, dt), brake, 1.0, INPUT)
+        q, qd, qdd = _floats(q), _floats(qd), _floats(qdd)
+        x_q, x_qd, x_a = self._q, self._qd, self._qdd
+        if not (math.isfinite(sum(q)) and math.isfinite(sum(qd)) and math.isfinite(sum(qdd))):
+            if not all(map(math.isfinite, q + qd + qdd)):
+                # (L5) nothing to follow: brake to rest and hold there
+                brake = self._braking(x_qd)[1]
+                return self._publish(*self._advance(x_q, x_qd, x_a, brake), brake, 1.0, INPUT)
         # (L1) the state's continuation with the washout's acceleration, against
         # the washout's sample
-        pq, pqd = advance(x_q, x_qd, x_a, qdd, dt)
-        e, ed = pq - q, pqd - qd
-        if (np.abs(e) <= CATCH_UP_POSITION).all() and (np.abs(ed) <= CATCH_UP_RATE).all():
+        pq, pqd = self._advance(x_q, x_qd, x_a, qdd)
+        e = [x - y for x, y in zip(pq, q)]
+        ed = [x - y for x, y in zip(pqd, qd)]
+        if max(map(abs, e)) <= CATCH_UP_POSITION and max(map(abs, ed)) <= CATCH_UP_RATE:
             # caught up: the washout's own sample, if it fits (invisible, bit for bit)
             if not self._refused(q, qd, qdd):
-                return self._publish(np.array(q, dtype=float), np.array(qd, dtype=float),
-                                     np.array(qdd, dtype=float), 0.0, '')
+                return self._publish(q, qd, qdd, 0.0, '')
         # (L4) the washout's acceleration plus a bounded, critically damped pull-back
-        with np.errstate(over='ignore', invalid='ignore'):
-            pull = np.clip(-self.kp * e - self.kd * ed, -self.recovery, self.recovery)
-            a_w = qdd + pull
-        c_q, c_qd = advance(x_q, x_qd, x_a, a_w, dt)
-        limit = self._refused(c_q, c_qd, a_w) if np.isfinite(c_q).all() else 'overflow'
+        kp, kd = self.kp, self.kd
+        a_w = [a + min(r, max(-r, -kp * x - kd * v))
+               for a, x, v, r in zip(qdd, e, ed, self.recovery)]
+        c_q, c_qd = self._advance(x_q, x_qd, x_a, a_w)
+        limit = self._refused(c_q, c_qd, a_w) if _finite(c_q) else 'overflow'
         if not limit:
             return self._publish(c_q, c_qd, a_w, 0.0, '')
         # (L2)-(L3) blend towards braking: the largest lam that is accepted
@@ -260,15 +293,19 @@ class InverseDynamicsLimiter:
         low, high = 0.0, 1.0
         for _ in range(BISECTION_STEPS):
             lam = 0.5 * (low + high)
-            a = (1.0 - lam) * brake + lam * a_w
-            c_q, c_qd = advance(x_q, x_qd, x_a, a, dt)
-            refused = self._refused(c_q, c_qd, a) if np.isfinite(c_q).all() else 'overflow'
+            a = [(1.0 - lam) * b + lam * w for b, w in zip(brake, a_w)]
+            c_q, c_qd = self._advance(x_q, x_qd, x_a, a)
+            refused = self._refused(c_q, c_qd, a) if _finite(c_q) else 'overflow'
             if refused:
                 high, limit = lam, refused
             else:
                 low = lam
-        a = brake if low == 0.0 else (1.0 - low) * brake + low * a_w
-        return self._publish(*advance(x_q, x_qd, x_a, a, dt), a, 1.0 - low, limit)
+        a = brake if low == 0.0 else [(1.0 - low) * b + low * w for b, w in zip(brake, a_w)]
+        return self._publish(*self._advance(x_q, x_qd, x_a, a), a, 1.0 - low, limit)
+
+
+def _finite(values: list) -> bool:
+    return math.isfinite(sum(values)) or all(map(math.isfinite, values))
 
 
 def make_limiter(model: Any, params: Any) -> PassThrough | InverseDynamicsLimiter:
