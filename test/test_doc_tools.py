@@ -77,8 +77,8 @@ def test_node_param_table_prints_without_writing():
     proc = subprocess.run([sys.executable, '-m', 'scripts.node_param_table'],
                           cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
-    # the node's, the 3-DOF machine's, the hexapod's, the twin's
-    assert proc.stdout.count('| name | type | unit | default | range | meaning |') == 4
+    # the node's, the 3-DOF machine's, the hexapod's, the twin's, the cueing node's
+    assert proc.stdout.count('| name | type | unit | default | range | meaning |') == 5
 
 
 def test_replace_block_touches_only_the_block(tmp_path):

@@ -306,6 +306,15 @@ CUEING_NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'no vehicle_imu message for this long: the input is stale and the planner is '
               'fed the vehicle at rest (its first sample), the platform washes back to '
               'neutral', 's', minimum=0.0, exclusive_minimum=True, maximum=3600.0),
+    ParamSpec('input.max_specific_force', 'double', 1000.0,
+              'vehicle_imu messages with a component of linear_acceleration beyond this are '
+              'rejected (out_of_range: no vehicle gives it; the washout would carry it for '
+              'ever); a crash of 100 g still passes', 'm/s^2', minimum=0.0,
+              exclusive_minimum=True, maximum=1.0e6),
+    ParamSpec('input.max_angular_velocity', 'double', 100.0,
+              'vehicle_imu messages with a component of angular_velocity beyond this are '
+              'rejected (out_of_range)', 'rad/s', minimum=0.0, exclusive_minimum=True,
+              maximum=1.0e6),
     ParamSpec('output.frame_id', 'string', 'simulator_base',
               'header.frame_id of the setpoints (the REP-103 simulator base frame, as the '
               "dynamics node's setpoints)", '', max_length=MAX_NAME),

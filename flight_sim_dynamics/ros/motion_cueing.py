@@ -52,8 +52,9 @@ from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, RESTART_CONFIRMATION
 CUEING_TASK = 'motion cueing'
 SUCCESS, FAILURE = TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE
 INACTIVE = 'inactive'                 # an Imu taken while the node is not active
+OUT_OF_RANGE = 'out_of_range'         # beyond input.max_specific_force / max_angular_velocity
 #: Why an Imu message is not used, in the order /diagnostics lists them.
-REJECTION_REASONS = (NON_FINITE, STAMP_BACKWARDS, STAMP_REPEATED, INACTIVE)
+REJECTION_REASONS = (NON_FINITE, OUT_OF_RANGE, STAMP_BACKWARDS, STAMP_REPEATED, INACTIVE)
 #: Seconds between two log lines of one reason.
 LOG_THROTTLE = 2.0
 #: s of output samples made at once after a stall at most; the rest are skipped
@@ -83,6 +84,8 @@ class CueingConfig:
     params: CueingParams
     cueing: tuple[tuple[str, Any], ...]     # the cueing.* values the planner is built of
     timeout: float
+    max_force: float
+    max_rate: float
     frame_id: str
     diagnostics_period: float
 
@@ -94,13 +97,14 @@ class CueingConfig:
         return cls(cueing_params_flat(cueing, source),
                    tuple(sorted((k, tuple(v) if isinstance(v, list) else v)
                                 for k, v in cueing.items())),
-                   values['input.timeout'], values['output.frame_id'],
+                   values['input.timeout'], values['input.max_specific_force'],
+                   values['input.max_angular_velocity'], values['output.frame_id'],
                    values['diagnostics.period'])
 
     def with_planner_of(self, other: 'CueingConfig') -> 'CueingConfig':
         """This node's settings, ``other``'s planner parameters."""
-        return CueingConfig(other.params, other.cueing, self.timeout, self.frame_id,
-                            self.diagnostics_period)
+        return CueingConfig(other.params, other.cueing, self.timeout, self.max_force,
+                            self.max_rate, self.frame_id, self.diagnostics_period)
 
 
 class InputStats:
@@ -115,7 +119,7 @@ class InputStats:
         self.limits: dict[str, int] = {}
         self.statuses: dict[str, int] = {}
         self.parameter_changes = self.parameter_rejections = 0
-        self.internal_errors = 0
+        self.internal_errors = self.non_finite_output = 0
         self.last_given_up = 0.0
         self.last_limit = ''
         self.new_period()
@@ -126,7 +130,7 @@ class InputStats:
         self.period_steps: list[float] = []
         self._rejected_at_start = sum(self.rejected.values())
         self._skipped_at_start = self.skipped
-        self._errors_at_start = self.internal_errors
+        self._errors_at_start = self.internal_errors + self.non_finite_output
         self._not_ok_at_start = sum(v for k, v in self.statuses.items() if k != 'ok')
 
     def sample(self, given_up: float, limit: str, status: str, work: float) -> None:
@@ -149,10 +153,10 @@ class InputStats:
         """(level, problems, values) of this period; a new period starts."""
         rejected = sum(self.rejected.values()) - self._rejected_at_start
         skipped = self.skipped - self._skipped_at_start
-        errors = self.internal_errors - self._errors_at_start
+        errors = self.internal_errors + self.non_finite_output - self._errors_at_start
         not_ok = sum(v for k, v in self.statuses.items() if k != 'ok') - self._not_ok_at_start
         problems = [text for show, text in (
-            (errors, f'{errors} internal errors'),
+            (errors, f'{errors} internal errors or non-finite samples'),
             (not_ok, f'{not_ok} samples not ok'),
             (rejected, f'{rejected} vehicle_imu messages rejected'),
             (skipped, f'{skipped} output samples skipped (late)')) if show]
@@ -180,6 +184,7 @@ class InputStats:
             ('step time max (us)', number(1e6 * work[-1] if n else math.nan, '.1f')),
             ('parameter changes', str(self.parameter_changes)),
             ('parameter rejections', str(self.parameter_rejections)),
+            ('non-finite samples (not sent)', str(self.non_finite_output)),
             ('internal errors', str(self.internal_errors)),
         ]
         self.new_period()
@@ -547,9 +552,16 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
         start = time.perf_counter()
         sample = self._planner.step(f, omega)
         work = time.perf_counter() - start
-        self._q, self._qd = np.asarray(sample.q, float), np.asarray(sample.qd, float)
+        q, qd, qdd = (np.asarray(v, dtype=float) for v in (sample.q, sample.qd, sample.qdd))
+        if not (np.isfinite(q).all() and np.isfinite(qd).all() and np.isfinite(qdd).all()):
+            # never sent: the dynamics node would refuse it; the platform keeps the last one
+            self.stats.non_finite_output += 1
+            self._error('non_finite_output', 'the planner gave a non-finite sample: not '
+                        'published (deactivate and activate to start afresh)')
+            return
+        self._q, self._qd = q, qd
         self.stats.sample(float(sample.given_up), str(sample.limit), str(sample.status), work)
-        self._send(stamp, self._q, self._qd, np.asarray(sample.qdd, float))
+        self._send(stamp, q, qd, qdd)
 
     def _send(self, stamp: int, q: Any, qd: Any, qdd: Any) -> None:
         try:
@@ -577,6 +589,13 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
                 if not (np.all(np.isfinite(f)) and np.all(np.isfinite(omega))):
                     raise SetpointError(NON_FINITE, f'linear_acceleration {f.tolist()}, '
                                                     f'angular_velocity {omega.tolist()}')
+                config = self._config
+                if np.abs(f).max() > config.max_force or np.abs(omega).max() > config.max_rate:
+                    raise SetpointError(OUT_OF_RANGE, (
+                        f'linear_acceleration {f.tolist()} m/s^2, angular_velocity '
+                        f'{omega.tolist()} rad/s: beyond input.max_specific_force = '
+                        f'{config.max_force:g} or input.max_angular_velocity = '
+                        f'{config.max_rate:g}'))
                 self._check_stamp(msg.header.stamp.sec * 1_000_000_000
                                   + msg.header.stamp.nanosec)
             except SetpointError as exc:

@@ -210,12 +210,14 @@ def test_bad_messages_are_rejected_counted_and_the_node_carries_on(chain):
     client.imu(stamp - 5_000_000, (0.0, 0.0, G), (0.0, 0.0, 0.0))           # backwards
     client.imu(client.next_stamp(), (math.nan, 0.0, G), (0.0, 0.0, 0.0))    # NaN
     client.imu(client.next_stamp(), (0.0, 0.0, G), (0.0, math.inf, 0.0))    # infinite
+    client.imu(client.next_stamp(), (1e300, 0.0, G), (0.0, 0.0, 0.0))       # no vehicle's
+    client.imu(client.next_stamp(), (0.0, 0.0, G), (0.0, 0.0, -1e3))
     count = len(client.poses)
 
     def counted(v: dict[str, str]) -> bool:
         return all(int(v[f'rejected {reason}']) - int(before[f'rejected {reason}']) == n
                    for reason, n in (('non_finite', 2), ('stamp_backwards', 1),
-                                     ('stamp_repeated', 1)))
+                                     ('stamp_repeated', 1), ('out_of_range', 2)))
     values = client.cue_diagnostics(counted, 5.0)
     assert int(values['imu accepted']) - int(before['imu accepted']) == 1
     assert client.spin_until(lambda: len(client.poses) > count + 20, 5.0), 'output stopped'
