@@ -23,12 +23,12 @@ from flight_sim_dynamics.config.schema import CUEING_NODE_NAME
 from flight_sim_dynamics.ros.motion_cueing import CUEING_TASK
 from flight_sim_dynamics.ros.process import CUEING_MODULE
 from flight_sim_dynamics.ros.setpoints import diagnostic_name, quaternion_to_rpy
+from cueing_harness import G, vehicle
 from node_harness import QOS, ROOT, Client, NodeProcess, stamp_ns
 
 pytestmark = pytest.mark.ros
 
 PARAMS_FILE = ROOT / 'config' / 'stewart_6dof.yaml'
-G = 9.80665
 RATE = 200.0            # Hz, the cueing node's output in these tests (a light load)
 #: a washout that is back at neutral about three seconds after the vehicle stops (the
 #: tests wait for it; omega_b = 0: no slow return term)
@@ -40,22 +40,6 @@ CUEING_ARGS = ('-p', f'cueing.rate:={RATE}', '-p', 'diagnostics.period:=0.25',
                '-p', 'cueing.tilt.omega:=[4.0, 4.0]',
                '-p', 'cueing.tilt.rate_limit:=0.2')
 STATUS = diagnostic_name('/' + CUEING_NODE_NAME, CUEING_TASK)
-
-
-def vehicle(t: float) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-    """A vehicle's specific force and angular velocity at ``t`` s: at rest, then
-    accelerating (surge) and climbing (heave), then a turn (sway and yaw) with
-    a roll rate, smooth (raised-cosine) edges; at rest again after 2.5 s.
-    """
-    def pulse(start: float, end: float, edge: float = 0.2) -> float:
-        if t <= start or t >= end:
-            return 0.0
-        rise = min(1.0, (t - start) / edge, (end - t) / edge)
-        return 0.5 - 0.5 * math.cos(math.pi * rise)
-    accelerate, turn = pulse(0.2, 1.4), pulse(1.0, 2.5)
-    f = (2.0 * accelerate, 1.5 * turn, G + 1.0 * pulse(0.3, 0.9))
-    omega = (0.15 * pulse(1.0, 1.6), 0.05 * accelerate, 0.3 * turn)
-    return f, omega
 
 
 class CueingClient(Client):

@@ -1,0 +1,103 @@
+"""One parameter file for the dynamics node and the motion-cueing node: the
+machine and its ``cueing`` group (the defaults of the cueing node's
+``cueing.*``, under its own overrides), a bad value in it ending the start
+with one ``error:`` line, and the demo replaying a vehicle log through both.
+"""
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+
+import pytest
+import yaml
+from rcl_interfaces.srv import GetParameters
+
+from flight_sim_dynamics.config.schema import CUEING_NODE_NAME
+from flight_sim_dynamics.ros.process import CUEING_MODULE, node_command, node_env
+from cueing_harness import write_vehicle_log
+from node_harness import ROOT, Client, NodeProcess
+
+pytestmark = pytest.mark.ros
+
+STEWART = ROOT / 'config' / 'stewart_6dof.yaml'
+
+
+def params_file(tmp_path, **cueing):
+    """The hexapod's packaged file with ``cueing`` as its cueing group."""
+    doc = yaml.safe_load(STEWART.read_text())
+    doc['flight_sim_dynamics']['ros__parameters']['cueing'] = cueing
+    path = tmp_path / 'hexapod.yaml'
+    path.write_text(yaml.safe_dump(doc))
+    return path
+
+
+def test_the_files_cueing_group_gives_the_defaults_under_the_nodes_overrides(tmp_path):
+    path = params_file(tmp_path, rate=250.0, tilt={'gain': [0.3, 0.4]},
+                       translation={'gain': [0.2, 0.2, 0.2]})
+    cue = NodeProcess('-p', 'cueing.translation.gain:=[0.1, 0.1, 0.1]', params_file=path,
+                      module=CUEING_MODULE)
+    client = Client('cueing_file_client')
+    try:
+        get = client.node.create_client(GetParameters, f'/{CUEING_NODE_NAME}/get_parameters')
+        client.srv['cue_get'] = get
+        client.watch = cue
+        names = ['cueing.rate', 'cueing.tilt.gain', 'cueing.translation.gain',
+                 'cueing.rotation.gain', 'params_file']
+        values = client.call('cue_get', GetParameters.Request(names=names), timeout=20.0).values
+        assert values[0].double_value == 250.0                           # the file's
+        assert list(values[1].double_array_value) == [0.3, 0.4]          # the file's
+        assert list(values[2].double_array_value) == [0.1, 0.1, 0.1]     # the node's own
+        assert list(values[3].double_array_value) == [0.6, 0.6, 0.6]     # the default
+        assert values[4].string_value == str(path)
+        assert '250 Hz' in cue.output()
+    finally:
+        client.close()
+        cue.stop()
+
+
+def test_a_bad_value_in_the_files_cueing_group_ends_the_start(tmp_path):
+    path = params_file(tmp_path, tilt={'gain': [0.3, 0.4, 0.5]})
+    out = subprocess.run(node_command(path, module=CUEING_MODULE), env=node_env(), cwd=ROOT,
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2, out.stdout + out.stderr
+    assert out.stderr.startswith('error: ') and 'cueing.tilt.gain' in out.stderr, out.stderr
+
+
+def test_the_demo_replays_a_vehicle_log_through_both_nodes(tmp_path):
+    path = params_file(tmp_path, rate=200.0, translation={'omega': [3.0, 3.0, 3.0],
+                                                          'omega_b': [0.0, 0.0, 0.0]},
+                       rotation={'omega': [3.0, 3.0, 3.0]}, tilt={'omega': [4.0, 4.0],
+                                                                   'rate_limit': 0.2})
+    log = tmp_path / 'vehicle.csv'
+    write_vehicle_log(log)
+    png = tmp_path / 'demo.png'
+    out = subprocess.run([sys.executable, '-m', 'flight_sim_dynamics.cli.demo', '-o', str(png),
+                          '--params', str(path), '--cueing', '--vehicle', str(log)],
+                         cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert png.stat().st_size > 10_000
+    sent, received, missing = map(int, re.search(
+        r'sent (\d+) setpoints, received (\d+) actuator_states \((\d+) missing\)',
+        out.stdout).groups())
+    # the log (2 s) and the washout back to neutral, at 200 Hz
+    assert sent == received > 2 * 200 and missing == 0, out.stdout[-2000:]
+    cueing = next(line for line in out.stdout.splitlines()
+                  if line.startswith('[demo] cueing diagnostics'))
+    accepted, rejected = map(int, re.search(r'vehicle_imu accepted (\d+), rejected (\d+)',
+                                            cueing).groups())
+    assert accepted >= 201 and rejected == 0, cueing      # the log's 201 samples, the probes
+    node = next(line for line in out.stdout.splitlines()
+                if line.startswith('[demo] node diagnostics'))
+    assert 'limit exceeded 0' in node, node
+
+
+def test_the_demo_refuses_a_vehicle_log_going_back_naming_its_line(tmp_path):
+    log = tmp_path / 'vehicle.csv'
+    log.write_text('t,f_x,f_y,f_z,omega_x,omega_y,omega_z\n0,0,0,9.8,0,0,0\n'
+                   '0.01,0,0,9.8,0,0,0\n0.005,0,0,9.8,0,0,0\n')
+    out = subprocess.run([sys.executable, '-m', 'flight_sim_dynamics.cli.demo', '--cueing',
+                          '--vehicle', str(log), '-o', str(tmp_path / 'x.png')],
+                         cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2 and 'line 4' in out.stderr and 'backwards' in out.stderr, \
+        out.stderr
