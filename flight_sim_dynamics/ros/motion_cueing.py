@@ -32,6 +32,7 @@ from rclpy.task import Future
 from sensor_msgs.msg import Imu
 
 from ..config import parameters as prm
+from ..config.errors import did_you_mean
 from ..config.files import NODE_NAME, params_files_in, read_params_sections
 from ..config.schema import CUEING_NODE_NAME, CUEING_NODE_PARAMETERS
 from ..config.machine_files import load_model
@@ -257,9 +258,15 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
         defaults['scene'] = self.model.scene
         self._source = source
         self._specs = {s.name: s for s in CUEING_NODE_PARAMETERS + PARAMETER_SPECS}
-        # the machine's own parameters reach this node too under a '/**' section
-        self._ignored = set(read_params_sections(path, self._dynamics)) if path else set()
-        self._given = set(given)
+        # the machine's own parameters reach this node too under a '/**' section;
+        # any other name it does not know (a typo) ends the start, as a file's does
+        # for the dynamics node
+        ignored = set(read_params_sections(path, self._dynamics)) if path else set()
+        for name, param in given.items():
+            if name not in self._specs and name not in ignored \
+                    and not name.startswith(prm.QOS_OVERRIDES):
+                raise prm.ParameterError(name, plain(param.value), (
+                    f'not a parameter of {CUEING_NODE_NAME}' + did_you_mean(name, self._specs)))
         self._refused = self._declare_specs(list(self._specs.values()), defaults, given,
                                             lambda name: name in _READ_ONLY)
         self._guard_services()
@@ -368,10 +375,6 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
                 self.get_logger().error(f'configure failed, still unconfigured: {self.failure}')
             return FAILURE
         self.failure = None
-        unknown = sorted(n for n in self._given
-                         if not self.has_parameter(n) and n not in self._ignored)
-        if unknown:
-            self.get_logger().warn('ignoring unknown parameters (typo?): ' + ', '.join(unknown))
         dropped = ', '.join(getattr(self._planner, 'dropped', ())) or 'none'
         p = config.params
         self.get_logger().info(

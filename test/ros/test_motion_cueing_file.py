@@ -101,3 +101,20 @@ def test_the_demo_refuses_a_vehicle_log_going_back_naming_its_line(tmp_path):
                          cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert out.returncode == 2 and 'line 4' in out.stderr and 'backwards' in out.stderr, \
         out.stderr
+
+
+def test_a_name_the_node_does_not_know_ends_the_start(tmp_path):
+    """A typo is not dropped: the machine's own names (a '/**' section gives them
+    to every node) are the only ones the cueing node passes over."""
+    typo = subprocess.run(node_command(STEWART, ['-p', 'cueing.rat:=500.0'],
+                                       module=CUEING_MODULE),
+                          env=node_env(), cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert typo.returncode == 2, typo.stdout + typo.stderr
+    assert "'cueing.rat'" in typo.stderr and "did you mean 'cueing.rate'" in typo.stderr
+    everyone = tmp_path / 'everyone.yaml'
+    everyone.write_text(STEWART.read_text().replace('flight_sim_dynamics:', '/**:', 1))
+    cue = NodeProcess(params_file=everyone, module=CUEING_MODULE)
+    try:
+        assert cue.wait_output('active: cueing', 30.0), cue.output()
+    finally:
+        cue.stop()
