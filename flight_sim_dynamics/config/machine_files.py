@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from ..core.machine import Machine, ModelValueError
+from ..cueing.params import split_cueing
 from ..machines import MACHINES, PACKAGED, machine_named
 from . import parameters
 from .errors import ParameterError, did_you_mean
@@ -146,10 +147,11 @@ def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
                      scene: Scene | str | os.PathLike[str] | None = None) -> Any:
     """The model of the parameter file ``path`` whose parameters ``flat``
     (dotted names) name its machine, with ``scene`` (None: the file's); the
-    node's parameters it gives are checked (:func:`node_values`) and left out.
+    node's parameters and the ``cueing`` group it gives are checked
+    (:func:`node_values`, :func:`..cueing.params.split_cueing`) and left out.
     """
     source = str(Path(path))
-    own = _model_names(flat)
+    own, _ = split_cueing(_model_names(flat), source)     # the motion-cueing planner's
     name = own['machine']
     machine = named_machine(name, source)
     node_values(own, source)
@@ -160,7 +162,7 @@ def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
     values = {}
     if packaged:
         defaults = packaged_path(name)
-        values = _model_names(read_params_sections(defaults))
+        values, _ = split_cueing(_model_names(read_params_sections(defaults)), str(defaults))
         origin = {**{key: str(defaults) for key in values}, **origin}
     values.update(own)
     return model_of_values(machine, values, source, scene, origin)

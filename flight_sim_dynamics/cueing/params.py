@@ -191,3 +191,17 @@ def cueing_params(values: Mapping[str, Any] | None, source: str = '') -> CueingP
 def defaults() -> CueingParams:
     """Every key at its default (the design's set)."""
     return cueing_params_flat({})
+
+
+def split_cueing(flat: Mapping[str, Any], source: str = '') -> tuple[dict[str, Any],
+                                                                      CueingParams]:
+    """A params file's parameters (dotted names) without its ``cueing`` group,
+    and the group's values, checked (:func:`cueing_params_flat`: ParameterError
+    naming the key): how the loaders of models and nodes read a file that has one.
+    """
+    group = {k: v for k, v in flat.items() if k.startswith(PREFIX) or k == GROUP}
+    if GROUP in group:           # 'cueing: 3' (not a group)
+        raise ParameterError(GROUP, group[GROUP], 'expected a group of parameters (a mapping)'
+                             + (f' in {source}' if source else ''))
+    rest = {k: v for k, v in flat.items() if k not in group}
+    return rest, cueing_params_flat(group, source)

@@ -26,6 +26,7 @@ from trajectory_msgs.msg import JointTrajectory
 
 from ..config import parameters as prm
 from ..config.node_schema import MACHINE, NodeSchema, node_schema
+from ..cueing.params import SPECS as CUEING_SPECS
 from .marker_publisher import MarkerPublisher
 from .parameter_guard import (MAX_NAMES_PER_REQUEST, MAX_PARAMETERS_PER_REQUEST,
                               MAX_VALIDATIONS_PER_REQUEST, GuardedParameters, _failed, plain)
@@ -229,7 +230,9 @@ class DynamicsNode(GuardedParameters, LifecycleNode):
                 self.get_logger().error(f'configure failed, still unconfigured: {self.failure}')
             return FAILURE
         self.failure = None
-        unknown = sorted(n for n in self._given if not self.has_parameter(n))
+        # the cueing group of a shared params file is motion_cueing's (checked by the loaders)
+        unknown = sorted(n for n in self._given
+                         if not self.has_parameter(n) and n not in CUEING_SPECS)
         if unknown and not self._unknown_reported:
             self.get_logger().warn('ignoring unknown parameters (typo?): ' + ', '.join(unknown))
         self._unknown_reported = True
