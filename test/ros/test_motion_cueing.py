@@ -12,19 +12,13 @@ import time
 import numpy as np
 import pytest
 import rclpy
-from geometry_msgs.msg import PoseStamped
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
 from rcl_interfaces.msg import Parameter as RclParameter
 from rcl_interfaces.srv import GetParameters, SetParameters, SetParametersAtomically
-from sensor_msgs.msg import Imu
 
-from flight_sim_dynamics.config.schema import CUEING_NODE_NAME
-from flight_sim_dynamics.ros.motion_cueing import CUEING_TASK
-from flight_sim_dynamics.ros.process import CUEING_MODULE
-from flight_sim_dynamics.ros.setpoints import diagnostic_name, quaternion_to_rpy
-from cueing_harness import G, vehicle
-from node_harness import QOS, ROOT, Client, NodeProcess, stamp_ns
+from cueing_harness import G, dynamics_counts, start_chain, vehicle
+from node_harness import ROOT, stamp_ns
 
 pytestmark = pytest.mark.ros
 
@@ -39,76 +33,6 @@ CUEING_ARGS = ('-p', f'cueing.rate:={RATE}', '-p', 'diagnostics.period:=0.25',
                '-p', 'cueing.rotation.omega:=[3.0, 3.0, 3.0]',
                '-p', 'cueing.tilt.omega:=[4.0, 4.0]',
                '-p', 'cueing.tilt.rate_limit:=0.2')
-STATUS = diagnostic_name('/' + CUEING_NODE_NAME, CUEING_TASK)
-
-
-class CueingClient(Client):
-    """The harness client plus the cueing node's input, output and services."""
-
-    IDEMPOTENT = Client.IDEMPOTENT | {'cue_get', 'cue_set', 'cue_atomic', 'cue_state'}
-    PROBES = {**Client.PROBES,
-              'cue_change': lambda: ChangeState.Request(transition=Transition(id=255))}
-
-    def __init__(self) -> None:
-        super().__init__('cueing_test_client')
-        n = self.node
-        self.imu_pub = n.create_publisher(Imu, 'vehicle_imu', QOS)
-        self.poses: list[tuple[int, tuple[float, ...]]] = []
-        self.pose_sub = n.create_subscription(PoseStamped, 'pose_setpoint', self._on_pose, QOS)
-        target = '/' + CUEING_NODE_NAME
-        for name, srv, path in (('cue_get', GetParameters, 'get_parameters'),
-                                ('cue_set', SetParameters, 'set_parameters'),
-                                ('cue_atomic', SetParametersAtomically,
-                                 'set_parameters_atomically'),
-                                ('cue_state', GetState, 'get_state'),
-                                ('cue_change', ChangeState, 'change_state')):
-            self.srv[name] = n.create_client(srv, f'{target}/{path}')
-        self._vehicle_ns = time.time_ns()       # the vehicle's clock: its stamps
-
-    def _on_pose(self, msg: PoseStamped) -> None:
-        p, o = msg.pose.position, msg.pose.orientation
-        self.poses.append((stamp_ns(msg), (p.x, p.y, p.z, *quaternion_to_rpy(o.x, o.y, o.z,
-                                                                             o.w))))
-
-    def next_stamp(self) -> int:
-        self._vehicle_ns += 10_000_000
-        return self._vehicle_ns
-
-    def imu(self, stamp: int, f, omega) -> None:
-        msg = Imu()
-        msg.header.stamp = rclpy.time.Time(nanoseconds=stamp).to_msg()
-        msg.header.frame_id = 'vehicle'
-        a, w = msg.linear_acceleration, msg.angular_velocity
-        a.x, a.y, a.z = (float(v) for v in f)
-        w.x, w.y, w.z = (float(v) for v in omega)
-        self.imu_pub.publish(msg)
-
-    def cue_diagnostics(self, predicate, timeout: float = 5.0) -> dict[str, str]:
-        return self.wait_diagnostics(predicate, timeout, name=STATUS)
-
-    def replay(self, duration: float, seed: int = 1) -> tuple[int, int]:
-        """The vehicle's motion from its start for ``duration`` s in real time, one
-        Imu every 5 to 15 ms (irregular); (first, last) stamp of the cueing node's
-        setpoints meanwhile (the node's own stamps).
-        """
-        rng = np.random.default_rng(seed)
-        first = len(self.poses)
-        start = time.monotonic()
-        t = 0.0
-        while t < duration:
-            self.imu(self.next_stamp(), *vehicle(t))
-            t += rng.uniform(0.005, 0.015)
-            self.spin_until(lambda: time.monotonic() - start >= t, 1.0)
-        assert len(self.poses) > first, 'no setpoint from the cueing node during the replay'
-        return self.poses[first][0], self.poses[-1][0]
-
-    def settle(self, timeout: float = 15.0) -> None:
-        """Wait until the input is stale and the platform at neutral."""
-        assert self.cue_diagnostics(lambda v: v.get('input') in ('stale',
-                                                                  'waiting for vehicle_imu'),
-                                    timeout), 'input never stale'
-        assert self.spin_until(lambda: self.poses and max(map(abs, self.poses[-1][1])) < 1e-4,
-                               timeout), f'not at neutral: {self.poses[-1:]}'
 
 
 @pytest.fixture(scope='module')
@@ -116,35 +40,14 @@ def chain():
     """dynamics_node and motion_cueing on the hexapod's file, and a client that
     has seen the cueing node's setpoints answered and its first Imu accepted.
     """
-    node = NodeProcess('-p', 'diagnostics.period:=0.25', '-p', 'sync.wait:=0.5',
-                       params_file=PARAMS_FILE)
-    cue = NodeProcess(*CUEING_ARGS, params_file=PARAMS_FILE, module=CUEING_MODULE)
-    client = CueingClient()
+    node, cue, client = start_chain(PARAMS_FILE, CUEING_ARGS)
     try:
-        client.wait_for_node(node)
-        ok = client.spin_until(lambda: client.imu_pub.get_subscription_count() > 0
-                               and client.pose_sub.get_publisher_count() > 0
-                               and bool(client.poses) and bool(client.actuator)
-                               or not cue.alive(), 20.0)
-        assert ok and cue.alive(), 'cueing node not up:\n' + cue.output()[-3000:]
-        # the cueing node publishes from its activation on (neutral): answered
-        # setpoints show both nodes matched; then one Imu at rest accepted
-        deadline = time.monotonic() + 10.0
-        while client.cue_diagnostics(lambda v: True, 2.0).get('imu accepted', '0') == '0':
-            assert time.monotonic() < deadline, 'no Imu accepted:\n' + cue.output()[-3000:]
-            client.imu(client.next_stamp(), (0.0, 0.0, G), (0.0, 0.0, 0.0))
         yield client, node, cue
     finally:
         client.close()
         cue.stop()
         node.stop()
         print(cue.output()[-3000:])
-
-
-def dynamics_counts(client: Client) -> dict[str, int]:
-    values = client.wait_diagnostics(lambda v: True, 3.0)
-    return {k: int(values[k]) for k in ('setpoints answered', 'rejected total', 'limit exceeded',
-                                        'near singular')}
 
 
 def test_a_vehicle_log_through_both_nodes_is_answered_ok(chain):

@@ -1,7 +1,8 @@
 """One parameter file for the dynamics node and the motion-cueing node: the
 machine and its ``cueing`` group (the defaults of the cueing node's
 ``cueing.*``, under its own overrides), a bad value in it ending the start
-with one ``error:`` line, and the demo replaying a vehicle log through both.
+with one ``error:`` line, the 3-DOF machine's file, and the demo replaying a
+vehicle log through both.
 """
 from __future__ import annotations
 
@@ -14,9 +15,10 @@ import yaml
 from rcl_interfaces.srv import GetParameters
 
 from flight_sim_dynamics.config.schema import CUEING_NODE_NAME
+from flight_sim_dynamics.machines import FLIGHT_SIMULATOR
 from flight_sim_dynamics.ros.process import CUEING_MODULE, node_command, node_env
-from cueing_harness import write_vehicle_log
-from node_harness import ROOT, Client, NodeProcess
+from cueing_harness import dynamics_counts, start_chain, write_vehicle_log
+from node_harness import PARAMS_FILE, ROOT, Client, NodeProcess, stamp_ns
 
 pytestmark = pytest.mark.ros
 
@@ -118,3 +120,31 @@ def test_a_name_the_node_does_not_know_ends_the_start(tmp_path):
         assert cue.wait_output('active: cueing', 30.0), cue.output()
     finally:
         cue.stop()
+
+
+def test_the_3dof_machine_is_cued_on_its_own_coordinates():
+    """The packaged 3-DOF file (its cueing group: surge, heave, roll) for both
+    nodes: sway, pitch and yaw not cued, every setpoint answered ok."""
+    node, cue, client = start_chain(PARAMS_FILE, ('-p', 'cueing.rate:=200.0',
+                                                  '-p', 'diagnostics.period:=0.25'))
+    try:
+        before = dynamics_counts(client)
+        first, last = client.replay(2.0)
+        stamps = [s for s, _ in client.poses if first <= s <= last]
+        assert client.spin_until(lambda: {stamp_ns(m) for _, m in client.actuator}.issuperset(
+            stamps), 5.0), 'setpoints not answered'
+        after = dynamics_counts(client)
+        for key in ('rejected total', 'limit exceeded', 'near singular'):
+            assert after[key] == before[key], (key, before, after)
+        motion = [p for s, p in client.poses if first <= s <= last]
+        peak = [max(abs(p[i]) for p in motion) for i in range(6)]
+        # surge, heave, roll move; sway, pitch, yaw stay at zero
+        assert peak[0] > 1e-3 and peak[2] > 1e-4 and peak[3] > 1e-4, peak
+        assert peak[1] == peak[4] == peak[5] == 0.0, peak
+        values = client.cue_diagnostics(lambda v: True)
+        assert values['channels not cued'] == 'sway, pitch, yaw'
+        assert values['machine'] == FLIGHT_SIMULATOR.title
+    finally:
+        client.close()
+        cue.stop()
+        node.stop()
