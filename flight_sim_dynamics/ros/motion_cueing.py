@@ -224,7 +224,8 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._diag_name = diagnostic_name(self.get_fully_qualified_name(), CUEING_TASK)
         self._config: CueingConfig | None = None     # None: unconfigured
-        self._staged: CueingConfig | None = None     # validated by the on-set callback
+        # validated by the on-set callback: the config and its planner (None: the same)
+        self._staged: tuple[CueingConfig, Planner | None] | None = None
         self._planner: Planner | None = None
         self._next: tuple[CueingConfig, Planner] | None = None   # a change waiting for neutral
         self._active = False
@@ -292,9 +293,9 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
             values = self._values()
             values.update((p.name, plain(p.value)) for p in ours)
             config = CueingConfig.of(values, 'the parameters')
-            self._staged = config
-            if config.cueing != self._config.cueing:
-                Planner(self.model, config.params)     # it must build
+            planner = Planner(self.model, config.params) \
+                if config.cueing != self._config.cueing else None     # it must build
+            self._staged = (config, planner)
             return SetParametersResult(successful=True)
         except prm.ParameterError as exc:
             reason = str(exc)
@@ -312,13 +313,14 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
             staged, self._staged = self._staged, None
             if staged is None or self._config is None:
                 return
+            staged, planner = staged
             self.stats.parameter_changes += 1
             old = self._config
             names = ', '.join(dict.fromkeys(p.name for p in params))
-            if staged.cueing != old.cueing:
+            if planner is not None:
                 # the planner's state is not carried over: the running one washes the
                 # platform out to neutral, then the new one takes over (no jump)
-                self._next = (staged, Planner(self.model, staged.params))
+                self._next = (staged, planner)
                 self._config = staged.with_planner_of(old)
                 self.get_logger().info(f'parameters changed: {names}; the new planner takes '
                                        'over once the platform is at neutral')
