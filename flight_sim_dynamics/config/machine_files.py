@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from ..core.machine import Machine, ModelValueError
-from ..cueing.params import split_cueing
+from ..cueing.params import PREFIX, CueingParams, split_cueing
 from ..machines import MACHINES, PACKAGED, machine_named
 from . import parameters
 from .errors import ParameterError, did_you_mean
@@ -46,6 +46,24 @@ def load_model(path: str | os.PathLike[str] | None = None,
     if flat is not None and 'machine' in flat:
         return load_named_model(flat, path, scene)
     return parameters.model_of_params(flat, path, scene)
+
+
+def load_cueing(path: str | os.PathLike[str] | None = None) -> CueingParams:
+    """The ``cueing`` group of a parameter file (None: the packaged 3-DOF
+    machine's) over its packaged file's, as the model's values are (a partial
+    file overrides them; a machine of one's own: the design's defaults).
+    ParameterError naming the key and the file.
+    """
+    own = {} if path is None else read_params_sections(path)
+    name = own.get('machine')
+    packaged = (default_params_path() if name is None
+                else packaged_path(name) if name in PACKAGED else None)
+    if path is not None:
+        split_cueing(own, str(path))              # the file's own group checked, named
+    values = {} if packaged is None else {
+        k: v for k, v in read_params_sections(packaged).items() if k.startswith(PREFIX)}
+    values.update({k: v for k, v in own.items() if k.startswith(PREFIX)})
+    return split_cueing(values, str(path or packaged))[1]
 
 
 def packaged_path(name: str) -> Path:

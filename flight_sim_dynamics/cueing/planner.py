@@ -108,6 +108,14 @@ class Planner:
         return CueSample(lim.q, lim.qd, lim.qdd, lim.given_up, lim.limit, status)
 
 
+class SampleError(ValueError):
+    """A bad input sample: ``index`` (0-based) is the sample at fault."""
+
+    def __init__(self, index: int, message: str) -> None:
+        super().__init__(f'sample {index}: {message}')
+        self.index, self.reason = index, message
+
+
 @dataclass(frozen=True)
 class CueRun:
     """A whole log through the planner (:func:`run`): output times ``t`` (N,),
@@ -139,8 +147,9 @@ def resample(t: np.ndarray, values: np.ndarray, rate: float
              ) -> tuple[np.ndarray, np.ndarray, int]:
     """``values`` (N, k) at times ``t`` (N,) on the grid ``t[0] + n / rate`` up
     to the last time, by linear interpolation; repeated times dropped (the first
-    of each kept) and counted. ValueError naming the sample index (0-based) of
-    a non-finite time or one that goes backwards. Returns (grid, values, repeated).
+    of each kept) and counted. :class:`SampleError` (a ValueError) naming the
+    sample index (0-based) of a non-finite time or one that goes backwards.
+    Returns (grid, values, repeated).
     """
     t = np.asarray(t, dtype=float)
     values = np.asarray(values, dtype=float)
@@ -151,13 +160,12 @@ def resample(t: np.ndarray, values: np.ndarray, rate: float
         raise ValueError('no samples')
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
-        raise ValueError(f'sample {bad[0]}: time is not finite ({t[bad[0]]!r})')
+        raise SampleError(int(bad[0]), f'time is not finite ({t[bad[0]]!r})')
     dt = np.diff(t)
     back = np.flatnonzero(dt < 0)
     if back.size:
-        i = back[0] + 1
-        raise ValueError(f'sample {i}: time {t[i]!r} goes backwards (sample {i - 1}: '
-                         f'{t[i - 1]!r})')
+        i = int(back[0]) + 1
+        raise SampleError(i, f'time {t[i]!r} goes backwards (the sample before: {t[i - 1]!r})')
     keep = np.concatenate(([True], dt > 0))
     repeated = int(len(t) - keep.sum())
     t, values = t[keep], values[keep]
