@@ -46,15 +46,24 @@ LIMITER_SPECS: tuple[ParamSpec, ...] = (
     _spec('margin.fraction', 'double', 0.05,
           'fraction of the speed, force, condition and joint-angle limits the limiter keeps '
           'free', minimum=0.0, maximum=0.5),
-    _spec('braking', 'double_array', [5.0, 5.0],
+    _spec('braking', 'double_array', [1.0, 1.0],
           'deceleration of the braking the limiter keeps in reserve (translations m/s^2, '
           'rotations rad/s^2): larger brakes later and gives up less cue, with a harder stop',
           'm/s^2, rad/s^2', minimum=0.0, exclusive_minimum=True, maximum=1000.0, length=2),
-    _spec('recovery.omega', 'double', 2.0,
+    _spec('gain.down', 'double', 4.0,
+          'rate at which the gain on the washout drops in each cycle that gives up cue '
+          '(adaptive gain: fewer braking false cues in a violent stretch)', '1/s',
+          minimum=0.0, maximum=1000.0),
+    _spec('gain.up', 'double', 0.25,
+          'rate at which the gain on the washout returns to 1 in each cycle that gives up '
+          'nothing', '1/s', minimum=0.0, exclusive_minimum=True, maximum=1000.0),
+    _spec('gain.minimum', 'double', 0.1, 'lowest gain on the washout', minimum=0.0,
+          maximum=1.0),
+    _spec('recovery.omega', 'double', 1.0,
           'bandwidth of the pull-back that returns the platform to the washout after '
           'limiting (critically damped)', 'rad/s', minimum=0.0, exclusive_minimum=True,
           maximum=100.0),
-    _spec('recovery.acceleration', 'double_array', [0.5, 0.5],
+    _spec('recovery.acceleration', 'double_array', [0.2, 0.2],
           'largest pull-back acceleration while returning to the washout (translations '
           'm/s^2, rotations rad/s^2)', 'm/s^2, rad/s^2', minimum=0.0, maximum=1000.0,
           length=2),
@@ -172,13 +181,44 @@ class InverseDynamicsLimiter:
         self.recovery = [recovery[0] if lin else recovery[1] for lin in linear]
         omega = float(settings['recovery.omega'])
         self.kp, self.kd = omega * omega, 2.0 * omega
+        self.gain_down = float(settings['gain.down']) * self.dt
+        self.gain_up = float(settings['gain.up']) * self.dt
+        self.gain_min = float(settings['gain.minimum'])
         self._solve = self.machine.solve
+        # (L4) the pull-back's reach: each coordinate's range at rest from home
+        ranges = [(-self._axis_range(i, -1.0), self._axis_range(i, 1.0))
+                  for i in range(self.machine.dof)]
+        self.low, self.high = [r[0] for r in ranges], [r[1] for r in ranges]
         self.reset()
+
+    def _axis_range(self, i: int, sign: float, largest: float = 4.0) -> float:
+        """How far coordinate ``i`` goes from home towards ``sign`` at rest,
+        the others at home, within the tightened limits (bisection to 1e-4 of
+        ``largest``, m or rad, out from home in steps of 1 %): where the
+        pull-back aims for a washout beyond it.
+        """
+        rest = [0.0] * self.machine.dof
+
+        def fits(x: float) -> bool:
+            q = list(rest)
+            q[i] = sign * x
+            return self._solve(self.tight, q, rest, rest).status is Status.OK
+
+        step = 0.01 * largest       # out from home first: the range may have islands
+        low = 0.0
+        while low + step <= largest and fits(low + step):
+            low += step
+        high = min(low + step, largest)
+        while high - low > 1e-5 * largest:
+            mid = 0.5 * (low + high)
+            low, high = (mid, high) if fits(mid) else (low, mid)
+        return low
 
     def reset(self) -> None:
         """At rest at home, caught up (the washout starts there)."""
         n = self.machine.dof
         self._q, self._qd, self._qdd = [0.0] * n, [0.0] * n, [0.0] * n
+        self.gain, self._gain_limit = 1.0, ''
 
     @property
     def q(self) -> np.ndarray:
@@ -258,8 +298,19 @@ class InverseDynamicsLimiter:
 
     # -- the cycle -----------------------------------------------------------
 
-    def _publish(self, q: list, qd: list, qdd: list, given_up: float, limit: str) -> Limited:
+    def _publish(self, q: list, qd: list, qdd: list, lam: float, limit: str) -> Limited:
+        """Publish the sample (the new state); (L6) the gain's update: lowered
+        in a cycle that gives up cue, raised back towards 1 in one that does not.
+        """
         self._q, self._qd, self._qdd = q, qd, qdd
+        gain = self.gain
+        given_up = 1.0 - lam * gain
+        if lam < 1.0:
+            self.gain = max(self.gain_min, gain - self.gain_down)
+            self._gain_limit = limit
+        elif gain < 1.0:
+            self.gain = min(1.0, gain + self.gain_up)
+            limit = self._gain_limit
         return Limited(np.array(q), np.array(qd), np.array(qdd), given_up, limit)
 
     def step(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> Limited:
@@ -270,24 +321,39 @@ class InverseDynamicsLimiter:
             if not all(map(math.isfinite, q + qd + qdd)):
                 # (L5) nothing to follow: brake to rest and hold there
                 brake = self._braking(x_qd)[1]
-                return self._publish(*self._advance(x_q, x_qd, x_a, brake), brake, 1.0, INPUT)
-        # (L1) the state's continuation with the washout's acceleration, against
-        # the washout's sample
-        pq, pqd = self._advance(x_q, x_qd, x_a, qdd)
-        e = [x - y for x, y in zip(pq, q)]
-        ed = [x - y for x, y in zip(pqd, qd)]
-        if max(map(abs, e)) <= CATCH_UP_POSITION and max(map(abs, ed)) <= CATCH_UP_RATE:
-            # caught up: the washout's own sample, if it fits (invisible, bit for bit)
-            if not self._refused(q, qd, qdd):
-                return self._publish(q, qd, qdd, 0.0, '')
-        # (L4) the washout's acceleration plus a bounded, critically damped pull-back
+                return self._publish(*self._advance(x_q, x_qd, x_a, brake), brake, 0.0, INPUT)
+        gain = self.gain
+        if gain == 1.0:
+            # (L1) the state's continuation with the washout's acceleration,
+            # against the washout's sample
+            pq, pqd = self._advance(x_q, x_qd, x_a, qdd)
+            if max([abs(x - y) for x, y in zip(pq, q)]) <= CATCH_UP_POSITION and \
+                    max([abs(x - y) for x, y in zip(pqd, qd)]) <= CATCH_UP_RATE:
+                # caught up: the washout's own sample, if it fits (invisible, bit for bit)
+                if not self._refused(q, qd, qdd):
+                    return self._publish(q, qd, qdd, 1.0, '')
+        else:
+            # (L6) the washout times the gain
+            q, qd, qdd = ([gain * v for v in q], [gain * v for v in qd],
+                          [gain * v for v in qdd])
+            pq, pqd = self._advance(x_q, x_qd, x_a, qdd)
+        # (L4) the washout's acceleration plus a bounded, critically damped
+        # pull-back towards the washout's sample, or, for a coordinate beyond its
+        # range (:meth:`_axis_range`), towards the end of the range, at rest
         kp, kd = self.kp, self.kd
-        a_w = [a + min(r, max(-r, -kp * x - kd * v))
-               for a, x, v, r in zip(qdd, e, ed, self.recovery)]
+        a_w = []
+        for i, a in enumerate(qdd):
+            x, v = q[i], qd[i]
+            if x > self.high[i]:
+                x, v = self.high[i], 0.0
+            elif x < self.low[i]:
+                x, v = self.low[i], 0.0
+            r = self.recovery[i]
+            a_w.append(a + min(r, max(-r, -kp * (pq[i] - x) - kd * (pqd[i] - v))))
         c_q, c_qd = self._advance(x_q, x_qd, x_a, a_w)
         limit = self._refused(c_q, c_qd, a_w) if _finite(c_q) else 'overflow'
         if not limit:
-            return self._publish(c_q, c_qd, a_w, 0.0, '')
+            return self._publish(c_q, c_qd, a_w, 1.0, '')
         # (L2)-(L3) blend towards braking: the largest lam that is accepted
         brake = self._braking(x_qd)[1]
         low, high = 0.0, 1.0
@@ -301,7 +367,7 @@ class InverseDynamicsLimiter:
             else:
                 low = lam
         a = brake if low == 0.0 else [(1.0 - low) * b + low * w for b, w in zip(brake, a_w)]
-        return self._publish(*self._advance(x_q, x_qd, x_a, a), a, 1.0 - low, limit)
+        return self._publish(*self._advance(x_q, x_qd, x_a, a), a, low, limit)
 
 
 def _finite(values: list) -> bool:

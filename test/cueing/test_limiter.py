@@ -207,7 +207,7 @@ def test_braking_from_any_state_it_produced_stays_within_limits(name, data) -> N
     """
     s = SETUPS[name]
     q, qd, qdd = data.draw(violent(s, 100, 800))
-    rest = 1000    # > the longest braking (max rate / braking deceleration) and its tail
+    rest = 5000    # > the longest braking (max rate / braking deceleration) and its tail
     nan = np.full((rest, s.dof), math.nan)
     oq, oqd, oqdd, given_up, limit = run(s.limiter(), np.vstack([q, nan]),
                                          np.vstack([qd, nan]), np.vstack([qdd, nan]))
@@ -241,7 +241,7 @@ def test_a_desired_step_gives_a_smooth_output(setup) -> None:
     input again, bit for bit.
     """
     s = setup
-    n = 8000
+    n = 20000
     q, qd, qdd = np.zeros((n, s.dof)), np.zeros((n, s.dof)), np.zeros((n, s.dof))
     q[100:, 0] = 0.05
     oq, oqd, oqdd, given_up, limit = run(s.limiter(), q, qd, qdd)
@@ -250,6 +250,7 @@ def test_a_desired_step_gives_a_smooth_output(setup) -> None:
     assert abs(oq[100, 0] - oq[99, 0]) < 1e-6
     assert np.array_equal(oq[-100:], q[-100:]) and np.array_equal(oqd[-100:], qd[-100:])
     assert (given_up == 0.0).all()
+    assert not np.array_equal(oq[100:200], q[100:200])     # it did not jump there
 
 
 # -- invisible where the washout fits ----------------------------------------------
