@@ -219,6 +219,20 @@ def test_braking_from_any_state_it_produced_stays_within_limits(name, data) -> N
     assert np.abs(oq[-1] - oq[-2]).max() < 1e-15
 
 
+def test_a_huge_sine_on_every_coordinate_stays_within_limits(setup) -> None:
+    """0.5 m and 0.5 rad at 2 rad/s on every coordinate at once, starting at
+    full rate: far beyond the workspace (on the 3-DOF machine a braking whose
+    stop point was not checked beyond its end reached an unreachable pose).
+    """
+    s = setup
+    q, qd, qdd = sines(s, 3000, np.full(s.dof, 0.5), np.full(s.dof, 2.0), np.zeros(s.dof))
+    oq, oqd, oqdd, given_up, limit = run(s.limiter(), q, qd, qdd)
+    check_within_limits(s, oq, oqd, oqdd)
+    check_smooth(s, oq, oqd, oqdd)
+    check_reports(given_up, limit)
+    assert given_up.max() > 0.0
+
+
 def test_limiting_is_reported_with_the_limit_that_made_it(setup) -> None:
     """Desired 10 g surge for 0.1 s: a limit (force, speed or stroke) makes
     the limiter give up part of it, and says so; nothing before it.
