@@ -33,6 +33,7 @@ from sensor_msgs.msg import Imu, JointState
 
 from ..config.machine_files import load_model
 from ..config.parameters import default_params_path
+from ..config.schema import CUEING_TASK
 from ..core.machine import Machine
 from ..core.motion import PlannerSequence
 from ..machines import MACHINES
@@ -436,7 +437,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         monitor = Monitor(context=context)
         setpoints = None
     else:
-        from ..ros.motion_cueing import CUEING_TASK     # (the cueing numerics: scipy)
         source = ImuReplay(*vehicle, context=context)
         monitor = Monitor(CUEING_TASK, context=context)
         setpoints = TwinMonitor(machine, 'pose_setpoint', 'demo_setpoints', context=context)

@@ -289,6 +289,8 @@ SIM_PARAMETERS: tuple[ParamSpec, ...] = (
 # Parameters of the motion-cueing node motion_cueing (docs/cueing_node.md), besides the
 # cueing group it declares from flight_sim_dynamics.cueing.params.PARAMETER_SPECS.
 CUEING_NODE_NAME = 'motion_cueing'
+#: the task of its status name in /diagnostics (``<node>: motion cueing``)
+CUEING_TASK = 'motion cueing'
 CUEING_NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('params_file', 'string', '',
               "the machine's parameter file, the dynamics node's (it names the machine; its "
@@ -303,9 +305,10 @@ CUEING_NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'configure and activate at start-up (a bad parameter then ends the process, '
               'exit 2); false: start unconfigured and wait for a lifecycle manager', ''),
     ParamSpec('input.timeout', 'double', 0.2,
-              'no vehicle_imu message for this long: the input is stale and the planner is '
-              'fed the vehicle at rest (its first sample), the platform washes back to '
-              'neutral', 's', minimum=0.0, exclusive_minimum=True, maximum=3600.0),
+              'no vehicle_imu message for this long: the input is stale, the planner\'s '
+              'input ramps over this time to the vehicle at rest (its first message) and the '
+              'platform washes back to neutral', 's', minimum=0.0, exclusive_minimum=True,
+              maximum=3600.0),
     ParamSpec('input.max_specific_force', 'double', 1000.0,
               'vehicle_imu messages with a component of linear_acceleration beyond this are '
               'rejected (out_of_range: no vehicle gives it; the washout would carry it for '

@@ -34,11 +34,12 @@ from sensor_msgs.msg import Imu
 from ..config import parameters as prm
 from ..config.errors import did_you_mean
 from ..config.files import NODE_NAME, params_files_in, read_params_sections
-from ..config.schema import CUEING_NODE_NAME, CUEING_NODE_PARAMETERS
+from ..config.schema import CUEING_NODE_NAME, CUEING_NODE_PARAMETERS, CUEING_TASK
 from ..config.machine_files import load_model
 from ..cueing.params import PARAMETER_SPECS, PREFIX, CueingParams, cueing_params_flat
 from ..cueing.planner import Planner
 from ..machines.api import machine_of
+from .cueing_input import InputFeed
 from .dynamics_node import QOS_POLICIES, check_qos, default_qos
 from .node import create, executable_parser, make_executor, own_options, refuse, running, spin
 from .parameter_guard import GuardedParameters, _failed, plain
@@ -49,8 +50,6 @@ from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, RESTART_CONFIRMATION
                         STAMP_BACKWARDS, STAMP_REPEATED, WARN, LogThrottle, SetpointError,
                         diagnostic_name, fmt_stamp, number)
 
-#: The status name of the node in /diagnostics (``<node>: <task>``).
-CUEING_TASK = 'motion cueing'
 SUCCESS, FAILURE = TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE
 INACTIVE = 'inactive'                 # an Imu taken while the node is not active
 OUT_OF_RANGE = 'out_of_range'         # beyond input.max_specific_force / max_angular_velocity
@@ -228,6 +227,7 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
         self._staged: tuple[CueingConfig, Planner | None] | None = None
         self._planner: Planner | None = None
         self._next: tuple[CueingConfig, Planner] | None = None   # a change waiting for neutral
+        self._feed: InputFeed | None = None
         self._active = False
         self._starting = False
         self._setpoints: SetpointPublisher | None = None
@@ -333,6 +333,8 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
             self._internal_error(exc)
 
     def _apply_node_config(self, config: CueingConfig) -> None:
+        if self._feed is not None:
+            self._feed.timeout = config.timeout
         if self._setpoints is not None:
             self._setpoints.frame_id = config.frame_id
         if self._diag_timer is not None:
@@ -456,8 +458,7 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
     def _reset_motion(self) -> None:
         """At neutral, waiting for a first input (it becomes the planner's rest)."""
         self._planner.reset()
-        self._rest: tuple[np.ndarray, np.ndarray] | None = None   # the first input since
-        self._input: tuple[np.ndarray, np.ndarray] | None = None  # the newest input
+        self._feed = InputFeed(self._config.params.rate, self._config.timeout)
         self._arrival = -math.inf          # monotonic time of the newest input
         self._last_stamp: int | None = None
         self._behind = 0
@@ -485,11 +486,12 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
     def input_state(self) -> str:
         if not self._active:
             return 'inactive'
-        if self._rest is None:
+        if self._feed.rest is None:
             return 'waiting for vehicle_imu'
-        if time.monotonic() - self._arrival > self._config.timeout:
-            return 'stale'
-        return 'live'
+        return 'stale' if self._stale() else 'live'
+
+    def _stale(self) -> bool:
+        return time.monotonic() - self._arrival > self._config.timeout
 
     def _at_neutral(self) -> bool:
         return (float(np.max(np.abs(self._q), initial=0.0)) <= NEUTRAL_POSITION
@@ -499,7 +501,7 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
         """The waiting planner takes over if the platform is at neutral (or not
         driven: inactive, or no input since the activation); True if it did.
         """
-        if self._next is None or not (not self._active or self._rest is None
+        if self._next is None or not (not self._active or self._feed.rest is None
                                       or self._at_neutral()):
             return False
         config, planner = self._next
@@ -507,9 +509,9 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
         old_rate = self._config.params.rate
         self._config, self._planner = config, planner
         self._apply_node_config(config)
-        # the new planner's rest: the first input arriving from now on
-        self._rest = self._input = None
         rate = config.params.rate
+        # the new planner's rest: the first input arriving from now on
+        self._feed = InputFeed(rate, config.timeout)
         if rate != old_rate and self._timer is not None:
             # the stamps go on from the last one sent, at the new period
             following = self._stamp0 + (self._k - 1) * self._period_ns + round(1e9 / rate) \
@@ -541,21 +543,18 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
             self._internal_error(exc)
 
     def _step(self) -> None:
-        """One output sample: the planner fed the newest input (held), or the
-        rest when it is stale or a parameter change waits; published.
+        """One output sample: the planner fed the input (:class:`.cueing_input.InputFeed`:
+        toward the newest message, or toward the rest when the input is stale or a
+        parameter change waits); published.
         """
         stamp = self._stamp0 + self._k * self._period_ns
-        if self._rest is None:
-            if self._input is None:         # at neutral, waiting for a first input
-                zero = np.zeros(self.machine.dof)
-                self._send(stamp, zero, zero, zero)
-                return
-            self._rest = self._input        # the planner's reference: its first sample
-        live = (self._next is None
-                and time.monotonic() - self._arrival <= self._config.timeout)
-        f, omega = self._input if live else self._rest
+        fed = self._feed.next(want_rest=self._next is not None or self._stale())
+        if fed is None:                     # at neutral, waiting for a first input
+            zero = np.zeros(self.machine.dof)
+            self._send(stamp, zero, zero, zero)
+            return
         start = time.perf_counter()
-        sample = self._planner.step(f, omega)
+        sample = self._planner.step(fed[:3], fed[3:])
         work = time.perf_counter() - start
         q, qd, qdd = (np.asarray(v, dtype=float) for v in (sample.q, sample.qd, sample.qdd))
         if not (np.isfinite(q).all() and np.isfinite(qd).all() and np.isfinite(qdd).all()):
@@ -601,15 +600,15 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
                         f'{omega.tolist()} rad/s: beyond input.max_specific_force = '
                         f'{config.max_force:g} or input.max_angular_velocity = '
                         f'{config.max_rate:g}'))
-                self._check_stamp(msg.header.stamp.sec * 1_000_000_000
-                                  + msg.header.stamp.nanosec)
+                stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+                self._check_stamp(stamp)
             except SetpointError as exc:
                 stats.reject(exc.reason, str(exc))
                 if exc.reason != INACTIVE:
                     self._warn(exc.reason, f'vehicle_imu rejected ({exc.reason}): {exc}')
                 return
             stats.accepted += 1
-            self._input = (f, omega)
+            self._feed.receive(np.concatenate((f, omega)), stamp)
             self._arrival = time.monotonic()
         except Exception as exc:  # noqa: BLE001
             self._internal_error(exc)

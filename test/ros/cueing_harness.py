@@ -11,14 +11,13 @@ from pathlib import Path
 
 import numpy as np
 import rclpy
-from geometry_msgs.msg import PoseStamped
+from geometry_msgs.msg import AccelStamped, PoseStamped
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
 from rcl_interfaces.srv import GetParameters, SetParameters, SetParametersAtomically
 from sensor_msgs.msg import Imu
 
-from flight_sim_dynamics.config.schema import CUEING_NODE_NAME
-from flight_sim_dynamics.ros.motion_cueing import CUEING_TASK
+from flight_sim_dynamics.config.schema import CUEING_NODE_NAME, CUEING_TASK
 from flight_sim_dynamics.ros.process import CUEING_MODULE
 from flight_sim_dynamics.ros.setpoints import diagnostic_name, quaternion_to_rpy
 from node_harness import QOS, Client, NodeProcess, stamp_ns
@@ -68,6 +67,12 @@ class CueingClient(Client):
         self.imu_pub = n.create_publisher(Imu, 'vehicle_imu', QOS)
         self.poses: list[tuple[int, tuple[float, ...]]] = []
         self.pose_sub = n.create_subscription(PoseStamped, 'pose_setpoint', self._on_pose, QOS)
+        #: (stamp, linear and angular acceleration) of accel_setpoint
+        self.accels: list[tuple[int, tuple[float, ...]]] = []
+        self.accel_sub = n.create_subscription(AccelStamped, 'accel_setpoint', lambda m: (
+            self.accels.append((stamp_ns(m), (m.accel.linear.x, m.accel.linear.y,
+                                              m.accel.linear.z, m.accel.angular.x,
+                                              m.accel.angular.y, m.accel.angular.z)))), QOS)
         target = '/' + CUEING_NODE_NAME
         for name, srv, path in (('cue_get', GetParameters, 'get_parameters'),
                                 ('cue_set', SetParameters, 'set_parameters'),
@@ -77,6 +82,7 @@ class CueingClient(Client):
                                 ('cue_change', ChangeState, 'change_state')):
             self.srv[name] = n.create_client(srv, f'{target}/{path}')
         self._vehicle_ns = time.time_ns()       # the vehicle's clock: its stamps
+        self.sent = 0                           # Imu messages published
 
     def _on_pose(self, msg: PoseStamped) -> None:
         p, o = msg.pose.position, msg.pose.orientation
@@ -95,6 +101,7 @@ class CueingClient(Client):
         a.x, a.y, a.z = (float(v) for v in f)
         w.x, w.y, w.z = (float(v) for v in omega)
         self.imu_pub.publish(msg)
+        self.sent += 1
 
     def cue_diagnostics(self, predicate, timeout: float = 5.0) -> dict[str, str]:
         return self.wait_diagnostics(predicate, timeout, name=STATUS)
@@ -115,8 +122,16 @@ class CueingClient(Client):
         assert len(self.poses) > first, 'no setpoint from the cueing node during the replay'
         return self.poses[first][0], self.poses[-1][0]
 
+    def caught_up(self, timeout: float = 15.0) -> dict[str, str]:
+        """The cueing node's diagnostics once it has taken every Imu sent (a
+        loaded host can hold them back for seconds)."""
+        return self.cue_diagnostics(lambda v: int(v.get('imu received', -1)) >= self.sent,
+                                    timeout)
+
     def settle(self, timeout: float = 15.0) -> None:
-        """Wait until the input is stale and the platform at neutral."""
+        """Wait until the node has taken every Imu sent, the input is stale and
+        the platform at neutral."""
+        self.caught_up(timeout)
         assert self.cue_diagnostics(lambda v: v.get('input') in ('stale',
                                                                   'waiting for vehicle_imu'),
                                     timeout), 'input never stale'
