@@ -218,10 +218,12 @@ def cue_metrics(model: Any, run: CueRun, params: CueingParams,
     q, qd, qdd = (six(run.coordinates, x) for x in (run.q, run.qd, run.qdd))
     # what the limiter gave up: the felt cue of its output against the washout's, both in
     # the machine's channels, without its own motion
-    idx = [CHANNELS.index(c) for c in run.coordinates]
-    wished = (six(run.coordinates, x[:, idx])
-              for x in (run.desired_q, run.desired_qd, run.desired_qdd))
-    gap = felt(q, qd, qdd, params.head)[0] - felt(*wished, params.head)[0]
+    if run.desired_q is run.q:               # limiter none: nothing given up
+        gap = np.zeros((n, 3))
+    else:
+        wished = (six(run.coordinates, x)
+                  for x in (run.desired_q, run.desired_qd, run.desired_qdd))
+        gap = felt(q, qd, qdd, params.head)[0] - felt(*wished, params.head)[0]
     for name, angle in own.items():          # the machine's own motion (module docstring)
         i = CHANNELS.index(name)
         q[:, i] = angle

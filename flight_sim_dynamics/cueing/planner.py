@@ -67,6 +67,9 @@ class Planner:
         self.held = 0                 # non-finite input samples replaced by the last finite one
         #: the washout's q, qd, qdd (18 numbers, six channels each) of the last step
         self.last_values: list[float] | None = None
+        #: the washout's q, qd, qdd in the machine's coordinates, one array, of the last
+        #: step: what the limiter was given
+        self.last_wish: np.ndarray | None = None
         self._last = np.array([0.0, 0.0, G, 0.0, 0.0, 0.0])
 
     @property
@@ -82,7 +85,7 @@ class Planner:
         self.washout.reset()
         self.limiter.reset()
         self.held = 0
-        self.last_values = None
+        self.last_values = self.last_wish = None
         self._last[:] = (0.0, 0.0, G, 0.0, 0.0, 0.0)
 
     def step(self, f: np.ndarray, omega: np.ndarray) -> CueSample:
@@ -103,6 +106,7 @@ class Planner:
         self.last_values = values
         take = self._take
         out = np.array(values if take is None else [values[i] for i in take])
+        self.last_wish = out
         dof = self._dof
         lim = self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:])
         return CueSample(lim.q, lim.qd, lim.qdd, lim.given_up, lim.limit, status)
@@ -120,8 +124,9 @@ class SampleError(ValueError):
 class CueRun:
     """A whole log through the planner (:func:`run`): output times ``t`` (N,),
     ``q``, ``qd``, ``qdd`` (N, machine coordinates), ``given_up`` (N,),
-    ``limit`` (N,) strings; the washout's wish ``desired_q``, ``desired_qd``,
-    ``desired_qdd`` (N, 6 channels); the vehicle's input on the output grid
+    ``limit`` (N,) strings; the washout's wish in the machine's coordinates
+    ``desired_q``, ``desired_qd``, ``desired_qdd`` (N, coordinates; with
+    ``limiter: none`` the output's own arrays); the vehicle's input on the output grid
     ``f``, ``omega`` (N, 3); ``coordinates``; ``dropped`` channels;
     ``repeated`` input times dropped; ``held`` non-finite samples held.
     """
@@ -189,8 +194,9 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
                                       params.rate)
     planner = Planner(model, params)
     n, dof = len(grid), len(planner.index)
-    q, qd, qdd = np.empty((n, dof)), np.empty((n, dof)), np.empty((n, dof))
-    desired = np.empty((n, 18))
+    out = np.empty((n, 3 * dof))         # q, qd, qdd
+    # the washout's wish differs from the output only through the limiter
+    wish = None if params.limiter == 'none' else np.empty((n, 3 * dof))
     given_up = np.empty(n)
     limit = np.empty(n, dtype=object)
     every = max(1, n // 100)
@@ -198,14 +204,18 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     step = planner.step
     for k in range(n):
         sample = step(f_in[k], w_in[k])
-        q[k], qd[k], qdd[k] = sample.q, sample.qd, sample.qdd
-        desired[k] = planner.last_values
+        row = out[k]
+        row[:dof], row[dof:2 * dof], row[2 * dof:] = sample.q, sample.qd, sample.qdd
+        if wish is not None:
+            wish[k] = planner.last_wish
         given_up[k] = sample.given_up
         limit[k] = sample.limit
         if progress is not None and k % every == 0:
             progress(k, n)
     if progress is not None:
         progress(n, n)
-    return CueRun(grid, q, qd, qdd, given_up, limit, desired[:, :6], desired[:, 6:12],
-                  desired[:, 12:], f_in.copy(), w_in.copy(),
+    wish = out if wish is None else wish
+    q, qd, qdd = out[:, :dof], out[:, dof:2 * dof], out[:, 2 * dof:]
+    return CueRun(grid, q, qd, qdd, given_up, limit, wish[:, :dof], wish[:, dof:2 * dof],
+                  wish[:, 2 * dof:], f_in.copy(), w_in.copy(),
                   planner.machine.coordinates, planner.dropped, repeated, planner.held)

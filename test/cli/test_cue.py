@@ -131,3 +131,14 @@ def test_as_a_user_runs_it_a_violent_log_on_the_hexapod_solves_all_ok(tmp_path):
     assert done.returncode == 0, done.stderr
     assert run_cli('solve', str(out), '-o', str(solved), '--params', HEXAPOD).returncode == 0
     assert set(read(solved).text['status']) == {'ok'}
+
+
+def test_an_npz_output_holds_the_same_columns(braking, tmp_path):
+    csv, npz = tmp_path / 'p.csv', tmp_path / 'p.npz'
+    for out in (csv, npz):
+        assert main(['cue', str(braking), '-o', str(out), '--limiter', 'none']) == 0
+    with np.load(npz) as data:
+        table = read(csv)
+        assert tuple(data['names']) == table.names
+        for name in table.names:
+            np.testing.assert_array_equal(data[name], table[name])
