@@ -354,8 +354,9 @@ def build_parser() -> argparse.ArgumentParser:
                     'on actuator_states.')
     parser.add_argument('-o', '--output', default='out/demo.png', type=Path,
                         help='PNG to write (default: out/demo.png)')
-    parser.add_argument('--rate', type=float, default=100.0, metavar='HZ',
-                        help='planner rate (default: 100 Hz)')
+    parser.add_argument('--rate', type=float, default=None, metavar='HZ',
+                        help='planner rate (default: 100 Hz); with --cueing: the cueing '
+                             "node's output rate, cueing.rate (default: the parameter file's)")
     parser.add_argument('--motions', nargs='+', default=None, metavar='NAME',
                         help="motions to play, of the machine's planner motions ("
                              + '; '.join(f"{m.title}: {', '.join(m.planner_motions)}"
@@ -395,6 +396,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                      'node)')
     if args.cueing and args.motions:
         parser.error('--motions: the demo planner\'s; --cueing replays --vehicle instead')
+    if args.rate is not None and not 0 < args.rate <= 10000:
+        parser.error('--rate must be in (0, 10000] Hz')
     vehicle = None
     if args.vehicle is not None:
         try:
@@ -422,11 +425,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f'[demo] starting the twin: platform_sim --ros-args --params-file {params_file} '
               f'-r actuator_commands:=actuator_states (log: {twin_log})')
     cue_log = args.output.with_name(args.output.stem + '_cueing.log')
-    cue_proc = start_node(params_file, log=cue_log, module=CUEING_MODULE) if args.cueing \
-        else None
+    cue_args = ('-p', f'cueing.rate:={args.rate!r}') if args.rate is not None else ()
+    cue_proc = start_node(params_file, cue_args, log=cue_log, module=CUEING_MODULE) \
+        if args.cueing else None
     if cue_proc is not None:
         print(f'[demo] starting the cueing node: motion_cueing --ros-args --params-file '
-              f'{params_file} (log: {cue_log})')
+              f"{params_file} {' '.join(cue_args)}".rstrip() + f' (log: {cue_log})')
+    if args.rate is None:
+        args.rate = 100.0           # the planner's
     context = rclpy.Context()
     rclpy.init(args=['demo', *argv], context=context,
                signal_handler_options=SignalHandlerOptions.NO)
