@@ -8,16 +8,16 @@ On violent vehicle logs, both machines (their packaged params files):
     fits: every sample's solve ``ok``.
 
 Each against the pure washout at full gain (what the washout asks): the RMSE
-of the felt specific force at the head (design, "Cue metrics": ``f_P = R^T
-(p''_h - g_N)``, ``p_h = p + R h``), and their ratio (b) / (a): how many times
+of the felt specific force at the head (:func:`.metrics.felt`: design, "Cue
+metrics"), and their ratio (b) / (a): how many times
 more cue the usual practice gives up. Also: the share of samples the limiter
 limited, the outputs whose solve is not ``ok`` (must be 0), and the planner's
 CPU time per sample (washout + limiter, and the pure washout).
 
-    python -m benchmarks.cueing_limiter [--quick] [--seconds 40]
+    python -m benchmarks.cueing_limiter [--quick]
 
-The logs (:func:`logs`): ordinary motion with violent moments (gusts, a car's
-full stop and a bump, a crash), and aerobatics violent throughout.
+The logs: :mod:`flight_sim_dynamics.cueing.vehicles`' (a take-off, turbulence,
+a car braking hard, and violent: multi-g spikes and a 10 g crash), at 100 Hz.
 """
 from __future__ import annotations
 
@@ -26,103 +26,29 @@ import time
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.cueing.params import G, cueing_params
+from flight_sim_dynamics.config.machine_files import load_cueing
+from flight_sim_dynamics.cueing.params import G
+from flight_sim_dynamics.cueing.metrics import felt, six
 from flight_sim_dynamics.cueing.planner import CueRun, Planner, run
+from flight_sim_dynamics.cueing.vehicles import vehicle_log
 from flight_sim_dynamics.core.status import Status
 
 from ._common import ROOT, header, table
 
 FILES = ('config/flight_sim_dynamics.yaml', 'config/stewart_6dof.yaml')
-LOG_RATE = 100.0        # Hz, the vehicle logs' rate
+LOG_RATE = 100.0        # Hz, the vehicle logs' rate (the planner resamples them)
 BISECTIONS = 12
+#: the vehicle logs (cueing.vehicles), each with its own duration; --quick: the last two
+LOGS = ('takeoff', 'turbulence', 'braking', 'violent')
 
 
-def _noise(rng: np.random.Generator, n: int, alpha: float) -> np.ndarray:
-    """(n, 3) white noise through a one-pole low-pass (gain ``alpha`` a
-    sample), scaled to unit RMS per column.
+def felt_force(cue: CueRun, head: np.ndarray) -> np.ndarray:
+    """(N, 3) the felt specific force at the head (:func:`.metrics.felt`) of
+    the platform's samples, in the machine's coordinates.
     """
-    x = rng.standard_normal((n, 3))
-    y = np.empty_like(x)
-    y[0] = x[0]
-    for k in range(1, n):
-        y[k] = y[k - 1] + alpha * (x[k] - y[k - 1])
-    return y / y.std(axis=0)
-
-
-def logs(seconds: float) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Vehicle logs (t, specific force f (N, 3), angular velocity (N, 3)), body
-    axes REP-103, at :data:`LOG_RATE`, seeded: three of ordinary motion with
-    violent moments (what a gain lowered for the whole log pays for), and one
-    violent throughout.
-    """
-    rng = np.random.default_rng(31)
-    t = np.arange(0.0, seconds, 1.0 / LOG_RATE)
-    n = len(t)
-    rest = np.tile([0.0, 0.0, G], (n, 1))
-
-    def at(fraction: float, length: float) -> np.ndarray:
-        return (t >= fraction * seconds) & (t < fraction * seconds + length)
-
-    out = {}
-    # flight in light turbulence (0.4 m/s^2, 0.05 rad/s RMS), two severe gusts
-    f = rest + 0.4 * _noise(rng, n, 0.1)
-    w = 0.05 * _noise(rng, n, 0.08)
-    for fraction, sign in ((0.3, 1.0), (0.7, -1.0)):
-        f[at(fraction, 0.4)] += sign * np.array([4.0, 8.0, 15.0])
-        w[at(fraction, 0.8)] += sign * np.array([0.8, 0.3, 0.2])
-    out['gusts'] = (t, f, w)
-    # a car on a country road (+-2 m/s^2, curves), a full stop at 1 g, a bump
-    f = rest.copy()
-    w = np.zeros((n, 3))
-    f[:, 0] += 1.5 * np.sin(2 * np.pi * t / 7.0)
-    f[:, 1] += 2.0 * np.sin(2 * np.pi * t / 5.0)
-    w[:, 2] = 0.3 * np.sin(2 * np.pi * t / 5.0)
-    f[:, 2] += 0.3 * _noise(rng, n, 0.3)[:, 2]
-    f[at(0.5, 1.5), 0] -= 9.8
-    f[at(0.8, 0.1), 2] += 3.0 * G
-    out['car'] = (t, f, w)
-    # a crash: calm driving, a 10 g deceleration for 0.12 s, tumbling, calm
-    f = rest + 0.3 * _noise(rng, n, 0.1)
-    w = np.zeros((n, 3))
-    f[at(0.3, 0.12), 0] -= 10.0 * G
-    f[at(0.3, 0.12), 2] += 4.0 * G
-    w[at(0.3, 1.5)] = [3.0, 1.5, 2.0]
-    out['crash'] = (t, f, w)
-    # violent throughout: aerobatics in turbulence, 3-4 m/s^2 and 0.3-0.6 rad/s RMS
-    f = rest + np.array([3.0, 3.0, 4.0]) * _noise(rng, n, 0.12)
-    w = np.array([0.6, 0.4, 0.3]) * _noise(rng, n, 0.08)
-    out['aerobatics'] = (t, f, w)
-    return out
-
-
-def _rotation(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
-    """(N, 3, 3) R = Rz(yaw) Ry(pitch) Rx(roll)."""
-    cr, sr, cp, sp, cy, sy = (np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch),
-                              np.cos(yaw), np.sin(yaw))
-    return np.stack([
-        np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], -1),
-        np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], -1),
-        np.stack([-sp, cp * sr, cp * cr], -1)], -2)
-
-
-def felt(cue: CueRun, head: np.ndarray, dt: float) -> np.ndarray:
-    """(N, 3) the felt specific force at the head, platform axes (design, "Cue
-    metrics"): the translation's acceleration from the samples' qdd, the
-    head's rotational part by central differences of R h.
-    """
-    n = len(cue.t)
-    six = {name: np.zeros(n) for name in ('surge', 'sway', 'heave', 'roll', 'pitch', 'yaw')}
-    acc = {name: np.zeros(n) for name in six}
-    for k, name in enumerate(cue.coordinates):
-        six[name], acc[name] = cue.q[:, k], cue.qdd[:, k]
-    R = _rotation(six['roll'], six['pitch'], six['yaw'])
-    rh = R @ head
-    rh_dd = np.gradient(np.gradient(rh, dt, axis=0), dt, axis=0)
-    p_dd = np.stack([acc['surge'], acc['sway'], acc['heave']], -1)
-    return np.einsum('nji,nj->ni', R, p_dd + rh_dd - np.array([0.0, 0.0, -G]))
+    return felt(*(six(cue.coordinates, x) for x in (cue.q, cue.qd, cue.qdd)), head)[0]
 
 
 def rmse(a: np.ndarray, b: np.ndarray) -> float:
@@ -170,25 +96,24 @@ def step_cost(model, params, repeats: int = 5, samples: int = 2000) -> float:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument('--seconds', type=float, default=40.0, help='length of each log, s')
-    parser.add_argument('--quick', action='store_true', help='5 s logs, 8 bisections')
+    parser.add_argument('--quick', action='store_true',
+                        help=f'the logs {LOGS[-2]} and {LOGS[-1]} only, 8 bisections')
     args = parser.parse_args(argv)
-    seconds = 5.0 if args.quick else args.seconds
+    names = LOGS[-2:] if args.quick else LOGS
     bisections = 8 if args.quick else BISECTIONS
-    print(header(f'limiter against one global gain scale, violent logs of {seconds:g} s, '
-                 'felt specific force RMSE against the pure washout'))
+    print(header(f'limiter against one global gain scale, vehicle logs {", ".join(names)} '
+                 f'at {LOG_RATE:g} Hz, felt specific force RMSE against the pure washout'))
     rows, costs = [], []
     for path in FILES:
         model = fsd.load_model(str(ROOT / path))
-        with open(ROOT / path, encoding='utf-8') as stream:
-            group = yaml.safe_load(stream)['flight_sim_dynamics']['ros__parameters'].get('cueing')
-        params = cueing_params(group).replace(limiter='inverse_dynamics')
-        dt = 1.0 / params.rate
+        params = load_cueing(ROOT / path).replace(limiter='inverse_dynamics')
         costs.append([Path(path).stem, f'{step_cost(model, params):.1f}',
                       f"{step_cost(model, params.replace(limiter='none')):.1f}"])
-        for name, log in logs(seconds).items():
+        for name in names:
+            v = vehicle_log(name, LOG_RATE)
+            log = (v.t, v.f, v.omega)
             pure, t_pure = timed_run(model, params.replace(limiter='none'), log)
-            wanted = felt(pure, params.head, dt)
+            wanted = felt_force(pure, params.head)
             limited, t_limited = timed_run(model, params, log)
             low, high = 0.0, 1.0
             if not not_ok(model, pure):
@@ -201,8 +126,8 @@ def main(argv: list[str] | None = None) -> None:
                     else:
                         low = s
             baseline = run(model, scaled(params, low), *log)
-            a = rmse(felt(limited, params.head, dt), wanted)
-            b = rmse(felt(baseline, params.head, dt), wanted)
+            a = rmse(felt_force(limited, params.head), wanted)
+            b = rmse(felt_force(baseline, params.head), wanted)
             rows.append([name, Path(path).stem, f'{len(limited.t):,}',
                          f'{100.0 * np.mean(limited.given_up > 0):.1f}',
                          f'{a:.3f}', f'{b:.3f}', f'{low:.3f}',

@@ -29,6 +29,7 @@ from hypothesis import strategies as st
 import reference_model as ref3
 import stewart_reference as ref6
 from flight_sim_dynamics import load_model, solve_batch
+from flight_sim_dynamics.config.machine_files import load_cueing
 from flight_sim_dynamics.cueing import limiter as lm
 from flight_sim_dynamics.cueing.params import cueing_params, defaults
 from flight_sim_dynamics.machines import FLIGHT_SIMULATOR, MACHINES, STEWART
@@ -51,8 +52,7 @@ class Setup:
         self.model = load_model(str(path))
         with open(path, encoding='utf-8') as stream:
             data = yaml.safe_load(stream)
-        group = data['flight_sim_dynamics']['ros__parameters'].get('cueing')
-        self.params = cueing_params(group).replace(limiter='inverse_dynamics')
+        self.params = load_cueing(path).replace(limiter='inverse_dynamics')
         self.dt = 1.0 / self.params.rate
         self.dof = machine.dof
         self.linear = np.array([u == 'm' for u in machine.units])
