@@ -44,10 +44,14 @@ from ..ros.planner import PlannerNode
 from ..ros.process import (CUEING_MODULE, SIM_MODULE, start_node, stop_node, stop_on_signals,
                            stop_requested)
 from ..ros.setpoints import DIAGNOSTIC_TASK, LEVEL_NAMES, pose_map, quaternion_to_rpy
-from .csv_io import CsvError, read_csv
+from ..cueing.vehicles import VEHICLES, vehicle_log
+from .csv_io import CsvError
+from .cue import VEHICLE_COLUMNS, read_vehicle
 
-#: the columns of a vehicle log (as ``cue`` reads them)
-VEHICLE_COLUMNS = ('t', 'f_x', 'f_y', 'f_z', 'omega_x', 'omega_y', 'omega_z')
+#: the built-in vehicle motion --cueing replays without --vehicle
+DEFAULT_VEHICLE = 'braking'
+#: the rate (Hz) a built-in vehicle motion is sampled at, as a vehicle simulation's IMU
+VEHICLE_RATE = 100.0
 #: the platform is back at neutral (the cueing run's end) within this (m, rad)
 NEUTRAL = 1e-3
 
@@ -216,12 +220,17 @@ class RecordedMotion:
                 '')
 
 
-def read_vehicle_log(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(t (N,), f (N, 3), omega (N, 3)) of a vehicle log; CsvError naming the
-    line of a time going backwards (a repeated time is sent: the cueing node
-    drops and counts it).
+def read_vehicle_log(source: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(t (N,), f (N, 3), omega (N, 3)) of a built-in vehicle motion
+    (:data:`..cueing.vehicles.VEHICLES`, at :data:`VEHICLE_RATE`) or of a
+    vehicle log as ``cue`` reads it; CsvError naming the line of a time going
+    backwards (a repeated time is sent: the cueing node drops and counts it).
     """
-    table = read_csv(path, required=VEHICLE_COLUMNS, skip_extra=True)
+    if source in VEHICLES:
+        log = vehicle_log(source, VEHICLE_RATE)
+        return log.t, log.f, log.omega
+    path = source
+    table = read_vehicle(path)
     if len(table) < 2:
         raise CsvError('a vehicle log needs two samples at least', path=str(path))
     t = table['t']
@@ -369,12 +378,15 @@ def build_parser() -> argparse.ArgumentParser:
                              'and plot commanded against simulated motion to <output>_twin.png')
     parser.add_argument('--cueing', action='store_true',
                         help='drive the node through the motion-cueing node (motion_cueing, on '
-                             'the same parameter file) with the vehicle log of --vehicle instead '
-                             'of the demo planner')
-    parser.add_argument('--vehicle', type=Path, default=None, metavar='LOG.csv',
-                        help='with --cueing: the vehicle log replayed as sensor_msgs/Imu on '
-                             'vehicle_imu (columns ' + ', '.join(VEHICLE_COLUMNS) + '; SI, '
-                             'vehicle body axes, REP-103; extra columns ignored)')
+                             'the same parameter file) with the vehicle motion of --vehicle '
+                             'instead of the demo planner')
+    parser.add_argument('--vehicle', default=None, metavar='LOG.csv|NAME',
+                        help='with --cueing: the vehicle motion replayed as sensor_msgs/Imu on '
+                             'vehicle_imu: a vehicle log as cue reads it (columns '
+                             + ', '.join(VEHICLE_COLUMNS) + '; SI, vehicle body axes, REP-103; '
+                             'extra columns ignored) or a built-in motion, at '
+                             f'{VEHICLE_RATE:g} Hz (' + ', '.join(VEHICLES) + '; default: '
+                             f'{DEFAULT_VEHICLE})')
     return parser
 
 
@@ -391,9 +403,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         machine = machine_of(load_model(params_file))
     except (OSError, ValueError) as exc:
         parser.error(f'--params: {exc}')
-    if args.cueing != (args.vehicle is not None):
-        parser.error('--cueing and --vehicle go together (the vehicle log drives the cueing '
-                     'node)')
+    if args.vehicle is not None and not args.cueing:
+        parser.error('--vehicle: the vehicle motion drives the cueing node: add --cueing')
+    if args.cueing and args.vehicle is None:
+        args.vehicle = DEFAULT_VEHICLE
     if args.cueing and args.motions:
         parser.error('--motions: the demo planner\'s; --cueing replays --vehicle instead')
     if args.rate is not None and not 0 < args.rate <= 10000:
