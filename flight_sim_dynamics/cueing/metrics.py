@@ -11,8 +11,9 @@ peak), false cues (the felt deviation from rest and the vehicle's of opposite
 signs and apart by more than :data:`FORCE_THRESHOLDS` / :data:`RATE_THRESHOLD`).
 
 A machine's own motion beyond its coordinates (the 3-DOF machine pitches by
-−β, ``Machine.parasitic``) is part of what the occupant feels: its angle is
-taken from the solution, its rates by differencing (it is not the planner's).
+−β, ``Machine.parasitic``) is part of what the occupant feels: its angle
+from the solution, relative to its value at home (the occupant's neutral),
+its rates by differencing (it is not the planner's).
 """
 from __future__ import annotations
 
@@ -224,11 +225,13 @@ def cue_metrics(model: Any, run: CueRun, params: CueingParams,
         wished = (six(run.coordinates, x)
                   for x in (run.desired_q, run.desired_qd, run.desired_qdd))
         gap = felt(q, qd, qdd, params.head)[0] - felt(*wished, params.head)[0]
+    machine = machine_of(model)
+    home = solve_batch(model, *(np.zeros((1, len(run.coordinates))),) * 3)
     for name, angle in own.items():          # the machine's own motion (module docstring)
         i = CHANNELS.index(name)
-        q[:, i] = angle
+        q[:, i] = angle - float(np.asarray(machine.parasitic[name](home))[0])
         if n > 1:
-            qd[:, i] = np.gradient(angle, dt)
+            qd[:, i] = np.gradient(q[:, i], dt)
             qdd[:, i] = np.gradient(qd[:, i], dt)
     f_p, w_p = felt(q, qd, qdd, params.head)
     # where the machine's own motion is unknown (a void solution), nothing is felt for sure

@@ -122,3 +122,13 @@ def test_the_pure_washout_gives_nothing_up_and_the_three_dof_machine_reports_its
     assert m.given_up_max == 0 and not m.limits and np.all(m.given_up_rmse == 0)
     assert m.dropped == ('sway', 'pitch', 'yaw') and m.samples == len(t)
     assert m.legs.statuses == {'ok': len(t)}
+
+
+def test_at_home_the_three_dof_machine_feels_the_rest_its_own_pitch_there_is_neutral():
+    model = fsd.load_model()
+    params = defaults().replace(limiter='none')
+    t = np.arange(200) / 1000.0
+    rest = np.tile([0.0, 0.0, G], (len(t), 1))
+    m = cue_metrics(model, run(model, params, t, rest, np.zeros((len(t), 3))), params)
+    np.testing.assert_allclose(m.felt_f, rest, atol=1e-9)
+    assert np.all(m.force.rmse < 1e-9)
