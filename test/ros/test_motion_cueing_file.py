@@ -148,3 +148,24 @@ def test_the_3dof_machine_is_cued_on_its_own_coordinates():
         client.close()
         cue.stop()
         node.stop()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('machine_file', [STEWART, PARAMS_FILE], ids=['hexapod', '3-DOF'])
+def test_a_violent_vehicle_through_both_nodes_is_answered_ok(tmp_path, machine_file):
+    """The built-in ``violent`` motion (multi-g spikes, a 10 g crash, rates up
+    to 3 rad/s; 20 s) through the packaged file's cueing group and limiter at
+    200 Hz: every setpoint answered, none rejected, no actuator limit exceeded."""
+    png = tmp_path / 'violent.png'
+    out = subprocess.run([sys.executable, '-m', 'flight_sim_dynamics.cli.demo', '-o', str(png),
+                          '--params', str(machine_file), '--cueing', '--vehicle', 'violent',
+                          '--rate', '200'],
+                         cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stdout + out.stderr
+    sent, received, missing = map(int, re.search(
+        r'sent (\d+) setpoints, received (\d+) actuator_states \((\d+) missing\)',
+        out.stdout).groups())
+    assert sent == received > 20 * 200 and missing == 0, out.stdout[-2000:]
+    node = next(line for line in out.stdout.splitlines()
+                if line.startswith('[demo] node diagnostics'))
+    assert 'rejected 0,' in node and 'limit exceeded 0' in node, node
