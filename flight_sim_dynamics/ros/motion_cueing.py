@@ -34,8 +34,8 @@ from sensor_msgs.msg import Imu
 from ..config import parameters as prm
 from ..config.errors import did_you_mean
 from ..config.files import NODE_NAME, params_files_in, read_params_sections
-from ..config.schema import CUEING_NODE_NAME, CUEING_NODE_PARAMETERS, CUEING_TASK
 from ..config.machine_files import load_model
+from ..config.schema import CUEING_NODE_NAME, CUEING_NODE_PARAMETERS, CUEING_TASK
 from ..cueing.params import PARAMETER_SPECS, PREFIX, CueingParams, cueing_params_flat
 from ..cueing.planner import Planner
 from ..machines.api import machine_of
@@ -191,16 +191,6 @@ class InputStats:
         return level, problems, values
 
 
-def file_values(path: str | None, node: str) -> dict[str, Any]:
-    """The ``cueing.*`` values of the dynamics node's section ``node`` of ``path``
-    (None: the packaged file, which has none).
-    """
-    if path is None:
-        return {}
-    flat = read_params_sections(path, node)
-    return {k: v for k, v in flat.items() if k.startswith(PREFIX)}
-
-
 class _Refused(ValueError):
     """A start-up value refused, not set since."""
 
@@ -251,10 +241,10 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
         except (OSError, ValueError) as exc:
             raise prm.ParameterError('params_file', path, str(exc)) from None
         self.machine = machine_of(self.model)
-        from_file = file_values(path, self._dynamics)
-        cueing_params_flat(from_file, str(path))     # a bad file ends the start
+        # the dynamics node's section (load_model checked its cueing group)
+        flat = read_params_sections(path, self._dynamics) if path else {}
         defaults = {s.name: s.default for s in CUEING_NODE_PARAMETERS + PARAMETER_SPECS}
-        defaults.update(from_file)
+        defaults.update((k, v) for k, v in flat.items() if k.startswith(PREFIX))
         defaults['params_file'] = path or ''
         defaults['scene'] = self.model.scene
         self._source = source
@@ -262,9 +252,8 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
         # the machine's own parameters reach this node too under a '/**' section;
         # any other name it does not know (a typo) ends the start, as a file's does
         # for the dynamics node
-        ignored = set(read_params_sections(path, self._dynamics)) if path else set()
         for name, param in given.items():
-            if name not in self._specs and name not in ignored \
+            if name not in self._specs and name not in flat \
                     and not name.startswith(prm.QOS_OVERRIDES):
                 raise prm.ParameterError(name, plain(param.value), (
                     f'not a parameter of {CUEING_NODE_NAME}' + did_you_mean(name, self._specs)))
@@ -325,7 +314,8 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
                 self.get_logger().info(f'parameters changed: {names}; the new planner takes '
                                        'over once the platform is at neutral')
             else:
-                self._config = staged
+                # the running planner's values (again): a change still waiting is void
+                self._config, self._next = staged, None
                 self.get_logger().info(f'parameters changed: {names}')
             self._apply_node_config(self._config)
             self._hand_over()

@@ -232,3 +232,27 @@ def test_deactivate_stops_the_setpoints_and_activate_starts_at_neutral(chain):
     assert all(max(map(abs, p)) == 0.0 for _, p in client.poses[count:count + 20])
     client.cue_diagnostics(lambda v: v['input'] == 'waiting for vehicle_imu', 5.0)
     assert cue.alive()
+
+
+def test_a_change_set_back_before_neutral_is_void(chain):
+    """A change waiting for neutral, then the running planner's values set again:
+    nothing waits any more (the waiting planner is not installed later)."""
+    client, _, cue = chain
+    client.settle()
+    running = client.call('cue_get', GetParameters.Request(
+        names=['cueing.rotation.gain'])).values[0].double_array_value.tolist()
+    start, t, rng = time.monotonic(), 0.0, np.random.default_rng(4)
+    while max(abs(v) for v in client.poses[-1][1]) <= 0.01:
+        assert t < 20.0, 'the platform never left neutral'
+        client.imu(client.next_stamp(), *vehicle(min(t, 1.2)))
+        t += rng.uniform(0.005, 0.015)
+        client.spin_until(lambda: time.monotonic() - start >= t, 1.0)
+    for value in ([0.1, 0.1, 0.1], running):
+        param = rclpy.parameter.Parameter('cueing.rotation.gain', value=value)
+        assert client.call('cue_set', SetParameters.Request(
+            parameters=[param.to_parameter_msg()])).results[0].successful
+    client.settle()
+    values = client.cue_diagnostics(lambda v: True)
+    assert values['parameter change pending'] == 'no'
+    assert cue.output().count('the new planner took over') == \
+        cue.output().count('the new planner takes over once') - 1
