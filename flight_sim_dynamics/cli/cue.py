@@ -138,7 +138,9 @@ def run(args: argparse.Namespace) -> int:
     metrics = None
     if args.report is not None or args.plot is not None:
         metrics = cue_metrics(model, result, params)
-    print(result_line(machine, params, result, metrics, args.output))
+    # the data on standard output: the result line goes to standard error
+    print(result_line(machine, params, result, metrics, args.output),
+          file=sys.stderr if args.output == '-' else sys.stdout)
     if result.repeated:
         print(f'note: {table.path}: {result.repeated} repeated time(s) dropped (the first '
               'sample of each kept)', file=sys.stderr)

@@ -142,3 +142,10 @@ def test_an_npz_output_holds_the_same_columns(braking, tmp_path):
         assert tuple(data['names']) == table.names
         for name in table.names:
             np.testing.assert_array_equal(data[name], table[name])
+
+
+def test_to_standard_output_the_data_alone(braking, capsys):
+    assert main(['cue', str(braking), '-o', '-', '--limiter', 'none']) == 0
+    out, err = capsys.readouterr()
+    assert out.splitlines()[0] == ','.join(trajectory_columns(fsd.machine_of(fsd.load_model())))
+    assert len(out.splitlines()) == 14 * 1000 + 2 and err.startswith('cue: -: ')
