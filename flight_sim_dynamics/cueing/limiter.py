@@ -46,7 +46,7 @@ LIMITER_SPECS: tuple[ParamSpec, ...] = (
     _spec('margin.fraction', 'double', 0.05,
           'fraction of the speed, force, condition and joint-angle limits the limiter keeps '
           'free', minimum=0.0, maximum=0.5),
-    _spec('braking', 'double_array', [1.0, 1.0],
+    _spec('braking', 'double_array', [2.0, 2.0],
           'deceleration of the braking the limiter keeps in reserve (translations m/s^2, '
           'rotations rad/s^2): larger brakes later and gives up less cue, with a harder stop',
           'm/s^2, rad/s^2', minimum=0.0, exclusive_minimum=True, maximum=1000.0, length=2),
@@ -75,6 +75,17 @@ BISECTION_STEPS = 6
 #: close to the state's continuation (L1): position (m or rad), rate (m/s or rad/s).
 CATCH_UP_POSITION = 1e-6
 CATCH_UP_RATE = 1e-4
+#: The braking's interior poses solved when it is long (L3): at most this far
+#: apart (m or rad), at most this many (a longer braking is refused: with the
+#: default braking, 2 m/s^2 or rad/s^2, rates up to about 1.1 m/s or rad/s).
+INTERIOR_STEP = 0.025
+INTERIOR_POINTS = 12
+#: While the limiter passes the washout's samples on, an angle's sample is
+#: passed on this close to the continuation (rad, rad/s): the design's tilt rate
+#: limit steps the tilt's rate (by up to 0.31 rad/s in cueing.vehicles' logs), and
+#: the limiter adds nothing to a washout that fits (translations: as above).
+TRACK_ANGLE = 1e-3
+TRACK_ANGLE_RATE = 0.5
 #: Periods of motion beyond the braking's stop point that must be within the
 #: limits too (L3): the margin of the limits that have none of their own
 #: (unreachable poses).
@@ -181,6 +192,11 @@ class InverseDynamicsLimiter:
         self.recovery = [recovery[0] if lin else recovery[1] for lin in linear]
         omega = float(settings['recovery.omega'])
         self.kp, self.kd = omega * omega, 2.0 * omega
+        # (L1) the catch-up gate, per coordinate: caught up, and passing the washout on
+        n = len(linear)
+        self.catch_up = ([CATCH_UP_POSITION] * n, [CATCH_UP_RATE] * n)
+        self.track = ([CATCH_UP_POSITION if lin else TRACK_ANGLE for lin in linear],
+                      [CATCH_UP_RATE if lin else TRACK_ANGLE_RATE for lin in linear])
         self.gain_down = float(settings['gain.down']) * self.dt
         self.gain_up = float(settings['gain.up']) * self.dt
         self.gain_min = float(settings['gain.minimum'])
@@ -219,6 +235,7 @@ class InverseDynamicsLimiter:
         n = self.machine.dof
         self._q, self._qd, self._qdd = [0.0] * n, [0.0] * n, [0.0] * n
         self.gain, self._gain_limit = 1.0, ''
+        self._tracking = True       # the last sample published was the washout's own
 
     @property
     def q(self) -> np.ndarray:
@@ -258,7 +275,8 @@ class InverseDynamicsLimiter:
         ramps from ``a`` to the braking's deceleration (:func:`advance`), to
         (q2, qd2), its fastest point; then it decelerates constantly to rest
         at ``q2 + tau2 qd2 / 2``, checked :data:`STOP_MARGIN` periods of the
-        sample's rate further, with the rate qd2 (the worst of the way).
+        sample's rate further, with the rate qd2 (the worst of the way); a long
+        braking's interior poses too (:data:`INTERIOR_STEP`; too long: refused).
         """
         tight, solve, ok = self.tight, self._solve, Status.OK
         sol = solve(tight, q, qd, a)
@@ -275,6 +293,19 @@ class InverseDynamicsLimiter:
         sol = solve(tight, stop, qd2, brake)
         if sol.status is not ok:
             return self._limit_name(sol)
+        # a long braking (fast): points between its ends too, at most INTERIOR_STEP
+        # (m or rad) apart; one longer than INTERIOR_POINTS such steps is refused
+        # (the limiter's own speed limit: the workspace need not be convex)
+        length = max([abs(x - y) for x, y in zip(stop, q2)])
+        if length > INTERIOR_STEP:
+            m = int(length / INTERIOR_STEP)
+            if m > INTERIOR_POINTS:
+                return 'speed'
+            for j in range(1, m + 1):
+                f = j / (m + 1.0)
+                sol = solve(tight, [x + f * (y - x) for x, y in zip(q2, stop)], qd2, brake)
+                if sol.status is not ok:
+                    return self._limit_name(sol)
         return ''
 
     def _limit_name(self, sol: Any) -> str:
@@ -303,6 +334,7 @@ class InverseDynamicsLimiter:
         in a cycle that gives up cue, raised back towards 1 in one that does not.
         """
         self._q, self._qd, self._qdd = q, qd, qdd
+        self._tracking = False
         gain = self.gain
         given_up = 1.0 - lam * gain
         if lam < 1.0:
@@ -327,11 +359,14 @@ class InverseDynamicsLimiter:
             # (L1) the state's continuation with the washout's acceleration,
             # against the washout's sample
             pq, pqd = self._advance(x_q, x_qd, x_a, qdd)
-            if max([abs(x - y) for x, y in zip(pq, q)]) <= CATCH_UP_POSITION and \
-                    max([abs(x - y) for x, y in zip(pqd, qd)]) <= CATCH_UP_RATE:
+            tol_q, tol_qd = self.track if self._tracking else self.catch_up
+            if all([abs(x - y) <= t for x, y, t in zip(pq, q, tol_q)]) and \
+                    all([abs(x - y) <= t for x, y, t in zip(pqd, qd, tol_qd)]):
                 # caught up: the washout's own sample, if it fits (invisible, bit for bit)
                 if not self._refused(q, qd, qdd):
-                    return self._publish(q, qd, qdd, 1.0, '')
+                    self._tracking = True
+                    self._q, self._qd, self._qdd = q, qd, qdd
+                    return Limited(np.array(q), np.array(qd), np.array(qdd), 0.0, '')
         else:
             # (L6) the washout times the gain
             q, qd, qdd = ([gain * v for v in q], [gain * v for v in qd],
