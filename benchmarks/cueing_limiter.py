@@ -131,7 +131,8 @@ def main(argv: list[str] | None = None) -> None:
             rows.append([name, Path(path).stem, f'{len(limited.t):,}',
                          f'{100.0 * np.mean(limited.given_up > 0):.1f}',
                          f'{a:.3f}', f'{b:.3f}', f'{low:.3f}',
-                         f'{b / a:.2f}x' if a > 0 else 'inf', str(not_ok(model, limited)),
+                         f'{b / a:.2f}x' if a > 0 else ('1.00x' if b == 0 else 'inf'),
+                         str(not_ok(model, limited)),
                          f'{t_limited * 1e6:.1f}', f'{t_pure * 1e6:.1f}'])
     print(table(['log', 'params file', 'samples', 'limited %', 'RMSE limiter m/s^2',
                  'RMSE gain scale m/s^2', 'gain scale', 'ratio', 'limiter outputs not ok',
