@@ -50,11 +50,11 @@ LIMITER_SPECS: tuple[ParamSpec, ...] = (
           'deceleration of the braking the limiter keeps in reserve (translations m/s^2, '
           'rotations rad/s^2): larger brakes later and gives up less cue, with a harder stop',
           'm/s^2, rad/s^2', minimum=0.0, exclusive_minimum=True, maximum=1000.0, length=2),
-    _spec('gain.down', 'double', 4.0,
+    _spec('gain.down', 'double', 20.0,
           'rate at which the gain on the washout drops in each cycle that gives up cue '
           '(adaptive gain: fewer braking false cues in a violent stretch)', '1/s',
           minimum=0.0, maximum=1000.0),
-    _spec('gain.up', 'double', 0.25,
+    _spec('gain.up', 'double', 1.0,
           'rate at which the gain on the washout returns to 1 in each cycle that gives up '
           'nothing', '1/s', minimum=0.0, exclusive_minimum=True, maximum=1000.0),
     _spec('gain.minimum', 'double', 0.1, 'lowest gain on the washout', minimum=0.0,
@@ -75,6 +75,9 @@ BISECTION_STEPS = 6
 #: close to the state's continuation (L1): position (m or rad), rate (m/s or rad/s).
 CATCH_UP_POSITION = 1e-6
 CATCH_UP_RATE = 1e-4
+#: How much further than the braking's stop point (L3) the limits must hold,
+#: along its way, in the fastest coordinate (m or rad).
+STOP_DISTANCE = 1e-4
 #: The braking's interior poses solved when it is long (L3): at most this far
 #: apart (m or rad), at most this many (a longer braking is refused: with the
 #: default braking, 2 m/s^2 or rad/s^2, rates up to about 1.1 m/s or rad/s).
@@ -289,7 +292,11 @@ class InverseDynamicsLimiter:
             return self._limit_name(sol)
         tau, brake = self._braking(qd2)
         half, extra = 0.5 * tau, self.stop_margin
-        stop = [x + half * v + extra * w for x, v, w in zip(q2, qd2, qd)]
+        fastest = max(map(abs, qd2))
+        # STOP_DISTANCE further along the way: however slow, it never creeps onto
+        # the boundary of a limit that has no margin of its own (unreachable)
+        step = STOP_DISTANCE / fastest if fastest > 0.0 else 0.0
+        stop = [x + (half + step) * v + extra * w for x, v, w in zip(q2, qd2, qd)]
         sol = solve(tight, stop, qd2, brake)
         if sol.status is not ok:
             return self._limit_name(sol)
