@@ -35,7 +35,7 @@ setup(
     python_requires='>=3.10',
     # matplotlib is optional: only plot, animate, bench, workspace and the demo draw figures
     # (pip install '.[plot]'); the library and the node never import it.
-    install_requires=['setuptools', 'numpy', 'PyYAML'],
+    install_requires=['setuptools', 'numpy', 'PyYAML', 'scipy'],
     extras_require={'plot': ['matplotlib'],
                     'test': ['pytest', 'hypothesis', 'matplotlib']},
     zip_safe=False,
@@ -49,6 +49,7 @@ setup(
             'flight-sim-dynamics = flight_sim_dynamics.__main__:main',
             'dynamics_node = flight_sim_dynamics.ros.node:main',
             'platform_sim = flight_sim_dynamics.ros.sim_node:main',
+            'motion_cueing = flight_sim_dynamics.ros.motion_cueing:main',
         ],
     },
 )

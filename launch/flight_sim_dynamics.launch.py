@@ -1,9 +1,13 @@
 r"""Launch the flight_sim_dynamics node (a managed node), optionally the demo
-planner and the twin (platform_sim, fed by the node's actuator_states), on
-either machine: ``machine:=stewart_6dof`` takes the packaged hexapod file,
+planner, the motion-cueing node (motion_cueing: vehicle_imu in, the node's
+setpoints out) and the twin (platform_sim, fed by the node's actuator_states),
+on either machine: ``machine:=stewart_6dof`` takes the packaged hexapod file,
 ``params_file:=...`` a file of one's own (it names its machine); neither: the
 3-DOF machine. The twin simulates the node's machine (the same file as its
-``plant.params_file``), the planner plays that machine's motions.
+``plant.params_file``), the cueing node drives it (the same file as its
+``params_file``: the machine and its ``cueing`` group), the planner plays that
+machine's motions (the planner and the cueing node both publish setpoints: one
+at a time).
 
 For a ROS 2 install (``ros2 launch`` is not on PyPI):
 
@@ -15,6 +19,8 @@ For a ROS 2 install (``ros2 launch`` is not on PyPI):
     ros2 launch flight_sim_dynamics flight_sim_dynamics.launch.py \\
         autostart:=false        # then: ros2 lifecycle set /flight_sim_dynamics configure
     ros2 launch flight_sim_dynamics flight_sim_dynamics.launch.py planner:=true twin:=true
+    ros2 launch flight_sim_dynamics flight_sim_dynamics.launch.py machine:=stewart_6dof \
+        cueing:=true twin:=true        # then publish sensor_msgs/Imu on vehicle_imu
     ros2 launch flight_sim_dynamics flight_sim_dynamics.launch.py use_sim_time:=true
 """
 from launch import LaunchDescription
@@ -57,6 +63,14 @@ def _nodes(context, *args, **kwargs):
                                        'plant.params_file': params_file}],
                           remappings=[('actuator_commands', 'actuator_states')],
                           output='screen'))
+    if flag('cueing'):
+        cueing = {'params_file': params_file, 'autostart': overrides['autostart'],
+                  'use_sim_time': overrides['use_sim_time']}
+        if value('scene'):
+            cueing['scene'] = value('scene')
+        nodes.append(LifecycleNode(package=PACKAGE, executable='motion_cueing',
+                                   name='motion_cueing', namespace=namespace,
+                                   parameters=[cueing], output='screen'))
     if flag('planner'):
         nodes.append(Node(package=PACKAGE, executable='flight-sim-dynamics', name='demo_planner',
                           arguments=['demo-planner', '--params', params_file, '--example', 'all',
@@ -89,6 +103,10 @@ def generate_launch_description() -> LaunchDescription:
                               description='also run the demo planner (looping the machine\'s '
                                           'planner motions: on the 3-DOF machine the paper\'s '
                                           'three motions and a motion-cueing sequence)'),
+        DeclareLaunchArgument('cueing', default_value='false',
+                              description='also run the motion-cueing node (motion_cueing) on '
+                                          'the node\'s file: sensor_msgs/Imu on vehicle_imu in, '
+                                          'the node\'s setpoints out'),
         DeclareLaunchArgument('twin', default_value='false',
                               description='also run the twin (platform_sim) on the node\'s '
                                           'actuator_states, simulating the node\'s machine'),

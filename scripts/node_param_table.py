@@ -1,5 +1,6 @@
-"""The parameter tables of docs/node.md and docs/twin.md, from the declarations
-the nodes make their descriptors from (``--update``: write them there).
+"""The parameter tables of docs/node.md, docs/twin.md and docs/cueing_node.md, from
+the declarations the nodes make their descriptors from (``--update``: write them
+there).
 """
 from __future__ import annotations
 
@@ -9,7 +10,8 @@ from typing import Sequence
 
 from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.config.node_schema import node_schema
-from flight_sim_dynamics.config.schema import SIM_PARAMETERS
+from flight_sim_dynamics.config.schema import CUEING_NODE_PARAMETERS, SIM_PARAMETERS
+from flight_sim_dynamics.cueing.params import PARAMETER_SPECS as CUEING_PARAMETERS
 from flight_sim_dynamics.machines import STEWART
 from flight_sim_dynamics.machines.staicu.model import BODY_NAMES
 
@@ -71,7 +73,9 @@ def blocks() -> dict[tuple[str, str], str]:
                                defaults=dict(node_schema('stewart_6dof').defaults)))
     return {('node.md', 'node-parameters'): node,
             ('node.md', 'hexapod-parameters'): hexapod,
-            ('twin.md', 'twin-parameters'): '\n'.join(table(SIM_PARAMETERS))}
+            ('twin.md', 'twin-parameters'): '\n'.join(table(SIM_PARAMETERS)),
+            ('cueing_node.md', 'cueing-node-parameters'): '\n'.join(
+                table(CUEING_NODE_PARAMETERS + CUEING_PARAMETERS, fold=False))}
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -17,19 +17,21 @@ MODULES = sorted(p for p in PACKAGE.rglob('*.py'))
 ALLOWED = {
     'core': set(),
     'machines': {'core'},
-    'config': {'core', 'machines'},
-    'ros': {'core', 'config', 'machines'},
-    'cli': {'core', 'config', 'ros', 'machines'},
+    'config': {'core', 'machines', 'cueing'},
+    'cueing': {'core', 'config', 'machines'},
+    'ros': {'core', 'config', 'machines', 'cueing'},
+    'cli': {'core', 'config', 'ros', 'machines', 'cueing'},
 }
 #: modules of ros/ that talk to rclpy (the rest of ros/ is plain Python)
-RCLPY_MODULES = {'ros/dynamics_node.py', 'ros/marker_publisher.py', 'ros/node.py',
+RCLPY_MODULES = {'ros/dynamics_node.py', 'ros/marker_publisher.py', 'ros/motion_cueing.py',
+                 'ros/node.py', 'ros/parameter_guard.py',
                  'ros/planner.py', 'ros/platform_sim.py', 'ros/service_thread.py',
                  'ros/sim_node.py', 'cli/demo.py'}
 #: subpackages that see the machines only through the registry
 #: (``flight_sim_dynamics.machines``) and the public calls
 #: (``flight_sim_dynamics.machines.api``), never a machine's own modules
 #: (``machines.<name>``), so that a new machine touches neither
-MACHINE_BLIND = ('cli', 'ros')
+MACHINE_BLIND = ('cli', 'ros', 'cueing')
 #: the gateways of MACHINE_BLIND subpackages into machines/
 MACHINE_GATEWAYS = {'flight_sim_dynamics.machines', 'flight_sim_dynamics.machines.api'}
 #: modules that import matplotlib (an optional extra): imported lazily, by the

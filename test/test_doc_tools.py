@@ -47,7 +47,8 @@ def test_reproduction_table_regenerates_the_page(tmp_path):
 
 def test_parameter_tables_are_current_and_complete():
     from flight_sim_dynamics.config.parameters import MODEL_PARAMETERS, NODE_PARAMETERS
-    from flight_sim_dynamics.config.schema import SIM_PARAMETERS
+    from flight_sim_dynamics.config.schema import CUEING_NODE_PARAMETERS, SIM_PARAMETERS
+    from flight_sim_dynamics.cueing.params import PARAMETER_SPECS
     from flight_sim_dynamics.machines import STEWART
 
     generated = node_param_table.blocks()
@@ -67,14 +68,17 @@ def test_parameter_tables_are_current_and_complete():
     hexapod = generated[('node.md', 'hexapod-parameters')]
     for spec in STEWART.parameter_specs:
         assert f'| `{spec.name}` |' in hexapod, spec.name
+    cueing = generated[('cueing_node.md', 'cueing-node-parameters')]
+    for spec in CUEING_NODE_PARAMETERS + PARAMETER_SPECS:
+        assert f'| `{spec.name}` |' in cueing, spec.name
 
 
 def test_node_param_table_prints_without_writing():
     proc = subprocess.run([sys.executable, '-m', 'scripts.node_param_table'],
                           cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
-    # the node's, the 3-DOF machine's, the hexapod's, the twin's
-    assert proc.stdout.count('| name | type | unit | default | range | meaning |') == 4
+    # the node's, the 3-DOF machine's, the hexapod's, the twin's, the cueing node's
+    assert proc.stdout.count('| name | type | unit | default | range | meaning |') == 5
 
 
 def test_replace_block_touches_only_the_block(tmp_path):

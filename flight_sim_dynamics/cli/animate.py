@@ -13,7 +13,6 @@ import os
 import shutil
 import sys
 import tempfile
-import time
 from dataclasses import dataclass
 from typing import Iterator, Sequence, TextIO
 
@@ -27,6 +26,7 @@ from ..machines import MACHINES
 from ..machines.api import poses_along
 from .csv_io import atomic_output, read_table, require_columns
 from .main import CliError, load_model, refuse_other_machine
+from .progress import Progress
 
 #: Sampling rate of a built-in motion (--motion), Hz.
 MOTION_RATE = 100.0
@@ -162,7 +162,6 @@ ENCODERS = {'.gif': 'pillow', '.mp4': 'ffmpeg', '.png': None}
 DEFAULT_FPS = 25.0
 DEFAULT_DPI = 80
 FIGSIZE = (11.0, 4.6)          # inches: 880 x 368 pixels at the default dpi
-PROGRESS_SECONDS = 5.0
 
 #: Leg colours, leg k the k-th (matplotlib's tab10: A, B, C as plot draws them).
 LEG_PALETTE = ('tab:blue', 'tab:orange', 'tab:green', 'tab:red', 'tab:purple', 'tab:brown',
@@ -339,23 +338,6 @@ def write_movie(path: str, pictures: Iterator[np.ndarray], encoder: str, fps: fl
             else:
                 shown.set_data(rgba)
             writer.grab_frame()
-
-
-class Progress:
-    """``animate: k/n frames`` at each tenth and at least every PROGRESS_SECONDS."""
-
-    def __init__(self, total: int, output: str, stream: TextIO) -> None:
-        self.total, self.output, self.stream = total, output, stream
-        self.step = max(1, total // 10)
-        self.start = self.last = time.monotonic()
-
-    def done(self, k: int) -> None:
-        now = time.monotonic()
-        if k % self.step and k != self.total and now - self.last < PROGRESS_SECONDS:
-            return
-        self.last = now
-        print(f'animate: {self.output}: {k}/{self.total} frames ({100 * k // self.total}%, '
-              f'{now - self.start:.1f} s)', file=self.stream, flush=True)
 
 
 class Scene:

@@ -484,6 +484,9 @@ SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
     'simulate': ('digital twin: the motion that actuator forces produce (open loop), or that '
                  'servos with a feed-forward scene make of a reference motion (closed loop)',
                  *_lazy('flight_sim_dynamics.cli.simulate')),
+    'cue': ('motion cueing: a vehicle log (specific force, angular velocity) through the '
+            "washout and the limiter of --params' cueing group into the machine's trajectory "
+            'CSV, with a cue report and figure on request', *_lazy('flight_sim_dynamics.cli.cue')),
 }
 
 

@@ -19,6 +19,7 @@ from typing import Any, Mapping, Sequence
 
 from ..core.effects import EFFECT_NAMES
 from ..core.machine import Machine, ModelValueError
+from ..cueing.params import PREFIX, CueingParams, split_cueing
 from ..machines import MACHINES, PACKAGED, machine_named
 from ..machines.api import absent_effects
 from . import parameters
@@ -140,6 +141,24 @@ def params_path(path: str | os.PathLike[str]) -> str | os.PathLike[str]:
                          + did_you_mean(path, names))
 
 
+def load_cueing(path: str | os.PathLike[str] | None = None) -> CueingParams:
+    """The ``cueing`` group of a parameter file (None: the packaged 3-DOF
+    machine's) over its packaged file's, as the model's values are (a partial
+    file overrides them; a machine of one's own: the design's defaults).
+    ParameterError naming the key and the file.
+    """
+    own = {} if path is None else read_params_sections(path)
+    name = own.get('machine')
+    packaged = (default_params_path() if name is None
+                else packaged_path(name) if name in PACKAGED else None)
+    if path is not None:
+        split_cueing(own, str(path))              # the file's own group checked, named
+    values = {} if packaged is None else {
+        k: v for k, v in read_params_sections(packaged).items() if k.startswith(PREFIX)}
+    values.update({k: v for k, v in own.items() if k.startswith(PREFIX)})
+    return split_cueing(values, str(path or packaged))[1]
+
+
 def packaged_path(name: str) -> Path:
     """The packaged parameter file of the machine ``name`` (config/<name>.yaml)."""
     return default_params_path().parent / f'{name}.yaml'
@@ -239,10 +258,11 @@ def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
                      scene: Scene | str | os.PathLike[str] | None = None) -> Any:
     """The model of the parameter file ``path`` whose parameters ``flat``
     (dotted names) name its machine, with ``scene`` (None: the file's); the
-    node's parameters it gives are checked (:func:`node_values`) and left out.
+    node's parameters and the ``cueing`` group it gives are checked
+    (:func:`node_values`, :func:`..cueing.params.split_cueing`) and left out.
     """
     source = str(Path(path))
-    own = _model_names(flat)
+    own, _ = split_cueing(_model_names(flat), source)     # the motion-cueing planner's
     name = own['machine']
     machine = named_machine(name, source)
     node_values(own, source)
@@ -253,7 +273,7 @@ def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
     values = {}
     if packaged:
         defaults = packaged_path(name)
-        values = _model_names(read_params_sections(defaults))
+        values, _ = split_cueing(_model_names(read_params_sections(defaults)), str(defaults))
         origin = {**{key: str(defaults) for key in values}, **origin}
     values.update(own)
     return model_of_values(machine, values, source, scene, origin)

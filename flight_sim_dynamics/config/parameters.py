@@ -8,8 +8,10 @@ the solver (:func:`load_model`), the command line (``--params``) and the node
 (``--params-file``), by one rule (:func:`read_params`): a file may be partial
 (it overrides the packaged defaults); an unknown name is an error ("did you
 mean", naming the file); ``qos_overrides.*`` are the node's, ignored by
-:func:`load_model`; the file is read by :mod:`.yaml_io`'s rules, so that every
-bad file is one :class:`ParameterError` naming it.
+:func:`load_model`, and so is the ``cueing`` group (the motion-cueing
+planner's, checked: :func:`..cueing.params.split_cueing`); the file is read by
+:mod:`.yaml_io`'s rules, so that every bad file is one :class:`ParameterError`
+naming it.
 """
 from __future__ import annotations
 
@@ -22,6 +24,7 @@ import numpy as np
 from ..machines.staicu.kinematics import GeometryError, central_configuration
 from ..machines.staicu.model import (BODY_NAMES, GEOMETRY_KEYS, Body, Friction, Geometry, Limits,
                                      Model)
+from ..cueing.params import split_cueing
 from .errors import ParameterError
 from .files import (DEFAULT_PARAMS_FILE, NODE_NAME, PACKAGE_NAME, check_file_values,
                     default_params_path, flatten, params_files_in, read_params_file,
@@ -61,6 +64,7 @@ def params_of(flat: Mapping[str, Any], path: str | os.PathLike[str]
                              f"machine's files name none (fsd.load_model loads any machine's "
                              f'file; the node serves the 3-DOF machine) in {path}')
     check_file_values(flat, str(path))
+    flat, _ = split_cueing(flat, str(path))     # the motion-cueing planner's group, checked
     qos = {k: v for k, v in flat.items() if k.startswith(QOS_OVERRIDES)}
     values = {k: v for k, v in flat.items() if k not in qos and k not in ROS_PARAMETERS}
     check_names(values, str(path))

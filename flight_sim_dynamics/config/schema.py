@@ -287,3 +287,42 @@ SIM_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('diagnostics.period', 'double', 1.0,
               'period of the /diagnostics message', 's', minimum=0.01, maximum=3600.0),
 )
+
+# Parameters of the motion-cueing node motion_cueing (docs/cueing_node.md), besides the
+# cueing group it declares from flight_sim_dynamics.cueing.params.PARAMETER_SPECS.
+CUEING_NODE_NAME = 'motion_cueing'
+#: the task of its status name in /diagnostics (``<node>: motion cueing``)
+CUEING_TASK = 'motion cueing'
+CUEING_NODE_PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec('params_file', 'string', '',
+              "the machine's parameter file, the dynamics node's (it names the machine; its "
+              'cueing group gives the defaults of cueing.*); empty: the --params-file of the '
+              'command line with a section for the dynamics node, else the packaged 3-DOF '
+              'machine', '', max_length=MAX_PATH),
+    ParamSpec('scene', 'string', '',
+              'scene the limiter solves the machine with, a name from config/scenes or a '
+              "file (empty: the parameter file's, as the dynamics node reads it)", '',
+              max_length=MAX_PATH),
+    ParamSpec('autostart', 'bool', True,
+              'configure and activate at start-up (a bad parameter then ends the process, '
+              'exit 2); false: start unconfigured and wait for a lifecycle manager', ''),
+    ParamSpec('input.timeout', 'double', 0.2,
+              'no vehicle_imu message for this long: the input is stale, the planner\'s '
+              'input ramps over this time to the vehicle at rest (its first message) and the '
+              'platform washes back to neutral', 's', minimum=0.0, exclusive_minimum=True,
+              maximum=3600.0),
+    ParamSpec('input.max_specific_force', 'double', 1000.0,
+              'vehicle_imu messages with a component of linear_acceleration beyond this are '
+              'rejected (out_of_range: no vehicle gives it; the washout would carry it for '
+              'ever); a crash of 100 g still passes', 'm/s^2', minimum=0.0,
+              exclusive_minimum=True, maximum=1.0e6),
+    ParamSpec('input.max_angular_velocity', 'double', 100.0,
+              'vehicle_imu messages with a component of angular_velocity beyond this are '
+              'rejected (out_of_range)', 'rad/s', minimum=0.0, exclusive_minimum=True,
+              maximum=1.0e6),
+    ParamSpec('output.frame_id', 'string', 'simulator_base',
+              'header.frame_id of the setpoints (the REP-103 simulator base frame, as the '
+              "dynamics node's setpoints)", '', max_length=MAX_NAME),
+    ParamSpec('diagnostics.period', 'double', 1.0,
+              'period of the /diagnostics message', 's', minimum=0.01, maximum=3600.0),
+)

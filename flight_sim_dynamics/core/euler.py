@@ -10,11 +10,15 @@ frame, as a ROS twist carries them (docs/design/stewart.md, (S2)-(S3)):
 
 with ``E^-1 omega = ((c_psi w_x + s_psi w_y) / c_theta, -s_psi w_x + c_psi w_y,
 w_z + s_theta phidot_roll)``. Undefined at pitch +-90 deg (det E = c_theta).
-Plain floats: the node converts one setpoint at a time.
+Plain floats: the node converts one setpoint at a time; the batch forms
+(:func:`rotation`, :func:`euler_rate_matrix`, :func:`euler_rate_matrix_derivative`:
+arrays (N, 3, 3) of poses (N, 6)) serve the hexapod's solver and the cue metrics.
 """
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 Vec3 = tuple[float, float, float]
 
@@ -92,3 +96,36 @@ def euler_accelerations(angles: Vec3, rates: Vec3, epsilon: Vec3) -> Vec3:
         return tuple(epsilon)
     ex, ey, ez = _e_dot_rates(angles, rates)
     return _inverse(theta, psi, epsilon[0] - ex, epsilon[1] - ey, epsilon[2] - ez)
+
+
+# -- batch forms: q (N, 6) = (surge, sway, heave, roll, pitch, yaw) ---------------
+def rotation(q: np.ndarray) -> np.ndarray:
+    """R = Rz(yaw) Ry(pitch) Rx(roll) (S1), (N, 3, 3)."""
+    cr, sr = np.cos(q[:, 3]), np.sin(q[:, 3])
+    cp, sp = np.cos(q[:, 4]), np.sin(q[:, 4])
+    cy, sy = np.cos(q[:, 5]), np.sin(q[:, 5])
+    return np.stack([
+        np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], axis=-1),
+        np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], axis=-1),
+        np.stack([-sp, cp * sr, cp * cr], axis=-1)], axis=-2)
+
+
+def euler_rate_matrix(q: np.ndarray) -> np.ndarray:
+    """E(theta, psi) of (S2): omega = E (roll, pitch, yaw) rates, base frame, (N, 3, 3)."""
+    cp, sp = np.cos(q[:, 4]), np.sin(q[:, 4])
+    cy, sy = np.cos(q[:, 5]), np.sin(q[:, 5])
+    zero, one = np.zeros_like(cp), np.ones_like(cp)
+    return np.stack([np.stack([cy * cp, -sy, zero], axis=-1),
+                     np.stack([sy * cp, cy, zero], axis=-1),
+                     np.stack([-sp, zero, one], axis=-1)], axis=-2)
+
+
+def euler_rate_matrix_derivative(q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    """dE/dt of (S3), (N, 3, 3)."""
+    cp, sp = np.cos(q[:, 4]), np.sin(q[:, 4])
+    cy, sy = np.cos(q[:, 5]), np.sin(q[:, 5])
+    pd, yd = qd[:, 4], qd[:, 5]
+    zero = np.zeros_like(cp)
+    return np.stack([np.stack([-sy * cp * yd - cy * sp * pd, -cy * yd, zero], axis=-1),
+                     np.stack([cy * cp * yd - sy * sp * pd, -sy * yd, zero], axis=-1),
+                     np.stack([-cp * pd, zero, zero], axis=-1)], axis=-2)

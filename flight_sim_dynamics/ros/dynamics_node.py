@@ -6,19 +6,14 @@ Topics, QoS, parameters: docs/node.md.
 from __future__ import annotations
 
 import math
-import sys
 import time
 import warnings
-from typing import Any, Callable, Iterator
+from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
-from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
-                                ParameterType, SetParametersResult)
-from rcl_interfaces.srv import (DescribeParameters, GetParameters, GetParameterTypes,
-                                ListParameters, SetParameters, SetParametersAtomically)
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.exceptions import ParameterException
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.parameter import Parameter
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, QoSPolicyKind, QoSProfile,
@@ -32,9 +27,11 @@ from trajectory_msgs.msg import JointTrajectory
 from ..config import parameters as prm
 from ..config.machine_files import ignored_message, ignored_values
 from ..config.node_schema import MACHINE, NodeSchema, node_schema
+from ..cueing.params import SPECS as CUEING_SPECS
 from .marker_publisher import MarkerPublisher
+from .parameter_guard import (MAX_NAMES_PER_REQUEST, MAX_PARAMETERS_PER_REQUEST,
+                              MAX_VALIDATIONS_PER_REQUEST, GuardedParameters, _failed, plain)
 from .process import end_spins, stop_requested
-from .service_thread import ServiceThread
 from .setpoints import (ACCEL, BAD_SETPOINT, INACTIVE, LEVEL_NAMES, PLATFORM, POSE, TWIST, Answer,
                         Outcome, Runtime, SetpointError, SetpointIntake, diagnostic_name, log_at)
 
@@ -44,25 +41,10 @@ LATEST_STAMP_REUSE = 0.005       # s one clock reading serves the future-stamp c
 # platform_setpoint: a larger message is refused undecoded
 MAX_POINT_BYTES = 128
 MAX_MESSAGE_OVERHEAD = 65536
-# bounds of one parameter set request (the node's only thread validates it)
-MAX_PARAMETERS_PER_REQUEST = 256
-MAX_NAMES_PER_REQUEST = 4096         # of a get, describe, types or list request
 MAX_DROPPED_AT_ACTIVATION = 100_000  # queued messages per keep-all subscription
-PARAMETER_SERVICES = (DescribeParameters, GetParameters, GetParameterTypes, ListParameters,
-                      SetParameters, SetParametersAtomically)
-MAX_VALIDATIONS_PER_REQUEST = 12  # model validations, ~1.5 ms each
-MAX_STRING_LENGTH = 4096
 # rclpy warns of a zero QoS depth before check_qos refuses it with the reason
 warnings.filterwarnings('ignore', 'A zero depth', UserWarning)
 QOS_POLICIES = (QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY)
-_KNOWN_TYPES = frozenset(t.value for t in Parameter.Type) - {ParameterType.PARAMETER_NOT_SET}
-_COERCIONS = {(Parameter.Type.DOUBLE, Parameter.Type.INTEGER),
-              (Parameter.Type.DOUBLE_ARRAY, Parameter.Type.INTEGER_ARRAY)}
-_KIND_TYPES = {kind: Parameter.Type[kind.upper()]
-               for kind in ('double', 'double_array', 'integer', 'string', 'bool')}
-_NOT_DECIDED = ('not applied: the parameters of this request conflict with each other, and '
-                f'finding which ones fail needs more than {MAX_VALIDATIONS_PER_REQUEST} '
-                'validations of the model; send fewer parameters per request')
 
 
 def default_qos(depth: int = 1000) -> QoSProfile:
@@ -81,70 +63,16 @@ def check_qos(qos: QoSProfile) -> SetParametersResult:
     return SetParametersResult(successful=True)
 
 
-def descriptor_for(spec: prm.ParamSpec, read_only: bool = False) -> ParameterDescriptor:
-    text = spec.full_description
-    if spec.exclusive_minimum and spec.minimum is not None:
-        text += f' (must be > {spec.minimum:g})'
-    if spec.choices:
-        text += f" (one of: {', '.join(spec.choices)})"
-    d = ParameterDescriptor(description=text, read_only=read_only,
-                            type=_KIND_TYPES[spec.kind].value)
-    low, high = spec.minimum, spec.maximum
-    if spec.kind == 'double' and (low is not None or high is not None):
-        d.floating_point_range = [FloatingPointRange(
-            from_value=float(-sys.float_info.max if low is None else low),
-            to_value=float(sys.float_info.max if high is None else high))]
-    elif spec.kind == 'integer' and (low is not None or high is not None):
-        d.integer_range = [IntegerRange(from_value=int(-2 ** 63 if low is None else low),
-                                        to_value=int(2 ** 63 - 1 if high is None else high),
-                                        step=1)]
-    if spec.choices or spec.length:
-        d.additional_constraints = ('one of: ' + ', '.join(spec.choices) if spec.choices
-                                    else f'{spec.length} numbers')
-    return d
-
-
-def plain(value: Any) -> Any:
-    return value if isinstance(value, (bool, int, float, str)) else list(value)
-
-
-def typed(param: Parameter, declared: Parameter.Type) -> tuple[Parameter, str | None]:
-    """An integer (array) given for a double (array) converted, with a note."""
-    if (declared, param.type_) not in _COERCIONS:
-        return param, None
-    value = (float(param.value) if declared == Parameter.Type.DOUBLE
-             else [float(v) for v in param.value])
-    return (Parameter(param.name, declared, value),
-            f"parameter '{param.name}': {_type_name(param.type_)} {plain(param.value)} set as "
-            f'{_type_name(declared)} {value}')
-
-
-def _type_name(type_: Parameter.Type) -> str:
-    return type_.name.lower().replace('_', ' ')
-
-
-def _failed(reason: str) -> SetParametersResult:
-    return SetParametersResult(successful=False, reason=reason)
-
-
-def _declared(spec: prm.ParamSpec, value: Any) -> Parameter:
-    if spec.kind == 'double':
-        value = float(value)
-    elif spec.kind == 'double_array':
-        value = [float(v) for v in value]
-    return Parameter(spec.name, _KIND_TYPES[spec.kind], value)
-
-
 class _Refused(ValueError):
     """A start-up value the schema refused, not set since."""
 
 
-class DynamicsNode(LifecycleNode):
+class DynamicsNode(GuardedParameters, LifecycleNode):
     """Starts unconfigured; :meth:`start` (or a lifecycle manager) configures
     and activates it. :attr:`failure`: why configure failed.
     """
 
-    _apart: ServiceThread | None = None      # the parameter services' own thread
+    REJECTED = 'parameter change rejected, model unchanged'
 
     def __init__(self, **kwargs: Any) -> None:
         # every given parameter declared: typos can be told apart with public API
@@ -191,44 +119,12 @@ class DynamicsNode(LifecycleNode):
         neither is not declared). A refused given value keeps the default and
         fails every configure until set; ``machine`` is read-only.
         """
-        names = set(self.list_parameters([], 0).names) - prm.ROS_PARAMETERS
-        given = {name: self.get_parameter(name) for name in names}
-        for name in names:
-            self.undeclare_parameter(name)
+        given = self._given_parameters()
         if MACHINE in given:
             self._schema = node_schema(plain(given[MACHINE].value))
-        defaults = self._schema.defaults
-        refused: dict[str, str] = {}
-        declarations = []
-        for spec in self._schema.specs.values():
-            value = defaults.get(spec.name)
-            if spec.name in given:
-                param, _ = typed(given[spec.name], _KIND_TYPES[spec.kind])
-                reason = self._check(param, spec)
-                if reason is None:
-                    value = param.value
-                else:
-                    refused[spec.name] = reason
-            if value is None:       # optional, neither given nor packaged
-                continue
-            declarations.append((spec.name, _declared(spec, value).value,
-                                 descriptor_for(spec, read_only=spec.name == MACHINE)))
-        self.declare_parameters('', declarations, ignore_override=True)
-        return names, refused
-
-    @staticmethod
-    def _check(param: Parameter, spec: prm.ParamSpec) -> str | None:
-        declared = _KIND_TYPES[spec.kind]
-        try:
-            prm.check_value(spec, plain(param.value))
-            detail = None
-        except prm.ParameterError as exc:
-            detail = str(exc)
-        if param.type_ == declared:
-            return detail
-        reason = (f"parameter '{param.name}' is a {_type_name(declared)}, got a "
-                  f'{_type_name(param.type_)}: refused, the parameter keeps its type and value')
-        return f'{detail} ({reason})' if detail else reason
+        refused = self._declare_specs(list(self._schema.specs.values()), self._schema.defaults,
+                                      given, lambda name: name == MACHINE)
+        return set(given), refused
 
     def _values(self) -> dict[str, Any]:
         return {name: plain(self.get_parameter(name).value) for name in self._specs
@@ -289,175 +185,19 @@ class DynamicsNode(LifecycleNode):
         except Exception as exc:  # noqa: BLE001
             self._internal_error(exc)
 
-    # -- the guard around rclpy's services -------------------------------------------
-    def _guard_services(self) -> None:
-        """Every service (parameters, lifecycle): a failing request is answered as
-        a failure, never fatal (rclpy 7.1.6 dies on a value of unknown type and
-        on a transition the state lacks); SetParameters gets :meth:`_set_request`.
-        """
-        own = {SetParameters: lambda req, resp: self._set_request(req, resp, False),
-               SetParametersAtomically: lambda req, resp: self._set_request(req, resp, True)}
-        for service in self.services:
-            service.callback = self._guarded(service.srv_name,
-                                             own.get(service.srv_type, service.callback))
-
-    def serve_parameters_apart(self, executor: Any) -> None:
-        """The parameter services taken on a thread of their own (decoding a
-        request of 100,000 parameters takes seconds), each request then handled
-        on ``executor``; call before ``executor.add_node(self)``.
-        """
-        services = [s for s in self._services if s.srv_type in PARAMETER_SERVICES]
-        self._apart = ServiceThread(self.context, services, executor, self._request_problem,
-                                    self._refusal, self.get_logger())
-
-    @property
-    def services(self) -> Iterator[Any]:
-        """What an executor takes: not the services taken apart."""
-        apart = self._apart.services if self._apart is not None else frozenset()
-        return (s for s in self._services if s not in apart)
+    def _read_only_reason(self, name: str) -> str | None:
+        if name != MACHINE:
+            return None
+        return (f"parameter 'machine' is read-only: refused; this node serves the "
+                f'{self._schema.machine.title} its start-up parameters name; another machine '
+                'needs another node started with its parameter file')
 
     def destroy_node(self) -> None:
-        if self._apart is not None:
-            self._apart.stop()
+        self._stop_serving_apart()
         if self._markers is not None:        # its renderer process ends with it
             self._markers.close()
         super().destroy_node()
 
-    def _guarded(self, name: str, handler: Callable[[Any, Any], Any]) -> Callable[[Any, Any], Any]:
-        def guarded(request: Any, response: Any) -> Any:
-            try:
-                return handler(request, response)
-            except Exception as exc:  # noqa: BLE001 - answered as a failure, never fatal
-                self.get_logger().warn(f'{name}: request refused: {type(exc).__name__}: {exc}',
-                                       throttle_duration_sec=2.0)
-                response = type(response)()
-                if hasattr(response, 'results'):       # SetParameters: one result each
-                    response.results = [_failed(f'refused: {exc}')] * len(request.parameters)
-                elif hasattr(response, 'result') and isinstance(response.result,
-                                                                SetParametersResult):
-                    response.result = _failed(f'refused: {exc}')
-                return response
-        return guarded
-
-    def _parse(self, msg: Any) -> tuple[Parameter | None, str | None, str | None]:
-        value = msg.value
-        if value.type not in _KNOWN_TYPES:
-            return None, None, f"parameter '{msg.name}': unknown value type {value.type}"
-        if len(value.string_value) > MAX_STRING_LENGTH:
-            return None, None, (f"parameter '{msg.name}': string of {len(value.string_value)} "
-                                f'characters, more than {MAX_STRING_LENGTH}')
-        if msg.name == MACHINE:
-            return None, None, (
-                f"parameter 'machine' is read-only: refused; this node serves the "
-                f'{self._schema.machine.title} its start-up parameters name; another machine '
-                'needs another node started with its parameter file')
-        if not msg.name or not self.has_parameter(msg.name):
-            # rclpy creates a parameter named '' and loses undeclared names in its reason
-            return None, None, f'parameter {msg.name!r} is not declared: refused'
-        if self.describe_parameter(msg.name).read_only:
-            # refused on its own, so the rest of a dump loads back in one change
-            return None, None, f'parameter {msg.name!r} is read-only: refused'
-        param = Parameter.from_parameter_msg(msg)
-        spec = self._specs.get(param.name)
-        if spec is None:            # rclpy's to answer (qos_overrides: read-only; unknown)
-            return param, None, None
-        param, note = typed(param, _KIND_TYPES[spec.kind])
-        return param, note, self._check(param, spec)
-
-    def _apply(self, params: list[Parameter]) -> SetParametersResult:
-        try:
-            return self.set_parameters_atomically(params)
-        except ParameterException as exc:
-            return _failed(str(exc))
-
-    @staticmethod
-    def _request_problem(request: Any) -> str | None:
-        """Why a parameter request is refused whole before the node reads it: more
-        than :data:`MAX_PARAMETERS_PER_REQUEST` parameters or
-        :data:`MAX_NAMES_PER_REQUEST` names or prefixes (None: it is not).
-        """
-        for field, limit in (('parameters', MAX_PARAMETERS_PER_REQUEST),
-                             ('names', MAX_NAMES_PER_REQUEST),
-                             ('prefixes', MAX_NAMES_PER_REQUEST)):
-            count = len(getattr(request, field, ()))
-            if count > limit:
-                return f'{count} {field} in one request, more than {limit}: refused whole'
-        return None
-
-    @staticmethod
-    def _refusal(request: Any, response: Any, reason: str) -> Any:
-        """``response`` refusing ``request``: a failed result per parameter (the
-        reason in the first); a query's lists left empty.
-        """
-        if isinstance(response, SetParametersAtomically.Response):
-            response.result = _failed(reason)
-        elif isinstance(response, SetParameters.Response) and request.parameters:
-            response.results = [_failed(reason)] + [_failed('refused whole')] * (
-                len(request.parameters) - 1)
-        return response
-
-    def _set_request(self, request: Any, response: Any, atomic: bool) -> Any:
-        """Applied as one change; a failed SetParameters is sorted out."""
-        msgs = list(request.parameters)
-        problem = self._request_problem(request)
-        if problem is not None:
-            return self._refusal(request, response, problem)
-        parsed = [self._parse(m) for m in msgs]
-        params = [p for p, _, _ in parsed]
-        notes = [n for _, n, _ in parsed]
-        problems = [r for _, _, r in parsed]
-        problem = next(filter(None, problems), None)
-        if problem:     # refused before the on-set callback, which logs the others
-            self.get_logger().warn(f'parameter change rejected, model unchanged: {problem}')
-        result = _failed(problem) if problem else self._apply(params)
-        if result.successful:
-            result.reason = '; '.join(filter(None, notes))
-        elif not atomic and len(msgs) > 1:
-            response.results = self._sort_out(params, notes, problems, problem is None)
-            return response
-        if atomic:
-            response.result = result
-        else:
-            response.results = [result] * len(msgs)
-        return response
-
-    def _sort_out(self, params: list[Parameter | None], notes: list[str | None],
-                  problems: list[str | None], tried: bool) -> list[SetParametersResult]:
-        """Which parameters of a failed SetParameters fail: halves applied in
-        order, a failing half halved again (rclpy's one-at-a-time outcome), at
-        most :data:`MAX_VALIDATIONS_PER_REQUEST` tries.
-        """
-        results: list[SetParametersResult | None] = [_failed(p) if p else None
-                                                     for p in problems]
-        budget = [MAX_VALIDATIONS_PER_REQUEST]
-
-        def resolve(chunk: list[int], known_failed: bool) -> bool:
-            if known_failed and len(chunk) > 1:
-                result = None
-            elif budget[0] > 0:
-                budget[0] -= 1
-                result = self._apply([params[i] for i in chunk])
-            else:
-                for i in chunk:
-                    results[i] = _failed(_NOT_DECIDED)
-                return False
-            if result is not None and result.successful:
-                for i in chunk:
-                    results[i] = SetParametersResult(successful=True, reason=notes[i] or '')
-                return True
-            if len(chunk) == 1:
-                results[chunk[0]] = result
-                return False
-            half = len(chunk) // 2
-            # the whole failed and its first half held: the second half, applied
-            # after it, gives the same final state as the whole, so it fails too
-            first = resolve(chunk[:half], False)
-            return resolve(chunk[half:], first) and first
-
-        todo = [i for i, r in enumerate(results) if r is None]
-        if todo:
-            resolve(todo, tried and len(todo) == len(results))
-        return results
 
     # -- lifecycle -----------------------------------------------------------------
     def start(self) -> bool:
@@ -490,7 +230,9 @@ class DynamicsNode(LifecycleNode):
                 self.get_logger().error(f'configure failed, still unconfigured: {self.failure}')
             return FAILURE
         self.failure = None
-        unknown = sorted(n for n in self._given if not self.has_parameter(n))
+        # the cueing group of a shared params file is motion_cueing's (checked by the loaders)
+        unknown = sorted(n for n in self._given
+                         if not self.has_parameter(n) and n not in CUEING_SPECS)
         if unknown and not self._unknown_reported:
             self.get_logger().warn('ignoring unknown parameters (typo?): ' + ', '.join(unknown))
         if not self._unknown_reported:      # values given for an effect the scene leaves out
@@ -728,4 +470,6 @@ class DynamicsNode(LifecycleNode):
         return f'stamps at most {max_future:g} s ahead of the node\'s clock'
 
 
-__all__ = ['DynamicsNode', 'LEVEL_NAMES', 'default_qos', 'descriptor_for']
+# the bounds of a parameter request, for the tests and benchmarks
+__all__ = ['DynamicsNode', 'LEVEL_NAMES', 'MAX_NAMES_PER_REQUEST', 'MAX_PARAMETERS_PER_REQUEST',
+           'MAX_VALIDATIONS_PER_REQUEST', 'default_qos']

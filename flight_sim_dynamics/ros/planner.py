@@ -34,6 +34,70 @@ from .process import stop_requested
 from .setpoints import pose_map, rpy_to_quaternion
 
 
+class SetpointPublisher:
+    """The dynamics node's setpoint topics of one machine, published by
+    ``node``: :meth:`send` fills and publishes one stamped pose, twist and
+    acceleration of the machine's coordinates (docs/node.md); ``create``
+    makes the publishers (default: ``node.create_publisher``).
+    """
+
+    def __init__(self, node: Node, machine: Machine, frame_id: str, qos: Any, *,
+                 twist: bool = True, accel: bool = True, create: Any = None) -> None:
+        create = node.create_publisher if create is None else create
+        self.poses = pose_map(machine)
+        self.send_twist, self.send_accel = twist, accel
+        self.pose_pub = create(PoseStamped, 'pose_setpoint', qos)
+        self.twist_pub = create(TwistStamped, 'twist_setpoint', qos)
+        self.accel_pub = create(AccelStamped, 'accel_setpoint', qos)
+        self._pose, self._twist, self._accel = PoseStamped(), TwistStamped(), AccelStamped()
+        self.frame_id = frame_id
+
+    @property
+    def publishers(self) -> tuple[Any, Any, Any]:
+        return self.pose_pub, self.twist_pub, self.accel_pub
+
+    @property
+    def frame_id(self) -> str:
+        return self._pose.header.frame_id
+
+    @frame_id.setter
+    def frame_id(self, value: str) -> None:
+        for msg in (self._pose, self._twist, self._accel):
+            msg.header.frame_id = value
+
+    def subscribers_ready(self) -> bool:
+        return (self.pose_pub.get_subscription_count() > 0
+                and (not self.send_twist or self.twist_pub.get_subscription_count() > 0)
+                and (not self.send_accel or self.accel_pub.get_subscription_count() > 0))
+
+    def send(self, stamp_ns: int, q: Any, qd: Any, qdd: Any) -> None:
+        """One setpoint of the machine's coordinates ``q`` and their rates and
+        accelerations, stamped ``stamp_ns``: the angular parts in the base
+        frame (S2), (S3).
+        """
+        stamp = Time(nanoseconds=stamp_ns).to_msg()
+        poses = self.poses
+        x, y, z, *rpy = poses.message(q)
+        msg = self._pose
+        msg.header.stamp = stamp
+        p, o = msg.pose.position, msg.pose.orientation
+        p.x, p.y, p.z = x, y, z
+        o.x, o.y, o.z, o.w = rpy_to_quaternion(*rpy)
+        self.pose_pub.publish(msg)
+        if self.send_twist:
+            tw = self._twist
+            tw.header.stamp = stamp
+            v, w = tw.twist.linear, tw.twist.angular
+            v.x, v.y, v.z, w.x, w.y, w.z = poses.twist(q, qd)
+            self.twist_pub.publish(tw)
+        if self.send_accel:
+            ac = self._accel
+            ac.header.stamp = stamp
+            a, e = ac.accel.linear, ac.accel.angular
+            a.x, a.y, a.z, e.x, e.y, e.z = poses.accel(q, qd, qdd)
+            self.accel_pub.publish(ac)
+
+
 class PlannerNode(Node):
     """Publishes a PlannerSequence of ``machine``'s motions at ``rate`` from
     :meth:`start` on; ``on_sample(stamp_ns, label)`` after each sample;
@@ -46,17 +110,12 @@ class PlannerNode(Node):
                  **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self.sequence = sequence
-        self.poses = pose_map(machine)
         self.rate = float(rate)
-        self.send_twist, self.send_accel = twist, accel
         self.on_sample = on_sample
-        qos = default_qos(100)
-        self.pose_pub = self.create_publisher(PoseStamped, 'pose_setpoint', qos)
-        self.twist_pub = self.create_publisher(TwistStamped, 'twist_setpoint', qos)
-        self.accel_pub = self.create_publisher(AccelStamped, 'accel_setpoint', qos)
-        self._pose, self._twist, self._accel = PoseStamped(), TwistStamped(), AccelStamped()
-        for msg in (self._pose, self._twist, self._accel):
-            msg.header.frame_id = frame_id
+        self.setpoints = SetpointPublisher(self, machine, frame_id, default_qos(100),
+                                           twist=twist, accel=accel)
+        self.pose_pub, self.twist_pub, self.accel_pub = (
+            self.setpoints.pose_pub, self.setpoints.twist_pub, self.setpoints.accel_pub)
         self.sent = 0
         self.done = False
         self._k = 0
@@ -65,9 +124,7 @@ class PlannerNode(Node):
         self._timer = None
 
     def subscribers_ready(self) -> bool:
-        return (self.pose_pub.get_subscription_count() > 0
-                and (not self.send_twist or self.twist_pub.get_subscription_count() > 0)
-                and (not self.send_accel or self.accel_pub.get_subscription_count() > 0))
+        return self.setpoints.subscribers_ready()
 
     def start(self) -> None:
         self._t0_ns = self.get_clock().now().nanoseconds
@@ -109,28 +166,7 @@ class PlannerNode(Node):
         self._send(stamp_ns, q, [0.0] * len(q), [0.0] * len(q))
 
     def _send(self, stamp_ns: int, q: Any, qd: Any, qdd: Any) -> None:
-        stamp = Time(nanoseconds=stamp_ns).to_msg()
-        poses = self.poses
-        x, y, z, *rpy = poses.message(q)
-        msg = self._pose
-        msg.header.stamp = stamp
-        p, o = msg.pose.position, msg.pose.orientation
-        p.x, p.y, p.z = x, y, z
-        o.x, o.y, o.z, o.w = rpy_to_quaternion(*rpy)
-        self.pose_pub.publish(msg)
-        if self.send_twist:
-            tw = self._twist
-            tw.header.stamp = stamp
-            v, w = tw.twist.linear, tw.twist.angular
-            v.x, v.y, v.z, w.x, w.y, w.z = poses.twist(q, qd)
-            self.twist_pub.publish(tw)
-        if self.send_accel:
-            ac = self._accel
-            ac.header.stamp = stamp
-            a, e = ac.accel.linear, ac.accel.angular
-            a.x, a.y, a.z, e.x, e.y, e.z = poses.accel(q, qd, qdd)
-            self.accel_pub.publish(ac)
-
+        self.setpoints.send(stamp_ns, q, qd, qdd)
 
 def _planner_motions() -> str:
     """Each machine's planner motions and their durations, for the help."""

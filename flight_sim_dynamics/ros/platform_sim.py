@@ -40,7 +40,8 @@ from ..core.machine import ActuatorLimits, Machine
 from ..core.servo import Servo
 from ..core.twin import TwinStepper
 from ..machines.api import machine_of
-from .dynamics_node import _declared, default_qos, descriptor_for, plain
+from .dynamics_node import default_qos
+from .parameter_guard import _declared, descriptor_for, plain
 from .process import end_spins, stop_requested
 from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, STAMP_BACKWARDS, STAMP_REPEATED, WARN,
                         LogThrottle, RestartRule, SetpointError, diagnostic_name, log_at, number,
@@ -82,11 +83,11 @@ class SimConfig:
 
 
 def plant_file(given: str, params_files: Sequence[str],
-               node: str = '/' + NODE_NAME) -> str | None:
-    """The plant's parameter file: ``plant.params_file``, else the one
+               node: str = '/' + NODE_NAME, key: str = 'plant.params_file') -> str | None:
+    """The plant's parameter file: ``given`` (the parameter ``key``), else the one
     ``--params-file`` of the command line with a section for the dynamics node
     ``node`` (fully qualified: the twin's namespace; the node's file serves the
-    twin too), else None (the packaged parameters).
+    twin, and the motion-cueing node, too), else None (the packaged parameters).
     """
     if given:
         return given
@@ -100,9 +101,9 @@ def plant_file(given: str, params_files: Sequence[str],
                                             for section in doc):
             found.append(path)
     if len(found) > 1:
-        raise prm.ParameterError('plant.params_file', '', f'{len(found)} --params-file files '
+        raise prm.ParameterError(key, '', f'{len(found)} --params-file files '
                                  f"have a section for {NODE_NAME} ({', '.join(found)}): "
-                                 "name the plant's with plant.params_file")
+                                 f"name the machine's with {key}")
     return found[0] if found else None
 
 

@@ -1,4 +1,5 @@
-"""The node (or the twin: ``module=SIM_MODULE``) as a separate process, and the
+"""The node (or the twin: ``module=SIM_MODULE``; the motion-cueing node:
+``module=CUEING_MODULE``) as a separate process, and the
 executables' stop signals. No rclpy here: Ctrl-C and SIGTERM only request a
 stop (:func:`stop_on_signals`), seen between callbacks, since rclpy's own
 handlers raise inside a callback or shut the context down under a publish.
@@ -17,6 +18,7 @@ from typing import IO, Any, Iterator, Sequence
 
 NODE_MODULE = 'flight_sim_dynamics.ros.node'
 SIM_MODULE = 'flight_sim_dynamics.ros.sim_node'
+CUEING_MODULE = 'flight_sim_dynamics.ros.motion_cueing'
 # the child imports this very package, not another install
 PACKAGE_PARENT = str(Path(__file__).resolve().parents[2])
 # -P (Python >= 3.11): ``python -m`` puts no working directory first on sys.path, so

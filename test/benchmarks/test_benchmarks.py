@@ -97,3 +97,39 @@ def test_node_prints_the_node_with_and_without_markers_next_to_the_echo():
     for part in ("node's thread (snapshot, request, raw publish)",
                  'renderer process (build, serialize)'):
         assert all(v > 0 for v in numbers(costs[part]))
+
+
+def test_cueing_prints_the_check_values_and_the_costs():
+    rows = run('benchmarks.cueing', '--quick')
+
+    def body(first: str) -> dict[str, list[str]]:
+        """The table's rows, up to the next table of as many columns."""
+        out = {}
+        for k, v in table(rows, first).items():
+            if k in ('machine', 'cue on the hexapod, limiter'):
+                break
+            if not k.startswith(':'):
+                out[k] = v
+        return out
+
+    checks = body('check value (limiter none, 1 kHz)')
+    assert len(checks) >= 20
+    for cells in checks.values():
+        numbers(cells)
+    costs = body('machine')
+    assert set(costs) == {'3-DOF', 'hexapod'}
+    assert all(v > 0 for cells in costs.values() for v in numbers(cells[1:]))
+    offline = body('cue on the hexapod, limiter')
+    assert set(offline) == {'none', 'inverse_dynamics'}
+    assert all(v > 0 for cells in offline.values() for v in numbers(cells[1:4]))
+
+
+def test_cueing_limiter_prints_both_rmses_and_every_output_ok():
+    rows = run('benchmarks.cueing_limiter', '--quick')
+    start = next(i for i, r in enumerate(rows) if r[0] == 'log')
+    body = [r for r in rows[start + 2:] if len(r) == len(rows[start])]
+    assert {r[1] for r in body} == {'flight_sim_dynamics', 'stewart_6dof'}
+    for cells in body:
+        limited, a, b, scale, ratio, not_ok, us, us_pure = numbers(cells[3:])
+        assert 0 <= limited <= 100 and a >= 0 and b >= 0 and 0 <= scale <= 1
+        assert not_ok == 0 and us > 0 and us_pure > 0 and ratio > 0

@@ -20,7 +20,7 @@ from flight_sim_dynamics.config.machine_files import launch_params_file
 ROOT = Path(__file__).resolve().parents[2]
 LAUNCH_FILE = ROOT / 'launch' / 'flight_sim_dynamics.launch.py'
 ARGUMENTS = {'machine', 'params_file', 'namespace', 'scene', 'autostart', 'planner',
-             'use_sim_time', 'twin'}
+             'use_sim_time', 'twin', 'cueing'}
 
 
 def load(name: str = 'fsd_launch'):
@@ -131,6 +131,20 @@ def test_the_default_is_the_3dof_machine_and_a_params_file_wins(monkeypatch, tmp
     assert nodes['platform_sim'].kwargs['parameters'][0]['plant.params_file'] == str(mine)
     with pytest.raises(ValueError, match='not packaged'):
         launched(monkeypatch, machine='hexapod')
+
+
+def test_the_cueing_flag_starts_motion_cueing_on_the_nodes_file(monkeypatch):
+    stewart = str(ROOT / 'config' / 'stewart_6dof.yaml')
+    nodes = launched(monkeypatch, machine='stewart_6dof', cueing='true', twin='true',
+                     namespace='sim', scene='payload', autostart='false')
+    assert set(nodes) == {'dynamics_node', 'motion_cueing', 'platform_sim'}
+    cueing = nodes['motion_cueing']
+    assert type(cueing).__name__ == 'LifecycleNode'
+    assert cueing.kwargs['name'] == 'motion_cueing'
+    assert cueing.kwargs['namespace'].name == 'namespace'
+    assert cueing.kwargs['parameters'] == [{'params_file': stewart, 'autostart': False,
+                                            'use_sim_time': False, 'scene': 'payload'}]
+    assert 'motion_cueing' not in launched(monkeypatch, machine='stewart_6dof')
 
 
 @pytest.mark.ros

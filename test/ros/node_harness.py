@@ -1,8 +1,8 @@
 """Launch-free harness of the node tests (test/test_node_*.py).
 
-* :class:`NodeProcess` starts ``python -m flight_sim_dynamics.ros.node`` as a
-  separate process, as a user starts it (``ros.process.start_node``), and
-  always stops it.
+* :class:`NodeProcess` starts ``python -m flight_sim_dynamics.ros.node`` (or
+  another ``module``: the motion-cueing node's) as a separate process, as a
+  user starts it (``ros.process.start_node``), and always stops it.
 * :class:`Client` is the test's own ROS 2 participant (its own rclpy
   context): setpoint publishers and output subscriptions (QoS :data:`QOS`
   unless told otherwise), parameter-service
@@ -38,7 +38,8 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 from flight_sim_dynamics.ros.setpoints import diagnostic_name
 from flight_sim_dynamics.machines import FLIGHT_SIMULATOR
 from flight_sim_dynamics.ros.setpoints import rpy_to_quaternion
-from flight_sim_dynamics.ros.process import node_command, node_env, start_node, stop_node
+from flight_sim_dynamics.ros.process import (NODE_MODULE, node_command, node_env, start_node,
+                                              stop_node)
 
 ROOT = Path(__file__).resolve().parents[2]
 PARAMS_FILE = ROOT / 'config' / 'flight_sim_dynamics.yaml'
@@ -56,12 +57,13 @@ class NodeProcess:
     """The node under test, started like a user starts it."""
 
     def __init__(self, *ros_args: str, params_file: Path | None = PARAMS_FILE,
-                 executor: str | None = None) -> None:
-        self.cmd = node_command(params_file, ros_args, executor=executor)
+                 executor: str | None = None, module: str = NODE_MODULE) -> None:
+        self.cmd = node_command(params_file, ros_args, executor=executor, module=module)
         self.log = tempfile.NamedTemporaryFile('w+', prefix='fsd_node_', suffix='.log',
                                                delete=False)
         self._final_output: str | None = None
-        self.proc = start_node(params_file, ros_args, self.log, executor=executor, cwd=ROOT)
+        self.proc = start_node(params_file, ros_args, self.log, executor=executor, cwd=ROOT,
+                               module=module)
 
     def alive(self) -> bool:
         return self.proc.poll() is None
@@ -222,15 +224,15 @@ class Client:
         return self.spin_until(lambda: len(self.actuator) >= count, timeout)
 
     def wait_diagnostics(self, predicate: Callable[[dict[str, str]], bool],
-                         timeout: float = 5.0) -> dict[str, str]:
+                         timeout: float = 5.0, name: str | None = None) -> dict[str, str]:
         """The values of the first /diagnostics message (received from now on)
-        that satisfies ``predicate``."""
+        that satisfies ``predicate``; ``name``: the status (default: the node's)."""
         seen = [len(self.diagnostics)]
         found: list[dict[str, str]] = []
 
         def check() -> bool:
             while len(self.diagnostics) > seen[0]:
-                values = diagnostic_values(self.diagnostics[seen[0]], self.status_name)
+                values = diagnostic_values(self.diagnostics[seen[0]], name or self.status_name)
                 seen[0] += 1
                 if values:                  # (other nodes' statuses are skipped)
                     found.append(values)

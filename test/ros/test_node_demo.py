@@ -12,7 +12,7 @@ from node_harness import ROOT
 pytestmark = pytest.mark.ros
 
 
-@pytest.mark.parametrize('module', ['ros.node', 'ros.planner', 'cli.demo'])
+@pytest.mark.parametrize('module', ['ros.node', 'ros.planner', 'ros.motion_cueing', 'cli.demo'])
 def test_help(module):
     out = subprocess.run([sys.executable, '-m', f'flight_sim_dynamics.{module}', '--help'],
                          cwd=ROOT, capture_output=True, text=True, timeout=30)

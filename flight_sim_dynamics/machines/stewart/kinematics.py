@@ -14,6 +14,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ...core.euler import euler_rate_matrix, euler_rate_matrix_derivative, rotation
 from ...core.machine import check_forward_options, quiet_floating_point
 from ...core.status import SINGULAR, Status
 from .model import MIN_LENGTH, U_JOINT_TOLERANCE, StewartModel
@@ -32,40 +33,8 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------
-# The platform (S1)-(S3)
+# The platform (S1)-(S3); R, E and dE/dt are core/euler.py's batch forms
 # ---------------------------------------------------------------------------
-
-def rotation(q: np.ndarray) -> np.ndarray:
-    """R = Rz(yaw) Ry(pitch) Rx(roll) (S1), (N, 3, 3)."""
-    cr, sr = np.cos(q[:, 3]), np.sin(q[:, 3])
-    cp, sp = np.cos(q[:, 4]), np.sin(q[:, 4])
-    cy, sy = np.cos(q[:, 5]), np.sin(q[:, 5])
-    return np.stack([
-        np.stack([cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], axis=-1),
-        np.stack([sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], axis=-1),
-        np.stack([-sp, cp * sr, cp * cr], axis=-1)], axis=-2)
-
-
-def euler_rate_matrix(q: np.ndarray) -> np.ndarray:
-    """E(theta, psi) of (S2): omega = E (roll, pitch, yaw) rates, base frame, (N, 3, 3)."""
-    cp, sp = np.cos(q[:, 4]), np.sin(q[:, 4])
-    cy, sy = np.cos(q[:, 5]), np.sin(q[:, 5])
-    zero, one = np.zeros_like(cp), np.ones_like(cp)
-    return np.stack([np.stack([cy * cp, -sy, zero], axis=-1),
-                     np.stack([sy * cp, cy, zero], axis=-1),
-                     np.stack([-sp, zero, one], axis=-1)], axis=-2)
-
-
-def euler_rate_matrix_derivative(q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-    """dE/dt of (S3), (N, 3, 3)."""
-    cp, sp = np.cos(q[:, 4]), np.sin(q[:, 4])
-    cy, sy = np.cos(q[:, 5]), np.sin(q[:, 5])
-    pd, yd = qd[:, 4], qd[:, 5]
-    zero = np.zeros_like(cp)
-    return np.stack([np.stack([-sy * cp * yd - cy * sp * pd, -cy * yd, zero], axis=-1),
-                     np.stack([cy * cp * yd - sy * sp * pd, -sy * yd, zero], axis=-1),
-                     np.stack([-cp * pd, zero, zero], axis=-1)], axis=-2)
-
 
 @dataclass(frozen=True)
 class PlatformMotion:

@@ -1,0 +1,425 @@
+"""The limiter between the washout and the machine: every output sample within
+every limit of the machine by its own inverse dynamics (design:
+/work/shared/design/cueing.md, "What the limiter must guarantee"; method and
+measurements: docs/design/cueing_limiter.md).
+
+Contract (:mod:`.planner` calls it): ``make_limiter(model, params) -> limiter``
+with ``reset()`` and ``step(q, qd, qdd) -> Limited`` (one output sample every
+``1 / params.rate`` s, machine coordinates, home = 0). :data:`LIMITER_SPECS`:
+the limiter's own parameters (``cueing.<name>``); :mod:`.params` reads them
+(so this module must not import :mod:`.params`).
+
+The method, a reference governor with a braking look-ahead
+(cueing_limiter.md, (L1)-(L6)): the limiter keeps its own state (q, qd, qdd),
+the last sample it published. Each cycle it takes the candidate that follows
+the washout (the washout's own sample when the state has caught up with it,
+else the washout's acceleration plus a bounded pull-back) and accepts it when
+the machine's solve, on a copy of the model whose limits are tightened by the
+margins, is ``ok`` both for the sample and for the point where a braking from
+it would stop. Otherwise it blends the acceleration towards braking,
+``a = (1 - lam) a_brake + lam a_w``, bisecting on ``lam``; ``lam = 0``, the
+braking itself, is the fallback. ``given_up = 1 - lam``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+import numpy as np
+
+from ..core.parameter_spec import ParamSpec
+from ..core.status import Status
+from ..machines.api import machine_of
+
+
+def _spec(name: str, kind: str, default: Any, description: str, unit: str = '',
+          **kw: Any) -> ParamSpec:
+    return ParamSpec('cueing.' + name, kind, default, description, unit, required=False, **kw)
+
+
+#: The limiter's keys of the ``cueing`` group (names ``cueing.<...>``, required=False).
+LIMITER_SPECS: tuple[ParamSpec, ...] = (
+    _spec('margin.stroke', 'double', 0.01,
+          "stroke the limiter keeps free at each end of every actuator's travel", 'm',
+          minimum=0.0, maximum=1.0),
+    _spec('margin.fraction', 'double', 0.05,
+          'fraction of the speed, force, condition and joint-angle limits the limiter keeps '
+          'free', minimum=0.0, maximum=0.5),
+    _spec('braking', 'double_array', [2.0, 2.0],
+          'deceleration of the braking the limiter keeps in reserve (translations m/s^2, '
+          'rotations rad/s^2): larger brakes later and gives up less cue, with a harder stop',
+          'm/s^2, rad/s^2', minimum=0.0, exclusive_minimum=True, maximum=1000.0, length=2),
+    _spec('gain.down', 'double', 20.0,
+          'rate at which the gain on the washout drops in each cycle that gives up cue '
+          '(adaptive gain: fewer braking false cues in a violent stretch)', '1/s',
+          minimum=0.0, maximum=1000.0),
+    _spec('gain.up', 'double', 1.0,
+          'rate at which the gain on the washout returns to 1 in each cycle that gives up '
+          'nothing', '1/s', minimum=0.0, exclusive_minimum=True, maximum=1000.0),
+    _spec('gain.minimum', 'double', 0.1, 'lowest gain on the washout', minimum=0.0,
+          maximum=1.0),
+    _spec('recovery.omega', 'double', 1.0,
+          'bandwidth of the pull-back that returns the platform to the washout after '
+          'limiting (critically damped)', 'rad/s', minimum=0.0, exclusive_minimum=True,
+          maximum=100.0),
+    _spec('recovery.acceleration', 'double_array', [0.2, 0.2],
+          'largest pull-back acceleration while returning to the washout (translations '
+          'm/s^2, rotations rad/s^2)', 'm/s^2, rad/s^2', minimum=0.0, maximum=1000.0,
+          length=2),
+)
+
+#: Bisection steps on lam when the candidate fails (lam resolution 2^-steps).
+BISECTION_STEPS = 6
+#: The state has caught up with the washout when the washout's sample is this
+#: close to the state's continuation (L1): position (m or rad), rate (m/s or rad/s).
+CATCH_UP_POSITION = 1e-6
+CATCH_UP_RATE = 1e-4
+#: How much further than the braking's stop point (L3) the limits must hold,
+#: along its way, in the fastest coordinate (m or rad).
+STOP_DISTANCE = 1e-4
+#: The braking's interior poses solved when it is long (L3): at most this far
+#: apart (m or rad), at most this many (a longer braking is refused: with the
+#: default braking, 2 m/s^2 or rad/s^2, rates up to about 1.1 m/s or rad/s).
+INTERIOR_STEP = 0.025
+INTERIOR_POINTS = 12
+#: While the limiter passes the washout's samples on, an angle's sample is
+#: passed on this close to the continuation (rad, rad/s): the design's tilt rate
+#: limit steps the tilt's rate (by up to 0.31 rad/s in cueing.vehicles' logs), and
+#: the limiter adds nothing to a washout that fits (translations: as above).
+TRACK_ANGLE = 1e-3
+TRACK_ANGLE_RATE = 0.5
+#: Periods of motion beyond the braking's stop point that must be within the
+#: limits too (L3): the margin of the limits that have none of their own
+#: (unreachable poses).
+STOP_MARGIN = 2
+
+#: :attr:`Limited.limit` of a non-finite desired sample (held: braking to rest).
+INPUT = 'input'
+
+
+@dataclass(frozen=True, slots=True)
+class Limited:
+    """One sample as the limiter lets it through: q, qd, qdd (machine
+    coordinates); ``given_up`` in [0, 1] (0: nothing); ``limit`` the limit that
+    made it ('' when none): ``stroke``, ``speed``, ``force``, ``joint_angle``,
+    ``condition``, ``unreachable``, ``overflow`` (a candidate too large to
+    solve) or ``input`` (a non-finite desired sample).
+    """
+
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    given_up: float = 0.0
+    limit: str = ''
+
+
+class PassThrough:
+    """``limiter: none``: the washout's sample as it is."""
+
+    def reset(self) -> None:
+        """Nothing to forget."""
+
+    def step(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> Limited:
+        """The sample itself."""
+        return Limited(q, qd, qdd)
+
+
+def advance(q: np.ndarray, qd: np.ndarray, a0: np.ndarray, a1: np.ndarray,
+            dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """The limiter's one integration rule (L1): position and rate after ``dt``
+    from (q, qd) with the acceleration going linearly from ``a0`` to ``a1``:
+    ``qd + dt (a0 + a1) / 2``, ``q + dt qd + dt^2 (2 a0 + a1) / 6``.
+    """
+    return (q + dt * qd + (dt * dt / 6.0) * (2.0 * a0 + a1),
+            qd + (0.5 * dt) * (a0 + a1))
+
+
+def tightened(model: Any, stroke: float, fraction: float) -> Any:
+    """A copy of ``model`` whose limits keep the margins free: strokes (or leg
+    lengths) ``stroke`` inside each end, every other limit (speed, force,
+    conditions, joint angles) scaled by ``1 - fraction``. ValueError for a
+    limit this does not know (a new one must be given a margin here) and for a
+    stroke margin that leaves no travel.
+    """
+    limits = model.limits
+    changes: dict[str, float] = {}
+    for f in fields(limits):
+        name, value = f.name, getattr(limits, f.name)
+        if name == 'warn_fraction' or value is None:
+            continue
+        if name in ('stroke_min', 'length_min'):
+            changes[name] = value + stroke
+        elif name in ('stroke_max', 'length_max'):
+            changes[name] = value - stroke
+        elif name in ('max_speed', 'max_force') or name.endswith('_condition') \
+                or name.endswith('_max_angle'):
+            changes[name] = value * (1.0 - fraction)
+        else:
+            raise ValueError(f'the limiter has no margin for the limit {name!r}')
+    low = changes.get('stroke_min', changes.get('length_min'))
+    high = changes.get('stroke_max', changes.get('length_max'))
+    if low is not None and high is not None and not low < high:
+        raise ValueError(f'cueing.margin.stroke {stroke:g} m leaves no travel '
+                         f'({low:g} >= {high:g})')
+    return replace(model, limits=replace(limits, **changes))
+
+
+def _floats(value: Any) -> list[float]:
+    """A sample's numbers as a list of floats (the hot path works on them:
+    for six numbers Python's floats are quicker than numpy's ufuncs).
+    """
+    if type(value) is np.ndarray:
+        return value.astype(float, copy=False).ravel().tolist()
+    return [float(v) for v in value]
+
+
+class InverseDynamicsLimiter:
+    """``limiter: inverse_dynamics`` (module docstring; cueing_limiter.md).
+    The state (:attr:`q`, :attr:`qd`, :attr:`qdd`) is the last sample published.
+    """
+
+    def __init__(self, model: Any, settings: Any, rate: float) -> None:
+        self.machine = machine_of(model)
+        self.model = model
+        self.dt = 1.0 / float(rate)
+        self.stop_margin = STOP_MARGIN * self.dt
+        self.tight = tightened(model, float(settings['margin.stroke']),
+                               float(settings['margin.fraction']))
+        self.tight_limits = self.machine.actuator_limits(self.tight)
+        linear = [unit == 'm' for unit in self.machine.units]
+        braking = [float(v) for v in settings['braking']]
+        recovery = [float(v) for v in settings['recovery.acceleration']]
+        # per coordinate: 1 / braking deceleration, largest pull-back acceleration
+        self.inverse_braking = [1.0 / (braking[0] if lin else braking[1]) for lin in linear]
+        self.recovery = [recovery[0] if lin else recovery[1] for lin in linear]
+        omega = float(settings['recovery.omega'])
+        self.kp, self.kd = omega * omega, 2.0 * omega
+        # (L1) the catch-up gate, per coordinate: caught up, and passing the washout on
+        n = len(linear)
+        self.catch_up = ([CATCH_UP_POSITION] * n, [CATCH_UP_RATE] * n)
+        self.track = ([CATCH_UP_POSITION if lin else TRACK_ANGLE for lin in linear],
+                      [CATCH_UP_RATE if lin else TRACK_ANGLE_RATE for lin in linear])
+        self.gain_down = float(settings['gain.down']) * self.dt
+        self.gain_up = float(settings['gain.up']) * self.dt
+        self.gain_min = float(settings['gain.minimum'])
+        self._solve = self.machine.solve
+        # (L4) the pull-back's reach: each coordinate's range at rest from home
+        ranges = [(-self._axis_range(i, -1.0), self._axis_range(i, 1.0))
+                  for i in range(self.machine.dof)]
+        self.low, self.high = [r[0] for r in ranges], [r[1] for r in ranges]
+        self.reset()
+
+    def _axis_range(self, i: int, sign: float, largest: float = 4.0) -> float:
+        """How far coordinate ``i`` goes from home towards ``sign`` at rest,
+        the others at home, within the tightened limits (bisection to 1e-4 of
+        ``largest``, m or rad, out from home in steps of 1 %): where the
+        pull-back aims for a washout beyond it.
+        """
+        rest = [0.0] * self.machine.dof
+
+        def fits(x: float) -> bool:
+            q = list(rest)
+            q[i] = sign * x
+            return self._solve(self.tight, q, rest, rest).status is Status.OK
+
+        step = 0.01 * largest       # out from home first: the range may have islands
+        low = 0.0
+        while low + step <= largest and fits(low + step):
+            low += step
+        high = min(low + step, largest)
+        while high - low > 1e-5 * largest:
+            mid = 0.5 * (low + high)
+            low, high = (mid, high) if fits(mid) else (low, mid)
+        return low
+
+    def reset(self) -> None:
+        """At rest at home, caught up (the washout starts there)."""
+        n = self.machine.dof
+        self._q, self._qd, self._qdd = [0.0] * n, [0.0] * n, [0.0] * n
+        self.gain, self._gain_limit = 1.0, ''
+        self._tracking = True       # the last sample published was the washout's own
+
+    @property
+    def q(self) -> np.ndarray:
+        return np.array(self._q)
+
+    @property
+    def qd(self) -> np.ndarray:
+        return np.array(self._qd)
+
+    @property
+    def qdd(self) -> np.ndarray:
+        return np.array(self._qdd)
+
+    # -- checks ------------------------------------------------------------
+
+    def _advance(self, q: list, qd: list, a0: list, a1: list) -> tuple[list, list]:
+        """:func:`advance` on floats, the same operations in the same order."""
+        dt = self.dt
+        c, h = dt * dt / 6.0, 0.5 * dt
+        return ([x + dt * v + c * (2.0 * u + w) for x, v, u, w in zip(q, qd, a0, a1)],
+                [v + h * (u + w) for v, u, w in zip(qd, a0, a1)])
+
+    def _braking(self, qd: list) -> tuple[float, list]:
+        """(L3) The time ``tau`` a braking from rate ``qd`` takes (each
+        coordinate at most its braking deceleration, all stopping together,
+        a straight line in pose space) and its deceleration ``-qd / tau``
+        (``tau`` at least one period: at rest, no deceleration).
+        """
+        tau = max([abs(v) * k for v, k in zip(qd, self.inverse_braking)])
+        scale = -1.0 / (tau if tau > self.dt else self.dt)
+        return tau, [v * scale for v in qd]
+
+    def _refused(self, q: list, qd: list, a: list) -> str:
+        """(L2) '' when the sample (q, qd, a) and the braking from it are within
+        the tightened limits, else the limit that refuses it. Three solves: the
+        sample's, and both ends of the braking from it (L3): its first step
+        ramps from ``a`` to the braking's deceleration (:func:`advance`), to
+        (q2, qd2), its fastest point; then it decelerates constantly to rest
+        at ``q2 + tau2 qd2 / 2``, checked :data:`STOP_MARGIN` periods of the
+        sample's rate further, with the rate qd2 (the worst of the way); a long
+        braking's interior poses too (:data:`INTERIOR_STEP`; too long: refused).
+        """
+        tight, solve, ok = self.tight, self._solve, Status.OK
+        sol = solve(tight, q, qd, a)
+        if sol.status is not ok:
+            return self._limit_name(sol)
+        brake = self._braking(qd)[1]
+        q2, qd2 = self._advance(q, qd, a, brake)
+        sol = solve(tight, q2, qd2, brake)
+        if sol.status is not ok:
+            return self._limit_name(sol)
+        tau, brake = self._braking(qd2)
+        half, extra = 0.5 * tau, self.stop_margin
+        fastest = max(map(abs, qd2))
+        # STOP_DISTANCE further along the way: however slow, it never creeps onto
+        # the boundary of a limit that has no margin of its own (unreachable)
+        step = STOP_DISTANCE / fastest if fastest > 0.0 else 0.0
+        stop = [x + (half + step) * v + extra * w for x, v, w in zip(q2, qd2, qd)]
+        sol = solve(tight, stop, qd2, brake)
+        if sol.status is not ok:
+            return self._limit_name(sol)
+        # a long braking (fast): points between its ends too, at most INTERIOR_STEP
+        # (m or rad) apart; one longer than INTERIOR_POINTS such steps is refused
+        # (the limiter's own speed limit: the workspace need not be convex)
+        length = max([abs(x - y) for x, y in zip(stop, q2)])
+        if length > INTERIOR_STEP:
+            m = int(length / INTERIOR_STEP)
+            if m > INTERIOR_POINTS:
+                return 'speed'
+            for j in range(1, m + 1):
+                f = j / (m + 1.0)
+                sol = solve(tight, [x + f * (y - x) for x, y in zip(q2, stop)], qd2, brake)
+                if sol.status is not ok:
+                    return self._limit_name(sol)
+        return ''
+
+    def _limit_name(self, sol: Any) -> str:
+        """Which limit a solve on the tightened model exceeds."""
+        status = sol.status
+        if status is Status.NEAR_SINGULAR:
+            return 'condition'
+        if status is Status.UNREACHABLE:
+            return 'unreachable'
+        if status is not Status.LIMIT:
+            return 'overflow'
+        lim = self.tight_limits
+        stroke = sol.stroke
+        if (stroke < lim.stroke_min).any() or (stroke > lim.stroke_max).any():
+            return 'stroke'
+        if (np.abs(sol.rate) > lim.max_speed).any():
+            return 'speed'
+        if (np.abs(sol.force) > lim.max_force).any():
+            return 'force'
+        return 'joint_angle'
+
+    # -- the cycle -----------------------------------------------------------
+
+    def _publish(self, q: list, qd: list, qdd: list, lam: float, limit: str) -> Limited:
+        """Publish the sample (the new state); (L6) the gain's update: lowered
+        in a cycle that gives up cue, raised back towards 1 in one that does not.
+        """
+        self._q, self._qd, self._qdd = q, qd, qdd
+        self._tracking = False
+        gain = self.gain
+        given_up = 1.0 - lam * gain
+        if lam < 1.0:
+            self.gain = max(self.gain_min, gain - self.gain_down)
+            self._gain_limit = limit
+        elif gain < 1.0:
+            self.gain = min(1.0, gain + self.gain_up)
+            limit = self._gain_limit
+        return Limited(np.array(q), np.array(qd), np.array(qdd), given_up, limit)
+
+    def step(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> Limited:
+        """The sample to publish for the washout's sample (q, qd, qdd)."""
+        q, qd, qdd = _floats(q), _floats(qd), _floats(qdd)
+        x_q, x_qd, x_a = self._q, self._qd, self._qdd
+        if not (math.isfinite(sum(q)) and math.isfinite(sum(qd)) and math.isfinite(sum(qdd))):
+            if not all(map(math.isfinite, q + qd + qdd)):
+                # (L5) nothing to follow: brake to rest and hold there
+                brake = self._braking(x_qd)[1]
+                return self._publish(*self._advance(x_q, x_qd, x_a, brake), brake, 0.0, INPUT)
+        gain = self.gain
+        if gain == 1.0:
+            # (L1) the state's continuation with the washout's acceleration,
+            # against the washout's sample
+            pq, pqd = self._advance(x_q, x_qd, x_a, qdd)
+            tol_q, tol_qd = self.track if self._tracking else self.catch_up
+            if all([abs(x - y) <= t for x, y, t in zip(pq, q, tol_q)]) and \
+                    all([abs(x - y) <= t for x, y, t in zip(pqd, qd, tol_qd)]):
+                # caught up: the washout's own sample, if it fits (invisible, bit for bit)
+                if not self._refused(q, qd, qdd):
+                    self._tracking = True
+                    self._q, self._qd, self._qdd = q, qd, qdd
+                    return Limited(np.array(q), np.array(qd), np.array(qdd), 0.0, '')
+        else:
+            # (L6) the washout times the gain
+            q, qd, qdd = ([gain * v for v in q], [gain * v for v in qd],
+                          [gain * v for v in qdd])
+            pq, pqd = self._advance(x_q, x_qd, x_a, qdd)
+        # (L4) the washout's acceleration plus a bounded, critically damped
+        # pull-back towards the washout's sample, or, for a coordinate beyond its
+        # range (:meth:`_axis_range`), towards the end of the range, at rest
+        kp, kd = self.kp, self.kd
+        a_w = []
+        for i, a in enumerate(qdd):
+            x, v = q[i], qd[i]
+            if x > self.high[i]:
+                x, v = self.high[i], 0.0
+            elif x < self.low[i]:
+                x, v = self.low[i], 0.0
+            r = self.recovery[i]
+            a_w.append(a + min(r, max(-r, -kp * (pq[i] - x) - kd * (pqd[i] - v))))
+        c_q, c_qd = self._advance(x_q, x_qd, x_a, a_w)
+        limit = self._refused(c_q, c_qd, a_w) if _finite(c_q) else 'overflow'
+        if not limit:
+            return self._publish(c_q, c_qd, a_w, 1.0, '')
+        # (L2)-(L3) blend towards braking: the largest lam that is accepted
+        brake = self._braking(x_qd)[1]
+        low, high = 0.0, 1.0
+        for _ in range(BISECTION_STEPS):
+            lam = 0.5 * (low + high)
+            a = [(1.0 - lam) * b + lam * w for b, w in zip(brake, a_w)]
+            c_q, c_qd = self._advance(x_q, x_qd, x_a, a)
+            refused = self._refused(c_q, c_qd, a) if _finite(c_q) else 'overflow'
+            if refused:
+                high, limit = lam, refused
+            else:
+                low = lam
+        a = brake if low == 0.0 else [(1.0 - low) * b + low * w for b, w in zip(brake, a_w)]
+        return self._publish(*self._advance(x_q, x_qd, x_a, a), a, low, limit)
+
+
+def _finite(values: list) -> bool:
+    return math.isfinite(sum(values)) or all(map(math.isfinite, values))
+
+
+def make_limiter(model: Any, params: Any) -> PassThrough | InverseDynamicsLimiter:
+    """The limiter ``params.limiter`` names for ``model``."""
+    if params.limiter == 'none':
+        return PassThrough()
+    if params.limiter != 'inverse_dynamics':
+        raise ValueError(f"unknown limiter {params.limiter!r} (inverse_dynamics or none)")
+    return InverseDynamicsLimiter(model, params.limiter_settings, params.rate)

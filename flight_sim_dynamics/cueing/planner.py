@@ -1,0 +1,221 @@
+"""The motion-cueing planner on a machine: the washout (:mod:`.washout`) in the
+machine's coordinates, then the limiter (:mod:`.limiter`), one output sample
+per :meth:`Planner.step`; :func:`run` the same loop over a whole vehicle log,
+resampled to the output rate by linear interpolation (design, "Time").
+
+The machine's coordinates are some of the six setpoint components (surge, sway,
+heave, roll, pitch, yaw; REP-103, the dynamics node's setpoint convention,
+which is also the ``q`` the machines' solvers take: the 3-DOF machine's
+(surge, heave, roll) convert to the paper's frame inside its solver); the
+channels a machine lacks are dropped (:attr:`Planner.dropped`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable, NamedTuple
+
+import numpy as np
+
+from ..machines.api import machine_of
+from .limiter import make_limiter
+from .params import G, CueingParams
+from .washout import CHANNELS, Desired, Washout
+
+#: :attr:`CueSample.status` values
+OK = 'ok'
+INPUT_HELD = 'input_held'        # a non-finite input sample: the last finite one was used
+
+
+class CueSample(NamedTuple):
+    """One output sample: ``q``, ``qd``, ``qdd`` in the machine's coordinates
+    (``machine_of(model).coordinates``); ``given_up`` in [0, 1] how much of the
+    washout's cue the limiter gave up (0: nothing); ``limit`` the limit that
+    made it ('' when none); ``status`` :data:`OK` or :data:`INPUT_HELD`.
+    """
+
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    given_up: float = 0.0
+    limit: str = ''
+    status: str = OK
+
+
+class Planner:
+    """Washout and limiter of ``params`` for ``model`` (any machine), one sample
+    of period ``1 / params.rate`` per :meth:`step`.
+    """
+
+    def __init__(self, model: Any, params: CueingParams) -> None:
+        self.model, self.params = model, params
+        self.machine = machine_of(model)
+        coordinates = self.machine.coordinates
+        unknown = [c for c in coordinates if c not in CHANNELS]
+        if unknown:
+            raise ValueError(f'motion cueing drives the coordinates {", ".join(CHANNELS)}; '
+                             f'{self.machine.name} has {", ".join(unknown)}')
+        #: positions in the washout's six channels of the machine's coordinates
+        self.index = np.array([CHANNELS.index(c) for c in coordinates])
+        #: the channels the machine lacks: not cued (reported)
+        self.dropped: tuple[str, ...] = tuple(c for c in CHANNELS if c not in coordinates)
+        # the washout's 18 numbers (q, qd, qdd) the machine takes, in its order
+        self._take = (None if coordinates == CHANNELS else
+                      [row * 6 + i for row in range(3) for i in self.index.tolist()])
+        self._dof = len(coordinates)
+        self.washout = Washout(params)
+        self.limiter = make_limiter(model, params)
+        self.held = 0                 # non-finite input samples replaced by the last finite one
+        #: the washout's q, qd, qdd (18 numbers, six channels each) of the last step
+        self.last_values: list[float] | None = None
+        #: the washout's q, qd, qdd in the machine's coordinates, one array, of the last
+        #: step: what the limiter was given
+        self.last_wish: np.ndarray | None = None
+        self._last = np.array([0.0, 0.0, G, 0.0, 0.0, 0.0])
+
+    @property
+    def last_desired(self) -> Desired | None:
+        """The washout's sample (six channels) of the last step."""
+        if self.last_values is None:
+            return None
+        out = np.array(self.last_values).reshape(3, 6)
+        return Desired(out[0], out[1], out[2])
+
+    def reset(self) -> None:
+        """At rest, at home; the next sample is the new rest reference."""
+        self.washout.reset()
+        self.limiter.reset()
+        self.held = 0
+        self.last_values = self.last_wish = None
+        self._last[:] = (0.0, 0.0, G, 0.0, 0.0, 0.0)
+
+    def step(self, f: np.ndarray, omega: np.ndarray) -> CueSample:
+        """One output sample of the vehicle's specific force ``f`` (3,) m/s² and
+        angular velocity ``omega`` (3,) rad/s at this output time. A non-finite
+        input is replaced by the last finite one (status :data:`INPUT_HELD`; the
+        vehicle at rest if none came yet: the platform stays home).
+        """
+        washout = self.washout
+        status = OK
+        if washout.load(f, omega):
+            self._last[:] = washout.input
+        else:
+            washout.input[:] = self._last
+            status = INPUT_HELD
+            self.held += 1
+        values = washout.advance()
+        self.last_values = values
+        take = self._take
+        out = np.array(values if take is None else [values[i] for i in take])
+        self.last_wish = out
+        dof = self._dof
+        lim = self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:])
+        return CueSample(lim.q, lim.qd, lim.qdd, lim.given_up, lim.limit, status)
+
+
+class SampleError(ValueError):
+    """A bad input sample: ``index`` (0-based) is the sample at fault."""
+
+    def __init__(self, index: int, message: str) -> None:
+        super().__init__(f'sample {index}: {message}')
+        self.index, self.reason = index, message
+
+
+@dataclass(frozen=True)
+class CueRun:
+    """A whole log through the planner (:func:`run`): output times ``t`` (N,),
+    ``q``, ``qd``, ``qdd`` (N, machine coordinates), ``given_up`` (N,),
+    ``limit`` (N,) strings; the washout's wish in the machine's coordinates
+    ``desired_q``, ``desired_qd``, ``desired_qdd`` (N, coordinates; with
+    ``limiter: none`` the output's own arrays); the vehicle's input on the output grid
+    ``f``, ``omega`` (N, 3); ``coordinates``; ``dropped`` channels;
+    ``repeated`` input times dropped; ``held`` non-finite samples held.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    given_up: np.ndarray
+    limit: np.ndarray
+    desired_q: np.ndarray
+    desired_qd: np.ndarray
+    desired_qdd: np.ndarray
+    f: np.ndarray
+    omega: np.ndarray
+    coordinates: tuple[str, ...]
+    dropped: tuple[str, ...]
+    repeated: int
+    held: int
+
+
+def resample(t: np.ndarray, values: np.ndarray, rate: float
+             ) -> tuple[np.ndarray, np.ndarray, int]:
+    """``values`` (N, k) at times ``t`` (N,) on the grid ``t[0] + n / rate`` up
+    to the last time, by linear interpolation; repeated times dropped (the first
+    of each kept) and counted. :class:`SampleError` (a ValueError) naming the
+    sample index (0-based) of a non-finite time or one that goes backwards.
+    Returns (grid, values, repeated).
+    """
+    t = np.asarray(t, dtype=float)
+    values = np.asarray(values, dtype=float)
+    if t.ndim != 1 or values.ndim != 2 or len(values) != len(t):
+        raise ValueError(f'expected times (N,) and values (N, k), got {t.shape} and '
+                         f'{values.shape}')
+    if len(t) == 0:
+        raise ValueError('no samples')
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise SampleError(int(bad[0]), f'time is not finite ({t[bad[0]]!r})')
+    dt = np.diff(t)
+    back = np.flatnonzero(dt < 0)
+    if back.size:
+        i = int(back[0]) + 1
+        raise SampleError(i, f'time {t[i]!r} goes backwards (the sample before: {t[i - 1]!r})')
+    keep = np.concatenate(([True], dt > 0))
+    repeated = int(len(t) - keep.sum())
+    t, values = t[keep], values[keep]
+    n = int(np.floor((t[-1] - t[0]) * rate + 1e-9)) + 1
+    grid = t[0] + np.arange(n) / rate
+    out = np.empty((n, values.shape[1]))
+    for k in range(values.shape[1]):
+        out[:, k] = np.interp(grid, t, values[:, k])
+    return grid, out, repeated
+
+
+def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: np.ndarray,
+        progress: Callable[[int, int], None] | None = None) -> CueRun:
+    """A vehicle log (times ``t`` (N,) s, specific force ``f`` (N, 3), angular
+    velocity ``omega`` (N, 3)) through :class:`Planner`, resampled to
+    ``params.rate`` (:func:`resample`: ValueError naming the sample of a time
+    going backwards). ``progress(done, total)`` is called now and then.
+    """
+    grid, inputs, repeated = resample(t, np.hstack([np.asarray(f, dtype=float),
+                                                    np.asarray(omega, dtype=float)]),
+                                      params.rate)
+    planner = Planner(model, params)
+    n, dof = len(grid), len(planner.index)
+    out = np.empty((n, 3 * dof))         # q, qd, qdd
+    # the washout's wish differs from the output only through the limiter
+    wish = None if params.limiter == 'none' else np.empty((n, 3 * dof))
+    given_up = np.empty(n)
+    limit = np.empty(n, dtype=object)
+    every = max(1, n // 100)
+    f_in, w_in = inputs[:, :3], inputs[:, 3:]
+    step = planner.step
+    for k in range(n):
+        sample = step(f_in[k], w_in[k])
+        row = out[k]
+        row[:dof], row[dof:2 * dof], row[2 * dof:] = sample.q, sample.qd, sample.qdd
+        if wish is not None:
+            wish[k] = planner.last_wish
+        given_up[k] = sample.given_up
+        limit[k] = sample.limit
+        if progress is not None and k % every == 0:
+            progress(k, n)
+    if progress is not None:
+        progress(n, n)
+    wish = out if wish is None else wish
+    q, qd, qdd = out[:, :dof], out[:, dof:2 * dof], out[:, 2 * dof:]
+    return CueRun(grid, q, qd, qdd, given_up, limit, wish[:, :dof], wish[:, dof:2 * dof],
+                  wish[:, 2 * dof:], f_in.copy(), w_in.copy(),
+                  planner.machine.coordinates, planner.dropped, repeated, planner.held)
