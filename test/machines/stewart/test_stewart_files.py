@@ -15,16 +15,23 @@ CONFIG = Path(__file__).resolve().parents[3] / 'config'
 NAMES = ('stewart_6dof', 'stewart_tsai2000')
 
 
+def shipped_machine(name: str) -> dict:
+    """The shipped file without its ``cueing`` group (the planner's, docs/cueing.md;
+    the loaders take it apart before the machine's builder sees the file).
+    """
+    shipped = yaml.safe_load((CONFIG / f'{name}.yaml').read_text(encoding='utf-8'))
+    shipped['flight_sim_dynamics']['ros__parameters'].pop('cueing', None)
+    return shipped
+
+
 @pytest.mark.parametrize('name', NAMES)
 def test_the_shipped_file_is_the_documented_machine(name):
-    shipped = yaml.safe_load((CONFIG / f'{name}.yaml').read_text(encoding='utf-8'))
-    assert shipped == doc_machines()[name]
+    assert shipped_machine(name) == doc_machines()[name]
 
 
 @pytest.mark.parametrize('name', NAMES)
 def test_the_shipped_file_builds_its_machine(name):
-    shipped = yaml.safe_load((CONFIG / f'{name}.yaml').read_text(encoding='utf-8'))
-    model = stewart_model.from_dict(shipped)
+    model = stewart_model.from_dict(shipped_machine(name))
     documented = stewart_model.from_dict(doc_machines()[name])
     assert model.name == name
     np.testing.assert_array_equal(model.base_joints, documented.base_joints)
