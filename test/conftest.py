@@ -10,6 +10,25 @@ import pytest
 
 
 # ---------------------------------------------------------------------------
+# Parallel runs (pytest-xdist, scripts/run_tests.sh: -n 2): each worker gets its
+# own ROS domain, the run's (ROS_DOMAIN_ID, else one drawn from the run's id)
+# plus the worker's number, set here before anything initialises rclpy, so the
+# nodes and clients of two workers never see each other. The worker's child
+# processes (the node, the twin) inherit it.
+# ---------------------------------------------------------------------------
+def _worker_domain(worker: str, run_domain: str, run_id: str) -> int:
+    """The ROS domain of xdist worker ``worker`` ('gw0', 'gw1', ...): 1..101."""
+    base = int(run_domain) if run_domain else int(run_id or '0', 16) % 100 + 1
+    return (base - 1 + int(worker.removeprefix('gw'))) % 101 + 1
+
+
+if os.environ.get('PYTEST_XDIST_WORKER'):
+    os.environ['ROS_DOMAIN_ID'] = str(_worker_domain(
+        os.environ['PYTEST_XDIST_WORKER'], os.environ.get('ROS_DOMAIN_ID', ''),
+        os.environ.get('PYTEST_XDIST_TESTRUNUID', '')))
+
+
+# ---------------------------------------------------------------------------
 # Tiers (markers registered in setup.cfg, --strict-markers):
 #   ros   the test starts a process (the node, the command line, a tool) or
 #         uses DDS (an rclpy context);
