@@ -5,6 +5,7 @@ import os
 import random
 import shutil
 import subprocess
+from typing import Callable
 
 import pytest
 
@@ -162,6 +163,17 @@ if _profile not in HYPOTHESIS_PROFILES:
     raise ValueError(f'FSD_HYPOTHESIS_PROFILE={_profile!r}: expected one of '
                      f'{", ".join(HYPOTHESIS_PROFILES)}')
 _hypothesis_settings.load_profile(_profile)
+
+
+@pytest.fixture(params=[pytest.param(0.25, id='quick'),
+                        pytest.param(0.75, id='deep', marks=pytest.mark.slow)])
+def sweep(request) -> Callable[[int], int]:
+    """A long property sweep in two parts: ``sweep(n)`` examples are a quarter
+    of ``n`` in the unit tier (``[quick]``) and the other three quarters in the
+    slow tier (``[deep]``), so the full run draws all ``n``. Use:
+    ``@settings(max_examples=sweep(400)) @given(...) def check(...)``, then
+    ``check()``, inside the test."""
+    return lambda examples: max(1, round(examples * request.param))
 
 
 # ---------------------------------------------------------------------------

@@ -140,16 +140,19 @@ def _motion(kind: str):
 
 
 @needs_kernel
-@settings(max_examples=400, deadline=None)
-@given(st.sampled_from(NAMES), st.sampled_from(('gentle', 'violent')).flatmap(_motion),
-       st.sampled_from(EVERY_EFFECTS))
-def test_any_motion_any_effects_single(name, motion, effects):
+def test_any_motion_any_effects_single(sweep):
     """Random motions (gentle and violent, reachable or not), either hexapod,
     any of the 128 effect sets with friction parameters and a payload: the
     kernel's status, detail and numbers are the numpy code's."""
-    model = MODELS[name].with_effects(effects)
-    fast, slow = both(model, *motion)
-    assert_same(fast, slow)
+    @settings(max_examples=sweep(400), deadline=None)
+    @given(st.sampled_from(NAMES), st.sampled_from(('gentle', 'violent')).flatmap(_motion),
+           st.sampled_from(EVERY_EFFECTS))
+    def check(name, motion, effects):
+        model = MODELS[name].with_effects(effects)
+        fast, slow = both(model, *motion)
+        assert_same(fast, slow)
+
+    check()
 
 
 @needs_kernel
@@ -266,17 +269,20 @@ ANY = st.one_of(st.floats(-0.3, 0.3), st.floats(allow_nan=True, allow_infinity=T
 
 
 @needs_kernel
-@settings(max_examples=400, deadline=None)
-@given(st.tuples(*[ANY] * 6), st.tuples(*[ANY] * 6), st.tuples(*[ANY] * 6))
-def test_one_rule_for_any_input(q, qd, qdd):
+def test_one_rule_for_any_input(sweep):
     """Any 18 floats (huge, tiny, infinite, NaN, singular): the same status and
     detail class through the kernel and the numpy code, and no NaN or infinity."""
-    fast, slow = both(MODEL, q, qd, qdd)
-    assert fast.status == slow.status, (fast.detail, slow.detail)
-    assert _words(fast.detail) == _words(slow.detail)
-    assert all(np.all(np.isfinite(getattr(fast, name))) for name in NUMBERS)
-    if fast.status in (Status.UNREACHABLE, Status.INVALID_INPUT):
-        assert all(np.all(getattr(fast, name) == 0.0) for name in NUMBERS)
+    @settings(max_examples=sweep(400), deadline=None)
+    @given(st.tuples(*[ANY] * 6), st.tuples(*[ANY] * 6), st.tuples(*[ANY] * 6))
+    def check(q, qd, qdd):
+        fast, slow = both(MODEL, q, qd, qdd)
+        assert fast.status == slow.status, (fast.detail, slow.detail)
+        assert _words(fast.detail) == _words(slow.detail)
+        assert all(np.all(np.isfinite(getattr(fast, name))) for name in NUMBERS)
+        if fast.status in (Status.UNREACHABLE, Status.INVALID_INPUT):
+            assert all(np.all(getattr(fast, name) == 0.0) for name in NUMBERS)
+
+    check()
 
 
 @needs_kernel
