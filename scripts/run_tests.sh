@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# `python -m pytest -q ARGS` in .venv (created, requirements-test.txt and the package
+# `python -m pytest -q -n 2 ARGS` in .venv (created, requirements-test.txt and the package
 # installed; FSD_SKIP_INSTALL=1: no pip), e.g. no ARGS: everything (CI);
 # -m "not ros and not slow": the unit tier (setup.cfg); test/core: one folder.
 set -euo pipefail
@@ -13,4 +13,7 @@ echo "[tests] ROS_DOMAIN_ID=$ROS_DOMAIN_ID ROS_AUTOMATIC_DISCOVERY_RANGE=$ROS_AU
 # a failed kernel build fails the run (FSD_REQUIRE_KERNEL=0 allows it)
 export FSD_REQUIRE_KERNEL="${FSD_REQUIRE_KERNEL:-1}"
 
-exec python -m pytest -q "$@"
+# two workers (pytest-xdist), a test file to one worker (a module's node started
+# once); each worker has its own ROS domain (test/conftest.py). FSD_TEST_WORKERS=0:
+# one process, as does `-n 0` among ARGS (the last -n wins)
+exec python -m pytest -q -n "${FSD_TEST_WORKERS:-2}" --dist loadfile "$@"

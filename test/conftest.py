@@ -5,8 +5,28 @@ import os
 import random
 import shutil
 import subprocess
+from typing import Callable
 
 import pytest
+
+
+# ---------------------------------------------------------------------------
+# Parallel runs (pytest-xdist, scripts/run_tests.sh: -n 2): each worker gets its
+# own ROS domain, the run's (ROS_DOMAIN_ID, else one drawn from the run's id)
+# plus the worker's number, set here before anything initialises rclpy, so the
+# nodes and clients of two workers never see each other. The worker's child
+# processes (the node, the twin) inherit it.
+# ---------------------------------------------------------------------------
+def _worker_domain(worker: str, run_domain: str, run_id: str) -> int:
+    """The ROS domain of xdist worker ``worker`` ('gw0', 'gw1', ...): 1..101."""
+    base = int(run_domain) if run_domain else int(run_id or '0', 16) % 100 + 1
+    return (base - 1 + int(worker.removeprefix('gw'))) % 101 + 1
+
+
+if os.environ.get('PYTEST_XDIST_WORKER'):
+    os.environ['ROS_DOMAIN_ID'] = str(_worker_domain(
+        os.environ['PYTEST_XDIST_WORKER'], os.environ.get('ROS_DOMAIN_ID', ''),
+        os.environ.get('PYTEST_XDIST_TESTRUNUID', '')))
 
 
 # ---------------------------------------------------------------------------
@@ -143,6 +163,17 @@ if _profile not in HYPOTHESIS_PROFILES:
     raise ValueError(f'FSD_HYPOTHESIS_PROFILE={_profile!r}: expected one of '
                      f'{", ".join(HYPOTHESIS_PROFILES)}')
 _hypothesis_settings.load_profile(_profile)
+
+
+@pytest.fixture(params=[pytest.param(0.25, id='quick'),
+                        pytest.param(0.75, id='deep', marks=pytest.mark.slow)])
+def sweep(request) -> Callable[[int], int]:
+    """A long property sweep in two parts: ``sweep(n)`` examples are a quarter
+    of ``n`` in the unit tier (``[quick]``) and the other three quarters in the
+    slow tier (``[deep]``), so the full run draws all ``n``. Use:
+    ``@settings(max_examples=sweep(400)) @given(...) def check(...)``, then
+    ``check()``, inside the test."""
+    return lambda examples: max(1, round(examples * request.param))
 
 
 # ---------------------------------------------------------------------------

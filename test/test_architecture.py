@@ -5,6 +5,7 @@ edits anywhere in the repository."""
 from __future__ import annotations
 
 import ast
+import os
 from pathlib import Path
 
 import pytest
@@ -157,11 +158,19 @@ def test_no_import_cycles():
             visit(name, [name])
 
 
+def python_files(root: Path, skip: set[str]) -> list[Path]:
+    """The .py files under ``root``, not descending into folders named in ``skip``
+    (rglob walked all of .venv before its files were left out)."""
+    found = []
+    for folder, folders, files in os.walk(root):
+        folders[:] = [f for f in folders if f not in skip]
+        found += [Path(folder, f) for f in files if f.endswith('.py')]
+    return found
+
+
 def test_no_sys_path_edits_anywhere():
     offenders = []
-    for path in ROOT.rglob('*.py'):
-        if any(part in {'.venv', 'build', 'install', 'log', '.git'} for part in path.parts):
-            continue
+    for path in python_files(ROOT, skip={'.venv', 'build', 'install', 'log', '.git'}):
         for node in ast.walk(ast.parse(path.read_text())):
             if (isinstance(node, ast.Attribute) and node.attr in {'insert', 'append', 'extend'}
                     and isinstance(node.value, ast.Attribute) and node.value.attr == 'path'

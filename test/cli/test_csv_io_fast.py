@@ -45,20 +45,29 @@ MODEL = fsd.load_model()
 def shortest_decimal(x: float) -> tuple[str, int]:
     """(digits, decimal exponent) of the decimal with the fewest significant
     digits that reads back as x > 0, the nearest to x among those (a tie to
-    the even last digit): for each
-    number of digits k, the correctly rounded one and its two neighbours (next
-    to a power of two the gaps below and above x differ)."""
-    for k in range(1, 18):
+    the even last digit): for a number of digits k, the correctly rounded one
+    and its two neighbours (next to a power of two the gaps below and above x
+    differ). The fewest k by bisection over 1..17: if a k-digit decimal reads
+    back as x, so does a (k + 1)-digit one (one of those three: the interval
+    that reads back as x holds x and that decimal times 10)."""
+    def fits(k: int) -> tuple[list[int], int]:
         mantissa, exponent = f'{x:.{k - 1}e}'.split('e')
         m, p = int(mantissa.replace('.', '')), int(exponent) - (k - 1)
-        fits = [c for c in (m - 1, m, m + 1)
-                if c > 0 and float(f'{c}e{p}') == x]
-        if fits:
-            best = min(fits, key=lambda c: (abs(Fraction(c) * Fraction(10) ** p - Fraction(x)),
-                                            c % 2))     # a tie: the even digit
-            digits = str(best)
-            return digits.rstrip('0'), p + len(digits) - 1
-    raise AssertionError(x)
+        return [c for c in (m - 1, m, m + 1) if c > 0 and float(f'{c}e{p}') == x], p
+
+    low, high = 1, 17                   # 17 digits always read back
+    while low < high:
+        middle = (low + high) // 2
+        if fits(middle)[0]:
+            high = middle
+        else:
+            low = middle + 1
+    found, p = fits(low)
+    assert found, x
+    best = min(found, key=lambda c: (abs(Fraction(c) * Fraction(10) ** p - Fraction(x)),
+                                     c % 2))     # a tie: the even digit
+    digits = str(best)
+    return digits.rstrip('0'), p + len(digits) - 1
 
 
 def reference_text(v: float) -> str:

@@ -17,7 +17,6 @@ from __future__ import annotations
 import math
 import os
 import random
-import subprocess
 import time
 
 import pytest
@@ -241,11 +240,12 @@ def test_mutated_params_files_end_the_start_cleanly(tmp_path):
         path = tmp_path / f'mutated{k}.yaml'
         path.write_text(''.join(mutated))
         proc = NodeProcess('-r', f'__ns:=/mutated{k}', params_file=path)
-        try:
-            proc.proc.wait(timeout=3.0)
-            refused = True
-        except subprocess.TimeoutExpired:     # still running: it accepted the file
-            refused = False
+        # accepted (it answers) or refused (it exits), whichever comes: not a fixed 3 s
+        # wait (a start takes longer on a loaded host, and a node stopped while it still
+        # imports ends with a KeyboardInterrupt traceback); autostart stays true here
+        accepted = proc.wait_output('active: answering setpoints', 60.0)
+        refused = not proc.alive()
+        assert accepted or refused, (SEED, 'neither up nor ended in 60 s', proc.output()[-2000:])
         code = proc.stop()
         output = proc.output()
         assert 'Traceback' not in output, (SEED, output[-2000:])

@@ -255,6 +255,9 @@ def test_a_second_node_of_the_same_name_runs_as_ros2_allows(client, node, model)
     and stops cleanly; the first one keeps answering."""
     second = NodeProcess(params_file=PARAMS_FILE)
     try:
+        # up before it is stopped (a Ctrl-C while it still starts ends it by the
+        # signal: seen on a loaded host, where its start takes seconds)
+        assert second.wait_output('active: answering setpoints', 60.0), second.output()[-2000:]
         assert not client.spin_until(lambda: not second.alive(), 3.0), second.output()[-2000:]
         base = now_ns() - 1_000_000_000
         stamps = [stamp_ns(m) for m in answered_stream(client, model, [base])]

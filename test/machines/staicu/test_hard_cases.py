@@ -51,6 +51,7 @@ them fixed.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -535,7 +536,7 @@ GOOD = ((0.05, 0.1, 0.2), (0.1, -0.1, 0.2), (1.0, -1.0, 2.0))
     [[0.0], [0.0], [0.0]], np.zeros((3, 1)), np.zeros((1, 3)), np.float64(1.0), {0, 1, 2},
     {'surge': 0, 'heave': 0, 'roll': 0}, (x for x in (0.0, 0.0, 0.0)), [0.0, None, 0.0],
     [0.0, 'x', 0.0], [1j, 0.0, 0.0], [0.0, object(), 0.0],
-], ids=repr)
+], ids=lambda v: re.sub(r' at 0x[0-9a-f]+', '', repr(v)))   # one id in every process (xdist)
 def test_solve_wrong_shape_or_type_is_a_clear_error(argument, garbage):
     args = list(GOOD)
     args[argument] = garbage

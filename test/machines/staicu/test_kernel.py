@@ -87,15 +87,18 @@ ACCELERATION = st.tuples(*[st.floats(-20.0, 20.0)] * 3)
 
 
 @needs_kernel
-@settings(max_examples=300)
-@given(POSE, RATE, ACCELERATION, st.sampled_from(EVERY_EFFECTS), st.booleans())
-def test_any_pose_any_effects_single(q, qd, qdd, effects, payload):
+def test_any_pose_any_effects_single(sweep):
     """Any pose of the working region (reachable or not), any rates, any of the
     128 effect combinations, with or without a payload body: the kernel gives
     the Python code's status, detail and numbers."""
-    model = (PAYLOAD_MODEL if payload else MODEL).with_effects(effects)
-    fast, slow = both(model, q, qd, qdd)
-    assert_same(fast, slow)
+    @settings(max_examples=sweep(300))
+    @given(POSE, RATE, ACCELERATION, st.sampled_from(EVERY_EFFECTS), st.booleans())
+    def check(q, qd, qdd, effects, payload):
+        model = (PAYLOAD_MODEL if payload else MODEL).with_effects(effects)
+        fast, slow = both(model, q, qd, qdd)
+        assert_same(fast, slow)
+
+    check()
 
 
 @needs_kernel
@@ -186,22 +189,25 @@ GARBAGE = st.one_of(st.floats(-0.3, 0.6), st.floats(allow_nan=True, allow_infini
 
 
 @needs_kernel
-@settings(max_examples=400)
-@given(st.tuples(GARBAGE, GARBAGE, GARBAGE), st.tuples(GARBAGE, GARBAGE, GARBAGE),
-       st.tuples(GARBAGE, GARBAGE, GARBAGE))
-def test_one_rule_for_any_input(q, qd, qdd):
+def test_one_rule_for_any_input(sweep):
     """Any nine floats (huge, tiny, infinite, NaN, the singular roll): the kernel's
     single solve, the Python single solve (floats) and the Python batch code
     (arrays) give the same status and the same detail, and no NaN or infinity."""
-    with core_kernel.use_kernel(True):
-        fast = fsd.solve(MODEL, q, qd, qdd)
-    with core_kernel.use_kernel(False):
-        scalar = fsd.solve(MODEL, q, qd, qdd)
-        batch = fsd.solve_batch(MODEL, [q], [qd], [qdd])
-    assert fast.status == scalar.status == batch.status[0], (fast.detail, scalar.detail)
-    assert _words(fast.detail) == _words(scalar.detail) == _words(batch.detail[0])
-    for sol in (fast, scalar):
-        assert all(np.all(np.isfinite(getattr(sol, name))) for name in NUMBERS)
+    @settings(max_examples=sweep(400))
+    @given(st.tuples(GARBAGE, GARBAGE, GARBAGE), st.tuples(GARBAGE, GARBAGE, GARBAGE),
+           st.tuples(GARBAGE, GARBAGE, GARBAGE))
+    def check(q, qd, qdd):
+        with core_kernel.use_kernel(True):
+            fast = fsd.solve(MODEL, q, qd, qdd)
+        with core_kernel.use_kernel(False):
+            scalar = fsd.solve(MODEL, q, qd, qdd)
+            batch = fsd.solve_batch(MODEL, [q], [qd], [qdd])
+        assert fast.status == scalar.status == batch.status[0], (fast.detail, scalar.detail)
+        assert _words(fast.detail) == _words(scalar.detail) == _words(batch.detail[0])
+        for sol in (fast, scalar):
+            assert all(np.all(np.isfinite(getattr(sol, name))) for name in NUMBERS)
+
+    check()
 
 
 @needs_kernel

@@ -187,19 +187,21 @@ def assert_same(fast, slow) -> None:
 
 
 @needs_kernel
+@pytest.mark.parametrize('steps', [50, pytest.param(200, marks=pytest.mark.slow)])
 @pytest.mark.parametrize('name', sorted(MACHINES))
-def test_closed_loop_kernel_equals_python(name):
-    """200 steps (the Python loop is slow), full feed-forward and none, a
-    payload the controller does not know, and actuators that saturate."""
+def test_closed_loop_kernel_equals_python(name, steps):
+    """50 steps in the unit tier, 200 in the slow one (the Python loop is
+    slow), full feed-forward and none, a payload the controller does not know,
+    and actuators that saturate."""
     model = model_of(name)
     scale = 1.0 if name == 'stewart_6dof' else 0.5
-    ref = reference(sines(*HARSH, scale=scale), 0.2)
+    ref = reference(sines(*HARSH, scale=scale), steps * 1e-3)
     plant = with_payload(model)
     weak = replace(plant, limits=replace(plant.limits, max_force=0.9 * np.abs(
         fsd.solve(plant, ZERO, ZERO, ZERO).force).max(), max_speed=0.2))
     for plant_, feedforward in ((model, model), (model, None), (plant, model), (weak, weak)):
         fast, slow = both(lambda: fsd.simulate(plant_, reference=ref, feedforward=feedforward))
-        assert fast.outcome is Status.OK and len(fast.t) == 201
+        assert fast.outcome is Status.OK and len(fast.t) == steps + 1
         assert_same(fast, slow)
         np.testing.assert_allclose(fast.length_error, slow.length_error, rtol=0, atol=1e-12)
 

@@ -218,16 +218,19 @@ _ANY = st.floats(allow_nan=True, allow_infinity=True)
 _WILD = st.one_of(_ANY, st.floats(-1e3, 1e3), st.floats(-2.0, 2.0))
 
 
-@settings(max_examples=300, deadline=None)
-@given(values=st.lists(_WILD, min_size=18, max_size=18))
-def test_any_numbers_give_a_status_and_finite_results(values):
-    v = np.array(values).reshape(3, 6)
-    sol = solver.solve(MODEL, v[0], v[1], v[2])
-    assert isinstance(sol.status, Status) and sol.status is not Status.NOT_CONVERGED
-    assert _all_finite(sol)
-    assert (sol.status is Status.OK) == (sol.detail == '')
-    if not np.all(np.isfinite(v)):
-        assert sol.status is Status.INVALID_INPUT and _void(sol)
+def test_any_numbers_give_a_status_and_finite_results(sweep):
+    @settings(max_examples=sweep(300), deadline=None)
+    @given(values=st.lists(_WILD, min_size=18, max_size=18))
+    def check(values):
+        v = np.array(values).reshape(3, 6)
+        sol = solver.solve(MODEL, v[0], v[1], v[2])
+        assert isinstance(sol.status, Status) and sol.status is not Status.NOT_CONVERGED
+        assert _all_finite(sol)
+        assert (sol.status is Status.OK) == (sol.detail == '')
+        if not np.all(np.isfinite(v)):
+            assert sol.status is Status.INVALID_INPUT and _void(sol)
+
+    check()
 
 
 @pytest.mark.parametrize('value', [[0.0] * 5, 'abcdef', [[0.0] * 6], [True] * 6, None,
