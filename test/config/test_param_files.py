@@ -141,6 +141,9 @@ BILLION_LAUGHS = ('lol: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol
     (HEADER + '    bodies:\n      rod:\n        com: []\n', ['bodies.rod.com', 'got 0']),
     (HEADER + '    1: 2.0\n', ["'1'", 'unknown parameter']),
     (HEADER + '    ? [a, b]\n    : 1\n', ['not valid YAML']),
+    # an explicit tag its text does not fit (a mutated file found it: a bare ValueError)
+    (HEADER + '    gravity: !!float 1\n      -2.0, 0.0]\n', ['not valid YAML']),
+    (HEADER + '    gravity: !!int x\n', ['not valid YAML']),
 ])
 def test_bad_file_is_one_parameter_error_naming_it(tmp_path, content, words):
     path = tmp_path / 'bad.yaml'
