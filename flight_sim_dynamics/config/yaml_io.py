@@ -155,6 +155,8 @@ def read_yaml(path: str | os.PathLike[str], key: str = 'params_file') -> Any:
         raise ParameterError(key, source, f'not valid YAML: {message}') from None
     except RecursionError:          # a file of a thousand nested brackets
         raise ParameterError(key, source, 'not valid YAML: nested too deeply') from None
+    except ParameterError:          # a key of the file named (_check_nodes)
+        raise
     except (ValueError, TypeError) as exc:      # an explicit tag its text does not fit (!!float x)
         raise ParameterError(key, source, f'not valid YAML: {exc}') from None
     finally:
