@@ -24,7 +24,8 @@ ALLOWED = {
     'cli': {'core', 'config', 'ros', 'machines', 'cueing'},
 }
 #: modules of ros/ that talk to rclpy (the rest of ros/ is plain Python)
-RCLPY_MODULES = {'ros/dynamics_node.py', 'ros/marker_publisher.py', 'ros/motion_cueing.py',
+RCLPY_MODULES = {'ros/dynamics_node.py', 'ros/managed_node.py', 'ros/marker_publisher.py',
+                 'ros/motion_cueing.py',
                  'ros/node.py', 'ros/parameter_guard.py',
                  'ros/planner.py', 'ros/platform_sim.py', 'ros/service_thread.py',
                  'ros/sim_node.py', 'cli/demo.py'}

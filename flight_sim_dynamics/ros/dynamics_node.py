@@ -14,13 +14,12 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
+from rclpy.lifecycle import LifecycleState, TransitionCallbackReturn
 from rclpy.parameter import Parameter
 from rclpy.qos import (DurabilityPolicy, HistoryPolicy, QoSPolicyKind, QoSProfile,
                        ReliabilityPolicy)
 from rclpy.qos_overriding_options import InvalidQosOverridesError, QoSOverridingOptions
 from rclpy.serialization import deserialize_message
-from rclpy.task import Future
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
 
@@ -29,13 +28,13 @@ from ..config.machine_files import ignored_message, ignored_values
 from ..config.node_schema import MACHINE, NodeSchema, node_schema
 from ..cueing.params import SPECS as CUEING_SPECS
 from .marker_publisher import MarkerPublisher
+from .managed_node import ManagedNode
 from .parameter_guard import (MAX_NAMES_PER_REQUEST, MAX_PARAMETERS_PER_REQUEST,
-                              MAX_VALIDATIONS_PER_REQUEST, GuardedParameters, _failed, plain)
+                              MAX_VALIDATIONS_PER_REQUEST, _failed, plain)
 from .process import end_spins, stop_requested
 from .setpoints import (ACCEL, BAD_SETPOINT, INACTIVE, LEVEL_NAMES, PLATFORM, POSE, TWIST, Answer,
                         Outcome, Runtime, SetpointError, SetpointIntake, diagnostic_name, log_at)
 
-SUCCESS, FAILURE = TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE
 LATEST_STAMP_REUSE = 0.005       # s one clock reading serves the future-stamp check
 # bytes of a valid trajectory point at most, and of the rest of a
 # platform_setpoint: a larger message is refused undecoded
@@ -63,11 +62,7 @@ def check_qos(qos: QoSProfile) -> SetParametersResult:
     return SetParametersResult(successful=True)
 
 
-class _Refused(ValueError):
-    """A start-up value the schema refused, not set since."""
-
-
-class DynamicsNode(GuardedParameters, LifecycleNode):
+class DynamicsNode(ManagedNode):
     """Starts unconfigured; :meth:`start` (or a lifecycle manager) configures
     and activates it. :attr:`failure`: why configure failed.
     """
@@ -75,16 +70,11 @@ class DynamicsNode(GuardedParameters, LifecycleNode):
     REJECTED = 'parameter change rejected, model unchanged'
 
     def __init__(self, **kwargs: Any) -> None:
-        # every given parameter declared: typos can be told apart with public API
-        super().__init__(prm.NODE_NAME, automatically_declare_parameters_from_overrides=True,
-                         **kwargs)
-        self.failure: str | None = None
-        self.finalized = Future()
+        super().__init__(prm.NODE_NAME, **kwargs)
         self._runtime: Runtime | None = None     # None: unconfigured
         self._staged: Runtime | None = None      # validated by the on-set callback
         self._intake: SetpointIntake | None = None
         self._active = False
-        self._starting = False
         self._unknown_reported = False
         self._latest: int | None = None
         self._latest_until = 0.0
@@ -199,37 +189,17 @@ class DynamicsNode(GuardedParameters, LifecycleNode):
         super().destroy_node()
 
 
-    # -- lifecycle -----------------------------------------------------------------
-    def start(self) -> bool:
-        """Configure, then activate; False (see :attr:`failure`) if configure failed."""
-        self._starting = True       # a failure is the caller's ``error:`` line, not a log
-        try:
-            if self.trigger_configure() != SUCCESS:
-                return False
-        finally:
-            self._starting = False
-        return self.trigger_activate() == SUCCESS
+    # -- lifecycle (ManagedNode: start, configure's failure, cleanup, shutdown) ---
+    def _configure(self) -> None:
+        self._runtime = self._runtime_of(self._values())
+        if self._intake is None:
+            self._intake = SetpointIntake(self._runtime, self._publish_answer)
+        else:
+            self._intake.reconfigure(self._runtime)
+            self._intake.reset()
+        self._create_endpoints(self._runtime)
 
-    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
-        try:
-            if self._refused:
-                raise _Refused(next(iter(self._refused.values())))
-            self._runtime = self._runtime_of(self._values())
-            if self._intake is None:
-                self._intake = SetpointIntake(self._runtime, self._publish_answer)
-            else:
-                self._intake.reconfigure(self._runtime)
-                self._intake.reset()
-            self._create_endpoints(self._runtime)
-        except Exception as exc:  # noqa: BLE001 - a ParameterError, a geometry the solver refuses
-            reason = str(exc) if isinstance(exc, (prm.ParameterError, _Refused)) \
-                else f'{type(exc).__name__}: {exc}'
-            self._release()
-            self.failure = f'invalid parameters: {reason}'
-            if not self._starting:
-                self.get_logger().error(f'configure failed, still unconfigured: {self.failure}')
-            return FAILURE
-        self.failure = None
+    def _configured(self) -> None:
         # the cueing group of a shared params file is motion_cueing's (checked by the loaders)
         unknown = sorted(n for n in self._given
                          if not self.has_parameter(n) and n not in CUEING_SPECS)
@@ -247,7 +217,6 @@ class DynamicsNode(GuardedParameters, LifecycleNode):
             + ', '.join(f'{e.topic_name} ({e.qos_profile.reliability.name.lower()} '
                         f'{e.qos_profile.history.name.lower()} {e.qos_profile.depth})'
                         for e in self._endpoints) + ', /diagnostics')
-        return SUCCESS
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
         self._drop_queued()
@@ -280,21 +249,6 @@ class DynamicsNode(GuardedParameters, LifecycleNode):
         self._log(self._intake.reset(INACTIVE))
         self.get_logger().info('inactive: setpoints are counted as inactive, not answered')
         return super().on_deactivate(state)
-
-    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
-        self._release()
-        self.get_logger().info('unconfigured: endpoints released')
-        return SUCCESS
-
-    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
-        self._release()
-        if not self.finalized.done():
-            self.finalized.set_result(True)
-        return SUCCESS
-
-    def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:
-        self._release()
-        return SUCCESS
 
     def _release(self) -> None:
         self._active = False

@@ -24,11 +24,10 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
+from rclpy.lifecycle import LifecycleState, TransitionCallbackReturn
 from rclpy.parameter import Parameter
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.qos_overriding_options import InvalidQosOverridesError, QoSOverridingOptions
-from rclpy.task import Future
 from sensor_msgs.msg import Imu
 
 from ..config import parameters as prm
@@ -41,8 +40,9 @@ from ..cueing.planner import Planner
 from ..machines.api import machine_of
 from .cueing_input import InputFeed
 from .dynamics_node import QOS_POLICIES, check_qos, default_qos
-from .node import create, executable_parser, make_executor, own_options, refuse, running, spin
-from .parameter_guard import GuardedParameters, _failed, plain
+from .node import executable_parser, run_managed
+from .managed_node import ManagedNode
+from .parameter_guard import _failed, plain
 from .planner import SetpointPublisher
 from .platform_sim import plant_file
 from .process import end_spins, stop_requested
@@ -50,7 +50,6 @@ from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, RESTART_CONFIRMATION
                         STAMP_BACKWARDS, STAMP_REPEATED, WARN, LogThrottle, SetpointError,
                         diagnostic_name, fmt_stamp, number)
 
-SUCCESS, FAILURE = TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE
 INACTIVE = 'inactive'                 # an Imu taken while the node is not active
 OUT_OF_RANGE = 'out_of_range'         # beyond input.max_specific_force / max_angular_velocity
 #: Why an Imu message is not used, in the order /diagnostics lists them.
@@ -191,11 +190,7 @@ class InputStats:
         return level, problems, values
 
 
-class _Refused(ValueError):
-    """A start-up value refused, not set since."""
-
-
-class MotionCueingNode(GuardedParameters, LifecycleNode):
+class MotionCueingNode(ManagedNode):
     """Starts unconfigured; :meth:`start` (or a lifecycle manager) configures
     and activates it. ``params_files``: the ``--params-file`` files of its
     command line. :attr:`failure`: why configure failed.
@@ -204,10 +199,7 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
     REJECTED = 'parameter change rejected, planner unchanged'
 
     def __init__(self, params_files: Sequence[str] = (), **kwargs: Any) -> None:
-        super().__init__(CUEING_NODE_NAME, automatically_declare_parameters_from_overrides=True,
-                         **kwargs)
-        self.failure: str | None = None
-        self.finalized = Future()
+        super().__init__(CUEING_NODE_NAME, **kwargs)
         self.stats = InputStats()
         self._throttle = LogThrottle(LOG_THROTTLE)
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -219,7 +211,6 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
         self._next: tuple[CueingConfig, Planner] | None = None   # a change waiting for neutral
         self._feed: InputFeed | None = None
         self._active = False
-        self._starting = False
         self._setpoints: SetpointPublisher | None = None
         self._imu_sub = self._diag_pub = self._diag_timer = self._timer = None
         given = self._given_parameters()
@@ -339,44 +330,23 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
         return (f"parameter '{name}' is read-only: refused; it is fixed at start-up (another "
                 'machine or start-up needs another node)')
 
-    # -- lifecycle -----------------------------------------------------------------
-    def start(self) -> bool:
-        """Configure, then activate; False (see :attr:`failure`) if configure failed."""
-        self._starting = True       # a failure is the caller's ``error:`` line, not a log
-        try:
-            if self.trigger_configure() != SUCCESS:
-                return False
-        finally:
-            self._starting = False
-        return self.trigger_activate() == SUCCESS
+    # -- lifecycle (ManagedNode: start, configure's failure, cleanup, shutdown) ---
+    def _configure(self) -> None:
+        config = CueingConfig.of(self._values(), self._source)
+        self._planner = Planner(self.model, config.params)
+        self._config = config
+        self._next = None
+        self._reset_motion()
+        self._create_endpoints(config)
 
-    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
-        try:
-            if self._refused:
-                raise _Refused(next(iter(self._refused.values())))
-            config = CueingConfig.of(self._values(), self._source)
-            self._planner = Planner(self.model, config.params)
-            self._config = config
-            self._next = None
-            self._reset_motion()
-            self._create_endpoints(config)
-        except Exception as exc:  # noqa: BLE001 - a ParameterError, a planner that refuses
-            reason = str(exc) if isinstance(exc, (prm.ParameterError, _Refused)) \
-                else f'{type(exc).__name__}: {exc}'
-            self._release()
-            self.failure = f'invalid parameters: {reason}'
-            if not self._starting:
-                self.get_logger().error(f'configure failed, still unconfigured: {self.failure}')
-            return FAILURE
-        self.failure = None
+    def _configured(self) -> None:
         dropped = ', '.join(getattr(self._planner, 'dropped', ())) or 'none'
-        p = config.params
+        p = self._config.params
         self.get_logger().info(
             f'configured: {self.machine.title} ({self._source}, scene {self.model.scene}), '
             f'{p.rate:g} Hz, limiter '
             f'{p.limiter}; channels not cued: {dropped}; vehicle_imu in, pose/twist/'
             'accel_setpoint out, /diagnostics')
-        return SUCCESS
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
         self._reset_motion()
@@ -391,21 +361,6 @@ class MotionCueingNode(GuardedParameters, LifecycleNode):
         self._stop_timer()
         self.get_logger().info('inactive: no setpoints; vehicle_imu counted, not used')
         return super().on_deactivate(state)
-
-    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
-        self._release()
-        self.get_logger().info('unconfigured: endpoints released')
-        return SUCCESS
-
-    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
-        self._release()
-        if not self.finalized.done():
-            self.finalized.set_result(True)
-        return SUCCESS
-
-    def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:
-        self._release()
-        return SUCCESS
 
     def destroy_node(self) -> None:
         self._stop_serving_apart()
@@ -693,21 +648,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    args = own_options('motion_cueing', build_parser(), argv)
-    with running('motion_cueing', argv) as nodes:
-        node = create(lambda: MotionCueingNode(params_files_in(argv)))
-        nodes.append(node)
-        if not node.get_parameter('autostart').value:
-            node.get_logger().info('autostart is false: unconfigured, waiting for a lifecycle '
-                                   'manager (configure, then activate)')
-        elif not node.start():
-            refuse(node.failure)
-        executor = make_executor(args.executor)
-        node.serve_parameters_apart(executor)
-        executor.add_node(node)
-        spin(executor, until=[node.finalized])
-    return 0
-
+    return run_managed('motion_cueing', build_parser(), argv,
+                       lambda: MotionCueingNode(params_files_in(argv)))
 
 if __name__ == '__main__':
     sys.exit(main())

@@ -110,15 +110,18 @@ def running(program: str, argv: Sequence[str]) -> Iterator[list[Any]]:
             faulthandler.cancel_dump_traceback_later()
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
-    args = own_options('dynamics_node', build_parser(), argv)
-    with running('dynamics_node', argv) as nodes:
-        node = create(DynamicsNode)
+def run_managed(program: str, parser: argparse.ArgumentParser, argv: Sequence[str],
+                make: Callable[[], Any], check: Callable[[Any], None] | None = None) -> int:
+    """Run the managed node ``make()`` as the executable ``program`` (module
+    docstring): ``check(node)`` (e.g. its ``--params-file`` names) may end the
+    start as a refused value does; 0 at the end.
+    """
+    args = own_options(program, parser, argv)
+    with running(program, argv) as nodes:
+        node = create(make)
         nodes.append(node)
-        # an unknown name or bad value in a --params-file ends the start
-        create(lambda: check_node_params_files(argv, node.get_fully_qualified_name(),
-                                             node.machine_name))
+        if check is not None:
+            create(lambda: check(node))
         if not node.get_parameter('autostart').value:
             node.get_logger().info('autostart is false: unconfigured, waiting for a lifecycle '
                                    'manager (configure, then activate)')
@@ -130,6 +133,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         spin(executor, until=[node.finalized])
     return 0
 
+
+def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    # an unknown name or bad value in a --params-file ends the start
+    return run_managed('dynamics_node', build_parser(), argv, DynamicsNode,
+                       lambda node: check_node_params_files(
+                           argv, node.get_fully_qualified_name(), node.machine_name))
 
 def spin_until(executor: Any, predicate: Callable[[], bool], timeout: float | None = None,
                step: float = 0.05) -> bool:
