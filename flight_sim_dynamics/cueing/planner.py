@@ -19,7 +19,7 @@ import numpy as np
 from ..machines.api import machine_of
 from .limiter import make_limiter
 from .params import G, CueingParams
-from .washout import CHANNELS, Desired, Washout
+from .washout import CHANNELS, Desired, Washout, forecast_matrix
 
 #: :attr:`CueSample.status` values
 OK = 'ok'
@@ -64,6 +64,11 @@ class Planner:
         self._dof = len(coordinates)
         self.washout = Washout(params)
         self.limiter = make_limiter(model, params)
+        # the limiter's look-ahead (limiter.py, L7): the washout's free response
+        self._horizons: tuple[float, ...] = getattr(self.limiter, 'horizons', ())
+        self._forecast = (forecast_matrix(params, self._horizons) if self._horizons
+                          else None)
+        self._index = self.index.tolist()
         self.held = 0                 # non-finite input samples replaced by the last finite one
         #: the washout's q, qd, qdd (18 numbers, six channels each) of the last step
         self.last_values: list[float] | None = None
@@ -108,7 +113,13 @@ class Planner:
         out = np.array(values if take is None else [values[i] for i in take])
         self.last_wish = out
         dof = self._dof
-        lim = self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:])
+        if self._forecast is None:
+            lim = self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:])
+        else:
+            index = self._index
+            ahead = [[pose[i] for i in index]
+                     for pose in washout.ahead(self._forecast, self._horizons)]
+            lim = self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:], ahead)
         return CueSample(lim.q, lim.qd, lim.qdd, lim.given_up, lim.limit, status)
 
 
