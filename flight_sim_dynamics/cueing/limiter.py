@@ -272,7 +272,7 @@ class InverseDynamicsLimiter:
         self.gain, self._gain_limit = 1.0, ''
         # (L7) the gain ahead of a motion the ranges cannot take, the limit that ends
         # the range, and the gain the last cycle used (its rate scales the washout's rate)
-        self.ahead_gain, self._ahead_limit = 1.0, ''
+        self.ahead_gain, self._ahead_limit, self._ahead_target = 1.0, '', 1.0
         self._used = self._ahead_used = 1.0
         self._tracking = True       # the last sample published was the washout's own
 
@@ -394,20 +394,24 @@ class InverseDynamicsLimiter:
         """(L7) Move :attr:`ahead_gain` towards the largest gain (at most 1) at
         which the washout's sample ``q`` and its free response ``ahead`` (poses)
         stay within each coordinate's range (:meth:`_axis_range`): down by
-        ``gain.ahead`` per second, up by ``gain.up``.
+        ``gain.ahead`` per second, up by ``gain.up``. ``ahead`` None: towards
+        the last target (the planner gives the free response every few cycles).
         """
-        target, limit = 1.0, ''
-        low, high = self.low, self.high
-        for pose in [q] + [_floats(p) for p in ahead]:
-            for i, x in enumerate(pose):
-                if x > high[i] and high[i] < target * x:
-                    target, limit = high[i] / x, self.range_limit[i][1]
-                elif x < low[i] and low[i] > target * x:
-                    target, limit = low[i] / x, self.range_limit[i][0]
-        gain = self.ahead_gain
+        if ahead is not None:
+            target, limit = 1.0, ''
+            low, high = self.low, self.high
+            for pose in [q] + [_floats(p) for p in ahead]:
+                for i, x in enumerate(pose):
+                    if x > high[i] and high[i] < target * x:
+                        target, limit = high[i] / x, self.range_limit[i][1]
+                    elif x < low[i] and low[i] > target * x:
+                        target, limit = low[i] / x, self.range_limit[i][0]
+            self._ahead_target = target
+            if limit:
+                self._ahead_limit = limit
+        target, gain = self._ahead_target, self.ahead_gain
         if target < gain:
             self.ahead_gain = max(target, gain - self.gain_ahead, self.ahead_min)
-            self._ahead_limit = limit
         elif gain < 1.0:
             self.ahead_gain = min(target, gain + self.gain_up)
 
@@ -424,7 +428,8 @@ class InverseDynamicsLimiter:
                 # (L5) nothing to follow: brake to rest and hold there
                 brake = self._braking(x_qd)[1]
                 return self._publish(*self._advance(x_q, x_qd, x_a, brake), brake, 0.0, INPUT)
-        if ahead is not None and self.horizons:
+        if self.horizons and (ahead is not None or self._ahead_target < 1.0
+                              or self.ahead_gain < 1.0):
             self._look_ahead(q, ahead)
         gain = min(self.gain, self.ahead_gain)
         # the look-ahead gain's rate, where it is the one used (it changes slowly;

@@ -21,6 +21,10 @@ from .limiter import make_limiter
 from .params import G, CueingParams
 from .washout import CHANNELS, Desired, Washout, forecast_matrix
 
+#: The washout's free response is given to the limiter's look-ahead every this
+#: many steps (it changes slowly; the limiter's gain moves every step).
+AHEAD_EVERY = 3
+
 #: :attr:`CueSample.status` values
 OK = 'ok'
 INPUT_HELD = 'input_held'        # a non-finite input sample: the last finite one was used
@@ -69,6 +73,7 @@ class Planner:
         self._forecast = (forecast_matrix(params, self._horizons) if self._horizons
                           else None)
         self._index = self.index.tolist()
+        self._count = -1             # steps since the start (the look-ahead's period)
         self.held = 0                 # non-finite input samples replaced by the last finite one
         #: the washout's q, qd, qdd (18 numbers, six channels each) of the last step
         self.last_values: list[float] | None = None
@@ -90,6 +95,7 @@ class Planner:
         self.washout.reset()
         self.limiter.reset()
         self.held = 0
+        self._count = -1
         self.last_values = self.last_wish = None
         self._last[:] = (0.0, 0.0, G, 0.0, 0.0, 0.0)
 
@@ -113,7 +119,8 @@ class Planner:
         out = np.array(values if take is None else [values[i] for i in take])
         self.last_wish = out
         dof = self._dof
-        if self._forecast is None:
+        self._count += 1
+        if self._forecast is None or self._count % AHEAD_EVERY:
             lim = self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:])
         else:
             index = self._index
