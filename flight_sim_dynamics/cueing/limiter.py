@@ -75,8 +75,9 @@ LIMITER_SPECS: tuple[ParamSpec, ...] = (
           'limiting (critically damped)', 'rad/s', minimum=0.0, exclusive_minimum=True,
           maximum=100.0),
     _spec('recovery.acceleration', 'double_array', [0.2, 0.2],
-          'largest pull-back acceleration while returning to the washout (translations '
-          'm/s^2, rotations rad/s^2)', 'm/s^2, rad/s^2', minimum=0.0, maximum=1000.0,
+          "largest pull-back acceleration on the position while returning to the washout "
+          "(translations m/s^2, rotations rad/s^2; the rate's difference is pulled back at "
+          'up to the braking deceleration)', 'm/s^2, rad/s^2', minimum=0.0, maximum=1000.0,
           length=2),
 )
 
