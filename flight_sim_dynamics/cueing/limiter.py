@@ -64,7 +64,7 @@ LIMITER_SPECS: tuple[ParamSpec, ...] = (
     _spec('ahead.horizon', 'double', 0.5,
           "how far ahead the washout's free response is looked at", 's',
           minimum=0.0, exclusive_minimum=True, maximum=60.0),
-    _spec('ahead.minimum', 'double', 0.5,
+    _spec('ahead.minimum', 'double', 0.7,
           'lowest gain the look-ahead sets (below it, the governor and the adaptive gain '
           "act when the motion comes): a sustained cue's onset is worth more than its "
           'slow tail', minimum=0.0, maximum=1.0),
