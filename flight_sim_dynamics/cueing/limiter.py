@@ -1,7 +1,7 @@
 """The limiter between the washout and the machine: every output sample within
 every limit of the machine by its own inverse dynamics (design:
 /work/shared/design/cueing.md, "What the limiter must guarantee"; method and
-measurements: docs/design/cueing_limiter.md).
+measurements: docs/design/cueing_limiter.md, (L1)-(L7)).
 
 Contract (:mod:`.planner` calls it): ``make_limiter(model, params) -> limiter``
 with ``reset()`` and ``step(q, qd, qdd) -> Limited`` (one output sample every
@@ -10,7 +10,7 @@ the limiter's own parameters (``cueing.<name>``); :mod:`.params` reads them
 (so this module must not import :mod:`.params`).
 
 The method, a reference governor with a braking look-ahead
-(cueing_limiter.md, (L1)-(L6)): the limiter keeps its own state (q, qd, qdd),
+(cueing_limiter.md, (L1)-(L7)): the limiter keeps its own state (q, qd, qdd),
 the last sample it published. Each cycle it takes the candidate that follows
 the washout (the washout's own sample when the state has caught up with it,
 else the washout's acceleration plus a bounded pull-back) and accepts it when
@@ -18,7 +18,9 @@ the machine's solve, on a copy of the model whose limits are tightened by the
 margins, is ``ok`` both for the sample and for the point where a braking from
 it would stop. Otherwise it blends the acceleration towards braking,
 ``a = (1 - lam) a_brake + lam a_w``, bisecting on ``lam``; ``lam = 0``, the
-braking itself, is the fallback. ``given_up = 1 - lam``.
+braking itself, is the fallback. ``given_up = 1 - lam``. A look-ahead (L7)
+lowers the gain on the washout smoothly before its free response (the
+planner's, input held) leaves a coordinate's range.
 """
 from __future__ import annotations
 
