@@ -1,7 +1,7 @@
 """The limiter between the washout and the machine: every output sample within
 every limit of the machine by its own inverse dynamics (design:
 /work/shared/design/cueing.md, "What the limiter must guarantee"; method and
-measurements: docs/design/cueing_limiter.md).
+measurements: docs/design/cueing_limiter.md, (L1)-(L7)).
 
 Contract (:mod:`.planner` calls it): ``make_limiter(model, params) -> limiter``
 with ``reset()`` and ``step(q, qd, qdd) -> Limited`` (one output sample every
@@ -10,7 +10,7 @@ the limiter's own parameters (``cueing.<name>``); :mod:`.params` reads them
 (so this module must not import :mod:`.params`).
 
 The method, a reference governor with a braking look-ahead
-(cueing_limiter.md, (L1)-(L6)): the limiter keeps its own state (q, qd, qdd),
+(cueing_limiter.md, (L1)-(L7)): the limiter keeps its own state (q, qd, qdd),
 the last sample it published. Each cycle it takes the candidate that follows
 the washout (the washout's own sample when the state has caught up with it,
 else the washout's acceleration plus a bounded pull-back) and accepts it when
@@ -18,7 +18,9 @@ the machine's solve, on a copy of the model whose limits are tightened by the
 margins, is ``ok`` both for the sample and for the point where a braking from
 it would stop. Otherwise it blends the acceleration towards braking,
 ``a = (1 - lam) a_brake + lam a_w``, bisecting on ``lam``; ``lam = 0``, the
-braking itself, is the fallback. ``given_up = 1 - lam``.
+braking itself, is the fallback. ``given_up = 1 - lam``. A look-ahead (L7)
+lowers the gain on the washout smoothly before its free response (the
+planner's, input held) leaves a coordinate's range.
 """
 from __future__ import annotations
 
@@ -57,6 +59,17 @@ LIMITER_SPECS: tuple[ParamSpec, ...] = (
     _spec('gain.up', 'double', 1.0,
           'rate at which the gain on the washout returns to 1 in each cycle that gives up '
           'nothing', '1/s', minimum=0.0, exclusive_minimum=True, maximum=1000.0),
+    _spec('gain.ahead', 'double', 0.5,
+          'rate at which the gain on the washout drops ahead of a motion that would leave '
+          "a coordinate's range (the washout's free response, its input held, "
+          "``ahead.horizon`` ahead); 0: no look-ahead", '1/s', minimum=0.0, maximum=1000.0),
+    _spec('ahead.horizon', 'double', 0.5,
+          "how far ahead the washout's free response is looked at", 's',
+          minimum=0.0, exclusive_minimum=True, maximum=60.0),
+    _spec('ahead.minimum', 'double', 0.7,
+          'lowest gain the look-ahead sets (below it, the governor and the adaptive gain '
+          "act when the motion comes): a sustained cue's onset is worth more than its "
+          'slow tail', minimum=0.0, maximum=1.0),
     _spec('gain.minimum', 'double', 0.1, 'lowest gain on the washout', minimum=0.0,
           maximum=1.0),
     _spec('recovery.omega', 'double', 1.0,
@@ -64,8 +77,9 @@ LIMITER_SPECS: tuple[ParamSpec, ...] = (
           'limiting (critically damped)', 'rad/s', minimum=0.0, exclusive_minimum=True,
           maximum=100.0),
     _spec('recovery.acceleration', 'double_array', [0.2, 0.2],
-          'largest pull-back acceleration while returning to the washout (translations '
-          'm/s^2, rotations rad/s^2)', 'm/s^2, rad/s^2', minimum=0.0, maximum=1000.0,
+          "largest pull-back acceleration on the position while returning to the washout "
+          "(translations m/s^2, rotations rad/s^2; the rate's difference is pulled back at "
+          'up to the braking deceleration)', 'm/s^2, rad/s^2', minimum=0.0, maximum=1000.0,
           length=2),
 )
 
@@ -93,6 +107,10 @@ TRACK_ANGLE_RATE = 0.5
 #: limits too (L3): the margin of the limits that have none of their own
 #: (unreachable poses).
 STOP_MARGIN = 2
+
+#: The washout's free response is looked at these fractions of ``ahead.horizon``
+#: ahead (L7).
+AHEAD_FRACTIONS = (0.25, 0.5, 1.0)
 
 #: :attr:`Limited.limit` of a non-finite desired sample (held: braking to rest).
 INPUT = 'input'
@@ -191,7 +209,8 @@ class InverseDynamicsLimiter:
         braking = [float(v) for v in settings['braking']]
         recovery = [float(v) for v in settings['recovery.acceleration']]
         # per coordinate: 1 / braking deceleration, largest pull-back acceleration
-        self.inverse_braking = [1.0 / (braking[0] if lin else braking[1]) for lin in linear]
+        self.braking = [braking[0] if lin else braking[1] for lin in linear]
+        self.inverse_braking = [1.0 / b for b in self.braking]
         self.recovery = [recovery[0] if lin else recovery[1] for lin in linear]
         omega = float(settings['recovery.omega'])
         self.kp, self.kd = omega * omega, 2.0 * omega
@@ -208,6 +227,22 @@ class InverseDynamicsLimiter:
         ranges = [(-self._axis_range(i, -1.0), self._axis_range(i, 1.0))
                   for i in range(self.machine.dof)]
         self.low, self.high = [r[0] for r in ranges], [r[1] for r in ranges]
+        # (L7) the look-ahead: the limit that ends each range, the horizons
+        rest = [0.0] * self.machine.dof
+        self.range_limit = []
+        for i in range(self.machine.dof):
+            ends = []
+            for end, sign in ((self.low[i], -1.0), (self.high[i], 1.0)):
+                q = list(rest)
+                q[i] = end + sign * 1e-3
+                ends.append(self._limit_name(self._solve(self.tight, q, rest, rest)))
+            self.range_limit.append(ends)
+        self.gain_ahead = float(settings['gain.ahead']) * self.dt
+        self.ahead_min = max(self.gain_min, float(settings['ahead.minimum']))
+        horizon = float(settings['ahead.horizon'])
+        #: how far ahead (s) the planner gives the washout's free response (empty: none)
+        self.horizons: tuple[float, ...] = (
+            tuple(f * horizon for f in AHEAD_FRACTIONS) if self.gain_ahead > 0.0 else ())
         self.reset()
 
     def _axis_range(self, i: int, sign: float, largest: float = 4.0) -> float:
@@ -238,6 +273,10 @@ class InverseDynamicsLimiter:
         n = self.machine.dof
         self._q, self._qd, self._qdd = [0.0] * n, [0.0] * n, [0.0] * n
         self.gain, self._gain_limit = 1.0, ''
+        # (L7) the gain ahead of a motion the ranges cannot take, the limit that ends
+        # the range, and the gain the last cycle used (its rate scales the washout's rate)
+        self.ahead_gain, self._ahead_limit, self._ahead_target = 1.0, '', 1.0
+        self._used = self._ahead_used = 1.0
         self._tracking = True       # the last sample published was the washout's own
 
     @property
@@ -343,17 +382,48 @@ class InverseDynamicsLimiter:
         self._q, self._qd, self._qdd = q, qd, qdd
         self._tracking = False
         gain = self.gain
-        given_up = 1.0 - lam * gain
+        given_up = 1.0 - lam * self._used
         if lam < 1.0:
             self.gain = max(self.gain_min, gain - self.gain_down)
             self._gain_limit = limit
         elif gain < 1.0:
             self.gain = min(1.0, gain + self.gain_up)
             limit = self._gain_limit
+        elif self._used < 1.0:
+            limit = self._ahead_limit
         return Limited(np.array(q), np.array(qd), np.array(qdd), given_up, limit)
 
-    def step(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> Limited:
-        """The sample to publish for the washout's sample (q, qd, qdd)."""
+    def _look_ahead(self, q: list, ahead: Any) -> None:
+        """(L7) Move :attr:`ahead_gain` towards the largest gain (at most 1) at
+        which the washout's sample ``q`` and its free response ``ahead`` (poses)
+        stay within each coordinate's range (:meth:`_axis_range`): down by
+        ``gain.ahead`` per second, up by ``gain.up``. ``ahead`` None: towards
+        the last target (the planner gives the free response every few cycles).
+        """
+        if ahead is not None:
+            target, limit = 1.0, ''
+            low, high = self.low, self.high
+            for pose in [q] + [_floats(p) for p in ahead]:
+                for i, x in enumerate(pose):
+                    if x > high[i] and high[i] < target * x:
+                        target, limit = high[i] / x, self.range_limit[i][1]
+                    elif x < low[i] and low[i] > target * x:
+                        target, limit = low[i] / x, self.range_limit[i][0]
+            self._ahead_target = target
+            if limit:
+                self._ahead_limit = limit
+        target, gain = self._ahead_target, self.ahead_gain
+        if target < gain:
+            self.ahead_gain = max(target, gain - self.gain_ahead, self.ahead_min)
+        elif gain < 1.0:
+            self.ahead_gain = min(target, gain + self.gain_up)
+
+    def step(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+             ahead: Any = None) -> Limited:
+        """The sample to publish for the washout's sample (q, qd, qdd);
+        ``ahead``: the washout's free response at :attr:`horizons` (poses, L7),
+        or None.
+        """
         q, qd, qdd = _floats(q), _floats(qd), _floats(qdd)
         x_q, x_qd, x_a = self._q, self._qd, self._qdd
         if not (math.isfinite(sum(q)) and math.isfinite(sum(qd)) and math.isfinite(sum(qdd))):
@@ -361,7 +431,17 @@ class InverseDynamicsLimiter:
                 # (L5) nothing to follow: brake to rest and hold there
                 brake = self._braking(x_qd)[1]
                 return self._publish(*self._advance(x_q, x_qd, x_a, brake), brake, 0.0, INPUT)
-        gain = self.gain
+        if self.horizons and (ahead is not None or self._ahead_target < 1.0
+                              or self.ahead_gain < 1.0):
+            self._look_ahead(q, ahead)
+        gain = min(self.gain, self.ahead_gain)
+        # the look-ahead gain's rate, where it is the one used (it changes slowly;
+        # the adaptive gain's steps are left to the pull-back):
+        # (k w)' = k w' + k' w, (k w)'' ~ k w'' + 2 k' w'
+        rate = ((gain - self._used) / self.dt
+                if gain == self.ahead_gain and self._used == self._ahead_used
+                else 0.0)
+        self._used, self._ahead_used = gain, self.ahead_gain
         if gain == 1.0:
             # (L1) the state's continuation with the washout's acceleration,
             # against the washout's sample
@@ -376,8 +456,9 @@ class InverseDynamicsLimiter:
                     return Limited(np.array(q), np.array(qd), np.array(qdd), 0.0, '')
         else:
             # (L6) the washout times the gain
-            q, qd, qdd = ([gain * v for v in q], [gain * v for v in qd],
-                          [gain * v for v in qdd])
+            q, qd, qdd = ([gain * v for v in q],
+                          [gain * v + rate * x for v, x in zip(qd, q)],
+                          [gain * a + 2.0 * rate * v for a, v in zip(qdd, qd)])
             pq, pqd = self._advance(x_q, x_qd, x_a, qdd)
         # (L4) the washout's acceleration plus a bounded, critically damped
         # pull-back towards the washout's sample, or, for a coordinate beyond its
@@ -391,7 +472,11 @@ class InverseDynamicsLimiter:
             elif x < self.low[i]:
                 x, v = self.low[i], 0.0
             r = self.recovery[i]
-            a_w.append(a + min(r, max(-r, -kp * (pq[i] - x) - kd * (pqd[i] - v))))
+            # the position's pull gently (a false cue), the rate's difference at up to
+            # the braking deceleration (a rate left over from limiting drifts far)
+            rb = self.braking[i]
+            a_w.append(a + min(r, max(-r, -kp * (pq[i] - x)))
+                       + min(rb, max(-rb, -kd * (pqd[i] - v))))
         c_q, c_qd = self._advance(x_q, x_qd, x_a, a_w)
         limit = self._refused(c_q, c_qd, a_w) if _finite(c_q) else 'overflow'
         if not limit:

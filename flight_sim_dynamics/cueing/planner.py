@@ -19,7 +19,11 @@ import numpy as np
 from ..machines.api import machine_of
 from .limiter import make_limiter
 from .params import G, CueingParams
-from .washout import CHANNELS, Desired, Washout
+from .washout import CHANNELS, Desired, Washout, forecast_matrix
+
+#: The washout's free response is given to the limiter's look-ahead every this
+#: many steps (it changes slowly; the limiter's gain moves every step).
+AHEAD_EVERY = 3
 
 #: :attr:`CueSample.status` values
 OK = 'ok'
@@ -64,6 +68,12 @@ class Planner:
         self._dof = len(coordinates)
         self.washout = Washout(params)
         self.limiter = make_limiter(model, params)
+        # the limiter's look-ahead (limiter.py, L7): the washout's free response
+        self._horizons: tuple[float, ...] = getattr(self.limiter, 'horizons', ())
+        self._forecast = (forecast_matrix(params, self._horizons) if self._horizons
+                          else None)
+        self._index = self.index.tolist()
+        self._count = -1             # steps since the start (the look-ahead's period)
         self.held = 0                 # non-finite input samples replaced by the last finite one
         #: the washout's q, qd, qdd (18 numbers, six channels each) of the last step
         self.last_values: list[float] | None = None
@@ -85,6 +95,7 @@ class Planner:
         self.washout.reset()
         self.limiter.reset()
         self.held = 0
+        self._count = -1
         self.last_values = self.last_wish = None
         self._last[:] = (0.0, 0.0, G, 0.0, 0.0, 0.0)
 
@@ -108,7 +119,14 @@ class Planner:
         out = np.array(values if take is None else [values[i] for i in take])
         self.last_wish = out
         dof = self._dof
-        lim = self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:])
+        self._count += 1
+        if self._forecast is None or self._count % AHEAD_EVERY:
+            lim = self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:])
+        else:
+            index = self._index
+            ahead = [[pose[i] for i in index]
+                     for pose in washout.ahead(self._forecast, self._horizons)]
+            lim = self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:], ahead)
         return CueSample(lim.q, lim.qd, lim.qdd, lim.given_up, lim.limit, status)
 
 

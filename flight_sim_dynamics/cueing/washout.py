@@ -26,6 +26,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import expm
 from scipy.signal import cont2discrete
 
 from .params import G, CueingParams
@@ -119,6 +120,20 @@ def step_matrix(params: CueingParams) -> np.ndarray:
     return M
 
 
+def forecast_matrix(params: CueingParams, horizons: tuple[float, ...]) -> np.ndarray:
+    """F (8 h, 19 + 6): the filters' free response with the input held, ``h``
+    horizons ahead: rows p (3), β (3), y (2) per horizon (in that order) at
+    ``t + horizons[j]`` from ``[x[n]; u[n]]``. With the input held the augmented
+    model (the filters and the input as states) is autonomous, so each horizon
+    is one matrix exponential: ``X(t + h) = exp(Aa h) X(t)``.
+    """
+    A, B = continuous_model(params)
+    Aa = np.zeros((_X, _X))
+    Aa[:_N, :_N], Aa[:_N, _N:] = A, B
+    rows = [p for _, p, _ in _T] + [ad for _, ad in _R] + [y for y, _ in _L]
+    return np.vstack([expm(Aa * h)[rows] for h in horizons])
+
+
 def _tilt(y: float, yd: float, ydd: float, sign: float) -> tuple[float, float, float]:
     """``sign·asin(y/g)`` and its first two time derivatives (0 where clipped)."""
     s = y / G
@@ -207,6 +222,25 @@ class Washout:
         return [o[0], o[1], o[2], o[_B] + self._roll, o[_B + 1] + self._pitch, o[_B + 2],
                 o[3], o[4], o[5], o[_BD] + roll_d, o[_BD + 1] + pitch_d, o[_BD + 2],
                 o[6], o[7], o[8], o[_BDD] + roll_dd, o[_BDD + 1] + pitch_dd, o[_BDD + 2]]
+
+    def ahead(self, forecast: np.ndarray, horizons: tuple[float, ...]) -> list[list[float]]:
+        """The poses (six channels each) the washout would reach ``horizons``
+        ahead if the input stayed as it is now (after :meth:`advance`):
+        ``forecast`` is :func:`forecast_matrix` for these horizons; the tilt
+        is its rate limit's reach from the current tilt.
+        """
+        o = np.dot(forecast, self._vec[:_X]).tolist()
+        rate_limit = self.params.tilt_rate_limit
+        poses = []
+        for j, h in enumerate(horizons):
+            p0, p1, p2, b0, b1, b2, yx, yy = o[8 * j:8 * j + 8]
+            reach = rate_limit * h
+            pitch = -math.asin(min(1.0, max(-1.0, yx / G)))
+            roll = math.asin(min(1.0, max(-1.0, yy / G)))
+            pitch = min(self._pitch + reach, max(self._pitch - reach, pitch))
+            roll = min(self._roll + reach, max(self._roll - reach, roll))
+            poses.append([p0, p1, p2, b0 + roll, b1 + pitch, b2])
+        return poses
 
     def step(self, f: np.ndarray, omega: np.ndarray) -> Desired:
         """One output sample (module docstring); ValueError for a non-finite input."""

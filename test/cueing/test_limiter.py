@@ -382,3 +382,31 @@ def test_limiter_keys_are_read_from_the_cueing_group() -> None:
     assert limiter.tight.limits.length_min == pytest.approx(
         load_model(str(FILES[STEWART.name])).limits.length_min + 0.02)
     assert machine_of(limiter.model) is STEWART
+
+
+def test_the_look_ahead_lowers_the_cue_before_the_limit_and_gives_up_less():
+    """(L7) On the 3-DOF machine's take-off (the washout's surge runs past its
+    range for a moment): with the look-ahead the gain is lowered before the
+    limit comes, every output ok, and less of the felt specific force is given
+    up than by the governor alone (gain.ahead 0).
+    """
+    from flight_sim_dynamics.cueing.metrics import felt, six
+    from flight_sim_dynamics.cueing.planner import run as cue
+    from flight_sim_dynamics.cueing.vehicles import vehicle_log
+    s = SETUPS[FLIGHT_SIMULATOR.name]
+    v = vehicle_log('takeoff', 100.0)
+    keep = v.t <= 8.0
+    log = (v.t[keep], v.f[keep], v.omega[keep])
+    alone = s.params.replace(limiter_settings={**s.params.limiter_settings, 'gain.ahead': 0.0})
+    runs = [cue(s.model, p, *log) for p in (s.params, alone, s.params.replace(limiter='none'))]
+
+    def force(c):
+        return felt(*(six(c.coordinates, x) for x in (c.q, c.qd, c.qdd)), s.params.head)[0]
+
+    wanted = force(runs[2])
+    errors = [np.sqrt(np.mean(np.sum((force(c) - wanted) ** 2, axis=1))) for c in runs[:2]]
+    first = [int(np.argmax(c.given_up > 0)) for c in runs[:2]]
+    assert runs[1].given_up.any() and first[0] < first[1]
+    assert errors[0] < errors[1]
+    assert all(str(x) == 'ok' for x in solve_batch(s.model, runs[0].q, runs[0].qd,
+                                                    runs[0].qdd).status)

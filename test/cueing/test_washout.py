@@ -229,3 +229,39 @@ def test_reset_starts_again_from_the_next_sample():
     w.reset()
     again = [w.step(REST + row, np.zeros(3)).q for row in f]
     assert np.array_equal(np.array(first), np.array(again))
+
+
+def test_the_free_response_is_where_the_washout_goes_with_its_input_held():
+    """Washout.ahead (the limiter's look-ahead): the poses the washout reaches
+    when its input stays as it is, against stepping it with the input held;
+    the tilt within its rate limit's reach.
+    """
+    from flight_sim_dynamics.cueing.washout import forecast_matrix
+    for params in (defaults(), defaults().replace(tilt_gain=np.zeros(2))):
+        _check_free_response(params, forecast_matrix)
+
+
+def _check_free_response(params, forecast_matrix):
+    horizons = (0.05, 0.3, 1.2)
+    rng = np.random.default_rng(3)
+    w = Washout(params)
+    w.step(np.array([0.0, 0.0, G]), np.zeros(3))
+    for _ in range(700):             # some motion: every filter away from rest
+        w.step(np.array([1.5, -1.0, G + 0.8]) + 0.3 * rng.standard_normal(3),
+               np.array([0.2, -0.1, 0.15]) + 0.05 * rng.standard_normal(3))
+    f, omega = np.array([1.2, -0.8, G + 0.5]), np.array([0.1, -0.2, 0.1])
+    w.step(f, omega)
+    poses = np.array(w.ahead(forecast_matrix(params, horizons), horizons))
+    steps = [round(h * params.rate) for h in horizons]
+    reached = {}
+    for k in range(1, max(steps) + 1):
+        d = w.step(f, omega)
+        if k in steps:
+            reached[k] = d.q
+    for pose, k in zip(poses, steps):
+        # translations and yaw: the linear filters exactly; roll, pitch: the
+        # rotation's filter plus a tilt moving at most at its rate limit
+        assert np.allclose(pose[[0, 1, 2, 5]], reached[k][[0, 1, 2, 5]], atol=1e-9)
+        reach = params.tilt_rate_limit * k / params.rate
+        tol = 2 * reach if params.tilt_gain.any() else 0.0
+        assert np.all(np.abs(pose[3:5] - reached[k][3:5]) <= tol + 1e-9)
