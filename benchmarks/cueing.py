@@ -24,7 +24,7 @@ import flight_sim_dynamics as fsd
 from flight_sim_dynamics.cli import csv_io
 from flight_sim_dynamics.cli.cue import VEHICLE_COLUMNS
 from flight_sim_dynamics.config.machine_files import load_cueing
-from flight_sim_dynamics.cueing.params import G
+from flight_sim_dynamics.config.cueing import G
 from flight_sim_dynamics.cueing.planner import Planner
 from flight_sim_dynamics.cueing.vehicles import vehicle_log
 from flight_sim_dynamics.cueing.washout import Washout

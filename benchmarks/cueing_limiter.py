@@ -29,7 +29,7 @@ import numpy as np
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config.machine_files import load_cueing
-from flight_sim_dynamics.cueing.params import G
+from flight_sim_dynamics.config.cueing import G
 from flight_sim_dynamics.cueing.metrics import felt, six
 from flight_sim_dynamics.cueing.planner import CueRun, Planner, run
 from flight_sim_dynamics.cueing.vehicles import vehicle_log

@@ -11,7 +11,7 @@ from typing import Sequence
 from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.config.node_schema import node_schema
 from flight_sim_dynamics.config.schema import CUEING_NODE_PARAMETERS, SIM_PARAMETERS
-from flight_sim_dynamics.cueing.params import PARAMETER_SPECS as CUEING_PARAMETERS
+from flight_sim_dynamics.config.cueing import PARAMETER_SPECS as CUEING_PARAMETERS
 from flight_sim_dynamics.machines import STEWART
 from flight_sim_dynamics.machines.staicu.model import BODY_NAMES
 

@@ -48,7 +48,7 @@ def test_reproduction_table_regenerates_the_page(tmp_path):
 def test_parameter_tables_are_current_and_complete():
     from flight_sim_dynamics.config.parameters import MODEL_PARAMETERS, NODE_PARAMETERS
     from flight_sim_dynamics.config.schema import CUEING_NODE_PARAMETERS, SIM_PARAMETERS
-    from flight_sim_dynamics.cueing.params import PARAMETER_SPECS
+    from flight_sim_dynamics.config.cueing import PARAMETER_SPECS
     from flight_sim_dynamics.machines import STEWART
 
     generated = node_param_table.blocks()

@@ -23,7 +23,7 @@ import flight_sim_dynamics as fsd
 
 from ..config.machine_files import load_cueing
 from ..cueing.metrics import FORCE_THRESHOLDS, RATE_THRESHOLD, CueMetrics, cue_metrics
-from ..cueing.params import LIMITERS, CueingParams
+from ..config.cueing import LIMITERS, CueingParams
 from ..cueing.planner import CueRun, SampleError, run as cue_run
 from ..cueing.vehicles import VEHICLES, vehicle_log
 from ..machines import MACHINES

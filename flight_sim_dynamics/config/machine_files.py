@@ -19,7 +19,7 @@ from typing import Any, Mapping, Sequence
 
 from ..core.effects import EFFECT_NAMES
 from ..core.machine import Machine, ModelValueError
-from ..cueing.params import PREFIX, CueingParams, split_cueing
+from .cueing import PREFIX, CueingParams, split_cueing
 from ..machines import MACHINES, PACKAGED, machine_named
 from ..machines.api import absent_effects
 from . import parameters
@@ -259,7 +259,7 @@ def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
     """The model of the parameter file ``path`` whose parameters ``flat``
     (dotted names) name its machine, with ``scene`` (None: the file's); the
     node's parameters and the ``cueing`` group it gives are checked
-    (:func:`node_values`, :func:`..cueing.params.split_cueing`) and left out.
+    (:func:`node_values`, :func:`.cueing.split_cueing`) and left out.
     """
     source = str(Path(path))
     own, _ = split_cueing(_model_names(flat), source)     # the motion-cueing planner's

@@ -9,7 +9,7 @@ the solver (:func:`load_model`), the command line (``--params``) and the node
 (it overrides the packaged defaults); an unknown name is an error ("did you
 mean", naming the file); ``qos_overrides.*`` are the node's, ignored by
 :func:`load_model`, and so is the ``cueing`` group (the motion-cueing
-planner's, checked: :func:`..cueing.params.split_cueing`); the file is read by
+planner's, checked: :func:`.cueing.split_cueing`); the file is read by
 :mod:`.yaml_io`'s rules, so that every bad file is one :class:`ParameterError`
 naming it.
 """
@@ -24,7 +24,7 @@ import numpy as np
 from ..machines.staicu.kinematics import GeometryError, central_configuration
 from ..machines.staicu.model import (BODY_NAMES, GEOMETRY_KEYS, Body, Friction, Geometry, Limits,
                                      Model)
-from ..cueing.params import split_cueing
+from .cueing import split_cueing
 from .errors import ParameterError
 from .files import (DEFAULT_PARAMS_FILE, NODE_NAME, PACKAGE_NAME, check_file_values,
                     default_params_path, flatten, params_files_in, read_params_file,

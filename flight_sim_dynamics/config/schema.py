@@ -289,7 +289,7 @@ SIM_PARAMETERS: tuple[ParamSpec, ...] = (
 )
 
 # Parameters of the motion-cueing node motion_cueing (docs/cueing_node.md), besides the
-# cueing group it declares from flight_sim_dynamics.cueing.params.PARAMETER_SPECS.
+# cueing group it declares from flight_sim_dynamics.config.cueing.PARAMETER_SPECS.
 CUEING_NODE_NAME = 'motion_cueing'
 #: the task of its status name in /diagnostics (``<node>: motion cueing``)
 CUEING_TASK = 'motion cueing'

@@ -2,8 +2,9 @@
 angular velocity to the platform's setpoints, within what the actuators can do
 (design: /work/shared/design/cueing.md).
 
-- :mod:`.params`: the ``cueing`` parameter group (:data:`~.params.PARAMETER_SPECS`,
-  :class:`~.params.CueingParams`, :func:`~.params.cueing_params`);
+- its parameters, the ``cueing`` group of a params file, are configuration:
+  :mod:`flight_sim_dynamics.config.cueing` (``PARAMETER_SPECS``, ``CueingParams``,
+  ``cueing_params``);
 - :mod:`.washout`: the classical washout (:class:`~.washout.Washout`), six channels
   surge, sway, heave, roll, pitch, yaw;
 - :mod:`.planner`: the washout and the limiter on a machine, streaming

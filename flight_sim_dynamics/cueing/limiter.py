@@ -5,9 +5,9 @@ measurements: docs/design/cueing_limiter.md, (L1)-(L7)).
 
 Contract (:mod:`.planner` calls it): ``make_limiter(model, params) -> limiter``
 with ``reset()`` and ``step(q, qd, qdd) -> Limited`` (one output sample every
-``1 / params.rate`` s, machine coordinates, home = 0). :data:`LIMITER_SPECS`:
-the limiter's own parameters (``cueing.<name>``); :mod:`.params` reads them
-(so this module must not import :mod:`.params`).
+``1 / params.rate`` s, machine coordinates, home = 0). Its own parameters
+(``cueing.<name>``) are declared in :data:`..config.cueing.LIMITER_SPECS` and
+arrive in :attr:`CueingParams.limiter_settings`.
 
 The method, a reference governor with a braking look-ahead
 (cueing_limiter.md, (L1)-(L7)): the limiter keeps its own state (q, qd, qdd),
@@ -30,58 +30,10 @@ from typing import Any
 
 import numpy as np
 
-from ..core.parameter_spec import ParamSpec
 from ..core.status import Status
 from ..machines.api import machine_of
 
 
-def _spec(name: str, kind: str, default: Any, description: str, unit: str = '',
-          **kw: Any) -> ParamSpec:
-    return ParamSpec('cueing.' + name, kind, default, description, unit, required=False, **kw)
-
-
-#: The limiter's keys of the ``cueing`` group (names ``cueing.<...>``, required=False).
-LIMITER_SPECS: tuple[ParamSpec, ...] = (
-    _spec('margin.stroke', 'double', 0.01,
-          "stroke the limiter keeps free at each end of every actuator's travel", 'm',
-          minimum=0.0, maximum=1.0),
-    _spec('margin.fraction', 'double', 0.05,
-          'fraction of the speed, force, condition and joint-angle limits the limiter keeps '
-          'free', minimum=0.0, maximum=0.5),
-    _spec('braking', 'double_array', [2.0, 2.0],
-          'deceleration of the braking the limiter keeps in reserve (translations m/s^2, '
-          'rotations rad/s^2): larger brakes later and gives up less cue, with a harder stop',
-          'm/s^2, rad/s^2', minimum=0.0, exclusive_minimum=True, maximum=1000.0, length=2),
-    _spec('gain.down', 'double', 20.0,
-          'rate at which the gain on the washout drops in each cycle that gives up cue '
-          '(adaptive gain: fewer braking false cues in a violent stretch)', '1/s',
-          minimum=0.0, maximum=1000.0),
-    _spec('gain.up', 'double', 1.0,
-          'rate at which the gain on the washout returns to 1 in each cycle that gives up '
-          'nothing', '1/s', minimum=0.0, exclusive_minimum=True, maximum=1000.0),
-    _spec('gain.ahead', 'double', 0.5,
-          'rate at which the gain on the washout drops ahead of a motion that would leave '
-          "a coordinate's range (the washout's free response, its input held, "
-          "``ahead.horizon`` ahead); 0: no look-ahead", '1/s', minimum=0.0, maximum=1000.0),
-    _spec('ahead.horizon', 'double', 0.5,
-          "how far ahead the washout's free response is looked at", 's',
-          minimum=0.0, exclusive_minimum=True, maximum=60.0),
-    _spec('ahead.minimum', 'double', 0.7,
-          'lowest gain the look-ahead sets (below it, the governor and the adaptive gain '
-          "act when the motion comes): a sustained cue's onset is worth more than its "
-          'slow tail', minimum=0.0, maximum=1.0),
-    _spec('gain.minimum', 'double', 0.1, 'lowest gain on the washout', minimum=0.0,
-          maximum=1.0),
-    _spec('recovery.omega', 'double', 1.0,
-          'bandwidth of the pull-back that returns the platform to the washout after '
-          'limiting (critically damped)', 'rad/s', minimum=0.0, exclusive_minimum=True,
-          maximum=100.0),
-    _spec('recovery.acceleration', 'double_array', [0.2, 0.2],
-          "largest pull-back acceleration on the position while returning to the washout "
-          "(translations m/s^2, rotations rad/s^2; the rate's difference is pulled back at "
-          'up to the braking deceleration)', 'm/s^2, rad/s^2', minimum=0.0, maximum=1000.0,
-          length=2),
-)
 
 #: Bisection steps on lam when the candidate fails (lam resolution 2^-steps).
 BISECTION_STEPS = 6

@@ -26,7 +26,7 @@ import numpy as np
 from ..core.euler import euler_rate_matrix, euler_rate_matrix_derivative, rotation
 from ..core.status import Status
 from ..machines.api import machine_of, solve_batch
-from .params import G, CueingParams
+from ..config.cueing import G, CueingParams
 from .planner import CueRun
 from .washout import CHANNELS
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..machines.api import machine_of
 from .limiter import make_limiter
-from .params import G, CueingParams
+from ..config.cueing import G, CueingParams
 from .washout import CHANNELS, Desired, Washout, forecast_matrix
 
 #: The washout's free response is given to the limiter's look-ahead every this

@@ -20,7 +20,7 @@ from typing import Callable
 
 import numpy as np
 
-from .params import G
+from ..config.cueing import G
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,7 @@ import numpy as np
 from scipy.linalg import expm
 from scipy.signal import cont2discrete
 
-from .params import G, CueingParams
+from ..config.cueing import G, CueingParams
 
 #: The six channels, in the order of :class:`Desired`'s vectors (REP-103 setpoint components).
 CHANNELS = ('surge', 'sway', 'heave', 'roll', 'pitch', 'yaw')

@@ -26,7 +26,7 @@ from trajectory_msgs.msg import JointTrajectory
 from ..config import parameters as prm
 from ..config.machine_files import ignored_message, ignored_values
 from ..config.node_schema import MACHINE, NodeSchema, node_schema
-from ..cueing.params import SPECS as CUEING_SPECS
+from ..config.cueing import SPECS as CUEING_SPECS
 from .marker_publisher import MarkerPublisher
 from .managed_node import ManagedNode
 from .parameter_guard import (MAX_NAMES_PER_REQUEST, MAX_PARAMETERS_PER_REQUEST,

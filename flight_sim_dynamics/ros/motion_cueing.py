@@ -35,7 +35,7 @@ from ..config.errors import did_you_mean
 from ..config.files import NODE_NAME, params_files_in, read_params_sections
 from ..config.machine_files import load_model
 from ..config.schema import CUEING_NODE_NAME, CUEING_NODE_PARAMETERS, CUEING_TASK
-from ..cueing.params import PARAMETER_SPECS, PREFIX, CueingParams, cueing_params_flat
+from ..config.cueing import PARAMETER_SPECS, PREFIX, CueingParams, cueing_params_flat
 from ..cueing.planner import Planner
 from ..machines.api import machine_of
 from .cueing_input import InputFeed

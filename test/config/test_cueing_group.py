@@ -1,4 +1,4 @@
-"""The cueing group in params files (flight_sim_dynamics/cueing/params.py's
+"""The cueing group in params files (flight_sim_dynamics/config/cueing.py's
 PARAMETER_SPECS): the loaders of models and nodes accept it, check it (an error
 names the key and the file) and leave it out of the model; the packaged files
 carry the machines' sets."""
@@ -14,7 +14,7 @@ from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.config.errors import ParameterError
 from flight_sim_dynamics.config.files import read_params_sections
 from flight_sim_dynamics.config.node_schema import check_node_params_files
-from flight_sim_dynamics.cueing.params import defaults, split_cueing
+from flight_sim_dynamics.config.cueing import defaults, split_cueing
 
 ROOT = Path(__file__).resolve().parents[2]
 HEXAPOD = ROOT / 'config' / 'stewart_6dof.yaml'

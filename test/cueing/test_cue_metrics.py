@@ -12,7 +12,7 @@ import pytest
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.cueing.metrics import (FORCE_THRESHOLDS, actuator_use, compare,
                                                 cue_metrics, delay, felt)
-from flight_sim_dynamics.cueing.params import G, defaults
+from flight_sim_dynamics.config.cueing import G, defaults
 from flight_sim_dynamics.cueing.planner import run
 
 HEAD = (0.0, 0.0, 0.8)

@@ -1,4 +1,4 @@
-"""The cueing parameter group (flight_sim_dynamics/cueing/params.py): the
+"""The cueing parameter group (flight_sim_dynamics/config/cueing.py): the
 design's defaults, any part of the group given, errors naming the dotted key."""
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 
 from flight_sim_dynamics.config.errors import ParameterError
 from flight_sim_dynamics.config.validation import check_value
-from flight_sim_dynamics.cueing.params import (PARAMETER_SPECS, CueingParams, cueing_params,
+from flight_sim_dynamics.config.cueing import (PARAMETER_SPECS, CueingParams, cueing_params,
                                                cueing_params_flat, defaults)
 
 #: The design's group (/work/shared/design/cueing.md, "Parameters").

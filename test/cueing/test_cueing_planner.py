@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.cueing.params import G, defaults
+from flight_sim_dynamics.config.cueing import G, defaults
 from flight_sim_dynamics.cueing.planner import INPUT_HELD, OK, Planner, resample, run
 from flight_sim_dynamics.cueing.washout import Washout
 

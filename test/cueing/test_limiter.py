@@ -31,7 +31,7 @@ import stewart_reference as ref6
 from flight_sim_dynamics import load_model, solve_batch
 from flight_sim_dynamics.config.machine_files import load_cueing
 from flight_sim_dynamics.cueing import limiter as lm
-from flight_sim_dynamics.cueing.params import cueing_params, defaults
+from flight_sim_dynamics.config.cueing import cueing_params, defaults
 from flight_sim_dynamics.machines import FLIGHT_SIMULATOR, MACHINES, STEWART
 from flight_sim_dynamics.machines.api import machine_of
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from flight_sim_dynamics.cueing.params import G
+from flight_sim_dynamics.config.cueing import G
 from flight_sim_dynamics.cueing.vehicles import VEHICLES, vehicle_log
 
 

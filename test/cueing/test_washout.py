@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from flight_sim_dynamics.cueing.params import G, defaults
+from flight_sim_dynamics.config.cueing import G, defaults
 from flight_sim_dynamics.cueing.washout import Washout
 
 RATE = 1000.0

@@ -9,7 +9,7 @@ values the washout, the planner and the limiter use.
 
 Every key has a default (the design's set, TU Delft's SIMONA classical washout);
 a file may give any part of the group. The limiter's own keys are declared in
-:data:`flight_sim_dynamics.cueing.limiter.LIMITER_SPECS` and arrive in
+:data:`LIMITER_SPECS` (the limiter's method: flight_sim_dynamics.cueing.limiter) and arrive in
 :attr:`CueingParams.limiter_settings` by their names without ``cueing.``.
 """
 from __future__ import annotations
@@ -21,11 +21,10 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..config.errors import ParameterError, did_you_mean
-from ..config.files import flatten
-from ..config.validation import check_value
 from ..core.parameter_spec import ParamSpec
-from .limiter import LIMITER_SPECS
+from .errors import ParameterError, did_you_mean
+from .files import flatten
+from .validation import check_value
 
 GROUP = 'cueing'
 PREFIX = GROUP + '.'
@@ -90,6 +89,49 @@ WASHOUT_SPECS: tuple[ParamSpec, ...] = (
 #: Every key of the group, each once: names ``cueing.<...>``, kind, default,
 #: meaning, unit, bounds (the one source; config/ validates files with it, the
 #: nodes declare their parameters from it).
+#: The limiter's keys of the ``cueing`` group (names ``cueing.<...>``, required=False).
+LIMITER_SPECS: tuple[ParamSpec, ...] = (
+    _spec('margin.stroke', 'double', 0.01,
+          "stroke the limiter keeps free at each end of every actuator's travel", 'm',
+          minimum=0.0, maximum=1.0),
+    _spec('margin.fraction', 'double', 0.05,
+          'fraction of the speed, force, condition and joint-angle limits the limiter keeps '
+          'free', minimum=0.0, maximum=0.5),
+    _spec('braking', 'double_array', [2.0, 2.0],
+          'deceleration of the braking the limiter keeps in reserve (translations m/s^2, '
+          'rotations rad/s^2): larger brakes later and gives up less cue, with a harder stop',
+          'm/s^2, rad/s^2', minimum=0.0, exclusive_minimum=True, maximum=1000.0, length=2),
+    _spec('gain.down', 'double', 20.0,
+          'rate at which the gain on the washout drops in each cycle that gives up cue '
+          '(adaptive gain: fewer braking false cues in a violent stretch)', '1/s',
+          minimum=0.0, maximum=1000.0),
+    _spec('gain.up', 'double', 1.0,
+          'rate at which the gain on the washout returns to 1 in each cycle that gives up '
+          'nothing', '1/s', minimum=0.0, exclusive_minimum=True, maximum=1000.0),
+    _spec('gain.ahead', 'double', 0.5,
+          'rate at which the gain on the washout drops ahead of a motion that would leave '
+          "a coordinate's range (the washout's free response, its input held, "
+          "``ahead.horizon`` ahead); 0: no look-ahead", '1/s', minimum=0.0, maximum=1000.0),
+    _spec('ahead.horizon', 'double', 0.5,
+          "how far ahead the washout's free response is looked at", 's',
+          minimum=0.0, exclusive_minimum=True, maximum=60.0),
+    _spec('ahead.minimum', 'double', 0.7,
+          'lowest gain the look-ahead sets (below it, the governor and the adaptive gain '
+          "act when the motion comes): a sustained cue's onset is worth more than its "
+          'slow tail', minimum=0.0, maximum=1.0),
+    _spec('gain.minimum', 'double', 0.1, 'lowest gain on the washout', minimum=0.0,
+          maximum=1.0),
+    _spec('recovery.omega', 'double', 1.0,
+          'bandwidth of the pull-back that returns the platform to the washout after '
+          'limiting (critically damped)', 'rad/s', minimum=0.0, exclusive_minimum=True,
+          maximum=100.0),
+    _spec('recovery.acceleration', 'double_array', [0.2, 0.2],
+          "largest pull-back acceleration on the position while returning to the washout "
+          "(translations m/s^2, rotations rad/s^2; the rate's difference is pulled back at "
+          'up to the braking deceleration)', 'm/s^2, rad/s^2', minimum=0.0, maximum=1000.0,
+          length=2),
+)
+
 PARAMETER_SPECS: tuple[ParamSpec, ...] = WASHOUT_SPECS + tuple(LIMITER_SPECS)
 SPECS: Mapping[str, ParamSpec] = MappingProxyType({s.name: s for s in PARAMETER_SPECS})
 _LIMITER_NAMES = tuple(s.name for s in LIMITER_SPECS)
@@ -123,7 +165,7 @@ class CueingParams:
     rotation_gain: np.ndarray     # (3,)
     rotation_omega: np.ndarray    # (3,) rad/s
     rotation_zeta: np.ndarray     # (3,)
-    #: the limiter's keys (:data:`~.limiter.LIMITER_SPECS`) by their names
+    #: the limiter's keys (:data:`LIMITER_SPECS`) by their names
     #: without ``cueing.`` (``limiter_margin``), every one given or defaulted
     limiter_settings: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
 
