@@ -13,7 +13,8 @@ echo "[tests] ROS_DOMAIN_ID=$ROS_DOMAIN_ID ROS_AUTOMATIC_DISCOVERY_RANGE=$ROS_AU
 # a failed kernel build fails the run (FSD_REQUIRE_KERNEL=0 allows it)
 export FSD_REQUIRE_KERNEL="${FSD_REQUIRE_KERNEL:-1}"
 
-# two workers (pytest-xdist), a test file to one worker (a module's node started
-# once); each worker has its own ROS domain (test/conftest.py). FSD_TEST_WORKERS=0:
-# one process, as does `-n 0` among ARGS (the last -n wins)
-exec python -m pytest -q -n "${FSD_TEST_WORKERS:-2}" --dist loadfile "$@"
+# one process by default: the node tests measure real time (a twin keeping up, a
+# stream answered), which two test files side by side on two cores miss.
+# FSD_TEST_WORKERS=2: two workers (pytest-xdist), a test file to one worker, each
+# in its own ROS domain (test/conftest.py): the unit tier in about half the time
+exec python -m pytest -q -n "${FSD_TEST_WORKERS:-0}" --dist loadfile "$@"
