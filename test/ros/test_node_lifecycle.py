@@ -136,7 +136,7 @@ def test_failing_configure_stays_unconfigured_and_up():
         assert client.change(Transition.TRANSITION_CONFIGURE)
         assert client.change(Transition.TRANSITION_ACTIVATE)
         client.wait_matched()
-        assert client.answered(time.time_ns() - 10 ** 9, 5.0)
+        assert client.answered(time.time_ns(), 5.0)
     finally:
         client.close()
         code = proc.stop()
@@ -171,7 +171,7 @@ def test_invalid_transitions_are_refused_and_the_node_keeps_running():
         assert client.state() == 'inactive' and proc.alive()
         assert client.change(Transition.TRANSITION_ACTIVATE)
         client.wait_matched()
-        assert client.answered(time.time_ns() - 10 ** 9, 5.0)
+        assert client.answered(time.time_ns(), 5.0)
     finally:
         client.close()
         code = proc.stop()

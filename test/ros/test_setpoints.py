@@ -637,24 +637,31 @@ def _answered(intake: SetpointIntake, stamp_ns: int, now: float) -> bool:
     return any(a.header == divmod(stamp_ns, 1_000_000_000) for a in answers)
 
 
-@pytest.mark.parametrize('stream_while_inactive', [True, False])
-def test_setpoints_stamped_before_an_activation_are_stale_for_a_while(stream_while_inactive):
-    """A stream that ran while the node was inactive: for STALE_WINDOW s after the
-    activation its setpoints stamped before it are dropped (counted inactive),
-    later ones answered; with no stream meanwhile, old stamps are answered."""
+@pytest.mark.parametrize('stream_while_inactive, connected', [
+    (True, False), (False, True), (False, False)])
+def test_setpoints_stamped_before_an_activation_are_stale_for_a_while(stream_while_inactive,
+                                                                       connected):
+    """A stream that ran while the node was inactive (seen by the node, or only
+    a planner connected: its messages delivered after the activation): for
+    STALE_WINDOW s after the activation its setpoints stamped before it are
+    dropped (counted inactive), later ones answered; with neither, old stamps
+    are answered."""
     intake = SetpointIntake(Runtime(prm.load_model(), NodeConfig.from_values({})))
     activation = 1_700_000_000 * 1_000_000_000
     if stream_while_inactive:
         intake.receive(POSE, _stamped(activation - 10 ** 9), 0.0, None, active=False)
-    intake.activate(activation, now=100.0)
+    intake.activate(activation, now=100.0, connected=connected)
     stale = _answered(intake, activation - 5 * 10 ** 8, 100.5)
-    assert stale != stream_while_inactive
-    assert intake.stats.rejected.get(INACTIVE, 0) == (4 if stream_while_inactive else 0)
+    dropped = stream_while_inactive or connected
+    assert stale != dropped
+    assert intake.stats.rejected.get(INACTIVE, 0) == (
+        4 if stream_while_inactive else 3 if connected else 0)
     assert _answered(intake, activation + 10 ** 6, 100.6)
     # after the window, an old stamp is judged by the usual rules only (here: it
     # precedes the last answered one)
     assert not _answered(intake, activation - 10 ** 8, 100.0 + STALE_WINDOW + 0.1)
-    assert intake.stats.rejected.get(INACTIVE, 0) == (4 if stream_while_inactive else 0)
+    assert intake.stats.rejected.get(INACTIVE, 0) == (
+        4 if stream_while_inactive else 3 if connected else 0)
 
 
 # -- the answer first ------------------------------------------------------------------
