@@ -10,6 +10,8 @@ from contextlib import contextmanager
 from types import ModuleType
 from typing import Callable, Iterable, Iterator
 
+import numpy as np
+
 #: FSD_KERNEL=0: the Python code even when a kernel is built (subprocesses inherit it).
 _choice = os.environ.get('FSD_KERNEL', '1')
 if _choice not in ('0', '1'):
@@ -74,3 +76,58 @@ def checked(name: str, module: ModuleType | None, import_error: str | None,
                           f'{import_error}; build it with `python setup.py build_ext --inplace` '
                           'or `pip install .`')
     return module, import_error
+
+
+class Glue:
+    """What every machine's kernel module does with its built ``_kernel`` (None:
+    not built), written once: whether it runs, the model packed once and kept
+    on the model, and the batch and RK4 calls that take a packed model.
+    ``pack_model(model) -> ndarray`` and ``effect_bits(model) -> int`` are the
+    machine's (the layouts are its kernel's).
+    """
+
+    def __init__(self, module: ModuleType | None, pack_model: Callable[[object], object],
+                 effect_bits: Callable[[object], int]) -> None:
+        self.module = module
+        self._pack_model = pack_model
+        self._effect_bits = effect_bits
+
+    def available(self) -> bool:
+        """True when the compiled kernel is built and importable."""
+        return self.module is not None
+
+    def enabled(self) -> bool:
+        """True when the machine's solve and solve_batch use the compiled kernel
+        (built, and :func:`wanted`).
+        """
+        return self.module is not None and _wanted
+
+    def prepared(self, model: object) -> tuple:
+        """(packed model, effect bits), computed once per model and kept on it."""
+        cached = model.__dict__.get('_kernel_input')
+        if cached is None:
+            cached = (self._pack_model(model), self._effect_bits(model))
+            object.__setattr__(model, '_kernel_input', cached)
+        return cached
+
+    def solve_rows(self, model: object, q: np.ndarray, qd: np.ndarray,
+                   qdd: np.ndarray) -> np.ndarray:
+        """N samples ((N, dof) float64 arrays) through the kernel: (N, OUT_SIZE) rows."""
+        params, bits = self.prepared(model)
+        arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in (q, qd, qdd)]
+        out = np.empty((arrays[0].shape[0], self.module.OUT_SIZE))
+        self.module.solve_batch(params, bits, *arrays, out)
+        return out
+
+    def integrate_rows(self, model: object, law: tuple, step: float, k0: int, steps: int,
+                       rows: tuple) -> int:
+        """RK4 of :func:`flight_sim_dynamics.core.simulation.integrate` in the
+        kernel, rows k0 to steps: ``law`` the fields of
+        :class:`flight_sim_dynamics.core.servo.TabulatedLaw` (``tables()``),
+        ``rows`` = (q, qd, qdd, force), (steps + 1, dof) C-contiguous float64, row
+        k0 set. Returns the first row whose step it did not complete (steps + 1:
+        all); a stage the kernel leaves (a stop, a condition it cannot bound) is
+        the Python code's.
+        """
+        params, bits = self.prepared(model)
+        return self.module.integrate(params, bits, *law, step, k0, steps, *rows)

@@ -1006,13 +1006,14 @@ class SetpointIntake:
         return self._flush()
 
     def activate(self, stamp_ns: int, now: float, connected: bool = False) -> None:
-        """The node activates at ``stamp_ns`` (its clock; 0: unknown). If a stream
-        may have run while it was inactive (a setpoint arrived meanwhile, or
-        ``connected``: a planner's publisher is matched), what it published then
-        may still arrive: for :data:`STALE_WINDOW` s, setpoints stamped before
-        the activation are dropped and counted inactive. (A node too busy to take
-        them, or a transport that holds them back, delivers them only after the
-        activation: ``connected`` covers that case.)
+        """The node activates at ``stamp_ns`` (its clock; 0: unknown).
+
+        If a stream may have run while it was inactive (a setpoint arrived
+        meanwhile, or ``connected``: a planner's publisher is matched), what it
+        published then may still arrive: for :data:`STALE_WINDOW` s, setpoints
+        stamped before the activation are dropped and counted inactive. (A node
+        too busy to take them, or a transport that holds them back, delivers them
+        only after the activation: ``connected`` covers that case.)
         """
         self.reset()
         armed = (self._inactive_seen or connected) and stamp_ns > 0

@@ -64,18 +64,6 @@ if _kernel is not None:
 else:   # the Python code runs without any of them
     OUT = {}
 
-def available() -> bool:
-    """True when the compiled kernel is built and importable."""
-    return _kernel is not None
-
-
-def enabled() -> bool:
-    """True when solve and solve_batch use the compiled kernel (built, and
-    :func:`flight_sim_dynamics.core.kernel.wanted`).
-    """
-    return _kernel is not None and core_kernel._wanted
-
-
 def _body_row(body: Body | None) -> np.ndarray:
     """One body as the kernel reads it (:data:`BODY_ROW`); zeros for no body."""
     row = np.zeros(BODY_SIZE)
@@ -109,15 +97,6 @@ def effect_bits(model: Model) -> int:
     return bits | (HAS_PAYLOAD if model.payload is not None else 0)
 
 
-def prepared(model: Model) -> tuple[np.ndarray, int]:
-    """(packed model, effect bits), computed once per model and kept on it."""
-    cached = model.__dict__.get('_kernel_input')
-    if cached is None:
-        cached = (pack_model(model), effect_bits(model))
-        object.__setattr__(model, '_kernel_input', cached)
-    return cached
-
-
 def solve_row(model: Model, q: tuple, qd: tuple, qdd: tuple) -> tuple[np.ndarray, tuple]:
     """One sample through the kernel: the result row and its scalars (status
     code, detail code, beta, kinematic condition, Jacobian condition).
@@ -137,22 +116,6 @@ def affine_row(model: Model, q: tuple, qd: tuple
     return out, M, b, _kernel.affine(params, bits, out, M, b, *q, *qd)
 
 
-def integrate_rows(model: Model, law: tuple, step: float, k0: int, steps: int,
-                   rows: tuple) -> int:
-    """RK4 of :func:`flight_sim_dynamics.core.simulation.integrate` in the kernel,
-    rows k0 to steps: ``law`` the fields of
-    :class:`flight_sim_dynamics.core.servo.TabulatedLaw`, ``rows`` = (q,
-    qd, qdd, force), (steps + 1, 3) C-contiguous float64, row k0 set. Returns
-    the first row whose step it did not complete (steps + 1: all).
-    """
-    params, bits = prepared(model)
-    return _kernel.integrate(params, bits, *law, step, k0, steps, *rows)
-
-
-def solve_rows(model: Model, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-    """N samples ((N, 3) float64 arrays) through the kernel: (N, OUT_SIZE) rows."""
-    params, bits = prepared(model)
-    arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in (q, qd, qdd)]
-    out = np.empty((arrays[0].shape[0], OUT_SIZE))
-    _kernel.solve_batch(params, bits, *arrays, out)
-    return out
+_glue = core_kernel.Glue(_kernel, pack_model, effect_bits)
+available, enabled, prepared = _glue.available, _glue.enabled, _glue.prepared
+solve_rows, integrate_rows = _glue.solve_rows, _glue.integrate_rows

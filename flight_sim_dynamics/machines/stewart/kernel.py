@@ -81,16 +81,6 @@ else:   # the numpy code runs without any of them
     OUT = {}
 
 
-def available() -> bool:
-    """True when the hexapod's compiled kernel is built and importable."""
-    return _kernel is not None
-
-
-def enabled() -> bool:
-    """True when the hexapod's solve and solve_batch use the compiled kernel."""
-    return _kernel is not None and core_kernel._wanted
-
-
 def _packed(value: object, rows: dict) -> np.ndarray:
     """A body as the kernel reads it (``rows``: RIGID_ROW or LEG_ROW)."""
     out = np.zeros(sum(n for _, n in rows.values()))
@@ -125,37 +115,9 @@ def effect_bits(model: StewartModel) -> int:
     return sum(bit for name, bit in _kernel.EFFECTS.items() if getattr(model.effects, name))
 
 
-def prepared(model: StewartModel) -> tuple[np.ndarray, int]:
-    """(packed model, effect bits), computed once per model and kept on it."""
-    cached = model.__dict__.get('_kernel_input')
-    if cached is None:
-        cached = (pack_model(model), effect_bits(model))
-        object.__setattr__(model, '_kernel_input', cached)
-    return cached
-
-
-def solve_rows(model: StewartModel, q: np.ndarray, qd: np.ndarray,
-               qdd: np.ndarray) -> np.ndarray:
-    """N samples ((N, 6) float64 arrays) through the kernel: (N, OUT_SIZE) rows."""
-    params, bits = prepared(model)
-    arrays = [np.ascontiguousarray(a, dtype=np.float64) for a in (q, qd, qdd)]
-    out = np.empty((arrays[0].shape[0], OUT_SIZE))
-    _kernel.solve_batch(params, bits, *arrays, out)
-    return out
-
-
-def integrate_rows(model: StewartModel, law: tuple, step: float, k0: int, steps: int,
-                   rows: tuple) -> int:
-    """RK4 of :func:`flight_sim_dynamics.core.simulation.integrate` in the kernel,
-    rows k0 to steps: each stage M qdd = f - b from the kernel's inverse
-    dynamics (M = J^-T W (S21), b the solve at qdd = 0), ``law`` the fields of
-    :class:`flight_sim_dynamics.core.servo.TabulatedLaw` (``tables()``), ``rows``
-    = (q, qd, qdd, force), (steps + 1, 6) C-contiguous float64, row k0 set.
-    Returns the first row whose step it did not complete (steps + 1: all); a
-    stage it leaves (a stop, a condition it cannot bound) is the Python code's.
-    """
-    params, bits = prepared(model)
-    return _kernel.integrate(params, bits, *law, step, k0, steps, *rows)
+_glue = core_kernel.Glue(_kernel, pack_model, effect_bits)
+available, enabled, prepared = _glue.available, _glue.enabled, _glue.prepared
+solve_rows, integrate_rows = _glue.solve_rows, _glue.integrate_rows
 
 
 def joint_angles(model: StewartModel, rows: np.ndarray) -> None:

@@ -284,6 +284,7 @@ def test_python_code_runs_without_the_extension(monkeypatch):
     np.testing.assert_allclose(batch.force[1], sol.force, rtol=1e-15)
     monkeypatch.undo()
     monkeypatch.setattr(kernel, '_kernel', None)
+    monkeypatch.setattr(kernel._glue, 'module', None)
     with core_kernel.use_kernel(True):      # cannot switch on what is not there
         assert not kernel.enabled() and not kernel.available()
         assert fsd.solve(MODEL, (0.0,) * 3, (0.0,) * 3, (0.0,) * 3).status == Status.OK

@@ -514,6 +514,7 @@ def test_numpy_code_runs_without_the_extension(monkeypatch):
         assert not kernel.enabled()
         reference = solver.solve(MODEL, *STATUS_ROWS[0])
     monkeypatch.setattr(kernel, '_kernel', None)
+    monkeypatch.setattr(kernel._glue, 'module', None)
     with use_kernel(True):
         assert not kernel.enabled() and not kernel.available()
         sol = solver.solve(MODEL, *STATUS_ROWS[0])
