@@ -5,7 +5,7 @@ part the platform's angular velocity and acceleration in the base frame,
 answered with fsd.solve's numbers for the Euler-angle rates; the
 platform_setpoint in any joint order; bad setpoints get a status and the next
 valid one is answered; its parameters (descriptors, a live model change, a
-refused one, the machine refused); the README's hexapod one-liners; lifecycle
+refused one, the machine refused); docs/node.md's hexapod one-liners; lifecycle
 transitions; a 3-DOF node and a hexapod side by side in two namespaces.
 """
 from __future__ import annotations
@@ -31,7 +31,7 @@ from flight_sim_dynamics.machines.stewart.kinematics import (euler_rate_matrix,
 from flight_sim_dynamics.ros.setpoints import rpy_to_quaternion
 from node_harness import ROOT, Client, NodeProcess, stamp_ns
 from test_node_lifecycle import LifecycleClient
-from test_node_readme_poke import ONE_LINER, fill, message_type
+from test_node_readme_poke import ONE_LINER, poking_section, fill, message_type
 
 pytestmark = pytest.mark.ros
 
@@ -285,7 +285,7 @@ def test_a_model_parameter_changes_live_and_a_bad_one_is_refused(client, model, 
 
 
 def test_the_readme_one_liners_for_the_hexapod_are_answered(client):
-    text = (ROOT / 'README.md').read_text().split('On a hexapod', 1)[1]
+    text = poking_section().split('On a hexapod', 1)[1]
     commands = ONE_LINER.findall(text)
     assert [topic for topic, _, _ in commands] == ['/pose_setpoint', '/platform_setpoint']
     qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)

@@ -1,6 +1,6 @@
-"""The README's way of poking the node by hand (issue 15 #4): its two
-``ros2 topic pub --once`` one-liners, sent as ``ros2 topic pub`` sends them
-(the YAML read from the README, ``stamp: now`` the current time), are each
+"""docs/node.md's way of poking the node by hand ("Poking it by hand"; issue
+15 #4): its two ``ros2 topic pub --once`` one-liners, sent as ``ros2 topic pub``
+sends them (the YAML read from the page, ``stamp: now`` the current time), are each
 answered, after an earlier stream too. Checked by hand with the real ``ros2``
 CLI; here without it (not on PyPI): the YAML is filled into the message the
 way ``ros2 topic pub`` fills it (nested fields, sequences of messages).
@@ -19,6 +19,12 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from node_harness import ROOT, stamp_ns
 
 pytestmark = pytest.mark.ros
+
+def poking_section() -> str:
+    """docs/node.md's section "Poking it by hand"."""
+    text = (ROOT / 'docs' / 'node.md').read_text()
+    return text.split('## Poking it by hand', 1)[1].split('\n## ', 1)[0]
+
 
 ONE_LINER = re.compile(r'ros2 topic pub --once (/\w+) (\S+) \\\n\s*"(\{.*?\})"\n')
 
@@ -51,7 +57,7 @@ def fill(msg: Any, values: dict, now_ns: int) -> None:
 
 def test_readme_one_liners_are_answered(client):
     # the 3-DOF machine's (the hexapod's, after 'On a hexapod': test_node_hexapod.py)
-    text = (ROOT / 'README.md').read_text().split('On a hexapod', 1)[0]
+    text = poking_section().split('On a hexapod', 1)[0]
     commands = ONE_LINER.findall(text)
     assert [topic for topic, _, _ in commands] == ['/pose_setpoint', '/platform_setpoint']
     # an earlier stream (its stamps older than now), answered: discovery is done
