@@ -21,7 +21,7 @@ KINDS = ('stroke', 'speed', 'force')
 #: The usages' names, leg by leg (``stroke A``, ``speed A``, ``force A``, ``stroke B`` ...).
 NAMES = tuple(f'{kind} {leg}' for leg in LABELS for kind in KINDS)
 
-_ARRAY = backend(True)
+_FLOATS, _ARRAY = backend(False), backend(True)
 
 
 def leg_usages(limits: Limits, xp: Any, stroke: Sequence[Scalar], rate: Sequence[Scalar],
@@ -41,9 +41,15 @@ def limit_usage(model: Model, solution: Any) -> LimitUsage:
     """The :class:`LimitUsage` of a solution of :func:`.solver.solve` (9 usages)
     or :func:`.solver.solve_batch` ((N, 9)).
     """
+    stroke, rate, force = solution.stroke, solution.rate, solution.force
+    if np.ndim(force) == 1:     # one sample (the node's every cycle): plain floats, 5x faster
+        try:
+            return LimitUsage(NAMES, np.array(leg_usages(
+                model.limits, _FLOATS, stroke.tolist(), rate.tolist(), force.tolist())))
+        except ArithmeticError:     # a stroke range too narrow for floats: numpy's IEEE
+            pass
     # legs on the first axis, samples (if any) after: one column per usage
-    stroke, rate, force = (np.asarray(v).T for v in (solution.stroke, solution.rate,
-                                                     solution.force))
+    stroke, rate, force = (np.asarray(v).T for v in (stroke, rate, force))
     with np.errstate(all='ignore'):
         columns = leg_usages(model.limits, _ARRAY, stroke, rate, force)
     return LimitUsage(NAMES, np.stack(columns, axis=-1))

@@ -11,10 +11,12 @@ from typing import Any
 import numpy as np
 
 from ...core.machine import LimitUsage, stroke_usage
+from ...core.vectors import backend
 from .model import LEG_NAMES, Limits, StewartModel
 
 #: Leg labels of the usages' names, in the order of the legs.
 LABELS = tuple(str(i) for i in range(1, len(LEG_NAMES) + 1))
+_FLOATS = backend(False)
 
 
 def kinds(limits: Limits) -> tuple[str, ...]:
@@ -28,7 +30,14 @@ def kinds(limits: Limits) -> tuple[str, ...]:
 
 def names(limits: Limits) -> tuple[str, ...]:
     """The usages' names, leg by leg (``stroke 1``, ``speed 1``, ... ``stroke 2`` ...)."""
-    return tuple(f'{kind} {leg}' for leg in LABELS for kind in kinds(limits))
+    key = kinds(limits)
+    found = _NAMES.get(key)
+    if found is None:       # made once per set of kinds (4 at most): the node asks every cycle
+        found = _NAMES[key] = tuple(f'{kind} {leg}' for leg in LABELS for kind in key)
+    return found
+
+
+_NAMES: dict[tuple[str, ...], tuple[str, ...]] = {}
 
 
 def usages(limits: Limits, length: np.ndarray, rate: np.ndarray, force: np.ndarray,
@@ -54,6 +63,11 @@ def limit_usage(model: StewartModel, solution: Any) -> LimitUsage:
     :func:`.solver.solve_batch` ((N, ...)).
     """
     lim = model.limits
+    if np.ndim(solution.force) == 1:    # one sample (the node's every cycle): floats, faster
+        try:
+            return LimitUsage(names(lim), np.array(_sample_usages(lim, solution)))
+        except ArithmeticError:     # a length range too narrow for floats: numpy's IEEE
+            pass
     with np.errstate(all='ignore'):
         values = usages(lim, np.asarray(solution.length), np.asarray(solution.rate),
                         np.asarray(solution.force),
@@ -61,3 +75,21 @@ def limit_usage(model: StewartModel, solution: Any) -> LimitUsage:
                         solution.spherical_angles
                         if lim.spherical_joint_max_angle is not None else None)
     return LimitUsage(names(lim), values)
+
+
+def _sample_usages(lim: Limits, solution: Any) -> list[float]:
+    """:func:`usages` of one sample on plain floats (the same IEEE operations)."""
+    u_max, ball_max = lim.u_joint_max_angle, lim.spherical_joint_max_angle
+    joints = solution.joints.tolist() if u_max is not None else None
+    ball = solution.spherical_angles.tolist() if ball_max is not None else None
+    out: list[float] = []
+    for k, (L, Ld, f) in enumerate(zip(solution.length.tolist(), solution.rate.tolist(),
+                                       solution.force.tolist())):
+        out += [stroke_usage(L, lim.length_min, lim.length_max, _FLOATS),
+                abs(Ld) / lim.max_speed, abs(f) / lim.max_force]
+        if joints is not None:
+            # NaN-propagating like numpy's max (a solution's joints are never NaN)
+            out.append(_FLOATS.maximum(abs(joints[k][0]), abs(joints[k][1])) / u_max)
+        if ball is not None:
+            out.append(ball[k] / ball_max)
+    return out
