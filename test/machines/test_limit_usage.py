@@ -156,7 +156,8 @@ def test_limit_crossing_samples(machine, kernel):
 @pytest.mark.parametrize('machine', MACHINES, ids=MACHINE_IDS)
 def test_usage_names_and_values_at_home(machine):
     """Every leg has a stroke, speed and force usage, named with its label; at
-    rest at home no speed is used and nothing is exceeded on the packaged limits.
+    rest at home no speed is used and nothing is exceeded on the packaged
+    limits; an empty batch has no usages.
     """
     model = _model(machine)
     z = [0.0] * machine.dof
@@ -168,3 +169,6 @@ def test_usage_names_and_values_at_home(machine):
     assert speeds == [0.0] * len(machine.legs)
     assert not usage.exceeded and np.all(usage.usage >= 0.0)
     assert np.all(np.isfinite(usage.usage))
+    empty = np.zeros((0, machine.dof))
+    none = machine.limit_usage(model, machine.solve_batch(model, empty, empty, empty))
+    assert none.usage.shape == (0, len(usage.names)) and none.exceeded.shape == (0,)

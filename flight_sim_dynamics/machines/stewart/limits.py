@@ -55,7 +55,8 @@ def usages(limits: Limits, length: np.ndarray, rate: np.ndarray, force: np.ndarr
     if limits.spherical_joint_max_angle is not None:
         columns.append(np.asarray(spherical_angles) / limits.spherical_joint_max_angle)
     stacked = np.stack(np.broadcast_arrays(*columns), axis=-1)      # (..., 6, kinds)
-    return stacked.reshape(stacked.shape[:-2] + (-1,))
+    # legs times kinds spelled out: -1 cannot be inferred for an empty batch
+    return stacked.reshape(stacked.shape[:-2] + (stacked.shape[-2] * stacked.shape[-1],))
 
 
 def limit_usage(model: StewartModel, solution: Any) -> LimitUsage:
