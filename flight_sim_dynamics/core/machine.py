@@ -87,7 +87,7 @@ class ActuatorLimits:
 class LimitUsage:
     """How much of each of its limits a solution uses: ``usage[..., k]`` of the
     limit ``names[k]`` (``'stroke A'``, ``'speed 1'``, ``'u_joint 1'``: what,
-    then the leg's label in upper case). Above 1: exceeded, which is exactly
+    then the leg's label in upper case). Above 1: exceeded, which is
     the status ``limit`` of a sample that is otherwise ok; 1: at the limit.
 
     A leg's stroke usage is its distance from mid-stroke over half the
@@ -103,10 +103,6 @@ class LimitUsage:
         """Whether some limit is exceeded: a bool, or (N,) bools for a batch."""
         over = (self.usage > 1.0).any(axis=-1)
         return bool(over) if over.ndim == 0 else over
-
-    def names_from(self, fraction: float) -> tuple[str, ...]:
-        """The names of one sample's limits used at least ``fraction`` (> 1: exceeded)."""
-        return tuple(name for name, u in zip(self.names, self.usage.tolist()) if u >= fraction)
 
 
 def stroke_usage(value: Any, low: float, high: float, xp: Any = np) -> Any:
