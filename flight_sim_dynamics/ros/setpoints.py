@@ -732,7 +732,7 @@ def _not_after_last(kind: str, stamp_ns: int, last: int) -> Rejected:
                     f'{fmt_stamp(last)}')
 
 
-# -- limits, /diagnostics, log throttle ----------------------------------
+# -- limits, /diagnostics, log throttle -----------------------------------------
 class LimitReport(NamedTuple):
     """One answer's level (OK, WARN, ERROR) and the names of the limits it
     exceeds and of those it is near.
@@ -751,7 +751,7 @@ def limit_report(usage: LimitUsage, warn_fraction: float) -> LimitReport:
     exceeded: list[str] = []
     near: list[str] = []
     for name, used in zip(usage.names, usage.usage.tolist()):
-        if used > 1.0:                  # a name made only for a limit reported
+        if used > 1.0:
             exceeded.append(name)
         elif used >= warn_fraction:
             near.append(name)
