@@ -152,8 +152,9 @@ MODEL_PARAMETERS: tuple[ParamSpec, ...] = tuple(_model_specs())
 # (QoS: rclpy's read-only qos_overrides.<topic>.* parameters, declared by the node's endpoints.)
 NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('limits.warn_fraction', 'double', 0.9,
-              'status WARN when a stroke, speed or force uses at least this fraction of its '
-              'limit (stroke: of the half-range around its middle)', '1',
+              "status WARN when a limit of the machine (a stroke, speed, force, a hexapod's "
+              'joint angle) is used to at least this fraction (stroke: of the half-range '
+              'around its middle)', '1',
               minimum=0.0, maximum=1.0),
     ParamSpec('input.max_linear_acceleration', 'double', 50.0,
               'setpoints whose surge, sway or heave acceleration (given or estimated; those '

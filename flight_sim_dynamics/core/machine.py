@@ -12,6 +12,8 @@ Each machine implements the same calls on its own model type, with vectors of
                                                    (:func:`check_forward_options`)
 ``forward_dynamics(model, q, qd, force)``          accelerations of given forces
 ``actuator_limits(model)``                         strokes, speed and force allowed
+``limit_usage(model, solution)``                   how much of each limit it uses
+                                                   (:class:`LimitUsage`)
 =================================================  ===============================
 
 The home pose is q = 0 for every machine (poses are measured from it).
@@ -82,6 +84,39 @@ class ActuatorLimits:
 
 
 @dataclass(frozen=True)
+class LimitUsage:
+    """How much of each of its limits a solution uses: ``usage[..., k]`` of the
+    limit ``names[k]`` (``'stroke A'``, ``'speed 1'``, ``'u_joint 1'``: what,
+    then the leg's label in upper case). Above 1: exceeded, which is
+    the status ``limit`` of a sample that is otherwise ok; 1: at the limit.
+
+    A leg's stroke usage is its distance from mid-stroke over half the
+    stroke; speed, force and a joint angle: the value's magnitude over its
+    maximum. ``usage`` is (len(names),) for one sample, (N, len(names)) for a batch.
+    """
+
+    names: tuple[str, ...]
+    usage: np.ndarray
+
+    @property
+    def exceeded(self) -> bool | np.ndarray:
+        """Whether some limit is exceeded: a bool, or (N,) bools for a batch."""
+        over = (self.usage > 1.0).any(axis=-1)
+        return bool(over) if over.ndim == 0 else over
+
+
+def stroke_usage(value: Any, low: float, high: float, xp: Any = np) -> Any:
+    """Distance of ``value`` from the middle of [low, high] over half the range:
+    each side over its own half, so that either end uses exactly 1 (the
+    status rules allow a value at its limit). ``xp``: numpy, or a machine's
+    float backend (``where``) for plain floats.
+    """
+    middle = 0.5 * (low + high)
+    return xp.where(value >= middle, (value - middle) / (high - middle),
+                    (middle - value) / (middle - low))
+
+
+@dataclass(frozen=True)
 class Machine:
     """One kind of machine: its names and its calls (module docstring)."""
 
@@ -96,6 +131,9 @@ class Machine:
     forward_kinematics: Callable[..., Any]
     forward_dynamics: Callable[..., Any]
     actuator_limits: Callable[[Any], ActuatorLimits]
+    # ``limit_usage(model, solution) -> LimitUsage``: one sample or a batch; the
+    # rule of its solutions' status ``limit`` (usage > 1), the dynamics node's too
+    limit_usage: Callable[[Any, Any], LimitUsage]
     # A machine whose parameter files name it (``machine: <name>``): the names
     # they may give (dotted) and the model of a file's nested parameters with a
     # scene's effects, ``from_params(params, effects) -> model`` (ModelValueError);

@@ -18,7 +18,7 @@ from ..config.parameters import NodeConfig
 from ..core.estimator import DerivativeEstimator, Vec, Vec3
 from ..core.euler import (EulerSingularity, angular_acceleration, angular_velocity,
                           euler_accelerations, euler_rates)
-from ..core.machine import ActuatorLimits, Machine
+from ..core.machine import LimitUsage, Machine
 from ..core.status import Status
 from ..machines.api import machine_of
 
@@ -732,32 +732,29 @@ def _not_after_last(kind: str, stamp_ns: int, last: int) -> Rejected:
                     f'{fmt_stamp(last)}')
 
 
-# -- actuator limits, /diagnostics, log throttle ----------------------------------
+# -- limits, /diagnostics, log throttle -----------------------------------------
 class LimitReport(NamedTuple):
+    """One answer's level (OK, WARN, ERROR) and the names of the limits it
+    exceeds and of those it is near.
+    """
+
     level: int
     exceeded: tuple[str, ...]
     near: tuple[str, ...]
 
 
-def check_limits(stroke: Sequence[float], rate: Sequence[float], force: Sequence[float],
-                 limits: ActuatorLimits, warn_fraction: float,
-                 labels: Sequence[str]) -> LimitReport:
-    """Beyond a limit: ERROR, within ``warn_fraction`` of one: WARN (published
-    anyway); legs named by ``labels`` (upper case). A leg's usage of a limit:
-    its stroke's distance from mid-stroke over half the stroke, its speed and
-    force over the maxima.
+def limit_report(usage: LimitUsage, warn_fraction: float) -> LimitReport:
+    """Beyond a limit (a usage above 1: the status ``limit``): ERROR, within
+    ``warn_fraction`` of one: WARN (published anyway); each limit by its name
+    in the machine's :class:`LimitUsage` (``force C``, ``u_joint 1``).
     """
     exceeded: list[str] = []
     near: list[str] = []
-    for i, (label, low, high) in enumerate(zip(labels, limits.stroke_min.tolist(),
-                                               limits.stroke_max.tolist())):
-        for what, usage in (('stroke', abs(stroke[i] - 0.5 * (high + low)) / (0.5 * (high - low))),
-                            ('speed', abs(rate[i]) / limits.max_speed),
-                            ('force', abs(force[i]) / limits.max_force)):
-            if usage > 1.0:             # a name made only for a limit reported
-                exceeded.append(f'{what} {label.upper()}')
-            elif usage >= warn_fraction:
-                near.append(f'{what} {label.upper()}')
+    for name, used in zip(usage.names, usage.usage.tolist()):
+        if used > 1.0:
+            exceeded.append(name)
+        elif used >= warn_fraction:
+            near.append(name)
     level = ERROR if exceeded else WARN if near else OK
     return LimitReport(level, tuple(exceeded), tuple(near))
 
@@ -958,8 +955,6 @@ class SetpointIntake:
         #: its solutions' exact cond(Q) is reported (a costly field)
         self.reports_cond = 'cond' in machine.costly_fields
         self._kinematic = 'kinematic_condition' in machine.sample_fields
-        self._labels = machine.leg_labels
-        self._limits = self._limits_of(runtime.model)
         self.stats = CycleStats(self.poses.ignored, self._kinematic)
         self.throttle = LogThrottle(config.diagnostics_log_throttle)
         self.sync = StampSynchroniser(config.sync_wait, config.sync_max_pending,
@@ -978,10 +973,6 @@ class SetpointIntake:
         # warming up: never estimates an acceleration from a rest it assumed
         return DerivativeEstimator(config.estimator_method, config.estimator_max_gap,
                                    warm_up=True, angles=self.poses.angles)
-
-    @staticmethod
-    def _limits_of(model: Any) -> tuple[Any, ActuatorLimits]:
-        return model, machine_of(model).actuator_limits(model)
 
     def _flush(self) -> Outcome:
         out = (self._answers[:], self._lines)
@@ -1143,7 +1134,7 @@ class SetpointIntake:
         self.estimator.commit()
         self._publish(answer)
         self.last_solution, self.last_header = sol, sp.header
-        self._assess(sol, sp, runtime, elapsed, answer)
+        self._assess(sol, sp, runtime, elapsed)
 
     def _rates(self, sp: Setpoint, config: NodeConfig) -> tuple[Vec, Vec, Vec]:
         """q, qd, qdd of a setpoint: given (converted, :class:`PoseMap`) or estimated."""
@@ -1176,8 +1167,7 @@ class SetpointIntake:
                                           'estimated acceleration')
         return q, qd, qdd
 
-    def _assess(self, sol: Any, sp: Setpoint, runtime: Runtime, seconds: float,
-                answer: Answer) -> None:
+    def _assess(self, sol: Any, sp: Setpoint, runtime: Runtime, seconds: float) -> None:
         config, stats = runtime.config, self.stats
         ignored = () if sp.source == PLATFORM else self.poses.unfollowable(
             sp.pose, sp.twist, sp.accel, sol, config.input_position_tolerance,
@@ -1192,18 +1182,17 @@ class SetpointIntake:
             stats.near_singular += 1
             stats.note(WARN, 'near singular')
             self.log(WARN, 'near_singular', lambda: f'near singular: {sol.detail}')
-        if self._limits[0] is not runtime.model:
-            self._limits = self._limits_of(runtime.model)
-        limits = check_limits(sol.stroke.tolist(), answer.rate, answer.force,
-                              self._limits[1], config.limits_warn_fraction, self._labels)
+        # the machine's own rule, the one of its status limit (joint angles too)
+        limits = limit_report(runtime.machine.limit_usage(runtime.model, sol),
+                              config.limits_warn_fraction)
         if limits.exceeded:
             stats.limit_exceeded += 1
             stats.note(ERROR, 'limit exceeded')
-            self.log(ERROR, 'limit', lambda: 'actuator limit exceeded (published anyway): '
+            self.log(ERROR, 'limit', lambda: 'limit exceeded (published anyway): '
                      + ', '.join(limits.exceeded))
         elif limits.near:
             stats.near_limit += 1
-            stats.note(WARN, 'near an actuator limit')
+            stats.note(WARN, 'near a limit')
         stats.solved(seconds, sol.kinematic_condition if self._kinematic else math.nan,
                      float(sol.jacobian_condition))
 

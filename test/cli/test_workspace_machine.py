@@ -60,7 +60,7 @@ def check_squash(value: float) -> None:
 DISK = Machine(
     name=NAME, model_type=DiskModel, coordinates=('x', 'y'), units=('m', 'm'), legs=('a', 'b'),
     joints=(), solve=None, solve_batch=None, forward_kinematics=None, forward_dynamics=None,
-    actuator_limits=None, parameters=frozenset({'machine', 'scene', 'reach'}),
+    actuator_limits=None, limit_usage=None, parameters=frozenset({'machine', 'scene', 'reach'}),
     from_params=from_params, parameter_files=(NAME,), title='disk machine',
     workspace=survey,
     workspace_options=(Option('squash', 'how much y is squashed', type=float,

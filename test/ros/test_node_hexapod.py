@@ -10,6 +10,7 @@ transitions; a 3-DOF node and a hexapod side by side in two namespaces.
 """
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import time
@@ -457,3 +458,36 @@ def test_a_payload_the_scene_leaves_out_is_logged(tmp_path):
         proc.stop()
     assert len(lines[0]) == 1 and "'full'" in lines[0][0], lines
     assert lines[1] == [] and lines[2] == [], lines
+
+
+def test_a_hexapod_beyond_its_u_joint_limit_reports_an_exceeded_limit(tmp_path, model):
+    """``limits.u_joint_max_angle: 0.30`` rad, below the U-joints' angle at home
+    (about 0.5 rad): a setpoint at home has the status limit; the node
+    publishes fsd.solve's numbers, and /diagnostics is ERROR and counts it a
+    limit exceeded, as the status promises."""
+    path = tmp_path / 'u_joint.yaml'
+    path.write_text(yaml.safe_dump({'/**': {'ros__parameters': {
+        'machine': 'stewart_6dof', 'limits': {'u_joint_max_angle': 0.30}}}}))
+    limited = dataclasses.replace(model, limits=dataclasses.replace(model.limits,
+                                                                    u_joint_max_angle=0.30))
+    zero = np.zeros(6)
+    assert fsd.solve(limited, zero, zero, zero).status.value == 'limit'
+    proc = NodeProcess('-r', '__ns:=/u_joint', '-p', 'diagnostics.period:=0.25',
+                       '-p', 'sync.wait:=0.5', params_file=path)
+    client = Client('u_joint_client', '/u_joint')
+    try:
+        client.wait_for_node(proc)
+        probes = itertools.count(10 ** 18, 5_000_000)
+        client.round_trip(lambda: next(probes))
+        [stamp] = stamps(1)
+        publish(client, stamp, zero, zero, zero)
+        msgs = answer(client, stamp)
+        assert msgs is not None, client.explain()
+        assert_solved(msgs, fsd.solve(limited, zero, zero, zero))
+        values = client.wait_diagnostics(
+            lambda v: int(v['limit exceeded']) >= 1 and int(v['level']) == 2)   # ERROR
+        assert int(values['setpoints answered']) >= 1
+    finally:
+        client.close()
+        proc.stop()
+    assert 'Traceback' not in proc.output()

@@ -3,7 +3,6 @@ and of the planner motions (flight_sim_dynamics.machines.staicu.motions)."""
 from __future__ import annotations
 
 import dataclasses
-from functools import partial
 import math
 from types import SimpleNamespace
 
@@ -12,11 +11,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.config.parameters import NodeConfig
 from flight_sim_dynamics.core.estimator import wrap_angle
-from flight_sim_dynamics.core.machine import ActuatorLimits
+from flight_sim_dynamics.core.machine import LimitUsage
 from flight_sim_dynamics.core.motion import PlannerSequence
+from flight_sim_dynamics.core.status import Status
 from flight_sim_dynamics.machines.staicu.motions import MOTIONS as STAICU_MOTIONS
 from flight_sim_dynamics.machines.staicu.motions import PLANNER_MOTIONS as MOTIONS
 from flight_sim_dynamics.machines.staicu.motions import CUEING_DURATION, motion_cueing
@@ -28,7 +29,7 @@ from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_Q
                                                WARN, YAW, CycleStats, LogThrottle, Runtime,
                                                SOLVER_ERROR, RestartRule, SetpointError,
                                                SetpointIntake, StampSynchroniser,
-                                               check_limits, pose_input,
+                                               limit_report, pose_input,
                                                quaternion_to_rpy, rate_input,
                                                pose_map, rpy_to_quaternion)
 from flight_sim_dynamics.machines import FLIGHT_SIMULATOR
@@ -430,15 +431,30 @@ def test_node_parameters_in_packaged_yaml():
 
 
 def test_limits():
-    limits = ActuatorLimits(stroke_min=np.full(3, -0.3), stroke_max=np.full(3, 0.6),
-                            max_speed=1.0, max_force=100.0)
-    check = partial(check_limits, labels=FLIGHT_SIMULATOR.leg_labels)
-    ok = check((0.0, 0.1, 0.1), (0.1, 0.1, 0.1), (30.0, 30.0, 30.0), limits, 0.9)
+    """A limit used beyond 1: ERROR, from warn_fraction on: WARN, each by its name."""
+    names = ('stroke A', 'speed A', 'force A', 'stroke B', 'speed B', 'force B')
+    ok = limit_report(LimitUsage(names, np.array([0.0, 0.1, 0.3, 0.2, 0.1, 0.3])), 0.9)
     assert ok.level == OK and not ok.exceeded and not ok.near
-    near = check((0.58, 0.1, 0.1), (0.1, 0.95, 0.1), (30.0, 30.0, 30.0), limits, 0.9)
-    assert near.level == WARN and set(near.near) == {'stroke A', 'speed B'}
-    over = check((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (30.0, 30.0, -101.0), limits, 0.9)
-    assert over.level == ERROR and over.exceeded == ('force C',)
+    near = limit_report(LimitUsage(names, np.array([0.9, 0.1, 0.3, 0.2, 0.95, 1.0])), 0.9)
+    assert near.level == WARN and set(near.near) == {'stroke A', 'speed B', 'force B'}
+    over = limit_report(LimitUsage(names, np.array([0.0, 0.0, 0.3, 0.95, 0.0, 1.01])), 0.9)
+    assert over.level == ERROR and over.exceeded == ('force B',) and over.near == ('stroke B',)
+
+
+def test_limit_usages_of_the_3dof_machine():
+    """A leg's stroke usage is its distance from mid-stroke over half the
+    stroke, speed and force their magnitudes over the maxima."""
+    model = prm.load_model()
+    lim = model.limits
+    sol = SimpleNamespace(stroke=np.array([lim.stroke_max, lim.stroke_min, 0.5 * (
+                              lim.stroke_min + lim.stroke_max)]),
+                          rate=np.array([0.0, -0.95 * lim.max_speed, 0.0]),
+                          force=np.array([0.0, 0.0, -1.01 * lim.max_force]))
+    usage = FLIGHT_SIMULATOR.limit_usage(model, sol)
+    report = limit_report(usage, 0.9)
+    assert report.exceeded == ('force C',)
+    assert set(report.near) == {'stroke A', 'stroke B', 'speed B'}
+    np.testing.assert_allclose(usage.usage, [1.0, 0.0, 0.0, 1.0, 0.95, 0.0, 0.0, 0.0, 1.01])
 
 
 def test_cycle_stats_report():
@@ -694,3 +710,45 @@ def test_an_answer_that_cannot_go_out_is_counted_and_logged():
     assert intake.stats.rejected.get(SOLVER_ERROR, 0) == 2
     assert intake.stats.answered == 0
     assert [level for level, _ in lines].count(ERROR) >= 1
+
+
+# -- actuator and joint limits: the machine's own rule ----------------------------------
+def _hexapod(**limits):
+    """The packaged hexapod with some limits changed."""
+    model = fsd.load_model('stewart_6dof')
+    return dataclasses.replace(model, limits=dataclasses.replace(model.limits, **limits))
+
+
+def _stats_after_home(model) -> tuple[CycleStats, list[tuple[int, str]]]:
+    """The intake's statistics and log lines after one setpoint at rest at home."""
+    intake = SetpointIntake(Runtime(model, NodeConfig.from_values({})))
+    stamp, lines, answers = 1_700_000_000 * 1_000_000_000, [], []
+    for kind in (POSE, TWIST, ACCEL):
+        got, more = intake.receive(kind, _stamped(stamp), 0.0, None)
+        answers += got
+        lines += more
+    assert len(answers) == 1                    # published anyway
+    return intake.stats, lines
+
+
+def test_a_hexapod_beyond_its_u_joint_limit_is_an_exceeded_limit():
+    """The U-joints at home (about 0.5 rad) beyond ``limits.u_joint_max_angle``:
+    the solve's status is limit, and the node counts the answer as a limit
+    exceeded, at ERROR, as it does a stroke, speed or force."""
+    model = _hexapod(u_joint_max_angle=0.30)
+    zero = [0.0] * 6
+    assert fsd.solve(model, zero, zero, zero).status is Status.LIMIT
+    stats, lines = _stats_after_home(model)
+    assert stats.limit_exceeded == 1 and stats.near_limit == 0
+    level, _, values = stats.report(1.0)
+    assert level == ERROR and dict(values)['limit exceeded'] == '1'
+    assert ERROR in [lvl for lvl, _ in lines]
+
+
+def test_a_hexapod_near_its_spherical_joint_limit_is_near_a_limit():
+    """A joint angle within ``limits.warn_fraction`` of its limit: WARN, near limit."""
+    home = fsd.solve(_hexapod(), [0.0] * 6, [0.0] * 6, [0.0] * 6).spherical_angles.max()
+    stats, _ = _stats_after_home(_hexapod(spherical_joint_max_angle=home / 0.95))
+    assert stats.limit_exceeded == 0 and stats.near_limit == 1
+    assert stats.report(1.0)[0] == WARN
+    assert _stats_after_home(_hexapod(spherical_joint_max_angle=home / 0.5))[0].near_limit == 0

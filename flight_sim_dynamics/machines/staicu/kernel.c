@@ -545,7 +545,7 @@ static int sample_status(const double *P, int bad_input, int open_loop, int fini
                          const double *force, double *info)
 {
     int near = !((kin <= P[P_MAX_KIN]) && (jac <= P[P_MAX_JAC]));
-    int over = 0;
+    int over = 0;    /* a usage of limits.leg_usages above 1, as compared here */
     for (int m = 0; m < 3; m++)
         over |= (stroke[m] < P[P_STROKE_MIN]) | (stroke[m] > P[P_STROKE_MAX])
                 | (fabs(rate[m]) > P[P_MAX_SPEED]) | (fabs(force[m]) > P[P_MAX_FORCE]);

@@ -9,6 +9,7 @@ from ...core.machine import ActuatorLimits, Machine
 from . import kernel
 from .forward_dynamics import affine_terms, forward_dynamics, require_inertia
 from .forward_kinematics import forward_kinematics
+from .limits import limit_usage
 from .mechanism import drawing
 from .model import JOINT_NAMES, LEG_NAMES, Model
 from .motions import MOTIONS, PLANNER_MOTIONS, TEST_MOTIONS
@@ -37,7 +38,7 @@ MACHINE = Machine(
     units=('m', 'm', 'rad'), legs=LEG_NAMES, joints=JOINT_NAMES, solve=solve,
     solve_batch=solve_batch, forward_kinematics=forward_kinematics,
     forward_dynamics=forward_dynamics, actuator_limits=actuator_limits,
-    title='3-DOF flight simulator', leg_labels=('a', 'b', 'c'),
+    limit_usage=limit_usage, title='3-DOF flight simulator', leg_labels=('a', 'b', 'c'),
     sample_fields=('beta', 'kinematic_condition', 'jacobian_condition'),
     costly_fields=('cond',), motions=MOTIONS, examples=tuple(PAPER_EXAMPLES),
     # what a user sees beyond numbers

@@ -1,5 +1,6 @@
 """The 3-DOF machine's status rule (:func:`sample_status`), written once for
-floats and arrays alike; ``src/kernel.c`` transcribes it. The statuses and
+floats and arrays alike, its ``limit`` by the usages of :mod:`.limits`;
+``kernel.c`` transcribes it. The statuses and
 their order are :mod:`flight_sim_dynamics.core.status`'s.
 """
 from __future__ import annotations
@@ -7,8 +8,9 @@ from __future__ import annotations
 from typing import Iterable, Sequence
 
 from ...core.status import RESULTS_NOT_FINITE, SEVERITY, Status
-from ...core.vectors import Scalar
+from ...core.vectors import Scalar, backend
 from .kinematics import LOOP_REASONS, LOOPS
+from .limits import KINDS, LABELS, leg_usages
 from .model import Limits
 
 
@@ -20,6 +22,7 @@ def condition_2x2(a: tuple, b: tuple, xp) -> object:
     return sigma_max2 / det
 
 
+_FLOATS = backend(False)
 _INPUTS = ('q', 'qd', 'qdd')
 _COORDINATES = ('surge', 'heave', 'roll')
 
@@ -61,14 +64,14 @@ def sample_status(limits: Limits, xp, bad_input: Scalar = -1, open_loop: Scalar 
     3. near_singular (a condition over its limit or NaN), info = 1, or 0 at an
        exact singularity (some result not finite: set to 0);
     4. invalid_input, info = :data:`RESULTS_NOT_FINITE` (results overflow);
-    5. limit (a stroke, speed or force limit exceeded); 6. ok.
+    5. limit (a stroke, speed or force limit exceeded: a usage of
+       :func:`.limits.leg_usages` above 1); 6. ok.
     """
     near = xp.logical_not((kin <= limits.max_kinematic_condition)
                           & (jac <= limits.max_jacobian_condition))
     over = False
-    for s, r, f in zip(stroke, rate, force):
-        over = (over | (s < limits.stroke_min) | (s > limits.stroke_max)
-                | (xp.abs(r) > limits.max_speed) | (xp.abs(f) > limits.max_force))
+    for usage in leg_usages(limits, xp, stroke, rate, force):
+        over = over | (usage > 1.0)
     code = xp.where(over, SEVERITY[Status.LIMIT], SEVERITY[Status.OK])
     info = 0
     overflow = xp.logical_not(finite)
@@ -106,13 +109,19 @@ def describe(status: Status, info: int, limits: Limits, inputs: Sequence[Sequenc
         if not jac <= limits.max_jacobian_condition:
             out.append(f'actuator Jacobian condition {jac:.3g} > '
                        f'{limits.max_jacobian_condition:g}')
-    elif status is Status.LIMIT:
-        for i, leg in enumerate('ABC'):
-            if not limits.stroke_min <= stroke[i] <= limits.stroke_max:
+    elif status is Status.LIMIT:     # the usages above 1, named with their values
+        usages = leg_usages(limits, _FLOATS, [float(v) for v in stroke],
+                            [float(v) for v in rate], [float(v) for v in force])
+        for k, usage in enumerate(usages):
+            if not usage > 1.0:
+                continue
+            i, kind = divmod(k, len(KINDS))
+            leg = LABELS[i]
+            if KINDS[kind] == 'stroke':
                 out.append(f'stroke {leg} {stroke[i]:.4g} m outside '
                            f'[{limits.stroke_min:g}, {limits.stroke_max:g}] m')
-            if abs(rate[i]) > limits.max_speed:
+            elif KINDS[kind] == 'speed':
                 out.append(f'speed {leg} {abs(rate[i]):.4g} m/s > {limits.max_speed:g} m/s')
-            if abs(force[i]) > limits.max_force:
+            else:
                 out.append(f'force {leg} {abs(force[i]):.4g} N > {limits.max_force:g} N')
     return '; '.join(out)

@@ -601,7 +601,7 @@ static void solve_one(const double *P, int fx, const double *q, const double *qd
         for (int m = 0; m < 4; m++)
             zero[m] += out[j + m] * 0.0;
     int finite = (zero[0] + zero[1]) + (zero[2] + zero[3]) == 0.0;
-    int over = 0;                                /* solver._over_limits */
+    int over = 0;    /* solver._over_limits: a usage of limits.usages above 1, as compared here */
     for (int i = 0; i < 6; i++) {
         double L = out[O_LENGTH + i];
         over |= (L < P[P_LENGTH_MIN]) | (L > P[P_LENGTH_MAX])

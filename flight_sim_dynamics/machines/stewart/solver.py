@@ -20,7 +20,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from ...core.status import BY_SEVERITY, RESULTS_NOT_FINITE, SEVERITY, Status
-from . import kernel
+from . import kernel, limits
 from .dynamics import actuator_forces, friction_forces, generalised_wrench, has_inertia
 from .kinematics import (actuator_jacobian, degenerate_legs, has_bool, jacobian_condition,
                          leg_accelerations, leg_positions, leg_velocities, platform_motion,
@@ -105,41 +105,45 @@ def _first_bad_input(arrays: tuple) -> np.ndarray:
 
 
 def _limit_reasons(model: StewartModel, sol: SimpleNamespace) -> list[str]:
-    """What one sample's values exceed (stewart.md, "Actuators, limits, effects"), or nothing."""
+    """What one sample's values exceed (stewart.md, "Actuators, limits, effects"),
+    or nothing: its usages above 1 (:mod:`.limits`), named with their values.
+    """
     lim = model.limits
+    kinds = limits.kinds(lim)
+    used = limits.usages(lim, sol.length, sol.rate, sol.force, sol.joints,
+                         sol.spherical_angles).reshape(6, len(kinds))
     out = []
     for k in range(6):
-        L, Ld, f = sol.length[k], sol.rate[k], sol.force[k]
-        if not lim.length_min <= L <= lim.length_max:
-            out.append(f'leg {k + 1} length {L:.4g} m outside '
-                       f'[{lim.length_min:g}, {lim.length_max:g}] m')
-        if abs(Ld) > lim.max_speed:
-            out.append(f'leg {k + 1} speed {abs(Ld):.4g} m/s > {lim.max_speed:g} m/s')
-        if abs(f) > lim.max_force:
-            out.append(f'leg {k + 1} force {abs(f):.4g} N > {lim.max_force:g} N')
-        if lim.u_joint_max_angle is not None:
-            angle = np.abs(sol.joints[k, :2]).max()
-            if angle > lim.u_joint_max_angle:
+        for kind, usage in zip(kinds, used[k].tolist()):
+            if not usage > 1.0:
+                continue
+            if kind == 'stroke':
+                out.append(f'leg {k + 1} length {sol.length[k]:.4g} m outside '
+                           f'[{lim.length_min:g}, {lim.length_max:g}] m')
+            elif kind == 'speed':
+                out.append(f'leg {k + 1} speed {abs(sol.rate[k]):.4g} m/s > '
+                           f'{lim.max_speed:g} m/s')
+            elif kind == 'force':
+                out.append(f'leg {k + 1} force {abs(sol.force[k]):.4g} N > '
+                           f'{lim.max_force:g} N')
+            elif kind == 'u_joint':
+                angle = np.abs(sol.joints[k, :2]).max()
                 out.append(f'leg {k + 1} U-joint angle {math.degrees(angle):.4g} deg > '
                            f'{math.degrees(lim.u_joint_max_angle):g} deg')
-        if lim.spherical_joint_max_angle is not None:
-            angle = sol.spherical_angles[k]
-            if angle > lim.spherical_joint_max_angle:
-                out.append(f'leg {k + 1} spherical joint angle {math.degrees(angle):.4g} deg '
-                           f'> {math.degrees(lim.spherical_joint_max_angle):g} deg')
+            else:
+                out.append(f'leg {k + 1} spherical joint angle '
+                           f'{math.degrees(sol.spherical_angles[k]):.4g} deg > '
+                           f'{math.degrees(lim.spherical_joint_max_angle):g} deg')
     return out
 
 
 def _over_limits(model: StewartModel, r: dict) -> np.ndarray:
-    """(N,) True where a length, speed, force or enabled joint-angle limit is exceeded."""
-    lim = model.limits
-    over = ((r['length'] < lim.length_min) | (r['length'] > lim.length_max)
-            | (np.abs(r['rate']) > lim.max_speed) | (np.abs(r['force']) > lim.max_force))
-    if lim.u_joint_max_angle is not None:
-        over |= (np.abs(r['joints'][..., :2]) > lim.u_joint_max_angle).any(axis=-1)
-    if lim.spherical_joint_max_angle is not None:
-        over |= r['spherical_angles'] > lim.spherical_joint_max_angle
-    return over.any(axis=1)
+    """(N,) True where a usage of :mod:`.limits` is above 1: a length, speed,
+    force or enabled joint-angle limit exceeded.
+    """
+    used = limits.usages(model.limits, r['length'], r['rate'], r['force'], r['joints'],
+                         r['spherical_angles'])
+    return (used > 1.0).any(axis=-1)
 
 
 def _detail(model: StewartModel, code: int, info: int, sol: SimpleNamespace,
