@@ -124,7 +124,7 @@ class DynamicsNode(ManagedNode):
         """The model is rebuilt only when a model parameter changed."""
         model = self._runtime.model if self._runtime is not None else None
         if model is None or changed is None or not self._model_names.isdisjoint(changed):
-            model = self._schema.model(values)
+            model = self._schema.model(values, changed)
         return Runtime(model, prm.NodeConfig.from_values(
             {s.name: values[s.name] for s in prm.NODE_PARAMETERS}))
 
