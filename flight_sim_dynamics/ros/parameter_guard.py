@@ -5,8 +5,10 @@ and the guard around rclpy's parameter and lifecycle services
 (:class:`GuardedParameters`): every request answered, none fatal (rclpy 7.1.6
 dies on a value of unknown type and on a transition the state lacks), a set
 request bounded, typed, checked and applied as one change, a failed
-SetParameters sorted out parameter by parameter, the parameter services taken
-on a thread of their own (:class:`.service_thread.ServiceThread`).
+SetParameters sorted out parameter by parameter, every refused set counted
+once whatever refused it (:meth:`GuardedParameters._count_refused`), the
+parameter services taken on a thread of their own
+(:class:`.service_thread.ServiceThread`).
 """
 from __future__ import annotations
 
@@ -286,8 +288,9 @@ class GuardedParameters:
         """Applied as one change; a failed SetParameters is sorted out. Its
         refused sets are counted once, from its answer (:meth:`_count_refused`).
         """
-        if self._request_problem(request) is not None:
-            return self._refusal(request, response, self._request_problem(request))
+        problem = self._request_problem(request)
+        if problem is not None:
+            return self._refusal(request, response, problem)
         self._handling_request = True
         try:
             response = self._answer_set(request, response, atomic)
@@ -300,6 +303,9 @@ class GuardedParameters:
         return response
 
     def _answer_set(self, request: Any, response: Any, atomic: bool) -> Any:
+        """``response`` to a set request within bounds: each parameter parsed and
+        checked on its own, then the whole applied (the on-set callback).
+        """
         msgs = list(request.parameters)
         parsed = [self._parse(m) for m in msgs]
         params = [p for p, _, _ in parsed]
