@@ -46,6 +46,10 @@ def descriptor_for(spec: prm.ParamSpec, read_only: bool = False) -> ParameterDes
     text = spec.full_description
     if spec.exclusive_minimum and spec.minimum is not None:
         text += f' (must be > {spec.minimum:g})'
+    if spec.kind == 'double_array' and spec.minimum is not None and spec.maximum is not None:
+        # a descriptor's floating_point_range bounds a double only: an array's in words
+        text += (f" (each number in {'(' if spec.exclusive_minimum else '['}"
+                 f'{spec.minimum:g}, {spec.maximum:g}])')
     if spec.choices:
         text += f" (one of: {', '.join(spec.choices)})"
     d = ParameterDescriptor(description=text, read_only=read_only,

@@ -13,6 +13,7 @@ import itertools
 
 import numpy as np
 import pytest
+from rcl_interfaces.srv import DescribeParameters
 
 import flight_sim_dynamics as fsd
 from node_harness import ROOT, Client, NodeProcess
@@ -102,3 +103,13 @@ def test_an_accepted_set_after_the_refusals_still_changes_the_model(client, tmp_
     solved_setpoint(client, fsd.load_model(path))
     [back] = client.set_params({'geometry.home': [0.0, 0.0, 1.0]})
     assert back.successful, back.reason
+
+
+def test_the_bounds_are_declared_in_the_descriptors(client):
+    """``ros2 param describe``: a double's bound is its range, an array's in
+    its description (a descriptor's floating_point_range bounds doubles only)."""
+    response = client.call('describe', DescribeParameters.Request(
+        names=['bodies.platform.mass', 'geometry.home']))
+    mass, home = response.descriptors
+    assert mass.floating_point_range[0].to_value == 1.0e5
+    assert 'each number in [-100, 100]' in home.description, home.description
