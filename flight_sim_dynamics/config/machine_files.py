@@ -15,7 +15,7 @@ from __future__ import annotations
 import os
 import warnings
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Collection, Mapping, Sequence
 
 from ..core.effects import EFFECT_NAMES
 from ..core.machine import Machine, ModelValueError
@@ -28,6 +28,7 @@ from .files import default_params_path, read_params_sections
 from .scenes import DEFAULT_SCENE, Scene, SceneError, load_scene, scenes_dir
 from .schema import NODE_PARAMETERS, SPECS
 from .validation import check_value
+from .whole_machine import check_home
 
 #: Names a parameter file may give that belong to ROS, not to the model
 #: (rclpy's own parameters, QoS overrides): ignored, as for the 3-DOF files.
@@ -227,6 +228,19 @@ def _scene(scene: Scene | str | os.PathLike[str] | None, values: Mapping[str, An
     return load_scene(scene, names=machine.parameters - {'machine', 'scene'})
 
 
+def _check_specs(machine: Machine, values: Mapping[str, Any]) -> None:
+    """Every value within its declaration (:attr:`Machine.parameter_specs`: type,
+    size, bounds), as the node's descriptors declare it: ModelValueError naming
+    the key (a mass of 1e308 kg is refused by its bound, before any solve).
+    """
+    for spec in machine.parameter_specs:
+        if spec.name in values:
+            try:
+                check_value(spec, values[spec.name])
+            except ParameterError as exc:
+                raise ModelValueError(exc.key, exc.reason) from None
+
+
 def named_machine(name: Any, source: str) -> Machine:
     """The machine a file's (or a node's) ``machine: <name>`` describes; a
     ParameterError for no name and for the 3-DOF machine's (its files name none).
@@ -281,11 +295,17 @@ def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
 
 def model_of_values(machine: Machine, values: Mapping[str, Any], source: str,
                     scene: Scene | str | os.PathLike[str] | None = None,
-                    origin: Mapping[str, str] | None = None) -> Any:
+                    origin: Mapping[str, str] | None = None,
+                    changed: Collection[str] | None = None) -> Any:
     """The model of a named machine's complete ``values`` (dotted names, read
     from ``source``; ``origin``: the file of each value where others) with
-    ``scene`` (None: the values' ``scene``), built and checked by the machine.
+    ``scene`` (None: the values' ``scene``), each value within its declaration,
+    built and checked by the machine, its home pose solved
+    (:func:`.whole_machine.check_home`, blamed on those of ``changed`` that
+    decide it; None: the values of ``source``).
     """
+    if changed is None:
+        changed = [key for key in values if (origin or {}).get(key, source) == source]
     values = dict(values)
     name = values.get('machine')
     packaged = name in PACKAGED
@@ -294,7 +314,8 @@ def model_of_values(machine: Machine, values: Mapping[str, Any], source: str,
     values.update(chosen.parameters)
     values['scene'] = chosen.name
     try:
-        return machine.from_params(_nested(values), effects=chosen.effects)
+        _check_specs(machine, values)
+        model = machine.from_params(_nested(values), effects=chosen.effects)
     except ModelValueError as exc:
         key = exc.key
         if key in chosen.parameters:
@@ -312,3 +333,5 @@ def model_of_values(machine: Machine, values: Mapping[str, Any], source: str,
         raise ParameterError(key, values.get(key), reason) from None
     except ValueError as exc:       # a builder's error without a key
         raise ParameterError('params_file', source, str(exc)) from None
+    check_home(model, changed, values, source)
+    return model

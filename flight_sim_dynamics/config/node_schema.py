@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Callable, Collection, Mapping, Sequence
 
 from ..core.machine import Machine
 from ..core.parameter_spec import ParamSpec
@@ -28,22 +28,26 @@ class NodeSchema:
     """What a node declares for ``machine``: ``specs`` (name -> declaration,
     the machine's then the node's), the ``defaults`` a start-up value overrides
     (the packaged file's; a name without one is declared only when given), and
-    ``build(values) -> model`` of a complete set of the machine's values.
+    ``build(values, changed) -> model`` of a complete set of the machine's
+    values, ``changed`` the names a set changes (None: all), those a refused
+    home pose is blamed on (:func:`.whole_machine.check_home`).
     """
 
     machine: Machine
     model_specs: tuple[ParamSpec, ...]
     defaults: Mapping[str, Any]
-    build: Callable[[Mapping[str, Any]], Any]
+    build: Callable[[Mapping[str, Any], Collection[str] | None], Any]
 
     @property
     def specs(self) -> dict[str, ParamSpec]:
         return {s.name: s for s in self.model_specs + prm.NODE_PARAMETERS}
 
-    def model(self, values: Mapping[str, Any]) -> Any:
-        """The model of ``values`` (at least every declared model parameter)."""
-        return self.build({s.name: values[s.name] for s in self.model_specs
-                           if s.name in values})
+    def model(self, values: Mapping[str, Any], changed: Collection[str] | None = None) -> Any:
+        """The model of ``values`` (at least every declared model parameter);
+        ``changed``: the names a parameter set changes (None: every value).
+        """
+        ours = {s.name: values[s.name] for s in self.model_specs if s.name in values}
+        return self.build(ours, None if changed is None else [k for k in changed if k in ours])
 
 
 def _flight_simulator() -> NodeSchema:
@@ -52,7 +56,9 @@ def _flight_simulator() -> NodeSchema:
                                 require_all=False)
     except (prm.ParameterError, FileNotFoundError):
         defaults = prm.defaults()
-    return NodeSchema(FLIGHT_SIMULATOR, prm.MODEL_PARAMETERS, defaults, prm.model_from_values)
+    return NodeSchema(FLIGHT_SIMULATOR, prm.MODEL_PARAMETERS, defaults,
+                      lambda values, changed: prm.model_from_values(values, changed=changed,
+                                                                    source=_SOURCE))
 
 
 def _named(name: Any) -> NodeSchema:
@@ -65,7 +71,9 @@ def _named(name: Any) -> NodeSchema:
         defaults.update(node_values(flat, str(packaged_path(name))))
     defaults[MACHINE] = name
     return NodeSchema(machine, machine.parameter_specs, defaults,
-                      lambda values: model_of_values(machine, values, _SOURCE))
+                      lambda values, changed: model_of_values(
+                          machine, values, _SOURCE,
+                          changed=values.keys() if changed is None else changed))
 
 
 def node_schema(machine_name: Any = None) -> NodeSchema:

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import make_dataclass
-from typing import Any, Mapping, Sequence
+from typing import Any, Collection, Mapping, Sequence
 
 import numpy as np
 
@@ -32,6 +32,7 @@ from .files import (DEFAULT_PARAMS_FILE, NODE_NAME, PACKAGE_NAME, check_file_val
 from .scenes import Scene, SceneError, load_scene
 from .schema import (ALL_PARAMETERS, MODEL_PARAMETERS, NODE_PARAMETERS, SPECS, ParamSpec, defaults)
 from .validation import check_inertia, check_names, check_value, validate
+from .whole_machine import check_home
 
 __all__ = ['ALL_PARAMETERS', 'DEFAULT_PARAMS_FILE', 'MODEL_PARAMETERS', 'NODE_NAME',
            'NODE_PARAMETERS', 'PACKAGE_NAME', 'QOS_OVERRIDES', 'SPECS', 'ParamSpec',
@@ -72,12 +73,16 @@ def params_of(flat: Mapping[str, Any], path: str | os.PathLike[str]
 
 
 def model_from_values(values: Mapping[str, Any], *, require_all: bool = True,
-                      scene: Scene | str | None = None) -> Model:
+                      scene: Scene | str | None = None, changed: Collection[str] | None = None,
+                      source: str | None = None) -> Model:
     """Validate ``values`` (flat dotted names) and build the :class:`Model`, with
     the effects and overrides of ``scene`` (a :class:`~.scenes.Scene`, name or
     path; None: the ``scene`` parameter, else ``full``). :class:`ParameterError`
     if anything is invalid, including a geometry whose loops cannot close at the
-    central configuration (eq. 7-8); :class:`~.scenes.SceneError` for a bad scene.
+    central configuration (eq. 7-8) and a home pose that does not solve
+    (:func:`.whole_machine.check_home`: blamed on those of ``changed`` that
+    decide it, None: of ``values``; ``source``: where the values come from);
+    :class:`~.scenes.SceneError` for a bad scene.
     """
     if scene is None:
         scene = values.get('scene', SPECS['scene'].default)
@@ -111,9 +116,11 @@ def model_from_values(values: Mapping[str, Any], *, require_all: bool = True,
                         coulomb=tuple(checked['friction.coulomb']),
                         smoothing_velocity=checked['friction.smoothing_velocity'])
     limits = Limits(**{name: checked[f'limits.{name}'] for name in Limits.__dataclass_fields__})
-    return Model(geometry=geometry, bodies=bodies, gravity=checked['gravity'],
-                 central=central, values=checked, effects=scene.effects, scene=scene.name,
-                 payload=payload, friction=friction, limits=limits)
+    model = Model(geometry=geometry, bodies=bodies, gravity=checked['gravity'],
+                  central=central, values=checked, effects=scene.effects, scene=scene.name,
+                  payload=payload, friction=friction, limits=limits)
+    check_home(model, values.keys() if changed is None else changed, checked, source)
+    return model
 
 
 def packaged_values() -> dict[str, Any]:
@@ -141,9 +148,12 @@ def model_of_params(flat: Mapping[str, Any] | None, path: str | os.PathLike[str]
     (:func:`.files.read_params_sections`; None: the packaged defaults alone).
     """
     values = packaged_values()
+    own: Mapping[str, Any] = {}
     if flat is not None:
-        values.update(params_of(flat, path)[0])
-    return model_from_values(values, require_all=True, scene=scene)
+        own = params_of(flat, path)[0]
+        values.update(own)
+    return model_from_values(values, require_all=True, scene=scene, changed=own.keys(),
+                             source=None if path is None else str(path))
 
 
 def check_params_files(args: Sequence[str], node: str = '/' + NODE_NAME) -> None:

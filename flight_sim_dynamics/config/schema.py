@@ -12,14 +12,11 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from ..core.parameter_spec import ParamSpec
+from ..core.parameter_spec import MAX_COM, MAX_INERTIA, MAX_LENGTH, MAX_MASS, ParamSpec
 from ..machines.staicu.model import BODY_NAMES, GEOMETRY_KEYS
 
-#: Physical bounds shared by every body (and the payload).
-MAX_MASS = 1.0e5            # kg
-MAX_COM = 100.0             # m, |component| of a centre of mass
-MAX_INERTIA = 1.0e6         # kg m^2, |entry| of an inertia tensor
-MAX_LENGTH = 100.0          # m, a geometry length
+# Physical bounds shared by every body (and the payload): MAX_MASS, MAX_COM,
+# MAX_INERTIA, MAX_LENGTH are every machine's (core/parameter_spec.py).
 MAX_NAME = 256              # characters of a frame id
 MAX_PATH = 4096             # characters of a file path (PATH_MAX on Linux)
 

@@ -187,6 +187,12 @@ class Machine:
     # the machine moves by itself, each a function of a solution (a setpoint
     # giving that value is not reported as motion the machine cannot follow).
     parameter_specs: tuple[ParamSpec, ...] = field(default=(), hash=False)
+    # The parameters that decide whether the home pose solves (its geometry, the
+    # near-singularity thresholds), geometry first: a model whose home solves
+    # near_singular, unreachable or invalid_input is refused
+    # (config/whole_machine.py), the error naming those of them a file or a
+    # parameter set gave.
+    home_parameters: tuple[str, ...] = ()
     parasitic: Mapping[str, Callable[[Any], float]] = field(default_factory=dict, hash=False)
     # The demo planner (ros/planner.py, the demo): the built-in motions it plays in
     # turn (names of ``motions``: the demo, ``--example all``) and the one it plays

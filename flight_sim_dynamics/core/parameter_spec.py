@@ -8,6 +8,20 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+# Physical bounds every machine's parameters share: no mechanism has a body of
+# more than 100 t or lengths of more than 100 m, and far beyond them the
+# solver's products overflow (a mass of 1e308 kg answers nothing but
+# invalid_input). Each spec declares its bound; the loaders check it.
+MAX_MASS = 1.0e5            # kg, a body's mass
+MAX_COM = 100.0             # m, |component| of a centre of mass
+MAX_INERTIA = 1.0e6         # kg m^2, |entry| of an inertia tensor
+MAX_LENGTH = 100.0          # m, a geometry length, |component| of a joint position
+MAX_GRAVITY = 100.0         # m/s^2, ten times the Earth's
+MAX_SPEED = 1.0e3           # m/s, an actuator speed limit
+MAX_FORCE = 1.0e9           # N, an actuator force limit
+MAX_FRICTION = 1.0e6        # N s/m or N, a friction coefficient
+MAX_CONDITION = 1.0e16      # a condition-number threshold (1 / machine epsilon)
+
 
 @dataclass(frozen=True)
 class ParamSpec:

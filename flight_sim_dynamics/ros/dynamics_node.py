@@ -74,6 +74,7 @@ class DynamicsNode(ManagedNode):
         self._runtime: Runtime | None = None     # None: unconfigured
         self._staged: Runtime | None = None      # validated by the on-set callback
         self._intake: SetpointIntake | None = None
+        self._refused_unconfigured = 0           # parameter sets refused before the intake
         self._active = False
         self._unknown_reported = False
         self._latest: int | None = None
@@ -124,7 +125,7 @@ class DynamicsNode(ManagedNode):
         """The model is rebuilt only when a model parameter changed."""
         model = self._runtime.model if self._runtime is not None else None
         if model is None or changed is None or not self._model_names.isdisjoint(changed):
-            model = self._schema.model(values)
+            model = self._schema.model(values, changed)
         return Runtime(model, prm.NodeConfig.from_values(
             {s.name: values[s.name] for s in prm.NODE_PARAMETERS}))
 
@@ -147,10 +148,19 @@ class DynamicsNode(ManagedNode):
             reason = str(exc)
         except Exception as exc:  # noqa: BLE001 - e.g. a geometry the solver chokes on
             reason = f'{type(exc).__name__}: {exc}'
-        if self._intake is not None:
-            self._intake.stats.parameter_rejections += 1
+        self._refused_by_callback()
         self.get_logger().warn(f'parameter change rejected, model unchanged: {reason}')
         return _failed(reason)
+
+    def _count_refused(self, count: int) -> None:
+        """Every refused parameter set (:meth:`GuardedParameters._count_refused`),
+        into /diagnostics' ``parameter changes rejected``; those refused before
+        the first configure are kept until its counters exist.
+        """
+        if self._intake is None:
+            self._refused_unconfigured += count
+        else:
+            self._intake.stats.parameter_rejections += count
 
     def _on_parameters_set(self, params: list[Parameter]) -> None:
         try:
@@ -194,6 +204,8 @@ class DynamicsNode(ManagedNode):
         self._runtime = self._runtime_of(self._values())
         if self._intake is None:
             self._intake = SetpointIntake(self._runtime, self._publish_answer)
+            self._intake.stats.parameter_rejections += self._refused_unconfigured
+            self._refused_unconfigured = 0
         else:
             self._intake.reconfigure(self._runtime)
             self._intake.reset()

@@ -282,7 +282,7 @@ class MotionCueingNode(ManagedNode):
         except Exception as exc:  # noqa: BLE001 - e.g. a planner that refuses the values
             reason = f'{type(exc).__name__}: {exc}'
         self._staged = None
-        self.stats.parameter_rejections += 1
+        self._refused_by_callback()
         self.get_logger().warn(f'{self.REJECTED}: {reason}')
         return _failed(reason)
 
@@ -321,8 +321,8 @@ class MotionCueingNode(ManagedNode):
         if self._diag_timer is not None:
             self._diag_timer.timer_period_ns = int(config.diagnostics_period * 1e9)
 
-    def _refused_before_validation(self) -> None:
-        self.stats.parameter_rejections += 1
+    def _count_refused(self, count: int) -> None:
+        self.stats.parameter_rejections += count
 
     def _read_only_reason(self, name: str) -> str | None:
         if name not in _READ_ONLY:

@@ -5,8 +5,10 @@ and the guard around rclpy's parameter and lifecycle services
 (:class:`GuardedParameters`): every request answered, none fatal (rclpy 7.1.6
 dies on a value of unknown type and on a transition the state lacks), a set
 request bounded, typed, checked and applied as one change, a failed
-SetParameters sorted out parameter by parameter, the parameter services taken
-on a thread of their own (:class:`.service_thread.ServiceThread`).
+SetParameters sorted out parameter by parameter, every refused set counted
+once whatever refused it (:meth:`GuardedParameters._count_refused`), the
+parameter services taken on a thread of their own
+(:class:`.service_thread.ServiceThread`).
 """
 from __future__ import annotations
 
@@ -44,6 +46,10 @@ def descriptor_for(spec: prm.ParamSpec, read_only: bool = False) -> ParameterDes
     text = spec.full_description
     if spec.exclusive_minimum and spec.minimum is not None:
         text += f' (must be > {spec.minimum:g})'
+    if spec.kind == 'double_array' and spec.minimum is not None and spec.maximum is not None:
+        # a descriptor's floating_point_range bounds a double only: an array's in words
+        text += (f" (each number in {'(' if spec.exclusive_minimum else '['}"
+                 f'{spec.minimum:g}, {spec.maximum:g}])')
     if spec.choices:
         text += f" (one of: {', '.join(spec.choices)})"
     d = ParameterDescriptor(description=text, read_only=read_only,
@@ -105,6 +111,8 @@ class GuardedParameters:
 
     _apart: ServiceThread | None = None      # the parameter services' own thread
     _specs: Mapping[str, prm.ParamSpec] = {}
+    #: a set request of the parameter services is being handled (it counts its refusals)
+    _handling_request = False
     #: the log line's start for a refused set
     REJECTED = 'parameter change rejected, nothing changed'
 
@@ -114,10 +122,23 @@ class GuardedParameters:
         """
         return None
 
-    def _refused_before_validation(self) -> None:
-        """A set request refused before the on-set callback saw it (a type, a
-        bound, a read-only or undeclared name): a node's hook to count it.
+    def _count_refused(self, count: int) -> None:
+        """A node's hook: ``count`` parameter sets were refused. Every refusal
+        comes here once, whatever refused it: the request's bounds, a type, a
+        bound, a read-only or undeclared name, rclpy's descriptor checks, the
+        node's on-set callback (the whole model), a failing request. A set is
+        one parameter of a SetParameters request (``ros2 param set`` sends one)
+        or one SetParametersAtomically request.
         """
+
+    def _refused_by_callback(self) -> None:
+        """The node's on-set callback refused a set: counted here unless a
+        request of the parameter services is being handled (which counts its
+        outcome once: a SetParameters sorted out calls the callback again for
+        each half it tries).
+        """
+        if not self._handling_request:
+            self._count_refused(1)
 
     def _given_parameters(self) -> dict[str, Parameter]:
         """The start-up values (overrides, all declared by rclpy), undeclared
@@ -207,13 +228,7 @@ class GuardedParameters:
             except Exception as exc:  # noqa: BLE001 - answered as a failure, never fatal
                 self.get_logger().warn(f'{name}: request refused: {type(exc).__name__}: {exc}',
                                        throttle_duration_sec=2.0)
-                response = type(response)()
-                if hasattr(response, 'results'):       # SetParameters: one result each
-                    response.results = [_failed(f'refused: {exc}')] * len(request.parameters)
-                elif hasattr(response, 'result') and isinstance(response.result,
-                                                                SetParametersResult):
-                    response.result = _failed(f'refused: {exc}')
-                return response
+                return self._refusal(request, type(response)(), f'refused: {exc}')
         return guarded
 
     def _parse(self, msg: Any) -> tuple[Parameter | None, str | None, str | None]:
@@ -259,24 +274,43 @@ class GuardedParameters:
                 return f'{count} {field} in one request, more than {limit}: refused whole'
         return None
 
-    @staticmethod
-    def _refusal(request: Any, response: Any, reason: str) -> Any:
-        """``response`` refusing ``request``: a failed result per parameter (the
-        reason in the first); a query's lists left empty.
+    def _refusal(self, request: Any, response: Any, reason: str) -> Any:
+        """``response`` refusing ``request`` whole: a failed result per parameter
+        (the reason in the first), each counted (:meth:`_count_refused`); a
+        query's lists left empty.
         """
         if isinstance(response, SetParametersAtomically.Response):
             response.result = _failed(reason)
+            self._count_refused(1)
         elif isinstance(response, SetParameters.Response) and request.parameters:
             response.results = [_failed(reason)] + [_failed('refused whole')] * (
                 len(request.parameters) - 1)
+            self._count_refused(len(request.parameters))
         return response
 
     def _set_request(self, request: Any, response: Any, atomic: bool) -> Any:
-        """Applied as one change; a failed SetParameters is sorted out."""
-        msgs = list(request.parameters)
+        """Applied as one change; a failed SetParameters is sorted out. Its
+        refused sets are counted once, from its answer (:meth:`_count_refused`).
+        """
         problem = self._request_problem(request)
         if problem is not None:
             return self._refusal(request, response, problem)
+        self._handling_request = True
+        try:
+            response = self._answer_set(request, response, atomic)
+        finally:
+            self._handling_request = False
+        results = [response.result] if atomic else list(response.results)
+        refused = sum(not r.successful for r in results)
+        if refused:
+            self._count_refused(refused)
+        return response
+
+    def _answer_set(self, request: Any, response: Any, atomic: bool) -> Any:
+        """``response`` to a set request within bounds: each parameter parsed and
+        checked on its own, then the whole applied (the on-set callback).
+        """
+        msgs = list(request.parameters)
         parsed = [self._parse(m) for m in msgs]
         params = [p for p, _, _ in parsed]
         notes = [n for _, n, _ in parsed]
@@ -284,7 +318,6 @@ class GuardedParameters:
         problem = next(filter(None, problems), None)
         if problem:     # refused before the on-set callback, which logs the others
             self.get_logger().warn(f'{self.REJECTED}: {problem}')
-            self._refused_before_validation()
         result = _failed(problem) if problem else self._apply(params)
         if result.successful:
             result.reason = '; '.join(filter(None, notes))

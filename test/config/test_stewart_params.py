@@ -224,7 +224,7 @@ def test_a_hexapod_file_may_give_the_node_parameters(tmp_path):
      'bodies.platform.inertia', ['symmetric']),
     ('bodies:\n  platform:\n    mass: 0.0', 'bodies.platform.mass', ['> 0']),
     ('limits:\n  length_min: 2.0', 'limits.length_max', ['> 2', 'stewart_6dof.yaml']),
-    ('limits:\n  u_joint_max_angle: 4.0', 'limits.u_joint_max_angle', ['pi']),
+    ('limits:\n  u_joint_max_angle: 4.0', 'limits.u_joint_max_angle', ['<= 3.14159 rad']),
     ('geometry:\n  home: [0.0, 0.0, 0.0]\n  platform_joints: [' + ', '.join(['0.0'] * 18) + ']\n'
      '  base_joints: [' + ', '.join(['0.0'] * 18) + ']', 'geometry.home', ['zero length']),
     ('machine: 5', 'machine', ['name of a machine']),

@@ -11,7 +11,7 @@ from .forward_dynamics import affine_terms, forward_dynamics, require_inertia
 from .forward_kinematics import forward_kinematics
 from .limits import limit_usage
 from .mechanism import drawing
-from .model import JOINT_NAMES, LEG_NAMES, Model
+from .model import GEOMETRY_KEYS, JOINT_NAMES, LEG_NAMES, Model
 from .motions import MOTIONS, PLANNER_MOTIONS, TEST_MOTIONS
 from .solver import Solution, solve, solve_batch
 from .trajectories import PAPER_EXAMPLES
@@ -50,5 +50,7 @@ MACHINE = Machine(
     integrate_rows=kernel.integrate_rows,
     # the dynamics node: the mechanism pitches the platform by -beta (REP pitch)
     parasitic={'pitch': parasitic_pitch},
+    home_parameters=(*(f'geometry.{key}' for key in GEOMETRY_KEYS),
+                     'limits.max_kinematic_condition', 'limits.max_jacobian_condition'),
     # the demo planner
     planner_motions=PLANNER_MOTIONS, planner_example='general')

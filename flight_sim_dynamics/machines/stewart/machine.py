@@ -66,5 +66,7 @@ MACHINE = Machine(
     integrate_rows=kernel.integrate_rows,
     # the dynamics node
     parameter_specs=PARAMETER_SPECS,
+    home_parameters=('geometry.base_joints', 'geometry.platform_joints', 'geometry.base_axes',
+                     'geometry.home', 'limits.max_jacobian_condition'),
     # the demo planner: a slow tour, then motion cueing
     planner_motions=('gentle', 'cueing'), planner_example='cueing')
