@@ -64,6 +64,10 @@ STOP_MARGIN = 2
 #: ahead (L7).
 AHEAD_FRACTIONS = (0.25, 0.5, 1.0)
 
+#: The actuators' kinds of limit (:class:`~..core.machine.LimitUsage` names);
+#: any other kind a machine reports is a joint's (``joint_angle``).
+ACTUATOR_LIMITS = ('stroke', 'speed', 'force')
+
 #: :attr:`Limited.limit` of a non-finite desired sample (held: braking to rest).
 INPUT = 'input'
 
@@ -156,7 +160,6 @@ class InverseDynamicsLimiter:
         self.stop_margin = STOP_MARGIN * self.dt
         self.tight = tightened(model, float(settings['margin.stroke']),
                                float(settings['margin.fraction']))
-        self.tight_limits = self.machine.actuator_limits(self.tight)
         linear = [unit == 'm' for unit in self.machine.units]
         braking = [float(v) for v in settings['braking']]
         recovery = [float(v) for v in settings['recovery.acceleration']]
@@ -315,15 +318,10 @@ class InverseDynamicsLimiter:
             return 'unreachable'
         if status is not Status.LIMIT:
             return 'overflow'
-        lim = self.tight_limits
-        stroke = sol.stroke
-        if (stroke < lim.stroke_min).any() or (stroke > lim.stroke_max).any():
-            return 'stroke'
-        if (np.abs(sol.rate) > lim.max_speed).any():
-            return 'speed'
-        if (np.abs(sol.force) > lim.max_force).any():
-            return 'force'
-        return 'joint_angle'
+        # the machine's limit rule (the status' own): the most used limit's kind
+        usage = self.machine.limit_usage(self.tight, sol)
+        kind = usage.names[int(np.argmax(usage.usage))].split()[0]
+        return kind if kind in ACTUATOR_LIMITS else 'joint_angle'
 
     # -- the cycle -----------------------------------------------------------
 
