@@ -29,9 +29,12 @@ REFUSED = frozenset({Status.NEAR_SINGULAR, Status.UNREACHABLE, Status.INVALID_IN
 
 def home_problem(model: Any) -> str | None:
     """Why the home pose of ``model`` makes it no machine (None: it solves
-    ``ok`` or ``limit``, every number finite).
+    ``ok`` or ``limit``, every number finite, or its machine has no solve).
     """
-    zero = np.zeros(machine_of(model).dof)
+    machine = machine_of(model)
+    if machine.solve is None:       # a machine that solves nothing (a workspace survey's)
+        return None
+    zero = np.zeros(machine.dof)
     sol = solve(model, zero, zero, zero)
     status = Status(sol.status)
     if status in REFUSED:
