@@ -12,11 +12,11 @@ from typing import Any, Callable, Mapping, Sequence
 
 from ..core.machine import Machine
 from ..core.parameter_spec import ParamSpec
-from ..machines import FLIGHT_SIMULATOR
+from ..machines import default_machine, packaged
 from . import parameters as prm
 from .files import params_files_in, read_params_sections
-from .machine_files import (PACKAGED, load_named_model, model_of_values, named_machine,
-                            node_values, packaged_path)
+from .machine_files import (load_named_model, model_of_values, named_machine, node_values,
+                            packaged_path)
 
 #: The parameter naming the machine (read-only: fixed at start-up).
 MACHINE = 'machine'
@@ -52,14 +52,14 @@ def _flight_simulator() -> NodeSchema:
                                 require_all=False)
     except (prm.ParameterError, FileNotFoundError):
         defaults = prm.defaults()
-    return NodeSchema(FLIGHT_SIMULATOR, prm.MODEL_PARAMETERS, defaults, prm.model_from_values)
+    return NodeSchema(default_machine(), prm.MODEL_PARAMETERS, defaults, prm.model_from_values)
 
 
 def _named(name: Any) -> NodeSchema:
     machine = named_machine(name, _SOURCE)
     defaults = {s.name: s.default for s in prm.NODE_PARAMETERS + machine.parameter_specs
                 if s.default is not None}
-    if name in PACKAGED:
+    if name in packaged():
         flat = read_params_sections(packaged_path(name))
         defaults.update({k: v for k, v in flat.items() if k in machine.parameters})
         defaults.update(node_values(flat, str(packaged_path(name))))
