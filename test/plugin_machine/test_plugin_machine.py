@@ -1,6 +1,6 @@
 """A third machine as a plugin (issue 30): the 2-DOF tilt platform of
-dist/fsd_tilt_2dof.py, found through the real entry-point mechanism (the folder
-dist/ holds the module and its fsd_tilt_2dof-0.1.dist-info, put on the path:
+site/fsd_tilt_2dof.py, found through the real entry-point mechanism (the folder
+site/ holds the module and its fsd_tilt_2dof-0.1.dist-info, put on the path:
 in-process by a fixture, for subprocesses by PYTHONPATH), served by the shared
 code with nothing of it named there: load_model, solve, solve_batch, the
 command line's solve and simulate, the dynamics node. Its forces are checked
@@ -28,7 +28,7 @@ from flight_sim_dynamics import machines as registry
 from flight_sim_dynamics.config.errors import ParameterError
 
 HERE = Path(__file__).resolve().parent
-DIST = HERE / 'dist'
+DIST = HERE / 'site'
 PARAMS = HERE / 'tilt_2dof.yaml'
 NAME = 'tilt_2dof'
 HEADER = 'flight_sim_dynamics:\n  ros__parameters:\n'
