@@ -147,6 +147,25 @@ def params_path(path: str | os.PathLike[str]) -> str | os.PathLike[str]:
                          + did_you_mean(path, names))
 
 
+def load_node_values(path: str | os.PathLike[str] | None = None) -> dict[str, Any]:
+    """The node's parameters (:data:`.schema.NODE_PARAMETERS`: the estimator's,
+    the input checks', ...) of a parameter file of any machine (None: the packaged
+    3-DOF machine's), each checked: the file's over its packaged file's (the named
+    one, else the 3-DOF machine's; a machine of one's own: none) over the declared
+    defaults. What the node would run with, for a command that does as the node does.
+    """
+    values = {spec.name: spec.default for spec in NODE_PARAMETERS}
+    own = {} if path is None else read_params_sections(params_path(path))
+    name = own.get('machine')
+    packaged = (default_params_path() if name is None
+                else packaged_path(name) if name in packaged_machines() else None)
+    if packaged is not None:
+        values.update(node_values(read_params_sections(packaged), str(packaged)))
+    if path is not None:
+        values.update(node_values(own, str(path)))
+    return values
+
+
 def load_cueing(path: str | os.PathLike[str] | None = None) -> CueingParams:
     """The ``cueing`` group of a parameter file (None: the packaged 3-DOF
     machine's) over its packaged file's, as the model's values are (a partial
