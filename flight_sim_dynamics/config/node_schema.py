@@ -20,6 +20,9 @@ from .machine_files import (load_named_model, model_of_values, named_machine, no
 
 #: The parameter naming the machine (read-only: fixed at start-up).
 MACHINE = 'machine'
+#: Its declaration, for a machine whose own declarations leave it out (a plugin's).
+MACHINE_SPEC = ParamSpec(MACHINE, 'string', None, 'the machine the parameter file describes '
+                         "(a packaged file's name, or a machine's kind for one of your own)")
 _SOURCE = "the node's parameters"
 
 
@@ -64,7 +67,11 @@ def _named(name: Any) -> NodeSchema:
         defaults.update({k: v for k, v in flat.items() if k in machine.parameters})
         defaults.update(node_values(flat, str(packaged_path(name))))
     defaults[MACHINE] = name
-    return NodeSchema(machine, machine.parameter_specs, defaults,
+    # the node's `machine` parameter is declared whatever the machine's specs say
+    specs = machine.parameter_specs
+    if all(spec.name != MACHINE for spec in specs):
+        specs = (MACHINE_SPEC,) + specs
+    return NodeSchema(machine, specs, defaults,
                       lambda values: model_of_values(machine, values, _SOURCE))
 
 

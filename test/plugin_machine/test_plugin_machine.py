@@ -16,7 +16,6 @@ import os
 import shutil
 import subprocess
 import sys
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -26,33 +25,7 @@ from scipy.spatial.transform import Rotation
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics import machines as registry
 from flight_sim_dynamics.config.errors import ParameterError
-
-HERE = Path(__file__).resolve().parent
-DIST = HERE / 'site'
-PARAMS = HERE / 'tilt_2dof.yaml'
-NAME = 'tilt_2dof'
-HEADER = 'flight_sim_dynamics:\n  ros__parameters:\n'
-
-
-@pytest.fixture
-def plugin(monkeypatch):
-    """The plugin's distribution on the path, the registry read again; after the
-    test, neither (the next use reads the entry points without it)."""
-    monkeypatch.syspath_prepend(str(DIST))
-    importlib.invalidate_caches()
-    registry.clear_cache()
-    with warnings.catch_warnings():
-        warnings.simplefilter('error', registry.MachinePluginWarning)
-        machine = registry.machine_named(NAME)
-    yield machine
-    monkeypatch.undo()
-    registry.clear_cache()
-
-
-@pytest.fixture
-def model(plugin):
-    return fsd.load_model(PARAMS)
-
+from plugin_site import DIST, HEADER, NAME, PARAMS
 
 def plugin_env() -> dict[str, str]:
     """A subprocess's environment: the plugin's folder on PYTHONPATH (the
@@ -305,3 +278,13 @@ def test_cli_simulate_its_motion(tmp_path):
     assert {r['status'] for r in table} == {'ok'}
     assert max(abs(float(r['pitch_error'])) for r in table) < 1e-3
     assert 'tracking error' in done.stdout
+
+
+def test_the_node_schema_declares_machine_for_a_plugin_that_does_not(plugin):
+    """The plugin's parameter_specs leave 'machine' out: the node declares it
+    anyway (the node's parameter), its value the file's name."""
+    from flight_sim_dynamics.config.node_schema import node_schema
+    assert all(s.name != 'machine' for s in plugin.parameter_specs)
+    schema = node_schema(NAME)
+    assert schema.machine is plugin and 'machine' in schema.specs
+    assert schema.defaults['machine'] == NAME
