@@ -288,3 +288,19 @@ def test_the_node_schema_declares_machine_for_a_plugin_that_does_not(plugin):
     schema = node_schema(NAME)
     assert schema.machine is plugin and 'machine' in schema.specs
     assert schema.defaults['machine'] == NAME
+
+
+def test_names_a_file_may_give_include_the_plugins(plugin, tmp_path):
+    """An unknown name lists the plugin's; its keys in a file naming no machine
+    are told as its, with the line to add (it has no packaged file)."""
+    path = tmp_path / 'typo.yaml'
+    path.write_text(HEADER + '    machine: tilt_2dfo\n')
+    with pytest.raises(ParameterError) as info:
+        fsd.load_model(path)
+    assert info.value.key == 'machine' and "did you mean 'tilt_2dof'?" in str(info.value)
+    unnamed = tmp_path / 'unnamed.yaml'
+    unnamed.write_text(HEADER + '    geometry:\n      arm: 0.4\n')
+    with pytest.raises(ParameterError) as info:
+        fsd.load_model(unnamed)
+    assert info.value.key == 'machine'
+    assert "machine 'tilt_2dof'" in str(info.value) and "'machine: tilt_2dof'" in str(info.value)
