@@ -51,5 +51,11 @@ setup(
             'platform_sim = flight_sim_dynamics.ros.sim_node:main',
             'motion_cueing = flight_sim_dynamics.ros.motion_cueing:main',
         ],
+        # the registry of machines (flight_sim_dynamics/machines/__init__.py): each
+        # machine by its name (Machine.name); another distribution adds its own here
+        'flight_sim_dynamics.machines': [
+            'flight_simulator_3dof = flight_sim_dynamics.machines.staicu.machine:MACHINE',
+            'stewart = flight_sim_dynamics.machines.stewart.machine:MACHINE',
+        ],
     },
 )

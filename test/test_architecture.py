@@ -103,8 +103,9 @@ def machine_modules_imported(path: Path, source: str | None = None) -> list[str]
 
 @pytest.mark.parametrize('sub', MACHINE_BLIND)
 def test_machines_are_seen_only_through_the_registry_and_api(sub):
-    """A third machine adds its folder, its config file, its tests and a line
-    in the registry: nothing in these subpackages names a machine's modules."""
+    """A third machine adds its folder, its config file, its tests and an entry
+    point (setup.py's group flight_sim_dynamics.machines, or a plugin's own):
+    nothing in these subpackages names a machine's modules."""
     offenders = [f'{path.relative_to(PACKAGE)} imports {target}'
                  for path in sorted((PACKAGE / sub).rglob('*.py'))
                  for target in machine_modules_imported(path)]

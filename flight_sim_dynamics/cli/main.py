@@ -22,7 +22,7 @@ import flight_sim_dynamics as fsd
 
 from . import csv_io
 from ..config.errors import shorten
-from ..config.machine_files import load_model_noting
+from ..config.machine_files import load_model_noting, load_node_values
 from ..config.scenes import SceneError
 from ..core.estimator import DerivativeEstimator, estimate_rows
 from ..core.machine import Machine
@@ -249,20 +249,34 @@ def refuse_other_machine(names: Iterable[str], machine: Machine,
                    f"{','.join(columns(machine))}: {how}", path=path, line=1)
 
 
-def read_trajectory(path: str | os.PathLike[str], model: Any,
-                    limit: int | None = None) -> csv_io.Table:
+def read_trajectory(path: str | os.PathLike[str], model: Any, limit: int | None = None,
+                    params: str | None = None) -> csv_io.Table:
     """The trajectory table of ``path`` (at most ``limit`` bytes), as one
-    table (:func:`trajectory_tables`).
+    table (:func:`trajectory_tables`; ``params``: the model's parameter file).
     """
-    table, = trajectory_tables(path, model, limit)      # (and its warnings, at its end)
+    table, = trajectory_tables(path, model, limit, params=params)   # (its warnings at its end)
     return table
 
 
+def estimator_settings(params: str | None) -> tuple[str, float]:
+    """The estimator's ``estimator.method`` and ``estimator.max_gap`` of the
+    parameter file ``params`` of any machine (None: the packaged defaults), as
+    the node reads them (:func:`.config.machine_files.load_node_values`).
+    """
+    try:
+        values = load_node_values(params)
+    except fsd.ParameterError as exc:
+        raise CliError(f"--params {params or '(packaged defaults)'}: {exc}") from None
+    return values['estimator.method'], values['estimator.max_gap']
+
+
 def trajectory_tables(path: str | os.PathLike[str], model: Any, limit: int | None = None,
-                      rows: int | None = None) -> Iterator[csv_io.Table]:
+                      rows: int | None = None, params: str | None = None
+                      ) -> Iterator[csv_io.Table]:
     """The trajectory of ``path`` (at most ``limit`` bytes) for the model's
     machine, in tables of at most ``rows`` rows (None: one), rates or
-    accelerations it lacks estimated from the poses as the node does (a note;
+    accelerations it lacks estimated from the poses as the node does, with the
+    estimator settings of the model's parameter file ``params`` (a note;
     the estimate runs on across the tables). Another machine's trajectory is a
     CsvError.
     """
@@ -287,9 +301,8 @@ def trajectory_tables(path: str | os.PathLike[str], model: Any, limit: int | Non
             yield first
             yield from tables
             return
-        values = getattr(model, 'values', {})      # the 3-DOF model's estimator parameters
-        method = values.get('estimator.method', 'backward2')
-        gap = values.get('estimator.max_gap', 0.5)
+        # the file's settings, for any machine (not the 3-DOF model's values alone)
+        method, gap = estimator_settings(params)
         what = ' and '.join(w for w, given in (('rates', rates),
                                                 ('accelerations', accelerations)) if not given)
         print(f'note: {first.path}: no {what} columns: estimated from the poses as the node '
@@ -332,7 +345,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if args.cond and not machine.costly_fields:
         raise CliError(f'--cond: the {machine.title} has no condition number beyond '
                        f"{', '.join(machine.sample_fields)}, which solve always writes")
-    tables = trajectory_tables(args.input, model, rows=SOLVE_BLOCK_ROWS)
+    tables = trajectory_tables(args.input, model, rows=SOLVE_BLOCK_ROWS, params=args.params)
     first = next(tables)        # a bad header: an error before any output
     not_ok = NotOk()
     names, data, status = solve_table(model, first, joints=args.joints, exact_cond=args.cond,

@@ -144,7 +144,9 @@ def check_duration(table: Table, step: float) -> None:
 
 def _reference(args: argparse.Namespace, plant, machine: Machine, names: Columns) -> Reference:
     if args.reference is not None:
-        table = read_trajectory(args.reference, plant, limit=MAX_INPUT_BYTES)
+        table = read_trajectory(args.reference, plant, limit=MAX_INPUT_BYTES,
+                                params=args.plant_params if args.plant_params is not None
+                                else args.params)
         dof = machine.dof
         groups = [names.trajectory[k:k + dof] for k in (1, 1 + dof, 1 + 2 * dof)]
         cols = [np.column_stack([table[n] for n in group]) for group in groups]

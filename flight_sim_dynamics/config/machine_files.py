@@ -4,8 +4,10 @@ machine's (:func:`.parameters.load_model`); a file that names its machine
 (``machine: stewart_6dof``) is read here, by the one rule of the 3-DOF files
 (:mod:`.parameters`): a packaged machine's file
 (``config/<machine>.yaml``) gives the defaults a partial file overrides; a
-machine of one's own (any name not packaged) is given whole; an unknown name
-is an error ("did you mean", naming the file); a scene (the file's ``scene``
+machine of one's own is named by its machine's kind (:attr:`Machine.name`,
+``machine: stewart``) and given whole; any other name is an error (naming the
+key ``machine``, the known names, "did you mean"); a file without the line
+whose keys are another machine's is an error saying which; a scene (the file's ``scene``
 or the caller's) switches effects and overrides parameters as for the 3-DOF
 machine. The machine's own builder checks the values; every bad file is one
 :class:`ParameterError` naming the file and the key.
@@ -20,7 +22,9 @@ from typing import Any, Collection, Mapping, Sequence
 from ..core.effects import EFFECT_NAMES
 from ..core.machine import Machine, ModelValueError
 from .cueing import PREFIX, CueingParams, split_cueing
-from ..machines import MACHINES, PACKAGED, machine_named
+from ..machines import (UnknownMachineError, default_machine, known_names, machine_named,
+                        machines)
+from ..machines import packaged as packaged_machines
 from ..machines.api import absent_effects
 from . import parameters
 from .errors import IgnoredParameterWarning, ParameterError, did_you_mean
@@ -64,6 +68,8 @@ def load_model_noting(path: str | os.PathLike[str] | None = None,
     if flat is not None and 'machine' in flat:
         model = load_named_model(flat, path, scene)
     else:
+        if flat is not None:
+            _check_unnamed(flat, str(Path(path)))
         model = parameters.model_of_params(flat, path, scene)
     note = None if flat is None else ignored_note(flat, str(Path(path)), model)
     return model, [] if note is None else [note]
@@ -95,9 +101,9 @@ def ignored_note(flat: Mapping[str, Any], source: str, model: Any) -> str | None
     if name is None:
         reference = parameters.packaged_values()
     else:
-        kind = machine_named(name) if isinstance(name, str) else None
-        packaged = name if name in PACKAGED else next(iter(getattr(kind, 'parameter_files', ())),
-                                                     None)
+        kind = machine_named(name)           # the model was built: a known name
+        packaged = name if name in packaged_machines() else next(iter(kind.parameter_files),
+                                                                None)
         reference = {} if packaged is None else \
             _model_names(read_params_sections(packaged_path(packaged)))
     names = ignored_values(_model_names(flat), reference, model)
@@ -115,7 +121,7 @@ def packaged_names() -> list[str]:
     """The names of the packaged parameter files (config/<name>.yaml): the 3-DOF
     machine's, then the other machines'.
     """
-    return [default_params_path().stem, *sorted(PACKAGED)]
+    return [default_params_path().stem, *sorted(packaged_machines())]
 
 
 def params_path(path: str | os.PathLike[str]) -> str | os.PathLike[str]:
@@ -142,6 +148,25 @@ def params_path(path: str | os.PathLike[str]) -> str | os.PathLike[str]:
                          + did_you_mean(path, names))
 
 
+def load_node_values(path: str | os.PathLike[str] | None = None) -> dict[str, Any]:
+    """The node's parameters (:data:`.schema.NODE_PARAMETERS`: the estimator's,
+    the input checks', ...) of a parameter file of any machine (None: the packaged
+    3-DOF machine's), each checked: the file's over its packaged file's (the named
+    one, else the 3-DOF machine's; a machine of one's own: none) over the declared
+    defaults. What the node would run with, for a command that does as the node does.
+    """
+    values = {spec.name: spec.default for spec in NODE_PARAMETERS}
+    own = {} if path is None else read_params_sections(params_path(path))
+    name = own.get('machine')
+    packaged = (default_params_path() if name is None
+                else packaged_path(name) if name in packaged_machines() else None)
+    if packaged is not None:
+        values.update(node_values(read_params_sections(packaged), str(packaged)))
+    if path is not None:
+        values.update(node_values(own, str(path)))
+    return values
+
+
 def load_cueing(path: str | os.PathLike[str] | None = None) -> CueingParams:
     """The ``cueing`` group of a parameter file (None: the packaged 3-DOF
     machine's) over its packaged file's, as the model's values are (a partial
@@ -151,7 +176,7 @@ def load_cueing(path: str | os.PathLike[str] | None = None) -> CueingParams:
     own = {} if path is None else read_params_sections(path)
     name = own.get('machine')
     packaged = (default_params_path() if name is None
-                else packaged_path(name) if name in PACKAGED else None)
+                else packaged_path(name) if name in packaged_machines() else None)
     if path is not None:
         split_cueing(own, str(path))              # the file's own group checked, named
     values = {} if packaged is None else {
@@ -179,10 +204,11 @@ def launch_params_file(machine: str = '', params_file: str = '') -> Path:
     default = default_params_path()
     if not machine or machine == default.stem:
         return default
-    if machine not in PACKAGED:
+    files = packaged_machines()
+    if machine not in files:
         raise ValueError(f'machine {machine!r} is not packaged; choose one of '
-                         f"{', '.join(sorted(PACKAGED))} (none: the 3-DOF machine, "
-                         f'{default.name})' + did_you_mean(machine, PACKAGED))
+                         f"{', '.join(sorted(files))} (none: the 3-DOF machine, "
+                         f'{default.name})' + did_you_mean(machine, files))
     return packaged_path(machine)
 
 
@@ -242,16 +268,49 @@ def _check_specs(machine: Machine, values: Mapping[str, Any]) -> None:
 
 
 def named_machine(name: Any, source: str) -> Machine:
-    """The machine a file's (or a node's) ``machine: <name>`` describes; a
-    ParameterError for no name and for the 3-DOF machine's (its files name none).
+    """The machine a file's (or a node's) ``machine: <name>`` describes (a
+    packaged file's name or a machine's kind, :func:`.machines.machine_named`); a
+    ParameterError naming the key ``machine`` for no name, an unknown one (the
+    known ones listed) and the 3-DOF machine's (its files name none).
     """
     if not isinstance(name, str) or not name:
         raise ParameterError('machine', name, f'expected the name of a machine in {source}')
-    unnamed = {m.name for m in MACHINES if m.from_params is None}   # the 3-DOF machine
-    if name in unnamed:
+    if name == default_machine().name:
         raise ParameterError('machine', name, f'the {name} machine\'s files name no machine: '
                                               f'leave this line out in {source}')
-    return machine_named(name)
+    try:
+        machine = machine_named(name)
+    except UnknownMachineError as exc:
+        raise ParameterError('machine', name, f'{exc.reason} in {source}'
+                             + did_you_mean(name, exc.known)) from None
+    if machine.from_params is None:
+        raise ParameterError('machine', name, f'the {name} machine reads no parameter files '
+                                              f"(known: {', '.join(known_names())}) in {source}")
+    return machine
+
+
+def _check_unnamed(flat: Mapping[str, Any], source: str) -> None:
+    """A file without a ``machine:`` line is the 3-DOF machine's: a ParameterError
+    (key ``machine``) when its keys unknown to that machine are another machine's
+    (most of them: that one), saying which and to name it, before the 3-DOF
+    machine's checks would refuse some value of them (a hexapod's six numbers).
+    """
+    own, _ = split_cueing(_model_names(flat), source)
+    foreign = {key for key in own if key not in SPECS}
+    if not foreign:
+        return
+    candidates = [m for m in machines() if m.from_params is not None and foreign & m.parameters]
+    if not candidates:
+        return                      # no other machine's: the 3-DOF checks name the key
+    best = max(candidates, key=lambda m: len(foreign & m.parameters))    # the first on a tie
+    keys = sorted(foreign & best.parameters)
+    packaged = (f" or 'machine: {best.parameter_files[0]}' (that packaged file's values "
+                'under yours)') if best.parameter_files else ''
+    raise ParameterError('machine', None, (
+        f"{source} names no machine, so it is read as the 3-DOF machine's, but "
+        f"{', '.join(keys[:4])}{' ...' if len(keys) > 4 else ''} look like the keys of "
+        f"machine '{best.name}' ({best.title or best.name}): add the line "
+        f"'machine: {best.name}' (a whole file){packaged}"))
 
 
 def node_values(flat: Mapping[str, Any], source: str) -> dict[str, Any]:
@@ -282,7 +341,7 @@ def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
     node_values(own, source)
     own = {k: v for k, v in own.items() if k not in NODE_SPECS}
     _check_names(own, machine, name, source)
-    packaged = name in PACKAGED
+    packaged = name in packaged_machines()
     origin = {key: source for key in own}   # the file each value comes from
     values = {}
     if packaged:
@@ -308,7 +367,7 @@ def model_of_values(machine: Machine, values: Mapping[str, Any], source: str,
         changed = [key for key in values if (origin or {}).get(key, source) == source]
     values = dict(values)
     name = values.get('machine')
-    packaged = name in PACKAGED
+    packaged = name in packaged_machines()
     origin = origin or {}
     chosen = _scene(scene, values, machine, source)
     values.update(chosen.parameters)
@@ -327,9 +386,10 @@ def model_of_values(machine: Machine, values: Mapping[str, Any], source: str,
         reason = f'{exc} in {source}' if given == source else \
             f'{exc} (the value of {given}) with {source}'
         if key not in values and not packaged:
-            reason += (f"; '{name}' is no packaged machine ({', '.join(sorted(PACKAGED))}): "
-                       f'a machine of your own gives every section'
-                       + did_you_mean(name, PACKAGED))
+            files = machine.parameter_files
+            reason += (f"; 'machine: {name}' is a machine of your own, which gives every "
+                       'section' + (f" (a packaged one's file gives the defaults: "
+                                    f"{', '.join(files)})" if files else ''))
         raise ParameterError(key, values.get(key), reason) from None
     except ValueError as exc:       # a builder's error without a key
         raise ParameterError('params_file', source, str(exc)) from None

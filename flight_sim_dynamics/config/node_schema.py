@@ -12,14 +12,17 @@ from typing import Any, Callable, Collection, Mapping, Sequence
 
 from ..core.machine import Machine
 from ..core.parameter_spec import ParamSpec
-from ..machines import FLIGHT_SIMULATOR
+from ..machines import default_machine, packaged
 from . import parameters as prm
 from .files import params_files_in, read_params_sections
-from .machine_files import (PACKAGED, load_named_model, model_of_values, named_machine,
-                            node_values, packaged_path)
+from .machine_files import (load_named_model, model_of_values, named_machine, node_values,
+                            packaged_path)
 
 #: The parameter naming the machine (read-only: fixed at start-up).
 MACHINE = 'machine'
+#: Its declaration, for a machine whose own declarations leave it out (a plugin's).
+MACHINE_SPEC = ParamSpec(MACHINE, 'string', None, 'the machine the parameter file describes '
+                         "(a packaged file's name, or a machine's kind for one of your own)")
 _SOURCE = "the node's parameters"
 
 
@@ -56,7 +59,7 @@ def _flight_simulator() -> NodeSchema:
                                 require_all=False)
     except (prm.ParameterError, FileNotFoundError):
         defaults = prm.defaults()
-    return NodeSchema(FLIGHT_SIMULATOR, prm.MODEL_PARAMETERS, defaults,
+    return NodeSchema(default_machine(), prm.MODEL_PARAMETERS, defaults,
                       lambda values, changed: prm.model_from_values(values, changed=changed,
                                                                     source=_SOURCE))
 
@@ -65,12 +68,16 @@ def _named(name: Any) -> NodeSchema:
     machine = named_machine(name, _SOURCE)
     defaults = {s.name: s.default for s in prm.NODE_PARAMETERS + machine.parameter_specs
                 if s.default is not None}
-    if name in PACKAGED:
+    if name in packaged():
         flat = read_params_sections(packaged_path(name))
         defaults.update({k: v for k, v in flat.items() if k in machine.parameters})
         defaults.update(node_values(flat, str(packaged_path(name))))
     defaults[MACHINE] = name
-    return NodeSchema(machine, machine.parameter_specs, defaults,
+    # the node's `machine` parameter is declared whatever the machine's specs say
+    specs = machine.parameter_specs
+    if all(spec.name != MACHINE for spec in specs):
+        specs = (MACHINE_SPEC,) + specs
+    return NodeSchema(machine, specs, defaults,
                       lambda values, changed: model_of_values(
                           machine, values, _SOURCE,
                           changed=values.keys() if changed is None else changed))

@@ -1,6 +1,6 @@
 """The public calls on a model of any machine.
 
-Each finds the model's machine (:data:`.BY_MODEL_TYPE`, by the model's type)
+Each finds the model's machine (:func:`.by_model_type`, by the model's type)
 and calls its function, with the machine's vectors (three numbers for the
 3-DOF machine, six for a hexapod)::
 
@@ -23,27 +23,21 @@ from ..core import simulation
 from ..core.machine import Machine
 from ..core.status import Status
 from ..core.servo import DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, Servo
-from . import BY_MODEL_TYPE, MACHINES
-
-# the machines' functions by model type, one look-up per call
-_SOLVE = {machine.model_type: machine.solve for machine in MACHINES}
-_SOLVE_BATCH = {machine.model_type: machine.solve_batch for machine in MACHINES}
-_FORWARD_KINEMATICS = {machine.model_type: machine.forward_kinematics for machine in MACHINES}
-_FORWARD_DYNAMICS = {machine.model_type: machine.forward_dynamics for machine in MACHINES}
+from . import by_model_type, machines
 
 
 def machine_of(model: object) -> Machine:
     """The machine ``model`` belongs to; TypeError for anything that is not a
     model of :func:`flight_sim_dynamics.load_model`.
     """
-    machine = BY_MODEL_TYPE.get(type(model))
+    machine = by_model_type().get(type(model))
     if machine is not None:
         return machine
-    for machine in MACHINES:        # a subclass of a machine's model
+    for machine in machines():      # a subclass of a machine's model
         if isinstance(model, machine.model_type):
             return machine
     raise TypeError(f'expected a model of load_model() (one of '
-                    f'{", ".join(m.model_type.__name__ for m in MACHINES)}), '
+                    f'{", ".join(m.model_type.__name__ for m in machines())}), '
                     f'got {type(model).__name__}')
 
 
@@ -56,19 +50,13 @@ def solve(model: Any, q: Sequence[float], qd: Sequence[float], qdd: Sequence[flo
     (:func:`flight_sim_dynamics.machines.staicu.solver.solve`,
     :func:`flight_sim_dynamics.machines.stewart.solver.solve`).
     """
-    try:
-        call = _SOLVE[type(model)]
-    except KeyError:
-        call = machine_of(model).solve
+    call = machine_of(model).solve
     return call(model, q, qd, qdd)
 
 
 def solve_batch(model: Any, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> Any:
     """N samples (arrays (N, coordinates)); every field gets a leading N axis."""
-    try:
-        call = _SOLVE_BATCH[type(model)]
-    except KeyError:
-        call = machine_of(model).solve_batch
+    call = machine_of(model).solve_batch
     return call(model, q, qd, qdd)
 
 
@@ -77,10 +65,7 @@ def forward_kinematics(model: Any, lengths: Sequence[float], *args: Any, **kwarg
     method from ``initial`` (default: home); ``tolerance``, ``max_iterations``
     as the machine's function takes them. Never raises for bad numbers.
     """
-    try:
-        call = _FORWARD_KINEMATICS[type(model)]
-    except KeyError:
-        call = machine_of(model).forward_kinematics
+    call = machine_of(model).forward_kinematics
     return call(model, lengths, *args, **kwargs)
 
 
@@ -90,10 +75,7 @@ def forward_dynamics(model: Any, q: Sequence[float], qd: Sequence[float],
     at ``q``, ``qd``: ``solve(model, q, qd, fd.acceleration).force == force``.
     ValueError for arguments of the wrong size and for a scene without inertia.
     """
-    try:
-        call = _FORWARD_DYNAMICS[type(model)]
-    except KeyError:
-        call = machine_of(model).forward_dynamics
+    call = machine_of(model).forward_dynamics
     return call(model, q, qd, force)
 
 

@@ -142,13 +142,13 @@ def test_node_and_ros_parameters_are_ignored_as_for_the_3dof_files(tmp_path):
     assert fields(fsd.load_model(path)) == fields(PACKAGED['stewart_tsai2000'])
 
 
-# -- a machine of one's own -------------------------------------------------------------
+# -- a machine of one's own: named by its kind ('stewart'), given whole ---------------------
 def test_a_whole_file_of_a_machine_of_ones_own(tmp_path):
     tree = _tree('stewart_tsai2000')
-    _params(tree)['machine'] = 'my_hexapod'
+    _params(tree)['machine'] = 'stewart'
     model = fsd.load_model(_dump(tmp_path, tree))
-    assert model.name == 'my_hexapod'
-    assert fields(model) == {**fields(PACKAGED['stewart_tsai2000']), 'name': 'my_hexapod'}
+    assert model.name == 'stewart'
+    assert fields(model) == {**fields(PACKAGED['stewart_tsai2000']), 'name': 'stewart'}
     q = [0.01, -0.02, 0.03, 0.04, -0.05, 0.06]
     np.testing.assert_array_equal(fsd.solve(model, q, q, q).force,
                                   fsd.solve(PACKAGED['stewart_tsai2000'], q, q, q).force)
@@ -157,7 +157,7 @@ def test_a_whole_file_of_a_machine_of_ones_own(tmp_path):
 def test_a_machine_of_ones_own_may_leave_payload_and_friction_out(tmp_path):
     tree = _tree('stewart_6dof')
     params = _params(tree)
-    params['machine'] = 'bare'
+    params['machine'] = 'stewart'
     del params['payload'], params['friction']
     model = fsd.load_model(_dump(tmp_path, tree))
     assert model.payload.mass == 0.0 and np.all(model.friction.viscous == 0.0)
@@ -167,19 +167,46 @@ def test_a_machine_of_ones_own_may_leave_payload_and_friction_out(tmp_path):
 def test_an_incomplete_file_of_ones_own_names_what_is_missing(tmp_path, section):
     tree = _tree('stewart_6dof')
     params = _params(tree)
-    params['machine'] = 'stewart_6dfo'
+    params['machine'] = 'stewart'
     del params[section]
-    error = _raises(_dump(tmp_path, tree), section, 'missing', 'no packaged machine',
-                    "did you mean 'stewart_6dof'?")
+    error = _raises(_dump(tmp_path, tree), section, 'missing', 'machine of your own',
+                    'stewart_6dof, stewart_tsai2000')
     assert error.value is None
 
 
 def test_a_missing_key_of_a_section_of_ones_own_is_named(tmp_path):
     tree = _tree('stewart_6dof')
     params = _params(tree)
-    params['machine'] = 'mine'
+    params['machine'] = 'stewart'
     del params['bodies']['rod']['com_distance']
     _raises(_dump(tmp_path, tree), 'bodies.rod.com_distance', 'missing')
+
+
+@pytest.mark.parametrize('name, close', [('my_hexapod', None), ('stewart_6dfo', 'stewart_6dof'),
+                                         ('stewrat', 'stewart')])
+def test_an_unknown_machine_name_is_an_error_listing_the_known_ones(tmp_path, name, close):
+    """No name is taken for a hexapod of one's own any more: one error, of the
+    key 'machine', with every name a file may give."""
+    tree = _tree('stewart_6dof')
+    _params(tree)['machine'] = name
+    error = _raises(_dump(tmp_path, tree), 'machine', 'no machine is named', 'stewart_6dof',
+                    'stewart_tsai2000', 'stewart')
+    assert error.value == name
+    assert (f"did you mean '{close}'?" in str(error)) == (close is not None)
+
+
+def test_a_hexapod_file_without_its_machine_line_says_whose_keys_they_are(tmp_path):
+    """Without 'machine:' a file is the 3-DOF machine's; a hexapod's keys there
+    are named as the hexapod's (not 'friction.coulomb expected 3 numbers')."""
+    tree = _tree('stewart_6dof')
+    del _params(tree)['machine']
+    error = _raises(_dump(tmp_path, tree), 'machine', "machine 'stewart'",
+                    "add the line 'machine: stewart'")
+    assert 'expected 3 numbers' not in str(error)
+    partial = _file(tmp_path, 'geometry:\n  base_joints: [' + ', '.join(['0.1'] * 18) + ']',
+                    'partial.yaml')
+    _raises(partial, 'machine', 'geometry.base_joints', "'machine: stewart'",
+            "'machine: stewart_6dof'")
 
 
 # -- bad files -------------------------------------------------------------------------
@@ -247,12 +274,18 @@ def test_a_set_is_refused_in_either_machines_file(tmp_path, body, key):
     _raises(_file(tmp_path, body), key)
 
 
-def test_a_hexapod_key_in_a_3dof_file_is_unknown(tmp_path):
+def test_a_hexapod_key_in_a_3dof_file_is_named_as_the_hexapods(tmp_path):
+    """fsd.load_model says whose key it is and which line to add; the 3-DOF
+    loader (the node's) still calls it an unknown parameter."""
     for body, key in (('geometry:\n  home: [0.0, 0.0, 1.0]', 'geometry.home'),
                       ('limits:\n  length_min: 0.9', 'limits.length_min'),
                       ('bodies:\n  cylinder:\n    com_distance: 0.3',
                        'bodies.cylinder.com_distance')):
-        _raises(_file(tmp_path, body), key, 'unknown parameter')
+        path = _file(tmp_path, body)
+        _raises(path, 'machine', key, "machine 'stewart'", "'machine: stewart'")
+        with pytest.raises(ParameterError, match='unknown parameter') as info:
+            parameters.load_model(path)
+        assert info.value.key == key
 
 
 def test_the_3dof_files_are_read_as_before(tmp_path):

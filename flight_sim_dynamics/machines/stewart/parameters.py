@@ -60,7 +60,7 @@ def _leg(body: str, end: str) -> list:
 #: Every parameter of a hexapod's file but ``limits.warn_fraction`` (the node's own).
 PARAMETER_SPECS: tuple[ParamSpec, ...] = tuple([
     _spec('machine', 'string', 'the machine the parameter file describes (a packaged one, '
-          'e.g. stewart_6dof, or a hexapod of one\'s own)'),
+          'e.g. stewart_6dof, or stewart: a hexapod of one\'s own, given whole)'),
     _spec('gravity', 'double', 'gravitational acceleration, acting along -z (down)', 'm/s^2',
           0.0, maximum=MAX_GRAVITY),
     ParamSpec('scene', 'string', 'full', 'effects to simulate: a scene name from config/scenes '
