@@ -181,7 +181,7 @@ def test_a_degenerate_hexapod_of_ones_own_names_its_geometry(tmp_path, case):
     """A machine of one's own gives every value: its geometry is blamed."""
     tree = yaml.safe_load((CONFIG / 'stewart_6dof.yaml').read_text())
     params = tree['flight_sim_dynamics']['ros__parameters']
-    params['machine'] = 'my_hexapod'
+    params['machine'] = 'stewart'       # a hexapod of one's own: its kind's name
     values, _ = _degenerate('stewart_6dof', case)
     for key, value in values.items():
         params['geometry'][key.split('.')[1]] = value.tolist()

@@ -23,8 +23,9 @@ from typing import Any, Mapping
 import numpy as np
 
 from flight_sim_dynamics.core.effects import Effects
-from flight_sim_dynamics.core.machine import (ActuatorLimits, Machine, ModelValueError,
-                                              check_forward_options, quiet_floating_point)
+from flight_sim_dynamics.core.machine import (ActuatorLimits, LimitUsage, Machine, ModelValueError,
+                                              check_forward_options, quiet_floating_point,
+                                              stroke_usage)
 from flight_sim_dynamics.core.motion import Motion
 from flight_sim_dynamics.core.parameter_spec import ParamSpec
 from flight_sim_dynamics.core.status import BY_SEVERITY, SEVERITY, SINGULAR, Status
@@ -410,6 +411,20 @@ def actuator_limits(model: TiltModel) -> ActuatorLimits:
                           max_speed=model.max_speed, max_force=model.max_force)
 
 
+#: The usages' names (LimitUsage): each leg's stroke, speed, force.
+LIMIT_NAMES = tuple(f'{kind} {leg}' for leg in ('1', '2') for kind in ('stroke', 'speed', 'force'))
+
+
+def limit_usage(model: TiltModel, solution: Any) -> LimitUsage:
+    """How much of its stroke, speed and force limits each leg uses (the status
+    ``limit``'s rule: a usage above 1).
+    """
+    columns = [stroke_usage(np.asarray(solution.stroke), model.stroke_min, model.stroke_max),
+               np.abs(solution.rate) / model.max_speed, np.abs(solution.force) / model.max_force]
+    stacked = np.stack(columns, axis=-1)                     # (..., legs, kinds)
+    return LimitUsage(LIMIT_NAMES, stacked.reshape(stacked.shape[:-2] + (len(LIMIT_NAMES),)))
+
+
 def _wobble(t: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Roll 0.05 (1 - cos pi t), pitch 0.04 (1 - cos 1.5 pi t): from rest."""
     t = np.atleast_1d(np.asarray(t, dtype=float))
@@ -425,9 +440,9 @@ MACHINE = Machine(
     name=NAME, model_type=TiltModel, coordinates=COORDINATES, units=('rad', 'rad'),
     legs=LEG_NAMES, joints=JOINT_NAMES, solve=solve, solve_batch=solve_batch,
     forward_kinematics=forward_kinematics, forward_dynamics=forward_dynamics,
-    actuator_limits=actuator_limits, parameters=PARAMETER_NAMES, from_params=from_params,
-    title='2-DOF tilt platform', leg_labels=('1', '2'), sample_fields=('jacobian_condition',),
-    motions=MOTIONS, examples=tuple(MOTIONS),
+    actuator_limits=actuator_limits, limit_usage=limit_usage, parameters=PARAMETER_NAMES,
+    from_params=from_params, title='2-DOF tilt platform', leg_labels=('1', '2'),
+    sample_fields=('jacobian_condition',), motions=MOTIONS, examples=tuple(MOTIONS),
     effects=('gravity', 'platform_inertia', 'velocity_products'),
     affine_terms=affine_terms, require_inertia=require_inertia,
     parameter_specs=PARAMETER_SPECS, planner_motions=('wobble',), planner_example='wobble')
