@@ -1,5 +1,6 @@
-"""Unit tests of the rclpy-free setpoint rules (flight_sim_dynamics.ros.setpoints)
-and of the planner motions (flight_sim_dynamics.machines.staicu.motions)."""
+"""Unit tests of the rclpy-free setpoint rules (flight_sim_dynamics.ros: messages,
+join, diagnostics, intake) and of the planner motions
+(flight_sim_dynamics.machines.staicu.motions)."""
 from __future__ import annotations
 
 import dataclasses
@@ -21,17 +22,15 @@ from flight_sim_dynamics.core.status import Status
 from flight_sim_dynamics.machines.staicu.motions import MOTIONS as STAICU_MOTIONS
 from flight_sim_dynamics.machines.staicu.motions import PLANNER_MOTIONS as MOTIONS
 from flight_sim_dynamics.machines.staicu.motions import CUEING_DURATION, motion_cueing
-from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION,
-                                               DUPLICATE, ERROR, INACTIVE, JOINING, LATE,
-                                               NO_POSE, STALE_WINDOW,
-                                               NON_FINITE, OK, OVERFLOW, PITCH, POSE,
-                                               STAMP_BACKWARDS, STAMP_REPEATED, SWAY, TWIST,
-                                               WARN, YAW, CycleStats, LogThrottle, Runtime,
-                                               SOLVER_ERROR, RestartRule, SetpointError,
-                                               SetpointIntake, StampSynchroniser,
-                                               limit_report, pose_input,
-                                               quaternion_to_rpy, rate_input,
-                                               pose_map, rpy_to_quaternion)
+from flight_sim_dynamics.ros.diagnostics import CycleStats, LogThrottle, limit_report
+from flight_sim_dynamics.ros.intake import STALE_WINDOW, Runtime, SetpointIntake
+from flight_sim_dynamics.ros.join import RestartRule, StampSynchroniser
+from flight_sim_dynamics.ros.messages import (ABSURD_ACCELERATION, ACCEL, BAD_QUATERNION, DUPLICATE,
+                                              ERROR, INACTIVE, JOINING, LATE, NO_POSE, NON_FINITE,
+                                              OK, OVERFLOW, PITCH, POSE, STAMP_BACKWARDS,
+                                              STAMP_REPEATED, SWAY, TWIST, WARN, YAW, SOLVER_ERROR,
+                                              SetpointError, pose_input, quaternion_to_rpy,
+                                              rate_input, pose_map, rpy_to_quaternion)
 from flight_sim_dynamics.machines import FLIGHT_SIMULATOR
 
 #: What the 3-DOF machine takes of the messages; a solution of parasitic pitch -0.04 rad.
@@ -537,7 +536,7 @@ def test_setpoint_helpers_do_not_import_rclpy():
     import subprocess
     import sys
     from pathlib import Path
-    modules = ['setpoints', 'markers']
+    modules = ['messages', 'join', 'diagnostics', 'intake', 'markers']
     code = ('import sys\n' + ''.join(f'import flight_sim_dynamics.ros.{m}\n' for m in modules)
             + "print(sorted(m for m in sys.modules if m.split('.')[0] == 'rclpy'))")
     root = Path(__file__).resolve().parents[2]
