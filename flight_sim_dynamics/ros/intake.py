@@ -2,7 +2,7 @@
 message, joins and orders the setpoints, estimates what is missing, solves
 (the machine's ``solve``) and returns the answers and log lines due. A
 rejected setpoint leaves no trace (docs/node.md, "Stamps"). What a machine
-takes of the messages: :class:`PoseMap`. SI units; stamps in integer ns.
+takes of the messages: :class:`.messages.PoseMap`. SI units; stamps in integer ns.
 """
 from __future__ import annotations
 
@@ -55,6 +55,18 @@ class Answer(NamedTuple):
 Outcome = tuple[list[Answer], list[tuple[int, str]]]
 
 
+def _solve(model: Any, q: Sequence[float], qd: Sequence[float], qdd: Sequence[float]) -> Any:
+    try:
+        sol = fsd.solve(model, q, qd, qdd)
+    except Exception as exc:  # noqa: BLE001 - a malformed call: never escape
+        raise SetpointError(SOLVER_ERROR, f'{type(exc).__name__}: {exc}') from None
+    if sol.status is Status.UNREACHABLE:
+        raise SetpointError(UNREACHABLE, f'unreachable pose: {sol.detail}')
+    if sol.status is Status.INVALID_INPUT:     # finite numbers whose results overflow
+        raise SetpointError(BAD_SETPOINT, f'input too large: {sol.detail}')
+    return sol
+
+
 class SetpointIntake:
     """Messages in, :data:`Outcome` s out; an internal error is a ``solver_error``.
     With ``publish``, each answer goes to it as soon as it is solved, before the
@@ -84,17 +96,7 @@ class SetpointIntake:
         self._lines: list[tuple[int, str]] = []
         self._publish = self._answers.append if publish is None else publish
 
-    def _new_estimator(self, config: NodeConfig) -> DerivativeEstimator:
-        # warming up: never estimates an acceleration from a rest it assumed
-        return DerivativeEstimator(config.estimator_method, config.estimator_max_gap,
-                                   warm_up=True, angles=self.poses.angles)
-
-    def _flush(self) -> Outcome:
-        out = (self._answers[:], self._lines)
-        self._answers.clear()
-        self._lines = []
-        return out
-
+    # -- a setpoint's path: receive -> checks -> join -> estimate -> solve -> answer -> assess
     def receive(self, kind: str, msg: Any, now: float, latest_ns: int | None,
                 active: bool = True) -> Outcome:
         """One message; ``latest_ns``: the latest stamp accepted now (None: any)."""
@@ -110,49 +112,6 @@ class SetpointIntake:
         except Exception as exc:  # noqa: BLE001 - nothing escapes
             self._internal(exc)
         return self._flush()
-
-    def activate(self, stamp_ns: int, now: float, connected: bool = False) -> None:
-        """The node activates at ``stamp_ns`` (its clock; 0: unknown).
-
-        If a stream may have run while it was inactive (a setpoint arrived
-        meanwhile, or ``connected``: a planner's publisher is matched), what it
-        published then may still arrive: for :data:`STALE_WINDOW` s, setpoints
-        stamped before the activation are dropped and counted inactive. (A node
-        too busy to take them, or a transport that holds them back, delivers them
-        only after the activation: ``connected`` covers that case.)
-        """
-        self.reset()
-        armed = (self._inactive_seen or connected) and stamp_ns > 0
-        self._stale = (stamp_ns, now + STALE_WINDOW) if armed else None
-        self._inactive_seen = False
-
-    def _published_while_inactive(self, kind: str, stamp_ns: int, now: float) -> bool:
-        stale = self._stale
-        if stale is None:
-            return False
-        if now >= stale[1]:
-            self._stale = None
-            return False
-        if stamp_ns >= stale[0]:
-            return False
-        self.reject(INACTIVE, f'{kind} stamped {fmt_stamp(stamp_ns)}, before the node '
-                              'activated: published while inactive, not answered')
-        return True
-
-    def _motion(self, kind: str, msg: Any) -> Motion:
-        config = self.runtime.config
-        if kind == POSE:
-            p, o = msg.pose.position, msg.pose.orientation
-            return pose_input(p.x, p.y, p.z, o.x, o.y, o.z, o.w,
-                              config.input_quaternion_tolerance)
-        v = msg.twist if kind == TWIST else msg.accel
-        rates = rate_input(v.linear.x, v.linear.y, v.linear.z,
-                           v.angular.x, v.angular.y, v.angular.z, kind)
-        if kind == ACCEL:   # the components the machine takes, angular ones as received
-            self.poses.check_acceleration(self.poses.coordinates(rates),
-                                          config.input_max_linear_acceleration,
-                                          config.input_max_angular_acceleration)
-        return rates
 
     def _stamped(self, kind: str, msg: Any, now: float, latest_ns: int | None) -> None:
         stamp = msg.header.stamp
@@ -172,6 +131,21 @@ class SetpointIntake:
             self.reject(exc.reason, f'{kind} rejected: {exc}')
             return
         self._dispatch(*self.sync.add(kind, stamp_ns, item, now, (sec, nanosec)))
+
+    def _motion(self, kind: str, msg: Any) -> Motion:
+        config = self.runtime.config
+        if kind == POSE:
+            p, o = msg.pose.position, msg.pose.orientation
+            return pose_input(p.x, p.y, p.z, o.x, o.y, o.z, o.w,
+                              config.input_quaternion_tolerance)
+        v = msg.twist if kind == TWIST else msg.accel
+        rates = rate_input(v.linear.x, v.linear.y, v.linear.z,
+                           v.angular.x, v.angular.y, v.angular.z, kind)
+        if kind == ACCEL:   # the components the machine takes, angular ones as received
+            self.poses.check_acceleration(self.poses.coordinates(rates),
+                                          config.input_max_linear_acceleration,
+                                          config.input_max_angular_acceleration)
+        return rates
 
     def _platform(self, msg: Any, now: float, latest_ns: int | None) -> None:
         """``msg``: a JointTrajectory, or the SetpointError that refused it."""
@@ -311,26 +285,7 @@ class SetpointIntake:
         stats.solved(seconds, sol.kinematic_condition if self._kinematic else math.nan,
                      float(sol.jacobian_condition))
 
-    def reconfigure(self, runtime: Runtime) -> None:
-        old, new = self.runtime.config, runtime.config
-        self.runtime = runtime
-        if (new.estimator_method, new.estimator_max_gap) != (old.estimator_method,
-                                                             old.estimator_max_gap):
-            self.estimator = self._new_estimator(new)
-        self.sync.wait = new.sync_wait
-        self.sync.max_pending = new.sync_max_pending
-        self.sync.restart.jump_ns = round(new.input_restart_jump * 1e9)
-        self.throttle.period = new.diagnostics_log_throttle
-
-    def reset(self, reason: str | None = None) -> Outcome:
-        """Forget pending setpoints and history; drops counted under ``reason``."""
-        for _ in range(self.sync.pending if reason else 0):
-            self.reject(reason, 'pending setpoint dropped: the node was deactivated')
-        self.sync.reset()
-        self.estimator.reset()
-        self._answered = None
-        return self._flush()
-
+    # -- rejections, internal errors and log lines (throttled)
     def reject(self, reason: str, message: str) -> None:
         self.stats.reject(reason, message)
         level = (ERROR if reason in (UNREACHABLE, SOLVER_ERROR)
@@ -361,14 +316,62 @@ class SetpointIntake:
             text += f' ({skipped} more since the last such message)'
         self._lines.append((level, text))
 
+    def _flush(self) -> Outcome:
+        out = (self._answers[:], self._lines)
+        self._answers.clear()
+        self._lines = []
+        return out
 
-def _solve(model: Any, q: Sequence[float], qd: Sequence[float], qdd: Sequence[float]) -> Any:
-    try:
-        sol = fsd.solve(model, q, qd, qdd)
-    except Exception as exc:  # noqa: BLE001 - a malformed call: never escape
-        raise SetpointError(SOLVER_ERROR, f'{type(exc).__name__}: {exc}') from None
-    if sol.status is Status.UNREACHABLE:
-        raise SetpointError(UNREACHABLE, f'unreachable pose: {sol.detail}')
-    if sol.status is Status.INVALID_INPUT:     # finite numbers whose results overflow
-        raise SetpointError(BAD_SETPOINT, f'input too large: {sol.detail}')
-    return sol
+    # -- activation, reset and parameters
+    def activate(self, stamp_ns: int, now: float, connected: bool = False) -> None:
+        """The node activates at ``stamp_ns`` (its clock; 0: unknown).
+
+        If a stream may have run while it was inactive (a setpoint arrived
+        meanwhile, or ``connected``: a planner's publisher is matched), what it
+        published then may still arrive: for :data:`STALE_WINDOW` s, setpoints
+        stamped before the activation are dropped and counted inactive. (A node
+        too busy to take them, or a transport that holds them back, delivers them
+        only after the activation: ``connected`` covers that case.)
+        """
+        self.reset()
+        armed = (self._inactive_seen or connected) and stamp_ns > 0
+        self._stale = (stamp_ns, now + STALE_WINDOW) if armed else None
+        self._inactive_seen = False
+
+    def _published_while_inactive(self, kind: str, stamp_ns: int, now: float) -> bool:
+        stale = self._stale
+        if stale is None:
+            return False
+        if now >= stale[1]:
+            self._stale = None
+            return False
+        if stamp_ns >= stale[0]:
+            return False
+        self.reject(INACTIVE, f'{kind} stamped {fmt_stamp(stamp_ns)}, before the node '
+                              'activated: published while inactive, not answered')
+        return True
+
+    def reset(self, reason: str | None = None) -> Outcome:
+        """Forget pending setpoints and history; drops counted under ``reason``."""
+        for _ in range(self.sync.pending if reason else 0):
+            self.reject(reason, 'pending setpoint dropped: the node was deactivated')
+        self.sync.reset()
+        self.estimator.reset()
+        self._answered = None
+        return self._flush()
+
+    def reconfigure(self, runtime: Runtime) -> None:
+        old, new = self.runtime.config, runtime.config
+        self.runtime = runtime
+        if (new.estimator_method, new.estimator_max_gap) != (old.estimator_method,
+                                                             old.estimator_max_gap):
+            self.estimator = self._new_estimator(new)
+        self.sync.wait = new.sync_wait
+        self.sync.max_pending = new.sync_max_pending
+        self.sync.restart.jump_ns = round(new.input_restart_jump * 1e9)
+        self.throttle.period = new.diagnostics_log_throttle
+
+    def _new_estimator(self, config: NodeConfig) -> DerivativeEstimator:
+        # warming up: never estimates an acceleration from a rest it assumed
+        return DerivativeEstimator(config.estimator_method, config.estimator_max_gap,
+                                   warm_up=True, angles=self.poses.angles)
