@@ -45,7 +45,8 @@ from ..ros.planner import PlannerNode
 from ..ros.platform_sim import SIM_TASK
 from ..ros.process import (CUEING_MODULE, SIM_MODULE, start_node, stop_node, stop_on_signals,
                            stop_requested)
-from ..ros.setpoints import DIAGNOSTIC_TASK, LEVEL_NAMES, pose_map, quaternion_to_rpy
+from ..ros.diagnostics import DIAGNOSTIC_TASK
+from ..ros.messages import LEVEL_NAMES, pose_map, quaternion_to_rpy
 from ..cueing.vehicles import VEHICLES, vehicle_log
 from .csv_io import CsvError
 from .cue import VEHICLE_COLUMNS, read_vehicle

@@ -1,6 +1,6 @@
 """The managed node :class:`DynamicsNode`: each setpoint becomes one
 ``actuator_states`` and one ``joint_states`` stamped like it (rules:
-:class:`.setpoints.SetpointIntake`). Nothing a client sends takes it down.
+:class:`.intake.SetpointIntake`). Nothing a client sends takes it down.
 Topics, QoS, parameters: docs/node.md.
 """
 from __future__ import annotations
@@ -32,8 +32,10 @@ from .managed_node import ManagedNode
 from .parameter_guard import (MAX_NAMES_PER_REQUEST, MAX_PARAMETERS_PER_REQUEST,
                               MAX_VALIDATIONS_PER_REQUEST, _failed, plain)
 from .process import end_spins, stop_requested
-from .setpoints import (ACCEL, BAD_SETPOINT, INACTIVE, LEVEL_NAMES, PLATFORM, POSE, TWIST, Answer,
-                        Outcome, Runtime, SetpointError, SetpointIntake, diagnostic_name, log_at)
+from .diagnostics import diagnostic_name, log_at
+from .intake import Answer, Outcome, Runtime, SetpointIntake
+from .messages import (ACCEL, BAD_SETPOINT, INACTIVE, LEVEL_NAMES, PLATFORM, POSE, TWIST,
+                       SetpointError)
 
 LATEST_STAMP_REUSE = 0.005       # s one clock reading serves the future-stamp check
 # bytes of a valid trajectory point at most, and of the rest of a

@@ -46,9 +46,10 @@ from .parameter_guard import _failed, plain
 from .planner import SetpointPublisher
 from .platform_sim import plant_file
 from .process import end_spins, stop_requested
-from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, RESTART_CONFIRMATIONS,
-                        STAMP_BACKWARDS, STAMP_REPEATED, WARN, LogThrottle, SetpointError,
-                        diagnostic_name, fmt_stamp, number)
+from .diagnostics import LogThrottle, diagnostic_name, number
+from .join import RESTART_CONFIRMATIONS
+from .messages import (ERROR, LEVEL_NAMES, NON_FINITE, OK, STAMP_BACKWARDS, STAMP_REPEATED, WARN,
+                       SetpointError, fmt_stamp)
 
 INACTIVE = 'inactive'                 # an Imu taken while the node is not active
 OUT_OF_RANGE = 'out_of_range'         # beyond input.max_specific_force / max_angular_velocity

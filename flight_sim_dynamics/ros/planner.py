@@ -3,7 +3,7 @@ built-in motions (:attr:`Machine.planner_motions`: the paper's motions and a
 motion-cueing sequence on the 3-DOF machine; a slow tour and a 6-DOF
 motion-cueing sequence on the hexapod), stamped ``start + k / rate`` on the
 node's clock. The pose carries the machine's coordinates as their
-components (:class:`.setpoints.PoseMap`); twist and accel the rates, and the angular
+components (:class:`.messages.PoseMap`); twist and accel the rates, and the angular
 velocity and acceleration in the base frame of the Euler-angle rates (S2), (S3).
 
     flight-sim-dynamics demo-planner --example general --rate 200 --loop
@@ -31,7 +31,7 @@ from ..machines.api import machine_of
 from .dynamics_node import default_qos
 from .node import own_options, running, spin_until
 from .process import stop_requested
-from .setpoints import pose_map, rpy_to_quaternion
+from .messages import pose_map, rpy_to_quaternion
 
 
 class SetpointPublisher:

@@ -7,7 +7,7 @@ commands costs a decode and a check each, never the loop its rate: commands
 a newer one replaced before a tick are counted, not simulated. The plant is
 a model of any machine (its parameter file names it): its legs are the
 commands' names, its pose goes out as the setpoints carry a pose
-(:class:`.setpoints.PoseMap`: position surge, sway, heave; ZYX roll, pitch,
+(:class:`.messages.PoseMap`: position surge, sway, heave; ZYX roll, pitch,
 yaw; the twist's angular part the base-frame angular velocity, (S2)).
 """
 from __future__ import annotations
@@ -43,9 +43,10 @@ from ..machines.api import machine_of
 from .dynamics_node import default_qos
 from .parameter_guard import _declared, descriptor_for, plain
 from .process import end_spins, stop_requested
-from .setpoints import (ERROR, LEVEL_NAMES, NON_FINITE, OK, STAMP_BACKWARDS, STAMP_REPEATED, WARN,
-                        LogThrottle, RestartRule, SetpointError, diagnostic_name, log_at, number,
-                        pose_map, rpy_to_quaternion)
+from .diagnostics import LogThrottle, diagnostic_name, log_at, number
+from .join import RestartRule
+from .messages import (ERROR, LEVEL_NAMES, NON_FINITE, OK, STAMP_BACKWARDS, STAMP_REPEATED, WARN,
+                       SetpointError, pose_map, rpy_to_quaternion)
 
 #: Seconds between two log lines of one rejection reason.
 LOG_THROTTLE = 2.0
@@ -214,7 +215,7 @@ class CommandStats:
 
     def stamp(self, stamp_ns: int) -> None:
         """Accept a command's stamp or raise SetpointError; stamps before the
-        last accepted one that confirm a restart (:class:`.setpoints.RestartRule`)
+        last accepted one that confirm a restart (:class:`.join.RestartRule`)
         are accepted.
         """
         last = self.last_stamp

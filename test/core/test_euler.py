@@ -1,7 +1,7 @@
 """Euler-angle rates and accelerations of an angular velocity and acceleration
 (core/euler.py) against the solver's own E and dE/dt ((S2), (S3) of
 docs/design/stewart.md), for any pose away from pitch +-90 deg; and what the
-node takes of the messages (ros/setpoints.PoseMap) on both machines: the
+node takes of the messages (ros/messages.PoseMap) on both machines: the
 hexapod's answers are the solver's at the converted rates, the 3-DOF
 machine's take linear.x, linear.z, angular.x exactly, as they always did.
 The other way (the twin's platform_twist, the planner's setpoints): the
@@ -23,7 +23,7 @@ from flight_sim_dynamics.machines import FLIGHT_SIMULATOR, STEWART
 from flight_sim_dynamics.machines.stewart.kinematics import (euler_rate_matrix,
                                                              euler_rate_matrix_derivative,
                                                              rotation)
-from flight_sim_dynamics.ros.setpoints import pose_map
+from flight_sim_dynamics.ros.messages import pose_map
 
 angle = st.floats(-math.pi, math.pi)
 pitch = st.floats(-1.5, 1.5)                       # |pitch| <= 86 deg

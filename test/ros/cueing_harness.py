@@ -19,7 +19,8 @@ from sensor_msgs.msg import Imu
 
 from flight_sim_dynamics.config.schema import CUEING_NODE_NAME, CUEING_TASK
 from flight_sim_dynamics.ros.process import CUEING_MODULE
-from flight_sim_dynamics.ros.setpoints import diagnostic_name, quaternion_to_rpy
+from flight_sim_dynamics.ros.diagnostics import diagnostic_name
+from flight_sim_dynamics.ros.messages import quaternion_to_rpy
 from node_harness import QOS, Client, NodeProcess, stamp_ns
 
 G = 9.80665     # m/s^2, the specific force of a vehicle at rest and level

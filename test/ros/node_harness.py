@@ -35,9 +35,9 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from flight_sim_dynamics.ros.setpoints import diagnostic_name
+from flight_sim_dynamics.ros.diagnostics import diagnostic_name
 from flight_sim_dynamics.machines import FLIGHT_SIMULATOR
-from flight_sim_dynamics.ros.setpoints import rpy_to_quaternion
+from flight_sim_dynamics.ros.messages import rpy_to_quaternion
 from flight_sim_dynamics.ros.process import (NODE_MODULE, node_command, node_env, start_node,
                                               stop_node)
 

@@ -21,7 +21,7 @@ from flight_sim_dynamics.core import kernel as core_kernel
 from flight_sim_dynamics.machines.api import machine_of
 from flight_sim_dynamics.ros.markers import (GREY, MAGENTA, RED, MarkerBuilder, force_colour,
                                              snapshot, triangles)
-from flight_sim_dynamics.ros.setpoints import pose_map
+from flight_sim_dynamics.ros.messages import pose_map
 
 MODEL = fsd.load_model()
 HEXAPOD = fsd.load_model('config/stewart_6dof.yaml')

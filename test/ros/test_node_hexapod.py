@@ -29,7 +29,7 @@ import flight_sim_dynamics as fsd
 from flight_sim_dynamics.machines import STEWART
 from flight_sim_dynamics.machines.stewart.kinematics import (euler_rate_matrix,
                                                              euler_rate_matrix_derivative)
-from flight_sim_dynamics.ros.setpoints import rpy_to_quaternion
+from flight_sim_dynamics.ros.messages import rpy_to_quaternion
 from node_harness import ROOT, Client, NodeProcess, stamp_ns
 from test_node_lifecycle import LifecycleClient
 from test_node_readme_poke import ONE_LINER, poking_section, fill, message_type

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import pytest
 
-from flight_sim_dynamics.ros.setpoints import diagnostic_name
+from flight_sim_dynamics.ros.diagnostics import diagnostic_name
 from node_harness import NODE_NAME, Client, NodeProcess
 
 pytestmark = pytest.mark.ros

@@ -16,7 +16,7 @@ import flight_sim_dynamics as fsd
 from flight_sim_dynamics.core.motion import PlannerSequence
 from flight_sim_dynamics.machines.stewart.kinematics import (euler_rate_matrix,
                                                              euler_rate_matrix_derivative)
-from flight_sim_dynamics.ros.setpoints import quaternion_to_rpy
+from flight_sim_dynamics.ros.messages import quaternion_to_rpy
 from node_harness import QOS, ROOT, Client, PlannerProcess, stamp_ns
 
 pytestmark = pytest.mark.ros

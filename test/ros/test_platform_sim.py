@@ -36,7 +36,7 @@ from flight_sim_dynamics.core.motion import PlannerSequence
 from flight_sim_dynamics.machines.staicu.model import LEG_NAMES
 from flight_sim_dynamics.machines.staicu.motions import MOTIONS
 from flight_sim_dynamics.ros.process import SIM_MODULE, stop_node
-from flight_sim_dynamics.ros.setpoints import NON_FINITE, quaternion_to_rpy
+from flight_sim_dynamics.ros.messages import NON_FINITE, quaternion_to_rpy
 from node_harness import PARAMS_FILE, QOS, ROOT, Client
 from sim_harness import (SimClient, command, node_and_twin, own_twin, sim_output, stamp,
                          start_sim)

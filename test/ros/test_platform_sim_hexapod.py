@@ -33,8 +33,8 @@ from flight_sim_dynamics.config.errors import ParameterError
 from flight_sim_dynamics.core.euler import euler_rates
 from flight_sim_dynamics.core.motion import PlannerSequence
 from flight_sim_dynamics.ros.platform_sim import check_command, plant_file, sim_config
-from flight_sim_dynamics.ros.setpoints import (SetpointError, pose_map, quaternion_to_rpy,
-                                               rpy_to_quaternion)
+from flight_sim_dynamics.ros.messages import (SetpointError, pose_map, quaternion_to_rpy,
+                                              rpy_to_quaternion)
 from node_harness import PARAMS_FILE, ROOT
 from sim_harness import command, node_and_twin, own_twin, sim_output, stamp, start_sim
 

@@ -1,5 +1,5 @@
 """The machine's motion as the setpoint messages carry it
-(:class:`flight_sim_dynamics.ros.setpoints.PoseMap`, the twin's and the
+(:class:`flight_sim_dynamics.ros.messages.PoseMap`, the twin's and the
 planner's side): position surge, sway, heave; ZYX roll, pitch, yaw; twist and
 acceleration angular as base-frame vectors (S2)/(S3); read back by the node's
 side of the same map to the numbers given.
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from flight_sim_dynamics.machines import MACHINES
-from flight_sim_dynamics.ros.setpoints import pose_map
+from flight_sim_dynamics.ros.messages import pose_map
 
 THREE, SIX = MACHINES
 RNG = np.random.default_rng(5)

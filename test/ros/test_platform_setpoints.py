@@ -1,6 +1,6 @@
 """The one-message setpoint input (``platform_setpoint``, a
 trajectory_msgs/JointTrajectory): the point-by-point checks
-(setpoints.platform_setpoints).
+(messages.platform_setpoints).
 """
 from __future__ import annotations
 
@@ -9,11 +9,12 @@ import math
 import pytest
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from flight_sim_dynamics.ros.setpoints import (ABSURD_ACCELERATION, BAD_SETPOINT, ERROR,
-                                               NON_FINITE, PLATFORM, STAMP_BACKWARDS,
-                                               STAMP_REPEATED, CycleStats, PlatformPoint,
-                                               SetpointError, platform_dof_order, pose_map)
-from flight_sim_dynamics.ros.setpoints import platform_setpoints as machine_setpoints
+from flight_sim_dynamics.ros.diagnostics import CycleStats
+from flight_sim_dynamics.ros.messages import (ABSURD_ACCELERATION, BAD_SETPOINT, ERROR, NON_FINITE,
+                                              PLATFORM, STAMP_BACKWARDS, STAMP_REPEATED,
+                                              PlatformPoint, SetpointError, platform_dof_order,
+                                              pose_map)
+from flight_sim_dynamics.ros.messages import platform_setpoints as machine_setpoints
 from flight_sim_dynamics.machines import FLIGHT_SIMULATOR
 
 #: The 3-DOF machine's coordinates, the joint names of its platform_setpoint.
