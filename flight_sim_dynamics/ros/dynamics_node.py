@@ -236,7 +236,9 @@ class DynamicsNode(ManagedNode):
         self._drop_queued()
         # nothing from before counts as history; stragglers of a stream that ran
         # meanwhile are dropped by their stamps
-        connected = any(self.count_publishers(sub.topic_name) for sub in self._endpoints[2:])
+        # a planner matched while the node sat inactive may have streamed meanwhile
+        connected = not self.activating_at_start and any(
+            self.count_publishers(sub.topic_name) for sub in self._endpoints[2:])
         self._intake.activate(self.get_clock().now().nanoseconds, time.monotonic(), connected)
         self._active = True
         self.get_logger().info('active: answering setpoints')

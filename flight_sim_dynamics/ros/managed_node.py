@@ -38,6 +38,8 @@ class ManagedNode(GuardedParameters, LifecycleNode):
         self.failure: str | None = None
         self.finalized = Future()
         self._starting = False
+        #: True while :meth:`start` activates (configured a moment before)
+        self.activating_at_start = False
         self._refused: dict[str, str] = {}
 
     # -- what each node gives ------------------------------------------------------
@@ -63,7 +65,11 @@ class ManagedNode(GuardedParameters, LifecycleNode):
                 return False
         finally:
             self._starting = False
-        return self.trigger_activate() == SUCCESS
+        self.activating_at_start = True     # no time inactive: no stream ran meanwhile
+        try:
+            return self.trigger_activate() == SUCCESS
+        finally:
+            self.activating_at_start = False
 
     def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
         try:
