@@ -176,6 +176,9 @@ def test_every_row_of_the_doc_has_a_test_and_every_test_a_row():
     assert rows, f'no rows in {DOC}'
     assert rows == tested, (f'rows without a test: {sorted(rows - tested)}; '
                             f'tests without a row: {sorted(tested - rows)}')
+    named = set(re.findall(r'`(test_\w+)', DOC.read_text()))
+    defined = {name for name in globals() if name.startswith('test_')}
+    assert named <= defined, f'{DOC.name} names tests this file lacks: {sorted(named - defined)}'
 
 
 # ---------------------------------------------------------------------------
@@ -394,6 +397,37 @@ def test_take_message_gives_message_and_info_then_none(context, raw):
         assert got == [taken[0]], broke(
             'R5', 'Subscription.callback no longer calls the function given with the message')
     finally:
+        node.destroy_node()
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize('kind', EXECUTORS)
+@reach('R5')
+def test_the_executor_calls_nothing_for_messages_taken_through_the_handle(context, kind):
+    """_drop_queued takes messages the executor has seen arrive: its events
+    for them then take nothing, and call nothing.
+    """
+    node = rclpy.create_node(unique('drop'), context=context)
+    topic = unique('drop')
+    got: list[Any] = []
+    sub = node.create_subscription(Int32, topic, got.append, 10)
+    pub = node.create_publisher(Int32, topic, 10)
+    executor = make_executor(kind, context)
+    executor.add_node(node)
+    try:
+        spin_until([executor], pub.get_subscription_count, SERVED_WITHIN)
+        for i in range(3):
+            pub.publish(Int32(data=i))
+        taken, deadline = 0, time.monotonic() + SERVED_WITHIN
+        while taken < 3 and time.monotonic() < deadline:
+            with sub.handle:
+                taken += sub.handle.take_message(sub.msg_type, sub.raw) is not None
+        assert taken == 3, broke('R5', f'{taken} of 3 messages taken through the handle')
+        spin_until([executor], lambda: bool(got), NOT_SERVED_FOR)
+        assert got == [], broke(
+            'R5', f'the {kind} executor called the callback for messages already taken')
+    finally:
+        executor.shutdown()
         node.destroy_node()
 
 
