@@ -34,6 +34,7 @@ TEARDOWN_TIMEOUT = 10.0
 
 
 def make_executor(name: str, context: Any = None) -> Any:
+    # the experimental EventsExecutor and its quirks: docs/design/rclpy.md R6-R9
     return (EventsExecutor if name == 'events' else SingleThreadedExecutor)(context=context)
 
 
@@ -92,7 +93,7 @@ def running(program: str, argv: Sequence[str]) -> Iterator[list[Any]]:
     """Every executable's frame: stop signals seen between callbacks; the nodes
     appended to the yielded list are destroyed and rclpy shut down on the way out.
     """
-    stop_on_signals()
+    stop_on_signals()       # neither executor replaces them: docs/design/rclpy.md R11
     rclpy.init(args=[program, *argv], signal_handler_options=SignalHandlerOptions.NO)
     nodes: list[Any] = []
     try:
@@ -144,7 +145,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 def spin_until(executor: Any, predicate: Callable[[], bool], timeout: float | None = None,
                step: float = 0.05) -> bool:
     """Spin until ``predicate()``, the timeout, shutdown or a requested stop;
-    always with a timeout: rclpy 7.1.6's EventsExecutor busy-loops in ``spin()``.
+    always with a timeout: rclpy 7.1.6's EventsExecutor busy-loops in ``spin()``
+    (docs/design/rclpy.md R7, R8, R10).
     """
     deadline = None if timeout is None else time.monotonic() + timeout
     never = rclpy.task.Future()      # done only by a stop request (end_spins)

@@ -150,6 +150,7 @@ def end_spins() -> None:
     EventsExecutor returns from a timed spin only once its queue is empty,
     which a backlog arriving faster than it is taken never is. Not called
     from the signal handler, which may interrupt the future's own lock.
+    Pinned: docs/design/rclpy.md R8.
     """
     while _spins:
         future = _spins.pop()

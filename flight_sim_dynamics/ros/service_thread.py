@@ -23,7 +23,9 @@ Refuse = Callable[[Any, Any, str], Any]
 
 
 class _Host:
-    """What an executor reads of a node, holding only ``services``."""
+    """What an executor reads of a node, holding only ``services`` (an rclpy
+    internal, pinned: docs/design/rclpy.md R3).
+    """
 
     def __init__(self, context: Any, services: Sequence[Any]) -> None:
         self.context = context
@@ -48,7 +50,8 @@ class ServiceThread:
         self._check, self._refuse, self._logger = check, refuse, logger
         self._stopping = threading.Event()
         # a group of their own: a wait-set executor on the node holds the node's
-        # default group while a callback runs (this one waits for the node's executor)
+        # default group while a callback runs (this one waits for the node's executor);
+        # callback and group replaced after creation: docs/design/rclpy.md R1, R4
         group = MutuallyExclusiveCallbackGroup()
         for service in services:
             service.callback = self._forwarding(service)
@@ -85,7 +88,7 @@ class ServiceThread:
                     answers.append(handler(request, response))
                 finally:
                     done.set()
-            self._executor.create_task(run)
+            self._executor.create_task(run)     # from this thread: docs/design/rclpy.md R12
             while not done.wait(self.STEP):
                 if self._stopping.is_set():     # the node's executor no longer runs
                     return self._refuse(request, response, 'the node is stopping')
