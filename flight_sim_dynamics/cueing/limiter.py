@@ -139,6 +139,68 @@ def tightened(model: Any, stroke: float, fraction: float) -> Any:
     return replace(model, limits=replace(limits, **changes))
 
 
+def status_test(machine: Any, model: Any) -> Any:
+    """``ok(q, qd, qdd) -> bool``: whether ``machine.solve(model, q, qd, qdd)``
+    is :attr:`Status.OK`, for the limiter's lists of floats. While the
+    machine's compiled kernel runs, its kernel's solve is called directly (the
+    call the machine's solve makes, whose code is the solution's status), into
+    one result row kept for it, without the solution object; else, and for
+    anything the kernel does not take, the machine's solve itself.
+    test/cueing/test_limiter.py checks the two agree.
+    """
+    solve, ok = machine.solve, Status.OK
+
+    def slow(q: list, qd: list, qdd: list) -> bool:
+        return solve(model, q, qd, qdd).status is ok
+
+    fast = _kernel_test(machine, model)
+    if fast is None:
+        return slow
+    kernel, call = fast
+
+    def test(q: list, qd: list, qdd: list) -> bool:
+        if kernel.enabled():
+            try:
+                return call(q, qd, qdd)
+            except TypeError:
+                pass
+        return slow(q, qd, qdd)
+
+    return test
+
+
+def _kernel_test(machine: Any, model: Any) -> tuple[Any, Any] | None:
+    """(the machine's kernel module, ``call(q, qd, qdd) -> ok``) for the machines
+    whose solve is known here (the hexapod's, the 3-DOF machine's), when their
+    kernel is built; else None.
+    """
+    from ..machines.staicu import kernel as staicu_kernel, solver as staicu_solver
+    from ..machines.stewart import kernel as stewart_kernel, solver as stewart_solver
+    if machine.solve is stewart_solver.solve and stewart_kernel.available():
+        kernel = stewart_kernel
+        params, bits = kernel.prepared(model)
+        out = np.empty(kernel.OUT_SIZE)
+        ok_code = kernel.STATUS_BY_CODE.index(Status.OK)
+        solve_one = kernel.solve_one
+
+        def call(q: list, qd: list, qdd: list) -> bool:
+            return solve_one(params, bits, out, q, qd, qdd)[0] == ok_code
+
+        return kernel, call
+    if machine.solve is staicu_solver.solve and staicu_kernel.available():
+        kernel = staicu_kernel
+        params, bits = kernel.prepared(model)
+        out = np.empty(kernel.OUT_SIZE)
+        ok_code = kernel.STATUS_BY_CODE.index(Status.OK)
+        solve_one = kernel._kernel.solve
+
+        def call(q: list, qd: list, qdd: list) -> bool:
+            return solve_one(params, bits, out, *q, *qd, *qdd)[0] == ok_code
+
+        return kernel, call
+    return None
+
+
 def _floats(value: Any) -> list[float]:
     """A sample's numbers as a list of floats (the hot path works on them:
     for six numbers Python's floats are quicker than numpy's ufuncs).
@@ -178,6 +240,7 @@ class InverseDynamicsLimiter:
         self.gain_up = float(settings['gain.up']) * self.dt
         self.gain_min = float(settings['gain.minimum'])
         self._solve = self.machine.solve
+        self._ok = status_test(self.machine, self.tight)
         # (L4) the pull-back's reach: each coordinate's range at rest from home
         ranges = [(-self._axis_range(i, -1.0), self._axis_range(i, 1.0))
                   for i in range(self.machine.dof)]
@@ -265,9 +328,10 @@ class InverseDynamicsLimiter:
         scale = -1.0 / (tau if tau > self.dt else self.dt)
         return tau, [v * scale for v in qd]
 
-    def _refused(self, q: list, qd: list, a: list) -> str:
+    def _refused(self, q: list, qd: list, a: list) -> Any:
         """(L2) '' when the sample (q, qd, a) and the braking from it are within
-        the tightened limits, else the limit that refuses it. Three solves: the
+        the tightened limits, else what refuses it (:meth:`_refusal`: the
+        inputs of the solve that is not ok, or a limit's name). Three solves: the
         sample's, and both ends of the braking from it (L3): its first step
         ramps from ``a`` to the braking's deceleration (:func:`advance`), to
         (q2, qd2), its fastest point; then it decelerates constantly to rest
@@ -275,15 +339,13 @@ class InverseDynamicsLimiter:
         sample's rate further, with the rate qd2 (the worst of the way); a long
         braking's interior poses too (:data:`INTERIOR_STEP`; too long: refused).
         """
-        tight, solve, ok = self.tight, self._solve, Status.OK
-        sol = solve(tight, q, qd, a)
-        if sol.status is not ok:
-            return self._limit_name(sol)
+        ok = self._ok
+        if not ok(q, qd, a):
+            return (q, qd, a)
         brake = self._braking(qd)[1]
         q2, qd2 = self._advance(q, qd, a, brake)
-        sol = solve(tight, q2, qd2, brake)
-        if sol.status is not ok:
-            return self._limit_name(sol)
+        if not ok(q2, qd2, brake):
+            return (q2, qd2, brake)
         tau, brake = self._braking(qd2)
         half, extra = 0.5 * tau, self.stop_margin
         fastest = max(map(abs, qd2))
@@ -291,9 +353,8 @@ class InverseDynamicsLimiter:
         # the boundary of a limit that has no margin of its own (unreachable)
         step = STOP_DISTANCE / fastest if fastest > 0.0 else 0.0
         stop = [x + (half + step) * v + extra * w for x, v, w in zip(q2, qd2, qd)]
-        sol = solve(tight, stop, qd2, brake)
-        if sol.status is not ok:
-            return self._limit_name(sol)
+        if not ok(stop, qd2, brake):
+            return (stop, qd2, brake)
         # a long braking (fast): points between its ends too, at most INTERIOR_STEP
         # (m or rad) apart; one longer than INTERIOR_POINTS such steps is refused
         # (the limiter's own speed limit: the workspace need not be convex)
@@ -304,10 +365,17 @@ class InverseDynamicsLimiter:
                 return 'speed'
             for j in range(1, m + 1):
                 f = j / (m + 1.0)
-                sol = solve(tight, [x + f * (y - x) for x, y in zip(q2, stop)], qd2, brake)
-                if sol.status is not ok:
-                    return self._limit_name(sol)
+                point = [x + f * (y - x) for x, y in zip(q2, stop)]
+                if not ok(point, qd2, brake):
+                    return (point, qd2, brake)
         return ''
+
+    def _refusal(self, refused: Any) -> str:
+        """The name of the limit a refusal of :meth:`_refused` stands for (the
+        name of a solve's limit found only for the refusal that is published)."""
+        if type(refused) is str:
+            return refused
+        return self._limit_name(self._solve(self.tight, *refused))
 
     def _limit_name(self, sol: Any) -> str:
         """Which limit a solve on the tightened model exceeds."""
@@ -444,7 +512,8 @@ class InverseDynamicsLimiter:
             else:
                 low = lam
         a = brake if low == 0.0 else [(1.0 - low) * b + low * w for b, w in zip(brake, a_w)]
-        return self._publish(*self._advance(x_q, x_qd, x_a, a), a, low, limit)
+        return self._publish(*self._advance(x_q, x_qd, x_a, a), a, low,
+                             self._refusal(limit))
 
 
 def _finite(values: list) -> bool:
