@@ -393,7 +393,7 @@ class InverseDynamicsLimiter:
 
     # -- the cycle -----------------------------------------------------------
 
-    def _publish(self, q: list, qd: list, qdd: list, lam: float, limit: str) -> Limited:
+    def _publish(self, q: list, qd: list, qdd: list, lam: float, limit: str) -> tuple:
         """Publish the sample (the new state); (L6) the gain's update: lowered
         in a cycle that gives up cue, raised back towards 1 in one that does not.
         """
@@ -409,7 +409,7 @@ class InverseDynamicsLimiter:
             limit = self._gain_limit
         elif self._used < 1.0:
             limit = self._ahead_limit
-        return Limited(np.array(q), np.array(qd), np.array(qdd), given_up, limit)
+        return q, qd, qdd, given_up, limit
 
     def _look_ahead(self, q: list, ahead: Any) -> None:
         """(L7) Move :attr:`ahead_gain` towards the largest gain (at most 1) at
@@ -442,7 +442,15 @@ class InverseDynamicsLimiter:
         ``ahead``: the washout's free response at :attr:`horizons` (poses, L7),
         or None.
         """
-        q, qd, qdd = _floats(q), _floats(qd), _floats(qdd)
+        q, qd, qdd, given_up, limit = self.step_lists(_floats(q), _floats(qd), _floats(qdd),
+                                                      ahead)
+        return Limited(np.array(q), np.array(qd), np.array(qdd), given_up, limit)
+
+    def step_lists(self, q: list, qd: list, qdd: list, ahead: Any = None) -> tuple:
+        """:meth:`step` on lists of floats (the planner's), without the arrays:
+        (q, qd, qdd, given_up, limit), the lists the limiter's state (not to be
+        changed).
+        """
         x_q, x_qd, x_a = self._q, self._qd, self._qdd
         if not (math.isfinite(sum(q)) and math.isfinite(sum(qd)) and math.isfinite(sum(qdd))):
             if not all(map(math.isfinite, q + qd + qdd)):
@@ -471,7 +479,7 @@ class InverseDynamicsLimiter:
                 if not self._refused(q, qd, qdd):
                     self._tracking = True
                     self._q, self._qd, self._qdd = q, qd, qdd
-                    return Limited(np.array(q), np.array(qd), np.array(qdd), 0.0, '')
+                    return q, qd, qdd, 0.0, ''
         else:
             # (L6) the washout times the gain
             q, qd, qdd = ([gain * v for v in q],
