@@ -219,6 +219,7 @@ class InverseDynamicsLimiter:
         self.machine = machine_of(model)
         self.model = model
         self.dt = 1.0 / float(rate)
+        self._c, self._h = self.dt * self.dt / 6.0, 0.5 * self.dt      # _advance's
         self.stop_margin = STOP_MARGIN * self.dt
         self.tight = tightened(model, float(settings['margin.stroke']),
                                float(settings['margin.fraction']))
@@ -342,13 +343,22 @@ class InverseDynamicsLimiter:
         ok = self._ok
         if not ok(q, qd, a):
             return (q, qd, a)
-        brake = self._braking(qd)[1]
-        q2, qd2 = self._advance(q, qd, a, brake)
+        # _braking and _advance written out (the same operations in the same order)
+        dt, inverse = self.dt, self.inverse_braking
+        tau = max([abs(v) * k for v, k in zip(qd, inverse)])
+        scale = -1.0 / (tau if tau > dt else dt)
+        brake = [v * scale for v in qd]
+        c, h = self._c, self._h
+        q2 = [x + dt * v + c * (2.0 * u + w) for x, v, u, w in zip(q, qd, a, brake)]
+        qd2 = [v + h * (u + w) for v, u, w in zip(qd, a, brake)]
         if not ok(q2, qd2, brake):
             return (q2, qd2, brake)
-        tau, brake = self._braking(qd2)
+        speeds = [abs(v) for v in qd2]
+        tau = max([v * k for v, k in zip(speeds, inverse)])
+        scale = -1.0 / (tau if tau > dt else dt)
+        brake = [v * scale for v in qd2]
         half, extra = 0.5 * tau, self.stop_margin
-        fastest = max(map(abs, qd2))
+        fastest = max(speeds)
         # STOP_DISTANCE further along the way: however slow, it never creeps onto
         # the boundary of a limit that has no margin of its own (unreachable)
         step = STOP_DISTANCE / fastest if fastest > 0.0 else 0.0
@@ -491,18 +501,20 @@ class InverseDynamicsLimiter:
         # range (:meth:`_axis_range`), towards the end of the range, at rest
         kp, kd = self.kp, self.kd
         a_w = []
-        for i, a in enumerate(qdd):
-            x, v = q[i], qd[i]
-            if x > self.high[i]:
-                x, v = self.high[i], 0.0
-            elif x < self.low[i]:
-                x, v = self.low[i], 0.0
-            r = self.recovery[i]
+        for a, x, v, p, pv, lo, hi, r, rb in zip(qdd, q, qd, pq, pqd, self.low, self.high,
+                                                 self.recovery, self.braking):
+            if x > hi:
+                x, v = hi, 0.0
+            elif x < lo:
+                x, v = lo, 0.0
             # the position's pull gently (a false cue), the rate's difference at up to
-            # the braking deceleration (a rate left over from limiting drifts far)
-            rb = self.braking[i]
-            a_w.append(a + min(r, max(-r, -kp * (pq[i] - x)))
-                       + min(rb, max(-rb, -kd * (pqd[i] - v))))
+            # the braking deceleration (a rate left over from limiting drifts far);
+            # min(r, max(-r, e)) written out, the same comparisons
+            e = -kp * (p - x)
+            e = e if e > -r else -r
+            d = -kd * (pv - v)
+            d = d if d > -rb else -rb
+            a_w.append(a + (e if e < r else r) + (d if d < rb else rb))
         c_q, c_qd = self._advance(x_q, x_qd, x_a, a_w)
         limit = self._refused(c_q, c_qd, a_w) if _finite(c_q) else 'overflow'
         if not limit:
