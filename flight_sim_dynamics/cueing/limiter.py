@@ -145,7 +145,7 @@ def status_test(machine: Any, model: Any) -> Any:
     machine's compiled kernel runs, its kernel's solve is called directly (the
     call the machine's solve makes, whose code is the solution's status), into
     one result row kept for it, without the solution object; else, and for
-    anything the kernel does not take, the machine's solve itself.
+    anything the kernel does not take (TypeError), the machine's solve itself.
     test/cueing/test_limiter.py checks the two agree.
     """
     solve, ok = machine.solve, Status.OK
@@ -153,52 +153,35 @@ def status_test(machine: Any, model: Any) -> Any:
     def slow(q: list, qd: list, qdd: list) -> bool:
         return solve(model, q, qd, qdd).status is ok
 
-    fast = _kernel_test(machine, model)
-    if fast is None:
-        return slow
-    kernel, call = fast
-
-    def test(q: list, qd: list, qdd: list) -> bool:
-        if kernel.enabled():
-            try:
-                return call(q, qd, qdd)
-            except TypeError:
-                pass
-        return slow(q, qd, qdd)
-
-    return test
-
-
-def _kernel_test(machine: Any, model: Any) -> tuple[Any, Any] | None:
-    """(the machine's kernel module, ``call(q, qd, qdd) -> ok``) for the machines
-    whose solve is known here (the hexapod's, the 3-DOF machine's), when their
-    kernel is built; else None.
-    """
     from ..machines.staicu import kernel as staicu_kernel, solver as staicu_solver
     from ..machines.stewart import kernel as stewart_kernel, solver as stewart_solver
-    if machine.solve is stewart_solver.solve and stewart_kernel.available():
-        kernel = stewart_kernel
-        params, bits = kernel.prepared(model)
-        out = np.empty(kernel.OUT_SIZE)
-        ok_code = kernel.STATUS_BY_CODE.index(Status.OK)
-        solve_one = kernel.solve_one
-
-        def call(q: list, qd: list, qdd: list) -> bool:
-            return solve_one(params, bits, out, q, qd, qdd)[0] == ok_code
-
-        return kernel, call
-    if machine.solve is staicu_solver.solve and staicu_kernel.available():
-        kernel = staicu_kernel
-        params, bits = kernel.prepared(model)
-        out = np.empty(kernel.OUT_SIZE)
-        ok_code = kernel.STATUS_BY_CODE.index(Status.OK)
-        solve_one = kernel._kernel.solve
-
-        def call(q: list, qd: list, qdd: list) -> bool:
-            return solve_one(params, bits, out, *q, *qd, *qdd)[0] == ok_code
-
-        return kernel, call
-    return None
+    for kernel, solver in ((stewart_kernel, stewart_solver), (staicu_kernel, staicu_solver)):
+        if machine.solve is solver.solve and kernel.available():
+            break
+    else:
+        return slow
+    enabled = kernel.enabled
+    params, bits = kernel.prepared(model)
+    out = np.empty(kernel.OUT_SIZE)
+    ok_code = kernel.STATUS_BY_CODE.index(Status.OK)
+    solve_one = kernel._kernel.solve
+    if kernel is stewart_kernel:        # six floats a list (stewart.solver.solve)
+        def test(q: list, qd: list, qdd: list) -> bool:
+            if enabled():
+                try:
+                    return solve_one(params, bits, out, q, qd, qdd)[0] == ok_code
+                except TypeError:
+                    pass
+            return slow(q, qd, qdd)
+    else:                               # three floats each (staicu.solver.solve)
+        def test(q: list, qd: list, qdd: list) -> bool:
+            if enabled():
+                try:
+                    return solve_one(params, bits, out, *q, *qd, *qdd)[0] == ok_code
+                except TypeError:
+                    pass
+            return slow(q, qd, qdd)
+    return test
 
 
 def _floats(value: Any) -> list[float]:
