@@ -239,6 +239,7 @@ class InverseDynamicsLimiter:
                 q[i] = end + sign * 1e-3
                 ends.append(self._limit_name(self._solve(self.tight, q, rest, rest)))
             self.range_limit.append(ends)
+        self._ranges = list(zip(self.low, self.high, self.range_limit))    # _look_ahead's
         self.gain_ahead = float(settings['gain.ahead']) * self.dt
         self.ahead_min = max(self.gain_min, float(settings['ahead.minimum']))
         horizon = float(settings['ahead.horizon'])
@@ -413,13 +414,13 @@ class InverseDynamicsLimiter:
         """
         if ahead is not None:
             target, limit = 1.0, ''
-            low, high = self.low, self.high
+            ranges = self._ranges
             for pose in [q] + [_floats(p) for p in ahead]:
-                for i, x in enumerate(pose):
-                    if x > high[i] and high[i] < target * x:
-                        target, limit = high[i] / x, self.range_limit[i][1]
-                    elif x < low[i] and low[i] > target * x:
-                        target, limit = low[i] / x, self.range_limit[i][0]
+                for x, (lo, hi, ends) in zip(pose, ranges):
+                    if x > hi and hi < target * x:
+                        target, limit = hi / x, ends[1]
+                    elif x < lo and lo > target * x:
+                        target, limit = lo / x, ends[0]
             self._ahead_target = target
             if limit:
                 self._ahead_limit = limit

@@ -142,9 +142,10 @@ class Planner:
         if self._forecast is None or self._count % AHEAD_EVERY:
             ahead = None
         else:
-            index = self._index
-            ahead = [[pose[i] for i in index]
-                     for pose in washout.ahead(self._forecast, self._horizons)]
+            ahead = washout.ahead(self._forecast, self._horizons)
+            if take is not None:
+                index = self._index
+                ahead = [[pose[i] for i in index] for pose in ahead]
         step = self._step_lists
         if step is not None:
             return (*step(out[:dof], out[dof:2 * dof], out[2 * dof:], ahead), status)
