@@ -346,7 +346,8 @@ class InverseDynamicsLimiter:
         # STOP_DISTANCE further along the way: however slow, it never creeps onto
         # the boundary of a limit that has no margin of its own (unreachable)
         step = STOP_DISTANCE / fastest if fastest > 0.0 else 0.0
-        stop = [x + (half + step) * v + extra * w for x, v, w in zip(q2, qd2, qd)]
+        ahead = half + step
+        stop = [x + ahead * v + extra * w for x, v, w in zip(q2, qd2, qd)]
         if not ok(stop, qd2, brake):
             return (stop, qd2, brake)
         # a long braking (fast): points between its ends too, at most INTERIOR_STEP

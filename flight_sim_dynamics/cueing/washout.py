@@ -174,6 +174,7 @@ class Washout:
         self.dt = 1.0 / params.rate
         self._rate = float(params.rate)
         self._M = step_matrix(params)
+        self._dot = self._M.dot        # np.dot's product, a little less to call
         self._rmax = params.tilt_rate_limit * self.dt      # rad per sample
         # [x (19), u[n-1] (6), u[n] (6)]: the product's operand, updated in place
         self._vec = np.zeros(_N + 2 * _U)
@@ -208,7 +209,7 @@ class Washout:
             self._ref[:] = self.input
             self._started = True
         np.subtract(self.input, self._ref, out=self._now)
-        np.dot(self._M, self._vec, out=self._res)
+        self._dot(self._vec, out=self._res)
         self._x[:] = self._res_x
         self._prev[:] = self._now
         o = self._res_out.tolist()
