@@ -245,14 +245,16 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     every = max(1, n // 100)
     f_in, w_in = inputs[:, :3], inputs[:, 3:]
     step = planner.step_values
+    lists = planner._step_lists is not None         # the samples as lists of floats
     for k in range(n):
         q, qd, qdd, given_up[k], limit[k], _ = step(f_in[k], w_in[k])
-        if wish is not None:
+        if lists:
             out[k] = q + qd + qdd
-            wish[k] = planner._wish
         else:
             row = out[k]
             row[:dof], row[dof:2 * dof], row[2 * dof:] = q, qd, qdd
+        if wish is not None:
+            wish[k] = planner._wish
         if progress is not None and k % every == 0:
             progress(k, n)
     if progress is not None:
