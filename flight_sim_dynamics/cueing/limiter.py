@@ -139,51 +139,6 @@ def tightened(model: Any, stroke: float, fraction: float) -> Any:
     return replace(model, limits=replace(limits, **changes))
 
 
-def status_test(machine: Any, model: Any) -> Any:
-    """``ok(q, qd, qdd) -> bool``: whether ``machine.solve(model, q, qd, qdd)``
-    is :attr:`Status.OK`, for the limiter's lists of floats. While the
-    machine's compiled kernel runs, its kernel's solve is called directly (the
-    call the machine's solve makes, whose code is the solution's status), into
-    one result row kept for it, without the solution object; else, and for
-    anything the kernel does not take (TypeError), the machine's solve itself.
-    test/cueing/test_limiter.py checks the two agree.
-    """
-    solve, ok = machine.solve, Status.OK
-
-    def slow(q: list, qd: list, qdd: list) -> bool:
-        return solve(model, q, qd, qdd).status is ok
-
-    from ..machines.staicu import kernel as staicu_kernel, solver as staicu_solver
-    from ..machines.stewart import kernel as stewart_kernel, solver as stewart_solver
-    for kernel, solver in ((stewart_kernel, stewart_solver), (staicu_kernel, staicu_solver)):
-        if machine.solve is solver.solve and kernel.available():
-            break
-    else:
-        return slow
-    enabled = kernel.enabled
-    params, bits = kernel.prepared(model)
-    out = np.empty(kernel.OUT_SIZE)
-    ok_code = kernel.STATUS_BY_CODE.index(Status.OK)
-    solve_one = kernel._kernel.solve
-    if kernel is stewart_kernel:        # six floats a list (stewart.solver.solve)
-        def test(q: list, qd: list, qdd: list) -> bool:
-            if enabled():
-                try:
-                    return solve_one(params, bits, out, q, qd, qdd)[0] == ok_code
-                except TypeError:
-                    pass
-            return slow(q, qd, qdd)
-    else:                               # three floats each (staicu.solver.solve)
-        def test(q: list, qd: list, qdd: list) -> bool:
-            if enabled():
-                try:
-                    return solve_one(params, bits, out, *q, *qd, *qdd)[0] == ok_code
-                except TypeError:
-                    pass
-            return slow(q, qd, qdd)
-    return test
-
-
 def _floats(value: Any) -> list[float]:
     """A sample's numbers as a list of floats (the hot path works on them:
     for six numbers Python's floats are quicker than numpy's ufuncs).
@@ -224,7 +179,6 @@ class InverseDynamicsLimiter:
         self.gain_up = float(settings['gain.up']) * self.dt
         self.gain_min = float(settings['gain.minimum'])
         self._solve = self.machine.solve
-        self._ok = status_test(self.machine, self.tight)
         # (L4) the pull-back's reach: each coordinate's range at rest from home
         ranges = [(-self._axis_range(i, -1.0), self._axis_range(i, 1.0))
                   for i in range(self.machine.dof)]
@@ -314,9 +268,9 @@ class InverseDynamicsLimiter:
         return tau, [v * scale for v in qd]
 
     def _refused(self, q: list, qd: list, a: list) -> Any:
-        """(L2) '' when the sample (q, qd, a) and the braking from it are within
-        the tightened limits, else what refuses it (:meth:`_refusal`: the
-        inputs of the solve that is not ok, or a limit's name). Three solves: the
+        """(L2) None when the sample (q, qd, a) and the braking from it are within
+        the tightened limits, else what refuses it: the solution that is not
+        ok, or a limit's name (:meth:`_refusal` names it). Three solves: the
         sample's, and both ends of the braking from it (L3): its first step
         ramps from ``a`` to the braking's deceleration (:func:`advance`), to
         (q2, qd2), its fastest point; then it decelerates constantly to rest
@@ -324,9 +278,10 @@ class InverseDynamicsLimiter:
         sample's rate further, with the rate qd2 (the worst of the way); a long
         braking's interior poses too (:data:`INTERIOR_STEP`; too long: refused).
         """
-        ok = self._ok
-        if not ok(q, qd, a):
-            return (q, qd, a)
+        tight, solve, ok = self.tight, self._solve, Status.OK
+        sol = solve(tight, q, qd, a)
+        if sol.status is not ok:
+            return sol
         # _braking and _advance written out (the same operations in the same order)
         dt, inverse = self.dt, self.inverse_braking
         tau = max([abs(v) * k for v, k in zip(qd, inverse)])
@@ -335,8 +290,9 @@ class InverseDynamicsLimiter:
         c, h = self._c, self._h
         q2 = [x + dt * v + c * (2.0 * u + w) for x, v, u, w in zip(q, qd, a, brake)]
         qd2 = [v + h * (u + w) for v, u, w in zip(qd, a, brake)]
-        if not ok(q2, qd2, brake):
-            return (q2, qd2, brake)
+        sol = solve(tight, q2, qd2, brake)
+        if sol.status is not ok:
+            return sol
         speeds = [abs(v) for v in qd2]
         tau = max([v * k for v, k in zip(speeds, inverse)])
         scale = -1.0 / (tau if tau > dt else dt)
@@ -348,8 +304,9 @@ class InverseDynamicsLimiter:
         step = STOP_DISTANCE / fastest if fastest > 0.0 else 0.0
         ahead = half + step
         stop = [x + ahead * v + extra * w for x, v, w in zip(q2, qd2, qd)]
-        if not ok(stop, qd2, brake):
-            return (stop, qd2, brake)
+        sol = solve(tight, stop, qd2, brake)
+        if sol.status is not ok:
+            return sol
         # a long braking (fast): points between its ends too, at most INTERIOR_STEP
         # (m or rad) apart; one longer than INTERIOR_POINTS such steps is refused
         # (the limiter's own speed limit: the workspace need not be convex)
@@ -360,17 +317,16 @@ class InverseDynamicsLimiter:
                 return 'speed'
             for j in range(1, m + 1):
                 f = j / (m + 1.0)
-                point = [x + f * (y - x) for x, y in zip(q2, stop)]
-                if not ok(point, qd2, brake):
-                    return (point, qd2, brake)
-        return ''
+                sol = solve(tight, [x + f * (y - x) for x, y in zip(q2, stop)], qd2, brake)
+                if sol.status is not ok:
+                    return sol
+        return None
 
     def _refusal(self, refused: Any) -> str:
-        """The name of the limit a refusal of :meth:`_refused` stands for (the
-        name of a solve's limit found only for the refusal that is published)."""
-        if type(refused) is str:
-            return refused
-        return self._limit_name(self._solve(self.tight, *refused))
+        """The name of the limit a refusal of :meth:`_refused` stands for (a
+        solution's found only for the refusal behind the published sample).
+        """
+        return refused if type(refused) is str else self._limit_name(refused)
 
     def _limit_name(self, sol: Any) -> str:
         """Which limit a solve on the tightened model exceeds."""
@@ -471,7 +427,7 @@ class InverseDynamicsLimiter:
             if all([abs(x - y) <= t for x, y, t in zip(pq, q, tol_q)]) and \
                     all([abs(x - y) <= t for x, y, t in zip(pqd, qd, tol_qd)]):
                 # caught up: the washout's own sample, if it fits (invisible, bit for bit)
-                if not self._refused(q, qd, qdd):
+                if self._refused(q, qd, qdd) is None:
                     self._tracking = True
                     self._q, self._qd, self._qdd = q, qd, qdd
                     return q, qd, qdd, 0.0, ''
@@ -502,7 +458,7 @@ class InverseDynamicsLimiter:
             a_w.append(a + (e if e < r else r) + (d if d < rb else rb))
         c_q, c_qd = self._advance(x_q, x_qd, x_a, a_w)
         limit = self._refused(c_q, c_qd, a_w) if _finite(c_q) else 'overflow'
-        if not limit:
+        if limit is None:
             return self._publish(c_q, c_qd, a_w, 1.0, '')
         # (L2)-(L3) blend towards braking: the largest lam that is accepted
         brake = self._braking(x_qd)[1]
@@ -512,7 +468,7 @@ class InverseDynamicsLimiter:
             a = [(1.0 - lam) * b + lam * w for b, w in zip(brake, a_w)]
             c_q, c_qd = self._advance(x_q, x_qd, x_a, a)
             refused = self._refused(c_q, c_qd, a) if _finite(c_q) else 'overflow'
-            if refused:
+            if refused is not None:
                 high, limit = lam, refused
             else:
                 low = lam

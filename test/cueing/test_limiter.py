@@ -410,38 +410,3 @@ def test_the_look_ahead_lowers_the_cue_before_the_limit_and_gives_up_less():
     assert errors[0] < errors[1]
     assert all(str(x) == 'ok' for x in solve_batch(s.model, runs[0].q, runs[0].qd,
                                                     runs[0].qdd).status)
-
-
-def test_the_status_test_is_the_machines_solve(setup):
-    """The limiter's status test (the machine's kernel called directly) gives
-    ``ok`` exactly where the machine's solve on the tightened model does: random
-    samples from home to well beyond the workspace, rates and accelerations up
-    to far past every limit, non-finite numbers; with the kernel and without.
-    """
-    from flight_sim_dynamics.core.kernel import use_kernel
-    from flight_sim_dynamics.core.status import Status
-    limiter = setup.limiter()
-    tight, machine = limiter.tight, setup.machine
-    test = lm.status_test(machine, tight)
-    rng = np.random.default_rng(31)
-    n, agree, oks = setup.dof, 0, 0
-    samples = []
-    for scale in (0.01, 0.05, 0.1, 0.2, 0.4, 1.0):
-        for _ in range(150):
-            samples.append([(scale * rng.standard_normal(n)).tolist(),
-                            (5 * scale * rng.standard_normal(n)).tolist(),
-                            (50 * scale * rng.standard_normal(n)).tolist()])
-    samples.append([[math.nan] * n, [0.0] * n, [0.0] * n])
-    samples.append([[0.0] * n, [math.inf] * n, [0.0] * n])
-    samples.append([[0.0] * n, [0.0] * n, [-math.inf] + [0.0] * (n - 1)])
-    samples.append([[1e300] * n, [1e300] * n, [1e300] * n])
-    for kernel in (True, False):
-        with use_kernel(kernel):
-            for q, qd, qdd in samples[::1 if kernel else 7]:
-                want = machine.solve(tight, q, qd, qdd).status is Status.OK
-                assert test(q, qd, qdd) is want, (kernel, q, qd, qdd)
-                agree += 1
-                oks += want
-    assert 0 < oks < agree      # both verdicts were met
-    with pytest.raises(ValueError):
-        test([0.0] * (n + 1), [0.0] * n, [0.0] * n)
