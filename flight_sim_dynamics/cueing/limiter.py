@@ -157,6 +157,7 @@ class InverseDynamicsLimiter:
         self.machine = machine_of(model)
         self.model = model
         self.dt = 1.0 / float(rate)
+        self._c, self._h = self.dt * self.dt / 6.0, 0.5 * self.dt      # _advance's
         self.stop_margin = STOP_MARGIN * self.dt
         self.tight = tightened(model, float(settings['margin.stroke']),
                                float(settings['margin.fraction']))
@@ -192,6 +193,7 @@ class InverseDynamicsLimiter:
                 q[i] = end + sign * 1e-3
                 ends.append(self._limit_name(self._solve(self.tight, q, rest, rest)))
             self.range_limit.append(ends)
+        self._ranges = list(zip(self.low, self.high, self.range_limit))    # _look_ahead's
         self.gain_ahead = float(settings['gain.ahead']) * self.dt
         self.ahead_min = max(self.gain_min, float(settings['ahead.minimum']))
         horizon = float(settings['ahead.horizon'])
@@ -265,9 +267,10 @@ class InverseDynamicsLimiter:
         scale = -1.0 / (tau if tau > self.dt else self.dt)
         return tau, [v * scale for v in qd]
 
-    def _refused(self, q: list, qd: list, a: list) -> str:
-        """(L2) '' when the sample (q, qd, a) and the braking from it are within
-        the tightened limits, else the limit that refuses it. Three solves: the
+    def _refused(self, q: list, qd: list, a: list) -> Any:
+        """(L2) None when the sample (q, qd, a) and the braking from it are within
+        the tightened limits, else what refuses it: the solution that is not
+        ok, or a limit's name (:meth:`_refusal` names it). Three solves: the
         sample's, and both ends of the braking from it (L3): its first step
         ramps from ``a`` to the braking's deceleration (:func:`advance`), to
         (q2, qd2), its fastest point; then it decelerates constantly to rest
@@ -278,22 +281,32 @@ class InverseDynamicsLimiter:
         tight, solve, ok = self.tight, self._solve, Status.OK
         sol = solve(tight, q, qd, a)
         if sol.status is not ok:
-            return self._limit_name(sol)
-        brake = self._braking(qd)[1]
-        q2, qd2 = self._advance(q, qd, a, brake)
+            return sol
+        # _braking and _advance written out (the same operations in the same order)
+        dt, inverse = self.dt, self.inverse_braking
+        tau = max([abs(v) * k for v, k in zip(qd, inverse)])
+        scale = -1.0 / (tau if tau > dt else dt)
+        brake = [v * scale for v in qd]
+        c, h = self._c, self._h
+        q2 = [x + dt * v + c * (2.0 * u + w) for x, v, u, w in zip(q, qd, a, brake)]
+        qd2 = [v + h * (u + w) for v, u, w in zip(qd, a, brake)]
         sol = solve(tight, q2, qd2, brake)
         if sol.status is not ok:
-            return self._limit_name(sol)
-        tau, brake = self._braking(qd2)
+            return sol
+        speeds = [abs(v) for v in qd2]
+        tau = max([v * k for v, k in zip(speeds, inverse)])
+        scale = -1.0 / (tau if tau > dt else dt)
+        brake = [v * scale for v in qd2]
         half, extra = 0.5 * tau, self.stop_margin
-        fastest = max(map(abs, qd2))
+        fastest = max(speeds)
         # STOP_DISTANCE further along the way: however slow, it never creeps onto
         # the boundary of a limit that has no margin of its own (unreachable)
         step = STOP_DISTANCE / fastest if fastest > 0.0 else 0.0
-        stop = [x + (half + step) * v + extra * w for x, v, w in zip(q2, qd2, qd)]
+        ahead = half + step
+        stop = [x + ahead * v + extra * w for x, v, w in zip(q2, qd2, qd)]
         sol = solve(tight, stop, qd2, brake)
         if sol.status is not ok:
-            return self._limit_name(sol)
+            return sol
         # a long braking (fast): points between its ends too, at most INTERIOR_STEP
         # (m or rad) apart; one longer than INTERIOR_POINTS such steps is refused
         # (the limiter's own speed limit: the workspace need not be convex)
@@ -306,8 +319,14 @@ class InverseDynamicsLimiter:
                 f = j / (m + 1.0)
                 sol = solve(tight, [x + f * (y - x) for x, y in zip(q2, stop)], qd2, brake)
                 if sol.status is not ok:
-                    return self._limit_name(sol)
-        return ''
+                    return sol
+        return None
+
+    def _refusal(self, refused: Any) -> str:
+        """The name of the limit a refusal of :meth:`_refused` stands for (a
+        solution's found only for the refusal behind the published sample).
+        """
+        return refused if type(refused) is str else self._limit_name(refused)
 
     def _limit_name(self, sol: Any) -> str:
         """Which limit a solve on the tightened model exceeds."""
@@ -325,7 +344,7 @@ class InverseDynamicsLimiter:
 
     # -- the cycle -----------------------------------------------------------
 
-    def _publish(self, q: list, qd: list, qdd: list, lam: float, limit: str) -> Limited:
+    def _publish(self, q: list, qd: list, qdd: list, lam: float, limit: str) -> tuple:
         """Publish the sample (the new state); (L6) the gain's update: lowered
         in a cycle that gives up cue, raised back towards 1 in one that does not.
         """
@@ -341,7 +360,7 @@ class InverseDynamicsLimiter:
             limit = self._gain_limit
         elif self._used < 1.0:
             limit = self._ahead_limit
-        return Limited(np.array(q), np.array(qd), np.array(qdd), given_up, limit)
+        return q, qd, qdd, given_up, limit
 
     def _look_ahead(self, q: list, ahead: Any) -> None:
         """(L7) Move :attr:`ahead_gain` towards the largest gain (at most 1) at
@@ -352,13 +371,13 @@ class InverseDynamicsLimiter:
         """
         if ahead is not None:
             target, limit = 1.0, ''
-            low, high = self.low, self.high
+            ranges = self._ranges
             for pose in [q] + [_floats(p) for p in ahead]:
-                for i, x in enumerate(pose):
-                    if x > high[i] and high[i] < target * x:
-                        target, limit = high[i] / x, self.range_limit[i][1]
-                    elif x < low[i] and low[i] > target * x:
-                        target, limit = low[i] / x, self.range_limit[i][0]
+                for x, (lo, hi, ends) in zip(pose, ranges):
+                    if x > hi and hi < target * x:
+                        target, limit = hi / x, ends[1]
+                    elif x < lo and lo > target * x:
+                        target, limit = lo / x, ends[0]
             self._ahead_target = target
             if limit:
                 self._ahead_limit = limit
@@ -374,7 +393,15 @@ class InverseDynamicsLimiter:
         ``ahead``: the washout's free response at :attr:`horizons` (poses, L7),
         or None.
         """
-        q, qd, qdd = _floats(q), _floats(qd), _floats(qdd)
+        q, qd, qdd, given_up, limit = self.step_lists(_floats(q), _floats(qd), _floats(qdd),
+                                                      ahead)
+        return Limited(np.array(q), np.array(qd), np.array(qdd), given_up, limit)
+
+    def step_lists(self, q: list, qd: list, qdd: list, ahead: Any = None) -> tuple:
+        """:meth:`step` on lists of floats (the planner's), without the arrays:
+        (q, qd, qdd, given_up, limit), the lists the limiter's state (not to be
+        changed).
+        """
         x_q, x_qd, x_a = self._q, self._qd, self._qdd
         if not (math.isfinite(sum(q)) and math.isfinite(sum(qd)) and math.isfinite(sum(qdd))):
             if not all(map(math.isfinite, q + qd + qdd)):
@@ -400,10 +427,10 @@ class InverseDynamicsLimiter:
             if all([abs(x - y) <= t for x, y, t in zip(pq, q, tol_q)]) and \
                     all([abs(x - y) <= t for x, y, t in zip(pqd, qd, tol_qd)]):
                 # caught up: the washout's own sample, if it fits (invisible, bit for bit)
-                if not self._refused(q, qd, qdd):
+                if self._refused(q, qd, qdd) is None:
                     self._tracking = True
                     self._q, self._qd, self._qdd = q, qd, qdd
-                    return Limited(np.array(q), np.array(qd), np.array(qdd), 0.0, '')
+                    return q, qd, qdd, 0.0, ''
         else:
             # (L6) the washout times the gain
             q, qd, qdd = ([gain * v for v in q],
@@ -415,21 +442,23 @@ class InverseDynamicsLimiter:
         # range (:meth:`_axis_range`), towards the end of the range, at rest
         kp, kd = self.kp, self.kd
         a_w = []
-        for i, a in enumerate(qdd):
-            x, v = q[i], qd[i]
-            if x > self.high[i]:
-                x, v = self.high[i], 0.0
-            elif x < self.low[i]:
-                x, v = self.low[i], 0.0
-            r = self.recovery[i]
+        for a, x, v, p, pv, lo, hi, r, rb in zip(qdd, q, qd, pq, pqd, self.low, self.high,
+                                                 self.recovery, self.braking):
+            if x > hi:
+                x, v = hi, 0.0
+            elif x < lo:
+                x, v = lo, 0.0
             # the position's pull gently (a false cue), the rate's difference at up to
-            # the braking deceleration (a rate left over from limiting drifts far)
-            rb = self.braking[i]
-            a_w.append(a + min(r, max(-r, -kp * (pq[i] - x)))
-                       + min(rb, max(-rb, -kd * (pqd[i] - v))))
+            # the braking deceleration (a rate left over from limiting drifts far);
+            # min(r, max(-r, e)) written out, the same comparisons
+            e = -kp * (p - x)
+            e = e if e > -r else -r
+            d = -kd * (pv - v)
+            d = d if d > -rb else -rb
+            a_w.append(a + (e if e < r else r) + (d if d < rb else rb))
         c_q, c_qd = self._advance(x_q, x_qd, x_a, a_w)
         limit = self._refused(c_q, c_qd, a_w) if _finite(c_q) else 'overflow'
-        if not limit:
+        if limit is None:
             return self._publish(c_q, c_qd, a_w, 1.0, '')
         # (L2)-(L3) blend towards braking: the largest lam that is accepted
         brake = self._braking(x_qd)[1]
@@ -439,12 +468,13 @@ class InverseDynamicsLimiter:
             a = [(1.0 - lam) * b + lam * w for b, w in zip(brake, a_w)]
             c_q, c_qd = self._advance(x_q, x_qd, x_a, a)
             refused = self._refused(c_q, c_qd, a) if _finite(c_q) else 'overflow'
-            if refused:
+            if refused is not None:
                 high, limit = lam, refused
             else:
                 low = lam
         a = brake if low == 0.0 else [(1.0 - low) * b + low * w for b, w in zip(brake, a_w)]
-        return self._publish(*self._advance(x_q, x_qd, x_a, a), a, low, limit)
+        return self._publish(*self._advance(x_q, x_qd, x_a, a), a, low,
+                             self._refusal(limit))
 
 
 def _finite(values: list) -> bool:

@@ -17,7 +17,7 @@ from typing import Any, Callable, NamedTuple
 import numpy as np
 
 from ..machines.api import machine_of
-from .limiter import make_limiter
+from .limiter import InverseDynamicsLimiter, make_limiter
 from ..config.cueing import G, CueingParams
 from .washout import CHANNELS, Desired, Washout, forecast_matrix
 
@@ -77,10 +77,19 @@ class Planner:
         self.held = 0                 # non-finite input samples replaced by the last finite one
         #: the washout's q, qd, qdd (18 numbers, six channels each) of the last step
         self.last_values: list[float] | None = None
-        #: the washout's q, qd, qdd in the machine's coordinates, one array, of the last
-        #: step: what the limiter was given
-        self.last_wish: np.ndarray | None = None
+        # the washout's q, qd, qdd in the machine's coordinates (a list) of the last step
+        self._wish: list[float] | None = None
+        # the limiter's steps on lists of floats (InverseDynamicsLimiter.step_lists)
+        self._step_lists = (self.limiter.step_lists
+                            if isinstance(self.limiter, InverseDynamicsLimiter) else None)
         self._last = np.array([0.0, 0.0, G, 0.0, 0.0, 0.0])
+
+    @property
+    def last_wish(self) -> np.ndarray | None:
+        """The washout's q, qd, qdd in the machine's coordinates, one array, of the
+        last step: what the limiter was given.
+        """
+        return None if self._wish is None else np.array(self._wish)
 
     @property
     def last_desired(self) -> Desired | None:
@@ -96,7 +105,7 @@ class Planner:
         self.limiter.reset()
         self.held = 0
         self._count = -1
-        self.last_values = self.last_wish = None
+        self.last_values = self._wish = None
         self._last[:] = (0.0, 0.0, G, 0.0, 0.0, 0.0)
 
     def step(self, f: np.ndarray, omega: np.ndarray) -> CueSample:
@@ -104,6 +113,16 @@ class Planner:
         angular velocity ``omega`` (3,) rad/s at this output time. A non-finite
         input is replaced by the last finite one (status :data:`INPUT_HELD`; the
         vehicle at rest if none came yet: the platform stays home).
+        """
+        q, qd, qdd, given_up, limit, status = self.step_values(f, omega)
+        if self._step_lists is not None:
+            q, qd, qdd = np.array(q), np.array(qd), np.array(qdd)
+        return CueSample(q, qd, qdd, given_up, limit, status)
+
+    def step_values(self, f: np.ndarray, omega: np.ndarray) -> tuple:
+        """:meth:`step` as (q, qd, qdd, given_up, limit, status), q, qd, qdd lists
+        of floats with the inverse-dynamics limiter (its state: not to be
+        changed), arrays without (:func:`run`'s loop).
         """
         washout = self.washout
         status = OK
@@ -116,18 +135,24 @@ class Planner:
         values = washout.advance()
         self.last_values = values
         take = self._take
-        out = np.array(values if take is None else [values[i] for i in take])
-        self.last_wish = out
+        out = values if take is None else [values[i] for i in take]
+        self._wish = out
         dof = self._dof
         self._count += 1
         if self._forecast is None or self._count % AHEAD_EVERY:
-            lim = self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:])
+            ahead = None
         else:
-            index = self._index
-            ahead = [[pose[i] for i in index]
-                     for pose in washout.ahead(self._forecast, self._horizons)]
-            lim = self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:], ahead)
-        return CueSample(lim.q, lim.qd, lim.qdd, lim.given_up, lim.limit, status)
+            ahead = washout.ahead(self._forecast, self._horizons)
+            if take is not None:
+                index = self._index
+                ahead = [[pose[i] for i in index] for pose in ahead]
+        step = self._step_lists
+        if step is not None:
+            return (*step(out[:dof], out[dof:2 * dof], out[2 * dof:], ahead), status)
+        out = np.array(out)
+        lim = (self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:]) if ahead is None
+               else self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:], ahead))
+        return lim.q, lim.qd, lim.qdd, lim.given_up, lim.limit, status
 
 
 class SampleError(ValueError):
@@ -219,15 +244,17 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     limit = np.empty(n, dtype=object)
     every = max(1, n // 100)
     f_in, w_in = inputs[:, :3], inputs[:, 3:]
-    step = planner.step
+    step = planner.step_values
+    lists = planner._step_lists is not None         # the samples as lists of floats
     for k in range(n):
-        sample = step(f_in[k], w_in[k])
-        row = out[k]
-        row[:dof], row[dof:2 * dof], row[2 * dof:] = sample.q, sample.qd, sample.qdd
+        q, qd, qdd, given_up[k], limit[k], _ = step(f_in[k], w_in[k])
+        if lists:
+            out[k] = q + qd + qdd
+        else:
+            row = out[k]
+            row[:dof], row[dof:2 * dof], row[2 * dof:] = q, qd, qdd
         if wish is not None:
-            wish[k] = planner.last_wish
-        given_up[k] = sample.given_up
-        limit[k] = sample.limit
+            wish[k] = planner._wish
         if progress is not None and k % every == 0:
             progress(k, n)
     if progress is not None:

@@ -16,7 +16,7 @@ Discretization: the filters are one block-diagonal continuous state-space model
 (19 states) driven by the input as it is between samples, a straight line (the
 design interpolates the input linearly): the model augmented with the input as
 a state and its slope as a held input, discretized by zero-order hold
-(``scipy.signal.cont2discrete``) is exact for that input; so each step is one
+(``scipy.signal.cont2discrete``'s method, :func:`_zoh`) is exact for that input; so each step is one
 matrix product, and rates and accelerations come from the states (the
 rotational acceleration, of relative degree -1, from the states and the slope).
 """
@@ -27,7 +27,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg import expm
-from scipy.signal import cont2discrete
 
 from ..config.cueing import G, CueingParams
 
@@ -79,6 +78,18 @@ def continuous_model(params: CueingParams) -> tuple[np.ndarray, np.ndarray]:
     return A, B
 
 
+def _zoh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """The zero-order-hold discretization of x' = A x + B u over ``dt``,
+    ``scipy.signal.cont2discrete``'s ``zoh`` (the same operations: one matrix
+    exponential of ``[[A, B], [0, 0]] dt``) without importing scipy.signal
+    (over a second at start-up).
+    """
+    n, m = A.shape[0], B.shape[1]
+    em = np.vstack((np.hstack((A, B)), np.hstack((np.zeros((m, n)), np.zeros((m, m))))))
+    ms = expm(dt * em)[:n, :]
+    return ms[:, :n], ms[:, n:]
+
+
 def step_matrix(params: CueingParams) -> np.ndarray:
     """M (19 + 24, 19 + 6 + 6): ``[x[n]; out[n]] = M [x[n-1]; u[n-1]; u[n]]``,
     x the filter states, u the input deviation (Δf, Δω), ``out`` the linear
@@ -91,8 +102,7 @@ def step_matrix(params: CueingParams) -> np.ndarray:
     Aa[:_N, :_N], Aa[:_N, _N:] = A, B
     Ba = np.zeros((_X, _U))
     Ba[_N:, :] = np.eye(_U)
-    Phi, Gam, _, _, _ = cont2discrete((Aa, Ba, np.eye(_X), np.zeros((_X, _U))),
-                                      1.0 / rate, method='zoh')
+    Phi, Gam = _zoh(Aa, Ba, 1.0 / rate)
     # outputs of the new state X and the slope s: x' = A x + B u, x'' = A x' + B s
     Cx, Cs = np.zeros((_OUT, _X)), np.zeros((_OUT, _U))
     xdot = np.hstack([A, B])                          # x' as a function of X
@@ -164,6 +174,7 @@ class Washout:
         self.dt = 1.0 / params.rate
         self._rate = float(params.rate)
         self._M = step_matrix(params)
+        self._dot = self._M.dot        # np.dot's product, a little less to call
         self._rmax = params.tilt_rate_limit * self.dt      # rad per sample
         # [x (19), u[n-1] (6), u[n] (6)]: the product's operand, updated in place
         self._vec = np.zeros(_N + 2 * _U)
@@ -198,7 +209,7 @@ class Washout:
             self._ref[:] = self.input
             self._started = True
         np.subtract(self.input, self._ref, out=self._now)
-        np.dot(self._M, self._vec, out=self._res)
+        self._dot(self._vec, out=self._res)
         self._x[:] = self._res_x
         self._prev[:] = self._now
         o = self._res_out.tolist()
