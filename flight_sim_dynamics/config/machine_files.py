@@ -121,7 +121,8 @@ def packaged_names() -> list[str]:
     """The names of the packaged parameter files (config/<name>.yaml): the 3-DOF
     machine's, then the other machines'.
     """
-    return [default_params_path().stem, *sorted(packaged_machines())]
+    default = default_params_path().stem
+    return [default, *sorted(name for name in packaged_machines() if name != default)]
 
 
 def params_path(path: str | os.PathLike[str]) -> str | os.PathLike[str]:

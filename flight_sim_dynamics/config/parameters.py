@@ -19,11 +19,9 @@ import os
 from dataclasses import make_dataclass
 from typing import Any, Collection, Mapping, Sequence
 
-import numpy as np
-
-from ..machines.staicu.kinematics import GeometryError, central_configuration
-from ..machines.staicu.model import (BODY_NAMES, GEOMETRY_KEYS, Body, Friction, Geometry, Limits,
-                                     Model)
+from ..core.machine import ModelValueError
+from ..machines.staicu import parameters as staicu_parameters
+from ..machines.staicu.model import Model
 from .cueing import split_cueing
 from .errors import ParameterError
 from .files import (DEFAULT_PARAMS_FILE, NODE_NAME, PACKAGE_NAME, check_file_values,
@@ -95,30 +93,10 @@ def model_from_values(values: Mapping[str, Any], *, require_all: bool = True,
     for key, value in scene.parameters.items():
         values[key] = value
     checked = validate(values, require_all=require_all)
-    geometry = Geometry(**{k: checked[f'geometry.{k}'] for k in GEOMETRY_KEYS})
-    bodies = {
-        name: Body(mass=checked[f'bodies.{name}.mass'],
-                   com=np.array(checked[f'bodies.{name}.com'], dtype=float),
-                   inertia=check_inertia(f'bodies.{name}.inertia',
-                                         checked[f'bodies.{name}.inertia']))
-        for name in BODY_NAMES}
     try:
-        central = central_configuration(geometry)
-    except GeometryError as exc:
-        raise ParameterError(f'geometry.{exc.key}', checked[f'geometry.{exc.key}'],
-                             f'loops cannot close at the central configuration: {exc}') from None
-    for arr in (*(b.com for b in bodies.values()), *(b.inertia for b in bodies.values())):
-        arr.setflags(write=False)
-    payload = Body(mass=checked['payload.mass'],
-                   com=np.array(checked['payload.com'], dtype=float),
-                   inertia=check_inertia('payload.inertia', checked['payload.inertia']))
-    friction = Friction(viscous=tuple(checked['friction.viscous']),
-                        coulomb=tuple(checked['friction.coulomb']),
-                        smoothing_velocity=checked['friction.smoothing_velocity'])
-    limits = Limits(**{name: checked[f'limits.{name}'] for name in Limits.__dataclass_fields__})
-    model = Model(geometry=geometry, bodies=bodies, gravity=checked['gravity'],
-                  central=central, values=checked, effects=scene.effects, scene=scene.name,
-                  payload=payload, friction=friction, limits=limits)
+        model = staicu_parameters.from_values(checked, scene.effects, scene.name)
+    except ModelValueError as exc:
+        raise ParameterError(exc.key, checked.get(exc.key), str(exc)) from None
     check_home(model, values.keys() if changed is None else changed, checked, source)
     return model
 

@@ -10,7 +10,9 @@ from typing import Any, Iterable, Mapping
 
 import numpy as np
 
-from ..machines.staicu.model import BODY_NAMES
+from ..core.inertia import inertia_tensor
+from ..core.machine import ModelValueError
+from ..machines.staicu.parameters import check_whole
 from .errors import ParameterError, did_you_mean
 from .schema import ALL_PARAMETERS, MODEL_PARAMETERS, SPECS, ParamSpec, defaults
 
@@ -78,27 +80,14 @@ def check_value(spec: ParamSpec, value: Any) -> Any:
 def check_inertia(key: str, value: Iterable[float]) -> np.ndarray:
     """A 3x3 inertia tensor (eq. 18-19: J of each body about its centre of
     mass) must be finite, symmetric and physically possible: principal moments
-    >= 0 and each no larger than the sum of the other two.
+    >= 0 and each no larger than the sum of the other two
+    (:func:`flight_sim_dynamics.core.inertia.inertia_tensor`); ParameterError otherwise.
     """
     values = list(value)
-    tensor = np.asarray(values, dtype=float).reshape(3, 3)
-    if not np.all(np.isfinite(tensor)):     # eigvalsh would raise LinAlgError
-        raise ParameterError(key, values, 'inertia tensor must be finite')
-    scale = max(float(np.max(np.abs(tensor))), 1e-300)
-    tensor = tensor / scale                 # no overflow near 1e308 in the checks below
-    if np.max(np.abs(tensor - tensor.T)) > 1e-9:
-        raise ParameterError(key, values, 'inertia tensor is not symmetric')
-    moments = np.linalg.eigvalsh(0.5 * (tensor + tensor.T))
-    if moments[0] < -1e-9:
-        raise ParameterError(key, values,
-                             f'inertia tensor is not positive semi-definite '
-                             f'(principal moment {moments[0] * scale:.6g})')
-    if moments[2] > moments[0] + moments[1] + 1e-9:
-        m = moments * scale
-        raise ParameterError(key, values,
-                             'principal moments violate the triangle inequality '
-                             f'({m[2]:.6g} > {m[0]:.6g} + {m[1]:.6g})')
-    return 0.5 * (tensor + tensor.T) * scale
+    try:
+        return inertia_tensor(key, values)
+    except ModelValueError as exc:
+        raise ParameterError(key, values, str(exc)) from None
 
 
 def check_names(values: Mapping[str, Any], where: str = '') -> None:
@@ -126,10 +115,8 @@ def validate(values: Mapping[str, Any], *, require_all: bool = True) -> dict[str
             result[spec.name] = check_value(spec, values[spec.name])
         elif require_all and spec.required and spec in MODEL_PARAMETERS:
             raise ParameterError(spec.name, None, 'missing (every model parameter must be given)')
-    for name in BODY_NAMES:
-        check_inertia(f'bodies.{name}.inertia', result[f'bodies.{name}.inertia'])
-    check_inertia('payload.inertia', result['payload.inertia'])
-    if not result['limits.stroke_min'] < result['limits.stroke_max']:
-        raise ParameterError('limits.stroke_min', result['limits.stroke_min'],
-                             f"must be < limits.stroke_max = {result['limits.stroke_max']:g} m")
+    try:
+        check_whole(result)
+    except ModelValueError as exc:
+        raise ParameterError(exc.key, result.get(exc.key), str(exc)) from None
     return result
