@@ -1,19 +1,20 @@
 """The schema: the one declaration of every parameter (name, kind, default,
 unit, physical bounds, meaning), for the solver and the node alike.
 
-Model parameters are the machine's: the 3-DOF machine's (the paper's
-application data) are declared by it
-(:data:`flight_sim_dynamics.machines.staicu.parameters.PARAMETER_SPECS`,
-:data:`MODEL_PARAMETERS` here); node parameters tune the ROS 2 node and are
-every machine's. Every number is bounded to a physical or sensible range (a
+Model parameters are the machine's, each machine declaring its own
+(:attr:`~flight_sim_dynamics.core.machine.Machine.parameter_specs`): those of
+the default machine, whose files name no machine, are :func:`model_parameters`
+(``MODEL_PARAMETERS``, ``ALL_PARAMETERS`` with the node's, ``SPECS`` by name:
+read from the registry when asked for); node parameters tune the ROS 2 node and
+are every machine's. Every number is bounded to a physical or sensible range (a
 centre of mass at 1e300 m is not a mechanism), every string in length.
 """
 from __future__ import annotations
 
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 from ..core.parameter_spec import ParamSpec
-from ..machines.staicu.parameters import PARAMETER_SPECS
+from ..machines import default_machine
 
 # Physical bounds shared by every body (and the payload): MAX_MASS, MAX_COM,
 # MAX_INERTIA, MAX_LENGTH are every machine's (core/parameter_spec.py).
@@ -21,8 +22,6 @@ MAX_NAME = 256              # characters of a frame id
 MAX_PATH = 4096             # characters of a file path (PATH_MAX on Linux)
 
 
-#: The 3-DOF machine's model parameters (:mod:`flight_sim_dynamics.machines.staicu.parameters`).
-MODEL_PARAMETERS: tuple[ParamSpec, ...] = PARAMETER_SPECS
 
 # Node parameters: declared by the node, also accepted by load_model (one file serves both).
 # (QoS: rclpy's read-only qos_overrides.<topic>.* parameters, declared by the node's endpoints.)
@@ -109,14 +108,41 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               minimum=0.0, maximum=1000.0),
 )
 
-ALL_PARAMETERS: tuple[ParamSpec, ...] = MODEL_PARAMETERS + NODE_PARAMETERS
-SPECS: Mapping[str, ParamSpec] = {spec.name: spec for spec in ALL_PARAMETERS}
+
+
+def model_parameters() -> tuple[ParamSpec, ...]:
+    """The model parameters of the default machine (:func:`.machines.default_machine`:
+    a file without a ``machine:`` line is its), its :attr:`Machine.parameter_specs`.
+    """
+    return default_machine().parameter_specs
+
+
+def all_parameters() -> tuple[ParamSpec, ...]:
+    """The default machine's model parameters, then the node's."""
+    return model_parameters() + NODE_PARAMETERS
+
+
+def specs() -> Mapping[str, ParamSpec]:
+    """:func:`all_parameters` by name."""
+    return {spec.name: spec for spec in all_parameters()}
 
 
 def defaults() -> dict[str, Any]:
     """The packaged default value of every parameter, by dotted name."""
     return {spec.name: (list(spec.default) if isinstance(spec.default, list) else spec.default)
-            for spec in ALL_PARAMETERS}
+            for spec in all_parameters()}
+
+
+#: The module's names read from the registry when asked for (module docstring).
+LAZY_NAMES: Mapping[str, Callable[[], Any]] = {
+    'MODEL_PARAMETERS': model_parameters, 'ALL_PARAMETERS': all_parameters, 'SPECS': specs}
+
+
+def __getattr__(name: str) -> Any:
+    """``MODEL_PARAMETERS``, ``ALL_PARAMETERS``, ``SPECS``: the default machine's."""
+    if name in LAZY_NAMES:
+        return LAZY_NAMES[name]()
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
 
 
 # Parameters of the twin node platform_sim (docs/twin.md): the plant is load_model of a

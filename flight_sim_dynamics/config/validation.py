@@ -12,9 +12,10 @@ import numpy as np
 
 from ..core.inertia import inertia_tensor
 from ..core.machine import ModelValueError
-from ..machines.staicu.parameters import check_whole
+from ..core.effects import Effects
+from ..machines import default_machine
 from .errors import ParameterError, did_you_mean
-from .schema import ALL_PARAMETERS, MODEL_PARAMETERS, SPECS, ParamSpec, defaults
+from .schema import ParamSpec, all_parameters, defaults, model_parameters, specs
 
 
 def _number(spec: ParamSpec, value: Any, item: Any, where: str = '') -> float:
@@ -95,11 +96,12 @@ def check_names(values: Mapping[str, Any], where: str = '') -> None:
     error with the closest known name ("did you mean"). ``where``: the file
     the names come from, for the message.
     """
+    known = specs()
     for key in values:
-        if key not in SPECS:
+        if key not in known:
             place = f' in {where}' if where else ''
             raise ParameterError(key, values[key],
-                                 f'unknown parameter{place}' + did_you_mean(key, SPECS))
+                                 f'unknown parameter{place}' + did_you_mean(key, known))
 
 
 def validate(values: Mapping[str, Any], *, require_all: bool = True) -> dict[str, Any]:
@@ -108,15 +110,46 @@ def validate(values: Mapping[str, Any], *, require_all: bool = True) -> dict[str
     their defaults, except required model parameters (gravity, geometry,
     bodies) with ``require_all``.
     """
+    result = checked_values(values, require_all=require_all)
+    build(result)
+    return result
+
+
+def checked_values(values: Mapping[str, Any], *, require_all: bool = True) -> dict[str, Any]:
+    """:func:`validate`'s checks of each value (names, types, bounds, the
+    required ones given), not those of the whole: the complete canonical flat dict.
+    """
     check_names(values)
     result = defaults()
-    for spec in ALL_PARAMETERS:
+    model_names = {spec.name for spec in model_parameters()}
+    for spec in all_parameters():
         if spec.name in values:
             result[spec.name] = check_value(spec, values[spec.name])
-        elif require_all and spec.required and spec in MODEL_PARAMETERS:
+        elif require_all and spec.required and spec.name in model_names:
             raise ParameterError(spec.name, None, 'missing (every model parameter must be given)')
-    try:
-        check_whole(result)
-    except ModelValueError as exc:
-        raise ParameterError(exc.key, result.get(exc.key), str(exc)) from None
     return result
+
+
+def nested(flat: Mapping[str, Any]) -> dict[str, Any]:
+    """Dotted names back to nested maps, as a parameter file writes them."""
+    tree: dict[str, Any] = {}
+    for key, value in flat.items():
+        *groups, leaf = key.split('.')
+        node = tree
+        for group in groups:
+            node = node.setdefault(group, {})
+        node[leaf] = value
+    return tree
+
+
+def build(values: Mapping[str, Any], effects: Effects | None = None) -> Any:
+    """The default machine's model of complete, canonical ``values`` (flat
+    dotted names, :func:`checked_values`), simulating ``effects`` (None: the
+    machine's default), by its builder (:attr:`Machine.from_params`, which checks
+    the whole: inertia tensors, limits, the geometry); a ParameterError naming
+    the key it refuses.
+    """
+    try:
+        return default_machine().from_params(nested(values), effects=effects)
+    except ModelValueError as exc:
+        raise ParameterError(exc.key, values.get(exc.key), str(exc)) from None

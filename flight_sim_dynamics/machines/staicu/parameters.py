@@ -221,10 +221,11 @@ def from_params(params: Mapping[str, Any], effects: Effects | None = None) -> Mo
     shared loader's call, :attr:`~flight_sim_dynamics.core.machine.Machine.from_params`),
     each within its declaration: the declared defaults of those not given but
     not required, a ModelValueError for a required one missing, then
-    :func:`from_values`.
+    :func:`from_values` (the model's ``values``: every one given, the machine's
+    completed).
     """
     given = _flat(params)
-    values: dict[str, Any] = {}
+    values: dict[str, Any] = dict(given)    # the others (the node's) kept as given
     for spec in PARAMETER_SPECS:
         if spec.name in given:
             value = given[spec.name]
