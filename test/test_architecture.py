@@ -32,8 +32,10 @@ RCLPY_MODULES = {'ros/dynamics_node.py', 'ros/managed_node.py', 'ros/marker_publ
 #: subpackages that see the machines only through the registry
 #: (``flight_sim_dynamics.machines``) and the public calls
 #: (``flight_sim_dynamics.machines.api``), never a machine's own modules
-#: (``machines.<name>``), so that a new machine touches neither
-MACHINE_BLIND = ('cli', 'ros', 'cueing')
+#: (``machines.<name>``), so that a new machine touches none of them: the
+#: configuration too reads the default machine's parameters from its Machine
+#: (issue 30), and core/ imports no machines/ at all
+MACHINE_BLIND = ('config', 'core', 'cli', 'ros', 'cueing')
 #: the gateways of MACHINE_BLIND subpackages into machines/
 MACHINE_GATEWAYS = {'flight_sim_dynamics.machines', 'flight_sim_dynamics.machines.api'}
 #: modules that import matplotlib (an optional extra): imported lazily, by the

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from .errors import ParameterError
-from .schema import SPECS
+from .schema import specs
 from .validation import check_value
 from .yaml_io import read_yaml
 
@@ -56,10 +56,11 @@ def flatten(tree: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
 
 def check_file_values(flat: Mapping[str, Any], source: str) -> None:
     """Check each value of a known parameter in ``flat`` (read from ``source``)."""
+    known = specs()
     for key, value in flat.items():
-        if key in SPECS:
+        if key in known:
             try:
-                check_value(SPECS[key], value)
+                check_value(known[key], value)
             except ParameterError as exc:
                 raise ParameterError(exc.key, exc.value, f'{exc.reason} in {source}') from None
 

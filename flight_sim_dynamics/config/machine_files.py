@@ -30,7 +30,7 @@ from . import parameters
 from .errors import IgnoredParameterWarning, ParameterError, did_you_mean
 from .files import default_params_path, read_params_sections
 from .scenes import DEFAULT_SCENE, Scene, SceneError, load_scene, scenes_dir
-from .schema import NODE_PARAMETERS, SPECS
+from .schema import NODE_PARAMETERS, specs
 from .validation import check_value
 from .whole_machine import check_home
 
@@ -121,7 +121,8 @@ def packaged_names() -> list[str]:
     """The names of the packaged parameter files (config/<name>.yaml): the 3-DOF
     machine's, then the other machines'.
     """
-    return [default_params_path().stem, *sorted(packaged_machines())]
+    default = default_params_path().stem
+    return [default, *sorted(name for name in packaged_machines() if name != default)]
 
 
 def params_path(path: str | os.PathLike[str]) -> str | os.PathLike[str]:
@@ -222,7 +223,7 @@ def _check_names(values: Mapping[str, Any], machine: Machine, name: str, source:
     for key in values:
         if key not in machine.parameters:
             other = ' (a parameter of the 3-DOF machine, whose files name no machine)' \
-                if key in SPECS else ''
+                if key in specs() else ''
             raise ParameterError(key, values[key], f"unknown parameter of machine '{name}'"
                                  f'{other} in {source}' + did_you_mean(key, machine.parameters))
 
@@ -296,7 +297,8 @@ def _check_unnamed(flat: Mapping[str, Any], source: str) -> None:
     machine's checks would refuse some value of them (a hexapod's six numbers).
     """
     own, _ = split_cueing(_model_names(flat), source)
-    foreign = {key for key in own if key not in SPECS}
+    known = specs()
+    foreign = {key for key in own if key not in known}
     if not foreign:
         return
     candidates = [m for m in machines() if m.from_params is not None and foreign & m.parameters]

@@ -1,8 +1,8 @@
 """The parameters the dynamics node declares, for the machine its parameters
-name (``machine: <name>``; none: the 3-DOF machine): the machine's own
-(config/schema.py's for the 3-DOF machine, :attr:`Machine.parameter_specs`
-otherwise), the node's (:data:`.schema.NODE_PARAMETERS`, shared), their start-up
-values and the model of a complete set (:class:`NodeSchema`).
+name (``machine: <name>``; none: the default machine, the 3-DOF one): the
+machine's own (:attr:`Machine.parameter_specs`), the node's
+(:data:`.schema.NODE_PARAMETERS`, shared), their start-up values and the model
+of a complete set (:class:`NodeSchema`).
 """
 from __future__ import annotations
 
@@ -53,13 +53,18 @@ class NodeSchema:
         return self.build(ours, None if changed is None else [k for k in changed if k in ours])
 
 
-def _flight_simulator() -> NodeSchema:
+def _default() -> NodeSchema:
+    """The default machine's (its files, hence its node, name no machine): its
+    declarations, its packaged file's values over their defaults, its builder by
+    the rule of its files (:func:`.parameters.model_from_values`).
+    """
+    machine = default_machine()
     try:
         defaults = prm.validate(prm.read_params_file(prm.default_params_path()),
                                 require_all=False)
     except (prm.ParameterError, FileNotFoundError):
         defaults = prm.defaults()
-    return NodeSchema(default_machine(), prm.MODEL_PARAMETERS, defaults,
+    return NodeSchema(machine, machine.parameter_specs, defaults,
                       lambda values, changed: prm.model_from_values(values, changed=changed,
                                                                     source=_SOURCE))
 
@@ -87,7 +92,7 @@ def node_schema(machine_name: Any = None) -> NodeSchema:
     """The schema of the machine a node's ``machine`` parameter names (None:
     the 3-DOF machine); a ParameterError for a name no machine answers to.
     """
-    return _flight_simulator() if machine_name is None else _named(machine_name)
+    return _default() if machine_name is None else _named(machine_name)
 
 
 def check_node_params_files(args: Sequence[str], node: str = '/' + prm.NODE_NAME,

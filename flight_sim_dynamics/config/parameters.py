@@ -1,6 +1,8 @@
-"""Parameters: the one rule for reading parameter files, and the model built
-from validated values (schema :mod:`.schema`, checks :mod:`.validation`, both
-re-exported here).
+"""Parameters: the one rule for reading parameter files, and the default
+machine's model built from validated values (schema :mod:`.schema`, checks
+:mod:`.validation`, both re-exported here; ``MODEL_PARAMETERS``,
+``ALL_PARAMETERS``, ``SPECS``: the default machine's, read from the registry
+when asked for).
 
 One YAML file in ROS 2 parameter format (``flight_sim_dynamics:
 ros__parameters: ...``, nested maps as dotted names ``bodies.rod.mass``) feeds
@@ -19,26 +21,30 @@ import os
 from dataclasses import make_dataclass
 from typing import Any, Collection, Mapping, Sequence
 
-import numpy as np
-
-from ..machines.staicu.kinematics import GeometryError, central_configuration
-from ..machines.staicu.model import (BODY_NAMES, GEOMETRY_KEYS, Body, Friction, Geometry, Limits,
-                                     Model)
 from .cueing import split_cueing
 from .errors import ParameterError
 from .files import (DEFAULT_PARAMS_FILE, NODE_NAME, PACKAGE_NAME, check_file_values,
                     default_params_path, flatten, params_files_in, read_params_file,
                     read_params_sections)
 from .scenes import Scene, SceneError, load_scene
-from .schema import (ALL_PARAMETERS, MODEL_PARAMETERS, NODE_PARAMETERS, SPECS, ParamSpec, defaults)
-from .validation import check_inertia, check_names, check_value, validate
+from .schema import LAZY_NAMES, NODE_PARAMETERS, ParamSpec, defaults, specs
+from .validation import build, check_inertia, check_names, check_value, checked_values, validate
 from .whole_machine import check_home
 
-__all__ = ['ALL_PARAMETERS', 'DEFAULT_PARAMS_FILE', 'MODEL_PARAMETERS', 'NODE_NAME',
-           'NODE_PARAMETERS', 'PACKAGE_NAME', 'QOS_OVERRIDES', 'SPECS', 'ParamSpec',
-           'NodeConfig', 'ParameterError', 'Scene', 'SceneError', 'check_inertia', 'check_value',
-           'default_params_path', 'defaults', 'flatten', 'load_model', 'model_from_values',
-           'read_params', 'read_params_file', 'validate']
+__all__ = ['DEFAULT_PARAMS_FILE', 'NODE_NAME', 'NODE_PARAMETERS', 'NodeConfig', 'PACKAGE_NAME',
+           'ParamSpec', 'ParameterError', 'QOS_OVERRIDES', 'Scene', 'SceneError', 'check_inertia',
+           'check_value', 'checked_values', 'default_params_path', 'defaults', 'flatten',
+           'load_model', 'model_from_values', 'read_params', 'read_params_file', 'validate']
+
+
+def __getattr__(name: str) -> Any:
+    """``MODEL_PARAMETERS``, ``ALL_PARAMETERS``, ``SPECS``: the default
+    machine's, read from the registry when asked for (:mod:`.schema`).
+    """
+    if name in LAZY_NAMES:
+        return LAZY_NAMES[name]()
+    raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+
 
 #: Prefix of rclpy's QoS override parameters (the node's, set at start-up).
 QOS_OVERRIDES = 'qos_overrides.'
@@ -74,8 +80,9 @@ def params_of(flat: Mapping[str, Any], path: str | os.PathLike[str]
 
 def model_from_values(values: Mapping[str, Any], *, require_all: bool = True,
                       scene: Scene | str | None = None, changed: Collection[str] | None = None,
-                      source: str | None = None) -> Model:
-    """Validate ``values`` (flat dotted names) and build the :class:`Model`, with
+                      source: str | None = None) -> Any:
+    """Validate ``values`` (flat dotted names) and build the default machine's
+    model (its :attr:`~flight_sim_dynamics.core.machine.Machine.from_params`), with
     the effects and overrides of ``scene`` (a :class:`~.scenes.Scene`, name or
     path; None: the ``scene`` parameter, else ``full``). :class:`ParameterError`
     if anything is invalid, including a geometry whose loops cannot close at the
@@ -85,40 +92,18 @@ def model_from_values(values: Mapping[str, Any], *, require_all: bool = True,
     :class:`~.scenes.SceneError` for a bad scene.
     """
     if scene is None:
-        scene = values.get('scene', SPECS['scene'].default)
+        spec = specs()['scene']
+        scene = values.get('scene', spec.default)
         if not isinstance(scene, str):
             raise ParameterError('scene', scene, 'expected a scene name or a file path')
-        scene = check_value(SPECS['scene'], scene)
+        scene = check_value(spec, scene)
     scene = scene if isinstance(scene, Scene) else load_scene(scene)
     values = dict(values)
     values['scene'] = scene.name if scene.path is None else str(scene.path)
     for key, value in scene.parameters.items():
         values[key] = value
-    checked = validate(values, require_all=require_all)
-    geometry = Geometry(**{k: checked[f'geometry.{k}'] for k in GEOMETRY_KEYS})
-    bodies = {
-        name: Body(mass=checked[f'bodies.{name}.mass'],
-                   com=np.array(checked[f'bodies.{name}.com'], dtype=float),
-                   inertia=check_inertia(f'bodies.{name}.inertia',
-                                         checked[f'bodies.{name}.inertia']))
-        for name in BODY_NAMES}
-    try:
-        central = central_configuration(geometry)
-    except GeometryError as exc:
-        raise ParameterError(f'geometry.{exc.key}', checked[f'geometry.{exc.key}'],
-                             f'loops cannot close at the central configuration: {exc}') from None
-    for arr in (*(b.com for b in bodies.values()), *(b.inertia for b in bodies.values())):
-        arr.setflags(write=False)
-    payload = Body(mass=checked['payload.mass'],
-                   com=np.array(checked['payload.com'], dtype=float),
-                   inertia=check_inertia('payload.inertia', checked['payload.inertia']))
-    friction = Friction(viscous=tuple(checked['friction.viscous']),
-                        coulomb=tuple(checked['friction.coulomb']),
-                        smoothing_velocity=checked['friction.smoothing_velocity'])
-    limits = Limits(**{name: checked[f'limits.{name}'] for name in Limits.__dataclass_fields__})
-    model = Model(geometry=geometry, bodies=bodies, gravity=checked['gravity'],
-                  central=central, values=checked, effects=scene.effects, scene=scene.name,
-                  payload=payload, friction=friction, limits=limits)
+    checked = checked_values(values, require_all=require_all)
+    model = build({**checked, 'scene': scene.name}, scene.effects)
     check_home(model, values.keys() if changed is None else changed, checked, source)
     return model
 
@@ -129,7 +114,7 @@ def packaged_values() -> dict[str, Any]:
 
 
 def load_model(path: str | os.PathLike[str] | None = None,
-               scene: str | os.PathLike[str] | None = None) -> Model:
+               scene: str | os.PathLike[str] | None = None) -> Any:
     """Load and validate a 3-DOF parameter file (None: the packaged defaults;
     by the rule of the module docstring, node parameters accepted) and a scene
     (a name from config/scenes or a path; None: the file's ``scene``
@@ -143,7 +128,7 @@ def load_model(path: str | os.PathLike[str] | None = None,
 
 
 def model_of_params(flat: Mapping[str, Any] | None, path: str | os.PathLike[str] | None,
-                    scene: str | os.PathLike[str] | None = None) -> Model:
+                    scene: str | os.PathLike[str] | None = None) -> Any:
     """:func:`load_model` of the parameters ``flat`` read from ``path``
     (:func:`.files.read_params_sections`; None: the packaged defaults alone).
     """

@@ -11,12 +11,11 @@ from typing import Any, Collection, Mapping
 from ..core.effects import EFFECT_NAMES, Effects
 from .errors import ParameterError, did_you_mean
 from .files import check_file_values, default_params_path, flatten
-from .schema import MODEL_PARAMETERS
+from .schema import model_parameters
 from .yaml_io import read_yaml
 
 DEFAULT_SCENE = 'full'
 SCENE_KEYS = ('description', 'effects', 'parameters')
-_MODEL_NAMES = frozenset(spec.name for spec in MODEL_PARAMETERS)
 
 
 class SceneError(ParameterError):
@@ -101,7 +100,7 @@ def load_scene(scene: str | os.PathLike[str] | None = None,
     if not isinstance(description, str):
         raise SceneError(name, "'description' must be a string")
     parameters = flatten(overrides)
-    known = _MODEL_NAMES if names is None else names
+    known = frozenset(spec.name for spec in model_parameters()) if names is None else names
     for key in parameters:
         if key not in known:
             raise SceneError(name, f"parameter '{key}' is not a model parameter"

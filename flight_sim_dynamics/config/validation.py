@@ -10,9 +10,12 @@ from typing import Any, Iterable, Mapping
 
 import numpy as np
 
-from ..machines.staicu.model import BODY_NAMES
+from ..core.inertia import inertia_tensor
+from ..core.machine import ModelValueError
+from ..core.effects import Effects
+from ..machines import default_machine
 from .errors import ParameterError, did_you_mean
-from .schema import ALL_PARAMETERS, MODEL_PARAMETERS, SPECS, ParamSpec, defaults
+from .schema import ParamSpec, all_parameters, defaults, model_parameters, specs
 
 
 def _number(spec: ParamSpec, value: Any, item: Any, where: str = '') -> float:
@@ -78,27 +81,14 @@ def check_value(spec: ParamSpec, value: Any) -> Any:
 def check_inertia(key: str, value: Iterable[float]) -> np.ndarray:
     """A 3x3 inertia tensor (eq. 18-19: J of each body about its centre of
     mass) must be finite, symmetric and physically possible: principal moments
-    >= 0 and each no larger than the sum of the other two.
+    >= 0 and each no larger than the sum of the other two
+    (:func:`flight_sim_dynamics.core.inertia.inertia_tensor`); ParameterError otherwise.
     """
     values = list(value)
-    tensor = np.asarray(values, dtype=float).reshape(3, 3)
-    if not np.all(np.isfinite(tensor)):     # eigvalsh would raise LinAlgError
-        raise ParameterError(key, values, 'inertia tensor must be finite')
-    scale = max(float(np.max(np.abs(tensor))), 1e-300)
-    tensor = tensor / scale                 # no overflow near 1e308 in the checks below
-    if np.max(np.abs(tensor - tensor.T)) > 1e-9:
-        raise ParameterError(key, values, 'inertia tensor is not symmetric')
-    moments = np.linalg.eigvalsh(0.5 * (tensor + tensor.T))
-    if moments[0] < -1e-9:
-        raise ParameterError(key, values,
-                             f'inertia tensor is not positive semi-definite '
-                             f'(principal moment {moments[0] * scale:.6g})')
-    if moments[2] > moments[0] + moments[1] + 1e-9:
-        m = moments * scale
-        raise ParameterError(key, values,
-                             'principal moments violate the triangle inequality '
-                             f'({m[2]:.6g} > {m[0]:.6g} + {m[1]:.6g})')
-    return 0.5 * (tensor + tensor.T) * scale
+    try:
+        return inertia_tensor(key, values)
+    except ModelValueError as exc:
+        raise ParameterError(key, values, str(exc)) from None
 
 
 def check_names(values: Mapping[str, Any], where: str = '') -> None:
@@ -106,11 +96,12 @@ def check_names(values: Mapping[str, Any], where: str = '') -> None:
     error with the closest known name ("did you mean"). ``where``: the file
     the names come from, for the message.
     """
+    known = specs()
     for key in values:
-        if key not in SPECS:
+        if key not in known:
             place = f' in {where}' if where else ''
             raise ParameterError(key, values[key],
-                                 f'unknown parameter{place}' + did_you_mean(key, SPECS))
+                                 f'unknown parameter{place}' + did_you_mean(key, known))
 
 
 def validate(values: Mapping[str, Any], *, require_all: bool = True) -> dict[str, Any]:
@@ -119,17 +110,46 @@ def validate(values: Mapping[str, Any], *, require_all: bool = True) -> dict[str
     their defaults, except required model parameters (gravity, geometry,
     bodies) with ``require_all``.
     """
+    result = checked_values(values, require_all=require_all)
+    build(result)
+    return result
+
+
+def checked_values(values: Mapping[str, Any], *, require_all: bool = True) -> dict[str, Any]:
+    """:func:`validate`'s checks of each value (names, types, bounds, the
+    required ones given), not those of the whole: the complete canonical flat dict.
+    """
     check_names(values)
     result = defaults()
-    for spec in ALL_PARAMETERS:
+    model_names = {spec.name for spec in model_parameters()}
+    for spec in all_parameters():
         if spec.name in values:
             result[spec.name] = check_value(spec, values[spec.name])
-        elif require_all and spec.required and spec in MODEL_PARAMETERS:
+        elif require_all and spec.required and spec.name in model_names:
             raise ParameterError(spec.name, None, 'missing (every model parameter must be given)')
-    for name in BODY_NAMES:
-        check_inertia(f'bodies.{name}.inertia', result[f'bodies.{name}.inertia'])
-    check_inertia('payload.inertia', result['payload.inertia'])
-    if not result['limits.stroke_min'] < result['limits.stroke_max']:
-        raise ParameterError('limits.stroke_min', result['limits.stroke_min'],
-                             f"must be < limits.stroke_max = {result['limits.stroke_max']:g} m")
     return result
+
+
+def nested(flat: Mapping[str, Any]) -> dict[str, Any]:
+    """Dotted names back to nested maps, as a parameter file writes them."""
+    tree: dict[str, Any] = {}
+    for key, value in flat.items():
+        *groups, leaf = key.split('.')
+        node = tree
+        for group in groups:
+            node = node.setdefault(group, {})
+        node[leaf] = value
+    return tree
+
+
+def build(values: Mapping[str, Any], effects: Effects | None = None) -> Any:
+    """The default machine's model of complete, canonical ``values`` (flat
+    dotted names, :func:`checked_values`), simulating ``effects`` (None: the
+    machine's default), by its builder (:attr:`Machine.from_params`, which checks
+    the whole: inertia tensors, limits, the geometry); a ParameterError naming
+    the key it refuses.
+    """
+    try:
+        return default_machine().from_params(nested(values), effects=effects)
+    except ModelValueError as exc:
+        raise ParameterError(exc.key, values.get(exc.key), str(exc)) from None

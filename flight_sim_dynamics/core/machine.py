@@ -17,9 +17,9 @@ Each machine implements the same calls on its own model type, with vectors of
 =================================================  ===============================
 
 The home pose is q = 0 for every machine (poses are measured from it).
-The 3-DOF machine's parameters are the configuration's schema
-(:mod:`flight_sim_dynamics.config.schema`); a machine whose parameter files
-name it brings its own (:attr:`Machine.parameters`, :attr:`Machine.from_params`).
+Each machine brings its parameters: their names and declarations
+(:attr:`Machine.parameters`, :attr:`Machine.parameter_specs`) and the model
+builder of a file's values (:attr:`Machine.from_params`).
 """
 from __future__ import annotations
 
@@ -134,10 +134,11 @@ class Machine:
     # ``limit_usage(model, solution) -> LimitUsage``: one sample or a batch; the
     # rule of its solutions' status ``limit`` (usage > 1), the dynamics node's too
     limit_usage: Callable[[Any, Any], LimitUsage]
-    # A machine whose parameter files name it (``machine: <name>``): the names
-    # they may give (dotted) and the model of a file's nested parameters with a
-    # scene's effects, ``from_params(params, effects) -> model`` (ModelValueError);
-    # the packaged files (config/<name>.yaml) of its kind.
+    # Its parameter files (a file names its machine, ``machine: <name>``; the
+    # default machine's name none): the names they may give (dotted) and the
+    # model of a file's nested parameters with a scene's effects,
+    # ``from_params(params, effects) -> model`` (ModelValueError); the packaged
+    # files (config/<name>.yaml) of its kind.
     parameters: frozenset[str] = frozenset()
     from_params: Callable[..., Any] | None = None
     parameter_files: tuple[str, ...] = ()
@@ -182,10 +183,10 @@ class Machine:
     require_inertia: Callable[[Any], None] | None = None
     integrate_rows: Callable[..., int] | None = None
     # The dynamics node (ros/): the declarations of the parameters its files give
-    # (type, unit, meaning, the bounds its builder checks; empty: config/schema.py's,
-    # the 3-DOF machine's), and the pose components outside ``coordinates`` that
-    # the machine moves by itself, each a function of a solution (a setpoint
-    # giving that value is not reported as motion the machine cannot follow).
+    # (type, unit, meaning, the bounds its builder checks), and the pose
+    # components outside ``coordinates`` that the machine moves by itself, each a
+    # function of a solution (a setpoint giving that value is not reported as
+    # motion the machine cannot follow).
     parameter_specs: tuple[ParamSpec, ...] = field(default=(), hash=False)
     # The parameters that decide whether the home pose solves (its geometry, the
     # near-singularity thresholds), geometry first: a model whose home solves

@@ -1,7 +1,7 @@
 """The declaration of one parameter (:class:`ParamSpec`): what the node's
-descriptors, the validation of values and the docs' tables read. The 3-DOF
-machine's and the node's are config/schema.py's; a machine whose files name it
-declares its own (:attr:`flight_sim_dynamics.core.machine.Machine.parameter_specs`).
+descriptors, the validation of values and the docs' tables read. The node's
+are config/schema.py's; each machine declares its own
+(:attr:`flight_sim_dynamics.core.machine.Machine.parameter_specs`).
 """
 from __future__ import annotations
 

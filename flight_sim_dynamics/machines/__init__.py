@@ -156,8 +156,10 @@ def known_names() -> tuple[str, ...]:
     the kinds' (a machine given whole).
     """
     reg = registry()
-    return (*sorted(reg.packaged), *sorted(n for n, m in reg.by_name.items()
-                                           if m.from_params is not None))
+    default = reg.machines[0]       # its files name no machine
+    return (*sorted(n for n, m in reg.packaged.items() if m is not default),
+            *sorted(n for n, m in reg.by_name.items()
+                    if m.from_params is not None and m is not default))
 
 
 def machine_named(name: Any) -> Machine:

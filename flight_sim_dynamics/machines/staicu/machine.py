@@ -13,6 +13,7 @@ from .limits import limit_usage
 from .mechanism import drawing
 from .model import GEOMETRY_KEYS, JOINT_NAMES, LEG_NAMES, Model
 from .motions import MOTIONS, PLANNER_MOTIONS, TEST_MOTIONS
+from .parameters import PARAMETER_FILES, PARAMETER_NAMES, PARAMETER_SPECS, from_params
 from .solver import Solution, solve, solve_batch
 from .trajectories import PAPER_EXAMPLES
 from .workspace import OPTIONS as WORKSPACE_OPTIONS
@@ -38,7 +39,11 @@ MACHINE = Machine(
     units=('m', 'm', 'rad'), legs=LEG_NAMES, joints=JOINT_NAMES, solve=solve,
     solve_batch=solve_batch, forward_kinematics=forward_kinematics,
     forward_dynamics=forward_dynamics, actuator_limits=actuator_limits,
-    limit_usage=limit_usage, title='3-DOF flight simulator', leg_labels=('a', 'b', 'c'),
+    limit_usage=limit_usage,
+    # its parameter files (config/flight_sim_dynamics.yaml; they name no machine)
+    parameters=PARAMETER_NAMES | {'machine'}, from_params=from_params,
+    parameter_files=PARAMETER_FILES,
+    title='3-DOF flight simulator', leg_labels=('a', 'b', 'c'),
     sample_fields=('beta', 'kinematic_condition', 'jacobian_condition'),
     costly_fields=('cond',), motions=MOTIONS, examples=tuple(PAPER_EXAMPLES),
     # what a user sees beyond numbers
@@ -48,8 +53,9 @@ MACHINE = Machine(
     # simulation and the twin
     affine_terms=affine_terms, require_inertia=require_inertia,
     integrate_rows=kernel.integrate_rows,
-    # the dynamics node: the mechanism pitches the platform by -beta (REP pitch)
-    parasitic={'pitch': parasitic_pitch},
+    # the dynamics node: its parameters; the mechanism pitches the platform by -beta
+    # (REP pitch)
+    parameter_specs=PARAMETER_SPECS, parasitic={'pitch': parasitic_pitch},
     home_parameters=(*(f'geometry.{key}' for key in GEOMETRY_KEYS),
                      'limits.max_kinematic_condition', 'limits.max_jacobian_condition'),
     # the demo planner
