@@ -31,7 +31,7 @@ from .errors import IgnoredParameterWarning, ParameterError, did_you_mean
 from .files import default_params_path, read_params_sections
 from .scenes import DEFAULT_SCENE, Scene, SceneError, load_scene, scenes_dir
 from .schema import NODE_PARAMETERS, specs
-from .validation import check_value
+from .validation import check_value, nested
 from .whole_machine import check_home
 
 #: Names a parameter file may give that belong to ROS, not to the model
@@ -228,18 +228,6 @@ def _check_names(values: Mapping[str, Any], machine: Machine, name: str, source:
                                  f'{other} in {source}' + did_you_mean(key, machine.parameters))
 
 
-def _nested(flat: Mapping[str, Any]) -> dict[str, Any]:
-    """Dotted names back to nested maps, as the parameter file writes them."""
-    tree: dict[str, Any] = {}
-    for key, value in flat.items():
-        *groups, leaf = key.split('.')
-        node = tree
-        for group in groups:
-            node = node.setdefault(group, {})
-        node[leaf] = value
-    return tree
-
-
 def _scene(scene: Scene | str | os.PathLike[str] | None, values: Mapping[str, Any],
            machine: Machine, source: str) -> Scene:
     """The scene asked for (else the file's ``scene``, else full), its overrides
@@ -376,7 +364,7 @@ def model_of_values(machine: Machine, values: Mapping[str, Any], source: str,
     values['scene'] = chosen.name
     try:
         _check_specs(machine, values)
-        model = machine.from_params(_nested(values), effects=chosen.effects)
+        model = machine.from_params(nested(values), effects=chosen.effects)
     except ModelValueError as exc:
         key = exc.key
         if key in chosen.parameters:

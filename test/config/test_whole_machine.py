@@ -18,6 +18,7 @@ import yaml
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config.errors import ParameterError
 from flight_sim_dynamics.config.node_schema import node_schema
+from flight_sim_dynamics.config.validation import nested
 from flight_sim_dynamics.core.machine import Machine
 from flight_sim_dynamics.core.status import Status
 from flight_sim_dynamics.machines import MACHINES, STEWART
@@ -45,15 +46,8 @@ def write(tmp_path: Path, machine: Machine, values: dict[str, Any], name: str = 
     flat = dict(values)
     if machine.from_params is not None:
         flat['machine'] = packaged or packaged_file(machine)
-    tree: dict[str, Any] = {}
-    for key, value in flat.items():
-        *groups, leaf = key.split('.')
-        node = tree
-        for group in groups:
-            node = node.setdefault(group, {})
-        node[leaf] = value
     path = tmp_path / name
-    path.write_text(yaml.safe_dump({'flight_sim_dynamics': {'ros__parameters': tree}}))
+    path.write_text(yaml.safe_dump({'flight_sim_dynamics': {'ros__parameters': nested(flat)}}))
     return path
 
 
