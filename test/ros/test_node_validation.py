@@ -9,40 +9,21 @@ undeclared names, the node's whole-model check; a SetParameters of several
 parameters counts each one refused, a SetParametersAtomically one)."""
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 import pytest
 from rcl_interfaces.srv import DescribeParameters
 
 import flight_sim_dynamics as fsd
-from node_harness import ROOT, Client, NodeProcess
+from node_harness import ROOT, Client
+import test_node_hexapod
 from test_node_hexapod import answer, assert_solved, motion, publish, stamps, twist_of
 
 pytestmark = pytest.mark.ros
 
 HEXAPOD_FILE = ROOT / 'config' / 'stewart_6dof.yaml'
 REJECTED = 'parameter changes rejected'
-
-
-@pytest.fixture(scope='module')
-def hexapod():
-    proc = NodeProcess('-p', 'diagnostics.period:=0.25', '-p', 'sync.wait:=0.5',
-                       params_file=HEXAPOD_FILE)
-    yield proc
-    proc.stop()
-
-
-@pytest.fixture(scope='module')
-def client(hexapod):
-    c = Client('validation_client')
-    try:
-        c.wait_for_node(hexapod)
-        probes = itertools.count(10 ** 18, 5_000_000)
-        c.round_trip(lambda: next(probes))
-        yield c
-    finally:
-        c.close()
+# the hexapod node and its client: test_node_hexapod's fixtures (one per module)
+hexapod, client = test_node_hexapod.hexapod, test_node_hexapod.client
 
 
 def solved_setpoint(client: Client, model) -> None:
