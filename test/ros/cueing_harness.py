@@ -12,7 +12,6 @@ from pathlib import Path
 import numpy as np
 import rclpy
 from geometry_msgs.msg import AccelStamped, PoseStamped
-from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
 from rcl_interfaces.srv import GetParameters, SetParameters, SetParametersAtomically
 from sensor_msgs.msg import Imu
@@ -57,10 +56,6 @@ def write_vehicle_log(path: Path, duration: float = 2.0, rate: float = 100.0) ->
 
 class CueingClient(Client):
     """The harness client plus the cueing node's input, output and services."""
-
-    IDEMPOTENT = Client.IDEMPOTENT | {'cue_get', 'cue_set', 'cue_atomic', 'cue_state'}
-    PROBES = {**Client.PROBES,
-              'cue_change': lambda: ChangeState.Request(transition=Transition(id=255))}
 
     def __init__(self) -> None:
         super().__init__('cueing_test_client')

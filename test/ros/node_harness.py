@@ -24,7 +24,7 @@ import rclpy
 import rclpy.task
 from diagnostic_msgs.msg import DiagnosticArray
 from lifecycle_msgs.msg import Transition
-from lifecycle_msgs.srv import ChangeState
+from lifecycle_msgs.srv import ChangeState, GetAvailableTransitions, GetState
 from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rcl_interfaces.msg import Parameter as ParameterMsg
 from rcl_interfaces.srv import (DescribeParameters, GetParameters, GetParameterTypes,
@@ -33,6 +33,7 @@ from rclpy.context import Context
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from flight_sim_dynamics.ros.diagnostics import diagnostic_name
@@ -245,12 +246,14 @@ class Client:
                          f'{found[-1] if found else None}'
         return matching[0]
 
-    #: requests whose repetition leaves the node as one does (sent again, see :meth:`call`)
-    IDEMPOTENT = frozenset({'get', 'set', 'atomic', 'list', 'describe', 'types', 'get_state',
-                            'get_available_transitions', 'reset'})
+    #: services whose repeated request leaves the node as one does (sent again,
+    #: see :meth:`call`), whatever name a test gives their client
+    IDEMPOTENT = (GetParameters, SetParameters, SetParametersAtomically, ListParameters,
+                  DescribeParameters, GetParameterTypes, GetState, GetAvailableTransitions,
+                  Trigger)
     #: before a new client's first request of a service that must not be sent twice,
     #: one that changes nothing (a transition no state has: refused), sent until answered
-    PROBES = {'change_state': lambda: ChangeState.Request(transition=Transition(id=255))}
+    PROBES = {ChangeState: lambda: ChangeState.Request(transition=Transition(id=255))}
 
     def call(self, name: str, request: Any, timeout: float = 5.0) -> Any:
         """``request`` to the service ``name``, its response (``timeout`` s each way).
@@ -263,10 +266,11 @@ class Client:
         client = self.srv[name]
         assert self.spin_until(client.service_is_ready, timeout), f'{name} service not ready'
         deadline = time.monotonic() + timeout
-        if client not in self._answered and name in self.PROBES:
-            self._send(name, client, self.PROBES[name](), deadline, resend=True)
+        if client not in self._answered and client.srv_type in self.PROBES:
+            self._send(name, client, self.PROBES[client.srv_type](), deadline, resend=True)
         return self._send(name, client, request, deadline,
-                          resend=name in self.IDEMPOTENT and client not in self._answered)
+                          resend=client.srv_type in self.IDEMPOTENT
+                          and client not in self._answered)
 
     def _send(self, name: str, client: Any, request: Any, deadline: float, resend: bool) -> Any:
         future = client.call_async(request)
