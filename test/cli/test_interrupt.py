@@ -18,9 +18,12 @@ pytestmark = pytest.mark.ros
 ROOT = Path(__file__).resolve().parents[2]
 
 #: Runs the command line as ``python -m`` or as the console script does, with
-#: a SIGINT delivered the moment numpy starts loading (deterministic).
+#: a SIGINT delivered the moment numpy starts loading (deterministic); Ctrl-C
+#: on, as in a terminal, even where the test run was started with SIGINT
+#: ignored (a background job of a shell without job control).
 SIGINT_WHILE_LOADING = '''
 import importlib.abc, os, signal, sys
+signal.signal(signal.SIGINT, signal.default_int_handler)
 
 class Interrupt(importlib.abc.MetaPathFinder):
     def find_spec(self, name, path, target=None):
