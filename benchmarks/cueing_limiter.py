@@ -40,7 +40,7 @@ from ._common import ROOT, header, table
 FILES = ('config/flight_sim_dynamics.yaml', 'config/stewart_6dof.yaml')
 LOG_RATE = 100.0        # Hz, the vehicle logs' rate (the planner resamples them)
 BISECTIONS = 12
-#: the vehicle logs (cueing.vehicles), each with its own duration; --quick: the last two
+#: the vehicle logs (cueing.vehicles), each with its own duration; --quick: the last
 LOGS = ('takeoff', 'turbulence', 'braking', 'violent')
 
 
@@ -97,10 +97,10 @@ def step_cost(model, params, repeats: int = 5, samples: int = 2000) -> float:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--quick', action='store_true',
-                        help=f'the logs {LOGS[-2]} and {LOGS[-1]} only, 8 bisections')
+                        help=f'the log {LOGS[-1]} only, 6 bisections')
     args = parser.parse_args(argv)
-    names = LOGS[-2:] if args.quick else LOGS
-    bisections = 8 if args.quick else BISECTIONS
+    names = LOGS[-1:] if args.quick else LOGS
+    bisections = 6 if args.quick else BISECTIONS
     print(header(f'limiter against one global gain scale, vehicle logs {", ".join(names)} '
                  f'at {LOG_RATE:g} Hz, felt specific force RMSE against the pure washout'))
     rows, costs = [], []

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# `python -m pytest -q -n 2 ARGS` in .venv (created, requirements-test.txt and the package
-# installed; FSD_SKIP_INSTALL=1: no pip), e.g. no ARGS: everything (CI);
-# -m "not ros and not slow": the unit tier (setup.cfg); test/core: one folder.
+# `python -m pytest -q -n 2 -m "not slow" ARGS` in .venv (created, requirements-test.txt
+# and the package installed; FSD_SKIP_INSTALL=1: no pip), e.g. no ARGS: the unit and
+# ros tiers; -m slow: the slow tier (CI runs both); -m "not ros and not slow": the
+# unit tier (setup.cfg); test/core: one folder.
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/_setup_env.sh" requirements-test.txt
 
@@ -13,8 +14,16 @@ echo "[tests] ROS_DOMAIN_ID=$ROS_DOMAIN_ID ROS_AUTOMATIC_DISCOVERY_RANGE=$ROS_AU
 # a failed kernel build fails the run (FSD_REQUIRE_KERNEL=0 allows it)
 export FSD_REQUIRE_KERNEL="${FSD_REQUIRE_KERNEL:-1}"
 
-# one process by default: the node tests measure real time (a twin keeping up, a
-# stream answered), which two test files side by side on two cores miss.
-# FSD_TEST_WORKERS=2: two workers (pytest-xdist), a test file to one worker, each
-# in its own ROS domain (test/conftest.py): the unit tier in about half the time
-exec python -m pytest -q -n "${FSD_TEST_WORKERS:-0}" --dist loadfile "$@"
+# the tiers: without a -m of its own, the unit and ros tiers (not the slow one,
+# which CI runs as `bash scripts/run_tests.sh -m slow`)
+marker=(-m "not slow")
+for arg in "$@"; do
+    case "$arg" in -m|-m*) marker=() ;; esac
+done
+
+# two workers (pytest-xdist) by default (FSD_TEST_WORKERS=0: one process): a
+# test file to one worker, so a module's node is started once, each worker in
+# its own ROS domain (test/conftest.py). The node tests check what holds on a
+# busy host (every setpoint answered, a twin following within a delay), not
+# how fast it happens.
+exec python -m pytest -q -n "${FSD_TEST_WORKERS:-2}" --dist loadfile "${marker[@]}" "$@"

@@ -159,10 +159,10 @@ def test_a_three_number_initial_pose_is_refused_for_the_hexapod():
 def test_hexapod_twin_follows_the_solvers_commands(hexa, model, machine):
     """The motion-cueing sequence (7.5 s: surge with tilt coordination, heave,
     a coordinated yaw turn) as the node answers it, streamed in real time at
-    100 Hz: each coordinate's RMS tracking error is well under its commanded
-    RMS (offline, commands held at 100 Hz: 0.3-1.7 % of it without delay,
-    3-18 % with 50 ms of delay, 6-35 % with 100 ms; a twin that does not move:
-    100 %, one with a coordinate of the wrong sign: 200 %).
+    100 Hz: each coordinate's RMS tracking error, at the delay that fits best,
+    is well under its commanded RMS (offline, commands held at 100 Hz: 0.3-1.7 %
+    of it; a twin that does not move: 100 %, one with a coordinate of the wrong
+    sign: 200 %; not shifted: 3-18 % at 50 ms of delay, 6-35 % at 100 ms).
     """
     client, twin, pub, sim = hexa
     reset(client)
@@ -262,15 +262,28 @@ def test_bad_hexapod_commands_are_rejected_and_the_held_one_stays(hexa, model, m
     assert twin.all_finite() and sim.poll() is None
 
 
+#: the delays (s) the twin's poses are compared at: a command reaches the twin
+#: late when the host is busy (0.1-0.2 s at load average 4-5 on 2 cores), which
+#: the twin cannot know; following the motion is what is checked
+DELAYS = np.arange(0.0, 0.305, 0.005)
+
+
 def tracking_errors(poses, sequence, t0: int, end: int) -> tuple[np.ndarray, np.ndarray, int]:
     """Per coordinate: max |simulated - commanded| and RMS error / RMS motion of
-    the poses stamped in [t0, end]; their count."""
+    the poses stamped in [t0, end], against the commands delayed by the one of
+    :data:`DELAYS` that fits best (printed); their count."""
     chosen = [m for m in poses if t0 <= stamp(m) <= end]
     q_sim = np.array([simulated(m) for m in chosen])
-    q_ref = np.array([sequence.sample((stamp(m) - t0) * 1e-9)[0] for m in chosen])
-    error = q_sim - q_ref
-    ratio = np.sqrt((error ** 2).mean(axis=0) / (q_ref ** 2).mean(axis=0))
-    return np.abs(error).max(axis=0), ratio, len(chosen)
+    t = np.array([(stamp(m) - t0) * 1e-9 for m in chosen])
+    best = None
+    for delay in DELAYS:
+        q_ref = np.array([sequence.sample(max(0.0, s - delay))[0] for s in t])
+        error = q_sim - q_ref
+        ratio = np.sqrt((error ** 2).mean(axis=0) / (q_ref ** 2).mean(axis=0))
+        if best is None or ratio.max() < best[1].max():
+            best = (np.abs(error).max(axis=0), ratio, delay)
+    print(f'best fit at a delay of {best[2] * 1e3:.0f} ms')
+    return best[0], best[1], len(chosen)
 
 
 def publish_setpoint(client, poses, stamp_ns: int, q, qd, qdd) -> None:
