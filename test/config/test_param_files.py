@@ -14,6 +14,7 @@ from flight_sim_dynamics.config import parameters, schema, yaml_io
 from flight_sim_dynamics.config.errors import ParameterError
 from flight_sim_dynamics.config.files import (PACKAGED_SECTION, params_files_in,
                                               read_params_sections, section_applies)
+from flight_sim_dynamics.config.node_schema import check_node_params_files
 from flight_sim_dynamics.config.scenes import SceneError
 from flight_sim_dynamics.machines.staicu.model import BODY_NAMES
 
@@ -135,6 +136,23 @@ def test_the_packaged_files_reach_the_node_in_any_namespace():
                      '/a/b/flight_sim_dynamics'):
             assert read_params_sections(path, node) == read_params_sections(path), (path, node)
         assert read_params_sections(path)['gravity'] > 0
+
+
+def test_a_namespaced_node_takes_the_packaged_hexapod_and_refuses_a_bare_section(tmp_path):
+    """The packaged file reaches /sim/flight_sim_dynamics; a file of one's own whose
+    bare section names the machine does not, and ends the start by that name."""
+    hexapod = str(CONFIG.parent / 'stewart_6dof.yaml')
+    check_node_params_files(['--ros-args', '--params-file', hexapod],
+                            '/sim/flight_sim_dynamics', 'stewart_6dof')
+    bare = tmp_path / 'bare.yaml'
+    bare.write_text(yaml.safe_dump({'flight_sim_dynamics': {
+        'ros__parameters': {'machine': 'stewart_6dof'}}}))
+    check_node_params_files(['--ros-args', '--params-file', str(bare)],
+                            '/flight_sim_dynamics', 'stewart_6dof')
+    with pytest.raises(ParameterError) as error:
+        check_node_params_files(['--ros-args', '--params-file', str(bare)],
+                                '/sim/flight_sim_dynamics', None)
+    assert error.value.key == 'machine' and error.value.value == 'stewart_6dof'
 
 
 def test_params_files_in_a_ros_command_line():
