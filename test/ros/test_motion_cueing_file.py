@@ -115,7 +115,7 @@ def test_a_name_the_node_does_not_know_ends_the_start(tmp_path):
     assert typo.returncode == 2, typo.stdout + typo.stderr
     assert "'cueing.rat'" in typo.stderr and "did you mean 'cueing.rate'" in typo.stderr
     everyone = tmp_path / 'everyone.yaml'
-    everyone.write_text(STEWART.read_text().replace('flight_sim_dynamics:', '/**:', 1))
+    everyone.write_text(STEWART.read_text().replace(f'{PACKAGED_SECTION}:', '/**:', 1))
     cue = NodeProcess(params_file=everyone, module=CUEING_MODULE)
     try:
         assert cue.wait_output('active: cueing', 30.0), cue.output()
