@@ -29,8 +29,8 @@ from rclpy.time import Time
 from std_srvs.srv import Trigger
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.config.files import PACKAGED_SECTION
 from flight_sim_dynamics.config.errors import ParameterError
+from flight_sim_dynamics.config.files import PACKAGED_SECTION
 from flight_sim_dynamics.core.euler import euler_rates
 from flight_sim_dynamics.core.motion import PlannerSequence
 from flight_sim_dynamics.ros.platform_sim import check_command, plant_file, sim_config
