@@ -19,6 +19,7 @@ import numpy as np
 import pinocchio as pin
 import yaml
 
+from flight_sim_dynamics.config.files import PACKAGED_SECTION
 from flight_sim_dynamics.core.kernel import use_kernel
 from flight_sim_dynamics.machines.stewart import forward_dynamics, kernel, model, solver
 
@@ -40,9 +41,12 @@ def _reference():
 
 
 def default_machine() -> dict:
-    """The default machine's parameter file, as docs/design/stewart.md prints it."""
+    """The default machine's parameters (its file's ``ros__parameters``), as
+    docs/design/stewart.md prints the file.
+    """
     text = (ROOT / 'docs' / 'design' / 'stewart.md').read_text(encoding='utf-8')
-    return next(yaml.safe_load(b) for b in re.findall(r'```yaml\n(.*?)```', text, flags=re.S)
+    return next(yaml.safe_load(b)[PACKAGED_SECTION]['ros__parameters']
+                for b in re.findall(r'```yaml\n(.*?)```', text, flags=re.S)
                 if 'machine: stewart_6dof' in b and '[...]' not in b)
 
 

@@ -7,7 +7,9 @@ on either machine: ``machine:=stewart_6dof`` takes the packaged hexapod file,
 ``plant.params_file``), the cueing node drives it (the same file as its
 ``params_file``: the machine and its ``cueing`` group), the planner plays that
 machine's motions (the planner and the cueing node both publish setpoints: one
-at a time).
+at a time). The node gets its file as ``--params-file FILE`` would hand it
+over: a file of one's own for a node in a namespace has a section that reaches
+it (``/**/flight_sim_dynamics``, ``/<namespace>/flight_sim_dynamics`` or ``/**``).
 
 For a ROS 2 install (``ros2 launch`` is not on PyPI):
 
@@ -28,7 +30,6 @@ from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import LifecycleNode, Node
 
-from flight_sim_dynamics.config.files import read_params_sections
 from flight_sim_dynamics.config.machine_files import launch_params_file
 
 PACKAGE = 'flight_sim_dynamics'
@@ -36,7 +37,9 @@ PACKAGE = 'flight_sim_dynamics'
 
 def _nodes(context, *args, **kwargs):
     """The node (and the twin, the planner) on the chosen file; ``scene``
-    overrides the params file only when given.
+    overrides the params file only when given. The node gets the file as
+    ``--params-file`` (a path in ``parameters``), its sections applying as rcl
+    applies them: the packaged files' ``/**/flight_sim_dynamics`` in any namespace.
     """
     def value(name):
         return LaunchConfiguration(name).perform(context)
@@ -45,17 +48,12 @@ def _nodes(context, *args, **kwargs):
         return value(name).lower() in ('true', '1')
     params_file = str(launch_params_file(value('machine'), value('params_file')))
     namespace = LaunchConfiguration('namespace')
-    # The file's sections for this node, by its fully qualified name, handed over as
-    # values: a section `flight_sim_dynamics:` (the packaged files') reaches the node
-    # in any namespace, where ROS would give it to the root namespace's node only.
-    node = '/' + '/'.join(filter(None, (value('namespace').strip('/'), PACKAGE)))
-    values = read_params_sections(params_file, node)
     overrides = {'autostart': flag('autostart'), 'use_sim_time': flag('use_sim_time')}
     if value('scene'):
         overrides['scene'] = value('scene')
     nodes = [LifecycleNode(
         package=PACKAGE, executable='dynamics_node', name=PACKAGE, namespace=namespace,
-        parameters=[values, overrides], output='screen')]
+        parameters=[params_file, overrides], output='screen')]
     if flag('twin'):
         nodes.append(Node(package=PACKAGE, executable='platform_sim', name='platform_sim',
                           namespace=namespace,

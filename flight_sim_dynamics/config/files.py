@@ -13,6 +13,9 @@ from .validation import check_value
 from .yaml_io import read_yaml
 
 NODE_NAME = 'flight_sim_dynamics'
+#: the top key of the packaged parameter files: the node of that name in any
+#: namespace, as rcl reads it
+PACKAGED_SECTION = '/**/' + NODE_NAME
 PACKAGE_NAME = 'flight_sim_dynamics'
 DEFAULT_PARAMS_FILE = 'flight_sim_dynamics.yaml'
 
@@ -67,11 +70,10 @@ def check_file_values(flat: Mapping[str, Any], source: str) -> None:
 
 def section_applies(section: str, node: str) -> bool:
     """Whether a params-file section applies to the node ``node`` (fully
-    qualified), as rcl decides: its name, its full name, or a pattern
-    (``/**`` any namespaces, ``*`` one token).
+    qualified), as rcl decides: its fully qualified name, a bare name ``foo``
+    being ``/foo`` (the node of that name in the root namespace only), or a
+    pattern (``/**`` any namespaces, ``*`` one token).
     """
-    if section == node.rsplit('/', 1)[-1]:
-        return True
     pattern = re.escape(section if section.startswith('/') else '/' + section)
     pattern = pattern.replace(r'/\*\*', r'(/[^/]+)*').replace(r'\*', r'[^/]+')
     return re.fullmatch(pattern, node) is not None

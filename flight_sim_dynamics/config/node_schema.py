@@ -95,6 +95,32 @@ def node_schema(machine_name: Any = None) -> NodeSchema:
     return _default() if machine_name is None else _named(machine_name)
 
 
+def _unreached(path: str, node: str, machine: Any) -> prm.ParameterError:
+    """The error of a file naming ``machine`` whose section does not reach ``node``."""
+    return prm.ParameterError(MACHINE, machine, (
+        f'{path} names this machine, but ROS gave the node {node} no parameter of '
+        'that file (its section must be the node\'s fully qualified name, or match it: '
+        '/**, /**/flight_sim_dynamics, to reach a node in a namespace); the node would '
+        'run another machine'))
+
+
+def _sections(path: str, node: str) -> dict[str, Any]:
+    """The file's parameters for the node ``node`` (:func:`.files.read_params_sections`);
+    a file with no section for it that names a machine for the root namespace's
+    node (a bare ``flight_sim_dynamics``) is refused by that machine's name.
+    """
+    try:
+        return read_params_sections(path, node)
+    except prm.ParameterError:
+        try:
+            root = read_params_sections(path)
+        except prm.ParameterError:
+            root = {}
+        if node == '/' + prm.NODE_NAME or MACHINE not in root:
+            raise
+        raise _unreached(path, node, root[MACHINE]) from None
+
+
 def check_node_params_files(args: Sequence[str], node: str = '/' + prm.NODE_NAME,
                             machine: Any = None) -> None:
     """The one rule on the ``--params-file`` files of a node's command line
@@ -107,17 +133,14 @@ def check_node_params_files(args: Sequence[str], node: str = '/' + prm.NODE_NAME
     node of that name in the root namespace).
     """
     paths = params_files_in(args)
-    flats = [(path, read_params_sections(path, node)) for path in paths]
+    flats = [(path, _sections(path, node)) for path in paths]
     named = [(path, flat) for path, flat in flats if MACHINE in flat]
     if not named:
         prm.check_params_files(args, node)
         return
     path, flat = named[-1]
     if flat[MACHINE] != machine:
-        raise prm.ParameterError(MACHINE, flat[MACHINE], (
-            f'{path} names this machine, but ROS gave the node {node} no parameter of '
-            'that file (its section must be the node\'s fully qualified name, or /**, to '
-            'reach a node in a namespace); the node would run another machine'))
+        raise _unreached(path, node, flat[MACHINE])
     merged: dict[str, Any] = {}
     for _, flat in flats:
         merged.update(flat)

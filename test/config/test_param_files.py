@@ -12,7 +12,9 @@ import yaml
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import parameters, schema, yaml_io
 from flight_sim_dynamics.config.errors import ParameterError
-from flight_sim_dynamics.config.files import params_files_in, read_params_sections, section_applies
+from flight_sim_dynamics.config.files import (PACKAGED_SECTION, params_files_in,
+                                              read_params_sections, section_applies)
+from flight_sim_dynamics.config.node_schema import check_node_params_files
 from flight_sim_dynamics.config.scenes import SceneError
 from flight_sim_dynamics.machines.staicu.model import BODY_NAMES
 
@@ -54,7 +56,7 @@ def test_partial_file_overrides_packaged_defaults(tmp_path):
 
 def test_missing_geometry_key_takes_the_packaged_value(tmp_path):
     tree = yaml.safe_load(CONFIG.read_text())
-    del tree['flight_sim_dynamics']['ros__parameters']['geometry']['d1']
+    del tree[PACKAGED_SECTION]['ros__parameters']['geometry']['d1']
     path = tmp_path / 'no_d1.yaml'
     path.write_text(yaml.safe_dump(tree))
     assert fsd.load_model(path).geometry.d1 == fsd.load_model().geometry.d1
@@ -98,6 +100,59 @@ def test_sections_apply_as_rcl_applies_them(tmp_path):
     assert values == {'gravity': 9.0}
     with pytest.raises(ParameterError, match='no section for node'):
         parameters.read_params(path)
+
+
+#: rclpy 7.1.6 (Jazzy), measured: a node named flight_sim_dynamics in namespace
+#: '' and 'sim', --params-file of a file whose one section is the key: whether
+#: the node has the section's parameter
+RCL_SECTIONS = [
+    ('flight_sim_dynamics', '/flight_sim_dynamics', True),
+    ('flight_sim_dynamics', '/sim/flight_sim_dynamics', False),
+    ('/**/flight_sim_dynamics', '/flight_sim_dynamics', True),
+    ('/**/flight_sim_dynamics', '/sim/flight_sim_dynamics', True),
+    ('/sim/flight_sim_dynamics', '/flight_sim_dynamics', False),
+    ('/sim/flight_sim_dynamics', '/sim/flight_sim_dynamics', True),
+]
+
+
+@pytest.mark.parametrize('section, node, applies', RCL_SECTIONS)
+def test_a_section_applies_where_rcl_applies_it(tmp_path, section, node, applies):
+    """A bare name is the node of that name in the root namespace only."""
+    assert section_applies(section, node) is applies
+    path = tmp_path / 'one_section.yaml'
+    path.write_text(yaml.safe_dump({section: {'ros__parameters': {'gravity': 5.0}}}))
+    if applies:
+        assert read_params_sections(path, node) == {'gravity': 5.0}
+    else:
+        with pytest.raises(ParameterError, match='no section for node'):
+            read_params_sections(path, node)
+
+
+def test_the_packaged_files_reach_the_node_in_any_namespace():
+    for path in sorted(CONFIG.parent.glob('*.yaml')):
+        tree = yaml.safe_load(path.read_text(encoding='utf-8'))
+        assert list(tree) == [PACKAGED_SECTION], path
+        for node in ('/flight_sim_dynamics', '/sim/flight_sim_dynamics',
+                     '/a/b/flight_sim_dynamics'):
+            assert read_params_sections(path, node) == read_params_sections(path), (path, node)
+        assert read_params_sections(path)['gravity'] > 0
+
+
+def test_a_namespaced_node_takes_the_packaged_hexapod_and_refuses_a_bare_section(tmp_path):
+    """The packaged file reaches /sim/flight_sim_dynamics; a file of one's own whose
+    bare section names the machine does not, and ends the start by that name."""
+    hexapod = str(CONFIG.parent / 'stewart_6dof.yaml')
+    check_node_params_files(['--ros-args', '--params-file', hexapod],
+                            '/sim/flight_sim_dynamics', 'stewart_6dof')
+    bare = tmp_path / 'bare.yaml'
+    bare.write_text(yaml.safe_dump({'flight_sim_dynamics': {
+        'ros__parameters': {'machine': 'stewart_6dof'}}}))
+    check_node_params_files(['--ros-args', '--params-file', str(bare)],
+                            '/flight_sim_dynamics', 'stewart_6dof')
+    with pytest.raises(ParameterError) as error:
+        check_node_params_files(['--ros-args', '--params-file', str(bare)],
+                                '/sim/flight_sim_dynamics', None)
+    assert error.value.key == 'machine' and error.value.value == 'stewart_6dof'
 
 
 def test_params_files_in_a_ros_command_line():

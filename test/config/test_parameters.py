@@ -7,6 +7,7 @@ import yaml
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import parameters
+from flight_sim_dynamics.config.files import PACKAGED_SECTION
 from flight_sim_dynamics.config.parameters import ParameterError
 
 CONFIG = Path(__file__).resolve().parents[2] / 'config' / 'flight_sim_dynamics.yaml'
@@ -19,7 +20,7 @@ def _write(tmp_path, tree):
 
 
 def _tree():
-    return yaml.safe_load(CONFIG.read_text())['flight_sim_dynamics']['ros__parameters']
+    return yaml.safe_load(CONFIG.read_text())[PACKAGED_SECTION]['ros__parameters']
 
 
 def test_packaged_file_equals_schema_defaults():

@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import parameters
 from flight_sim_dynamics.config.errors import ParameterError
+from flight_sim_dynamics.config.files import PACKAGED_SECTION
 from flight_sim_dynamics.config.scenes import SceneError, load_scene
 from flight_sim_dynamics.core.effects import Effects
 from flight_sim_dynamics.machines.staicu.model import Model
@@ -40,7 +41,7 @@ def _tree(name: str) -> dict:
 
 
 def _params(tree: dict) -> dict:
-    return tree['flight_sim_dynamics']['ros__parameters']
+    return tree[PACKAGED_SECTION]['ros__parameters']
 
 
 def _dump(tmp_path, tree: dict, name: str = 'mine.yaml') -> Path:

@@ -17,6 +17,7 @@ import yaml
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config.errors import ParameterError
+from flight_sim_dynamics.config.files import PACKAGED_SECTION
 from flight_sim_dynamics.config.node_schema import node_schema
 from flight_sim_dynamics.config.validation import nested
 from flight_sim_dynamics.core.machine import Machine
@@ -129,7 +130,7 @@ def test_a_home_beyond_a_force_limit_is_accepted(tmp_path, machine):
 
 def _hexapod(name: str) -> dict[str, np.ndarray]:
     geometry = yaml.safe_load((CONFIG / f'{name}.yaml').read_text())[
-        'flight_sim_dynamics']['ros__parameters']['geometry']
+        PACKAGED_SECTION]['ros__parameters']['geometry']
     return {key: np.array(value, dtype=float) for key, value in geometry.items()}
 
 
@@ -174,7 +175,7 @@ def test_a_degenerate_hexapod_is_refused_by_load_model(tmp_path, name, case):
 def test_a_degenerate_hexapod_of_ones_own_names_its_geometry(tmp_path, case):
     """A machine of one's own gives every value: its geometry is blamed."""
     tree = yaml.safe_load((CONFIG / 'stewart_6dof.yaml').read_text())
-    params = tree['flight_sim_dynamics']['ros__parameters']
+    params = tree[PACKAGED_SECTION]['ros__parameters']
     params['machine'] = 'stewart'       # a hexapod of one's own: its kind's name
     values, _ = _degenerate('stewart_6dof', case)
     for key, value in values.items():

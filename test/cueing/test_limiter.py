@@ -32,6 +32,7 @@ from flight_sim_dynamics import load_model, solve_batch
 from flight_sim_dynamics.config.machine_files import load_cueing
 from flight_sim_dynamics.cueing import limiter as lm
 from flight_sim_dynamics.config.cueing import cueing_params, defaults
+from flight_sim_dynamics.config.files import PACKAGED_SECTION
 from flight_sim_dynamics.machines import FLIGHT_SIMULATOR, MACHINES, STEWART
 from flight_sim_dynamics.machines.api import machine_of
 
@@ -60,7 +61,7 @@ class Setup:
         self.limits = limits
         if machine is STEWART:
             self.ref = ref6.machine_from_dict(data)
-            lim = data['flight_sim_dynamics']['ros__parameters']['limits']
+            lim = data[PACKAGED_SECTION]['ros__parameters']['limits']
             self.length_range = (lim['length_min'], lim['length_max'])
         else:
             self.ref = ref3.load_reference_params(path)

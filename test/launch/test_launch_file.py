@@ -95,8 +95,10 @@ def launched(monkeypatch, **given: str) -> dict[str, _Recorded]:
 def test_the_hexapod_is_launched_with_its_packaged_file(monkeypatch):
     stewart = str(ROOT / 'config' / 'stewart_6dof.yaml')
     nodes = launched(monkeypatch, machine='stewart_6dof', twin='true', planner='true')
-    values = nodes['dynamics_node'].kwargs['parameters'][0]
-    assert values == read_params_sections(stewart) and values['machine'] == 'stewart_6dof'
+    # a path in launch_ros's parameters reaches the node as --params-file PATH
+    assert nodes['dynamics_node'].kwargs['parameters'] == [
+        stewart, {'autostart': True, 'use_sim_time': False}]
+    assert read_params_sections(stewart)['machine'] == 'stewart_6dof'
     assert type(nodes['dynamics_node']).__name__ == 'LifecycleNode'
     twin = nodes['platform_sim'].kwargs
     assert twin['parameters'][0]['plant.params_file'] == stewart
@@ -105,29 +107,31 @@ def test_the_hexapod_is_launched_with_its_packaged_file(monkeypatch):
     assert arguments[arguments.index('--params') + 1] == stewart
 
 
-def test_a_namespaced_node_gets_the_packaged_files_values(monkeypatch):
-    """ROS gives a section named `flight_sim_dynamics:` to the root namespace's
-    node only: the launch file hands the node its section's values."""
+def test_a_namespaced_node_gets_the_packaged_file_itself(monkeypatch):
+    """The node in a namespace is handed the file, as --params-file hands it: the
+    packaged files' section reaches it by rcl's rule (``/**/flight_sim_dynamics``)."""
     stewart = str(ROOT / 'config' / 'stewart_6dof.yaml')
     nodes = launched(monkeypatch, machine='stewart_6dof', namespace='sim')
     assert nodes['dynamics_node'].kwargs['namespace'].name == 'namespace'
-    assert nodes['dynamics_node'].kwargs['parameters'][0] == read_params_sections(stewart)
+    assert nodes['dynamics_node'].kwargs['parameters'][0] == stewart
+    values = read_params_sections(stewart, '/sim/flight_sim_dynamics')
+    assert values == read_params_sections(stewart) and values['machine'] == 'stewart_6dof'
 
 
 def test_the_default_is_the_3dof_machine_and_a_params_file_wins(monkeypatch, tmp_path):
     nodes = launched(monkeypatch)
     assert set(nodes) == {'dynamics_node'}
-    assert nodes['dynamics_node'].kwargs['parameters'][0] == \
-        read_params_sections(ROOT / 'config' / 'flight_sim_dynamics.yaml')
-    assert nodes['dynamics_node'].kwargs['parameters'][1] == {'autostart': True,
-                                                              'use_sim_time': False}
+    assert nodes['dynamics_node'].kwargs['parameters'] == [
+        str(ROOT / 'config' / 'flight_sim_dynamics.yaml'),
+        {'autostart': True, 'use_sim_time': False}]
     mine = tmp_path / 'mine.yaml'
     mine.write_text('/sim/flight_sim_dynamics:\n  ros__parameters:\n    limits:\n'
                     '      max_force: 900.0\n/other:\n  ros__parameters:\n    gravity: 1.0\n')
     nodes = launched(monkeypatch, params_file=str(mine), scene='payload', twin='true',
                      namespace='sim')
-    assert nodes['dynamics_node'].kwargs['parameters'][0] == {'limits.max_force': 900.0}
-    assert nodes['dynamics_node'].kwargs['parameters'][1]['scene'] == 'payload'
+    assert nodes['dynamics_node'].kwargs['parameters'] == [
+        str(mine), {'autostart': True, 'use_sim_time': False, 'scene': 'payload'}]
+    assert read_params_sections(mine, '/sim/flight_sim_dynamics') == {'limits.max_force': 900.0}
     assert nodes['platform_sim'].kwargs['parameters'][0]['plant.params_file'] == str(mine)
     with pytest.raises(ValueError, match='not packaged'):
         launched(monkeypatch, machine='hexapod')

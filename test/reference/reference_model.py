@@ -296,12 +296,13 @@ def params_from_dict(d):
     """Normalise a parameter dict.
 
     Accepts the full ROS layout ``{flight_sim_dynamics: {ros__parameters:
-    {...}}}``, the inner ``ros__parameters`` dict, or an already normalised
-    dict.  Returns ``{'gravity': float, 'geometry': {key: float},
+    {...}}}`` (or the packaged files' ``/**/flight_sim_dynamics``), the inner
+    ``ros__parameters`` dict, or an already normalised dict.  Returns ``{'gravity': float, 'geometry': {key: float},
     'bodies': {name: {'mass': float, 'com': (3,), 'inertia': (3, 3)}}}``.
     """
-    if "flight_sim_dynamics" in d:
-        d = d["flight_sim_dynamics"]
+    for section in ("flight_sim_dynamics", "/**/flight_sim_dynamics"):
+        if section in d:
+            d = d[section]
     if "ros__parameters" in d:
         d = d["ros__parameters"]
     geometry = {k: float(d["geometry"][k]) for k in GEOMETRY_KEYS}

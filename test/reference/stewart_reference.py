@@ -83,7 +83,7 @@ way, for the power balance ``sum f_i dL_i/dt = d(T + V)/dt``.
 Parameters
 ----------
 ``default_machine()`` and ``tsai_2000()`` return the machines as plain dicts
-in the parameter-file layout of stewart.md (``{"flight_sim_dynamics":
+in the parameter-file layout of stewart.md (``{"/**/flight_sim_dynamics":
 {"ros__parameters": {...}}}``, joints as 18 explicit numbers);
 ``machine_from_dict(d)`` turns such a dict (or the ``ros__parameters`` part)
 into numpy arrays.  ``docs/design/stewart.md`` prints the same dicts as YAML.
@@ -132,8 +132,21 @@ def _flat(points) -> list[float]:
     return [float(x) for x in np.asarray(points, dtype=float).reshape(-1)]
 
 
+#: the packaged files' section: the node of that name in any namespace
+SECTION = "/**/flight_sim_dynamics"
+
+
 def _file(params: dict) -> dict:
-    return {"flight_sim_dynamics": {"ros__parameters": params}}
+    return {SECTION: {"ros__parameters": params}}
+
+
+def _params(d: dict) -> dict:
+    """The ``ros__parameters`` of a parameter-file dict (a section
+    ``flight_sim_dynamics`` or ``/**/flight_sim_dynamics``), or ``d`` itself."""
+    for section in ("flight_sim_dynamics", SECTION):
+        if section in d:
+            return d[section]["ros__parameters"]
+    return d
 
 
 def default_machine() -> dict:
@@ -215,7 +228,7 @@ def tsai_2000() -> dict:
 def with_payload(d: dict, mass: float, com, inertia=(0.0,) * 9) -> dict:
     """A copy of the machine dict ``d`` carrying the given payload."""
     d = copy.deepcopy(d)
-    params = d["flight_sim_dynamics"]["ros__parameters"]
+    params = _params(d)
     params["payload"] = {"mass": float(mass), "com": [float(c) for c in com],
                          "inertia": [float(x) for x in inertia]}
     return d
@@ -262,9 +275,8 @@ def load_machine(path) -> dict:
 
 
 def machine_from_dict(d: dict) -> dict:
-    """Numpy arrays of a machine given as a parameter-file dict (or its ros__parameters)."""
-    if "flight_sim_dynamics" in d:
-        d = d["flight_sim_dynamics"]["ros__parameters"]
+    """Numpy arrays of a machine given as a parameter-file dict or its ros__parameters."""
+    d = _params(d)
     geo, bodies = d["geometry"], d["bodies"]
 
     def points(key):

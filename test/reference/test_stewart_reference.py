@@ -127,7 +127,7 @@ def test_leg_spin_matters():
     axial = sr.forces_pinocchio(HEXAPODS["default"], q, qd, qdd)
     no_spin = sr.default_machine()
     for body in ("cylinder", "rod"):
-        no_spin["flight_sim_dynamics"]["ros__parameters"]["bodies"][body]["inertia_along"] = 0.0
+        no_spin[sr.SECTION]["ros__parameters"]["bodies"][body]["inertia_along"] = 0.0
     changed = sr.forces_pinocchio(sr.machine_from_dict(no_spin), q, qd, qdd)
     assert relative(axial, changed).max() > 1e3 * RTOL
 
@@ -136,7 +136,7 @@ def test_base_axes_do_not_act_on_legs_without_axial_inertia():
     """With inertia_along = 0 (Tsai's legs) the U-joints' first axes drop out of the forces."""
     q, qd, qdd = random_motion(6, "violent", n=10)
     tilted = sr.tsai_2000()
-    geometry = tilted["flight_sim_dynamics"]["ros__parameters"]["geometry"]
+    geometry = tilted[sr.SECTION]["ros__parameters"]["geometry"]
     geometry["base_axes"] = [0.6, 0.0, 0.8] * 6  # not across the legs, not horizontal
     f = sr.forces_pinocchio(HEXAPODS["tsai2000"], q, qd, qdd)
     np.testing.assert_allclose(sr.forces_lagrange(sr.machine_from_dict(tilted), q, qd, qdd), f,
@@ -181,6 +181,6 @@ def test_machine_yaml_round_trip(tmp_path):
 
 def test_loader_rejects_a_short_joint_list():
     d = sr.default_machine()
-    d["flight_sim_dynamics"]["ros__parameters"]["geometry"]["base_joints"].pop()
+    d[sr.SECTION]["ros__parameters"]["geometry"]["base_joints"].pop()
     with pytest.raises(ValueError, match="base_joints"):
         sr.machine_from_dict(d)

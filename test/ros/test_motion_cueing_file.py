@@ -15,6 +15,7 @@ import yaml
 from rcl_interfaces.srv import GetParameters
 
 from flight_sim_dynamics.config.schema import CUEING_NODE_NAME
+from flight_sim_dynamics.config.files import PACKAGED_SECTION
 from flight_sim_dynamics.machines import FLIGHT_SIMULATOR
 from flight_sim_dynamics.ros.process import CUEING_MODULE, node_command, node_env
 from cueing_harness import dynamics_counts, start_chain, write_vehicle_log
@@ -28,7 +29,7 @@ STEWART = ROOT / 'config' / 'stewart_6dof.yaml'
 def params_file(tmp_path, **cueing):
     """The hexapod's packaged file with ``cueing`` as its cueing group."""
     doc = yaml.safe_load(STEWART.read_text())
-    doc['flight_sim_dynamics']['ros__parameters']['cueing'] = cueing
+    doc[PACKAGED_SECTION]['ros__parameters']['cueing'] = cueing
     path = tmp_path / 'hexapod.yaml'
     path.write_text(yaml.safe_dump(doc))
     return path
@@ -114,7 +115,7 @@ def test_a_name_the_node_does_not_know_ends_the_start(tmp_path):
     assert typo.returncode == 2, typo.stdout + typo.stderr
     assert "'cueing.rat'" in typo.stderr and "did you mean 'cueing.rate'" in typo.stderr
     everyone = tmp_path / 'everyone.yaml'
-    everyone.write_text(STEWART.read_text().replace('flight_sim_dynamics:', '/**:', 1))
+    everyone.write_text(STEWART.read_text().replace(f'{PACKAGED_SECTION}:', '/**:', 1))
     cue = NodeProcess(params_file=everyone, module=CUEING_MODULE)
     try:
         assert cue.wait_output('active: cueing', 30.0), cue.output()

@@ -367,18 +367,20 @@ def test_lifecycle_transitions_on_the_hexapod(tmp_path, model):
     assert 'Traceback' not in proc.output()
 
 
-def test_two_machines_side_by_side_in_two_namespaces(tmp_path, model):
-    """A 3-DOF node in /three and a hexapod in /six: each answers its own
-    setpoints with its own legs and numbers; neither takes a machine change."""
+def test_two_machines_side_by_side_in_two_namespaces(model):
+    """A 3-DOF node in /three and a hexapod in /six, the latter on the packaged
+    file itself (its `/**/flight_sim_dynamics` reaches a node in any namespace):
+    each answers its own setpoints with its own legs and numbers; neither takes
+    a machine change."""
     three = NodeProcess('-r', '__ns:=/three', '-p', 'sync.wait:=0.5')
-    six = NodeProcess('-r', '__ns:=/six', '-p', 'sync.wait:=0.5',
-                      params_file=namespaced_file(tmp_path))
+    six = NodeProcess('-r', '__ns:=/six', '-p', 'sync.wait:=0.5', params_file=HEXAPOD_FILE)
     clients = {'/three': Client('three_client', '/three'), '/six': Client('six_client', '/six')}
     try:
         for (ns, c), proc in zip(clients.items(), (three, six)):
             c.wait_for_node(proc)
             probes = itertools.count(10 ** 18, 5_000_000)
             c.round_trip(lambda: next(probes))
+        assert clients['/six'].get_params(['machine']) == ['stewart_6dof']
         # the 3-DOF machine: surge, heave, roll of the same kind of messages
         flight = fsd.load_model()
         q3, qd3, qdd3 = (0.02, 0.05, 0.1), (0.1, 0.0, 0.2), (0.0, 0.5, 0.0)
@@ -422,11 +424,14 @@ def test_a_bad_start_up_value_of_the_hexapod_ends_the_start():
             proc.stop()
 
 
-def test_a_section_that_does_not_reach_the_node_is_refused():
-    """--params-file config/stewart_6dof.yaml in a namespace: ROS gives the node
-    none of its parameters; the node refuses to start (exit 2) rather than
-    run the 3-DOF machine."""
-    proc = NodeProcess('-r', '__ns:=/elsewhere', params_file=HEXAPOD_FILE)
+def test_a_section_that_does_not_reach_the_node_is_refused(tmp_path):
+    """A file of one's own with a bare `flight_sim_dynamics:` section naming the
+    hexapod, in a namespace: ROS gives the node none of its parameters; the node
+    refuses to start (exit 2) rather than run the 3-DOF machine."""
+    path = tmp_path / 'bare.yaml'
+    path.write_text(yaml.safe_dump({'flight_sim_dynamics': {
+        'ros__parameters': {'machine': 'stewart_6dof'}}}))
+    proc = NodeProcess('-r', '__ns:=/elsewhere', params_file=str(path))
     try:
         assert proc.proc.wait(30.0) == 2
         assert 'error:' in proc.output() and 'machine' in proc.output()

@@ -30,6 +30,7 @@ from std_srvs.srv import Trigger
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config.errors import ParameterError
+from flight_sim_dynamics.config.files import PACKAGED_SECTION
 from flight_sim_dynamics.core.euler import euler_rates
 from flight_sim_dynamics.core.motion import PlannerSequence
 from flight_sim_dynamics.ros.platform_sim import check_command, plant_file, sim_config
@@ -94,7 +95,7 @@ def test_the_plant_is_the_params_file_of_the_dynamics_node(tmp_path):
         plant_file('', [str(STEWART_FILE), str(PARAMS_FILE)])
     # the dynamics node in the twin's namespace: its fully qualified section
     namespaced = tmp_path / 'sim.yaml'
-    namespaced.write_text(STEWART_FILE.read_text().replace('flight_sim_dynamics:',
+    namespaced.write_text(STEWART_FILE.read_text().replace(f'{PACKAGED_SECTION}:',
                                                            '/sim/flight_sim_dynamics:', 1))
     assert plant_file('', [str(namespaced)], '/sim/flight_sim_dynamics') == str(namespaced)
     assert plant_file('', [str(namespaced)]) is None

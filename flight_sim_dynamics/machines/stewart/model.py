@@ -3,7 +3,7 @@
 
 Any 6-UPS hexapod: the joints are explicit coordinates. :func:`from_dict`
 builds a :class:`StewartModel` from the ``ros__parameters`` of a parameter
-file (or the whole file's dict) and rejects a bad number with a ValueError
+file and rejects a bad number with a ValueError
 that names its field (reading the file is the configuration's job).
 """
 from __future__ import annotations
@@ -277,17 +277,13 @@ def _friction(d: object) -> Friction:
 
 
 def from_dict(params: Mapping, effects: Effects | None = None) -> StewartModel:
-    """The model of a parameter-file dict (the file's whole dict or its
-    ``ros__parameters``). ``payload`` and ``friction`` may be left out (zero).
+    """The model of a parameter file's ``ros__parameters``, nested (the
+    configuration picks the node's sections). ``payload`` and ``friction`` may
+    be left out (zero).
     ``effects`` are the effects of the scene the file names (the caller
     resolves the name); left out, they are scene full's, :class:`Effects`'
     defaults, and any other scene name is a ValueError.
     """
-    if isinstance(params, Mapping) and 'flight_sim_dynamics' in params:
-        params = params['flight_sim_dynamics']
-        if not isinstance(params, Mapping) or 'ros__parameters' not in params:
-            raise _error('flight_sim_dynamics', 'flight_sim_dynamics: missing ros__parameters')
-        params = params['ros__parameters']
     params = _section('parameters', params, _TOP, _TOP - {'payload', 'friction', 'scene'})
     name = params['machine']
     if not isinstance(name, str) or not name:

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from flight_sim_dynamics.config.files import PACKAGED_SECTION
 from flight_sim_dynamics.core.effects import Effects
 from flight_sim_dynamics.machines.stewart import model as stewart_model
 
@@ -16,10 +17,12 @@ DOC = (Path(__file__).resolve().parents[3] / 'docs' / 'design' / 'stewart.md').r
 
 
 def doc_machines() -> dict:
-    """The parameter files printed in stewart.md, by machine name."""
-    blocks = [yaml.safe_load(b) for b in re.findall(r'```yaml\n(.*?)```', DOC, flags=re.S)
+    """The parameters (``ros__parameters``) of the packaged files printed in
+    stewart.md, by machine name."""
+    blocks = [yaml.safe_load(b)[PACKAGED_SECTION]['ros__parameters']
+              for b in re.findall(r'```yaml\n(.*?)```', DOC, flags=re.S)
               if 'machine: stewart_' in b and '[...]' not in b]
-    return {b['flight_sim_dynamics']['ros__parameters']['machine']: b for b in blocks}
+    return {b['machine']: b for b in blocks}
 
 
 def _numbers(text: str) -> tuple[float, ...]:

@@ -129,8 +129,7 @@ def test_the_legs_spin_about_their_axis_matters():
     """Dropping sigma_i (S9) changes the forces by inertia_along's share; the
     reference, with the spin, agrees with the model that has it."""
     q, qd, qdd = random_motion(5, 'violent', n=10)
-    d = MACHINES['stewart_6dof']
-    params = d['flight_sim_dynamics']['ros__parameters']
+    params = MACHINES['stewart_6dof']
     no_spin = {**params, 'bodies': {**params['bodies'],
                                     'cylinder': {**params['bodies']['cylinder'],
                                                  'inertia_along': 0.0},
@@ -144,7 +143,7 @@ def test_the_legs_spin_about_their_axis_matters():
 def test_base_axes_do_not_act_on_legs_without_axial_inertia():
     """With inertia_along = 0 (Tsai's legs) the U-joints' first axes drop out (S20)."""
     q, qd, qdd = random_motion(6, 'violent', n=10)
-    params = MACHINES['stewart_tsai2000']['flight_sim_dynamics']['ros__parameters']
+    params = MACHINES['stewart_tsai2000']
     tilted = {**params, 'geometry': {**params['geometry'], 'base_axes': [0.6, 0.0, 0.8] * 6}}
     f = _forces(model_of('stewart_tsai2000'), q, qd, qdd)
     np.testing.assert_allclose(_forces(sm.from_dict(tilted), q, qd, qdd), f, rtol=0,
@@ -189,7 +188,7 @@ def test_without_velocity_products_the_forces_are_those_from_rest(name):
 
 
 def test_friction_adds_viscous_and_smoothed_coulomb_terms():
-    params = MACHINES['stewart_6dof']['flight_sim_dynamics']['ros__parameters']
+    params = MACHINES['stewart_6dof']
     friction = {'viscous': [10.0, 20.0, 30.0, 40.0, 50.0, 60.0],
                 'coulomb': [1.0, 2.0, 3.0, 4.0, 5.0, 6.0], 'smoothing_velocity': 0.01}
     model = sm.from_dict({**params, 'friction': friction})

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import yaml
 
+from flight_sim_dynamics.config.files import PACKAGED_SECTION
 from flight_sim_dynamics.machines.stewart import model as stewart_model
 from stewart_cases import doc_machines
 
@@ -16,12 +17,14 @@ NAMES = ('stewart_6dof', 'stewart_tsai2000')
 
 
 def shipped_machine(name: str) -> dict:
-    """The shipped file without its ``cueing`` group (the planner's, docs/cueing.md;
-    the loaders take it apart before the machine's builder sees the file).
+    """The shipped file's parameters without its ``cueing`` group (the planner's,
+    docs/cueing.md; the loaders take it apart before the machine's builder sees
+    the file).
     """
     shipped = yaml.safe_load((CONFIG / f'{name}.yaml').read_text(encoding='utf-8'))
-    shipped['flight_sim_dynamics']['ros__parameters'].pop('cueing', None)
-    return shipped
+    params = shipped[PACKAGED_SECTION]['ros__parameters']
+    params.pop('cueing', None)
+    return params
 
 
 @pytest.mark.parametrize('name', NAMES)

@@ -13,7 +13,7 @@ from stewart_cases import MACHINES, doc_number, model_of
 
 
 def _params(name='stewart_6dof'):
-    return copy.deepcopy(MACHINES[name]['flight_sim_dynamics']['ros__parameters'])
+    return copy.deepcopy(MACHINES[name])
 
 
 @pytest.mark.parametrize('name', sorted(MACHINES))

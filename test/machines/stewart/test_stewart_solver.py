@@ -91,7 +91,7 @@ def test_speed_and_force_limits():
 def test_joint_angle_limits_are_off_by_default_and_act_when_given():
     q = np.array([0.1, 0.0, 0.0, 0.0, 0.0, 0.0])
     assert solver.solve(MODEL, q, Z, Z).status is Status.OK
-    params = MACHINES['stewart_6dof']['flight_sim_dynamics']['ros__parameters']
+    params = MACHINES['stewart_6dof']
     u_limit = sm.from_dict({**params, 'limits': {**params['limits'],
                                                  'u_joint_max_angle': math.radians(30.0)}})
     sol = solver.solve(u_limit, q, Z, Z)
