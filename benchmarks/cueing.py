@@ -156,9 +156,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument('--minutes', type=float, default=10.0, help='offline log length')
     p.add_argument('--hour', action='store_true', help='offline: the 1-hour log itself')
     p.add_argument('--quick', action='store_true',
-                   help='2,000 steps, a 0.2-minute log, the check values as always')
+                   help='1,000 steps, a 0.05-minute log, the check values as always')
     args = p.parse_args(argv)
-    samples, minutes = (2000, 0.2) if args.quick else (args.samples, args.minutes)
+    samples, minutes = (1000, 0.05) if args.quick else (args.samples, args.minutes)
     if args.hour:
         minutes = 60.0
     print(header(f'motion cueing at {RATE:g} Hz'))

@@ -172,11 +172,11 @@ def test_each_movie_frame_is_the_picture_of_a_whole_draw(model, motion):
     3-D view's depth order, the bars under their limit lines, grey unsolved frames)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-    scene, drawn = _scene(model, motion, slice(0, None, 25))
+    scene, drawn = _scene(model, motion, slice(0, None, 50))
     scene.start(40)
     for frame in drawn:
         picture = scene.picture(frame).astype(int)
-        reference, _ = _scene(model, motion, slice(0, None, 25))
+        reference, _ = _scene(model, motion, slice(0, None, 50))
         reference.fig.set_dpi(40)
         canvas = FigureCanvasAgg(reference.fig)
         reference.draw(frame)

@@ -190,37 +190,42 @@ def violent(draw, s: Setup, n_min: int = 400, n_max: int = 1200):
 # -- the guarantees -------------------------------------------------------------
 
 @pytest.mark.parametrize('name', [m.name for m in MACHINES])
-@settings(max_examples=12, suppress_health_check=[HealthCheck.too_slow,
-                                                  HealthCheck.function_scoped_fixture])
-@given(data=st.data())
-def test_every_output_within_limits_smooth_and_reported(name, data) -> None:
+def test_every_output_within_limits_smooth_and_reported(name, sweep) -> None:
     s = SETUPS[name]
-    q, qd, qdd = data.draw(violent(s))
-    oq, oqd, oqdd, given_up, limit = run(s.limiter(), q, qd, qdd)
-    check_within_limits(s, oq, oqd, oqdd)
-    check_smooth(s, oq, oqd, oqdd)
-    check_reports(given_up, limit)
+
+    @settings(max_examples=sweep(24), suppress_health_check=[HealthCheck.too_slow])
+    @given(data=st.data())
+    def check(data) -> None:
+        q, qd, qdd = data.draw(violent(s))
+        oq, oqd, oqdd, given_up, limit = run(s.limiter(), q, qd, qdd)
+        check_within_limits(s, oq, oqd, oqdd)
+        check_smooth(s, oq, oqd, oqdd)
+        check_reports(given_up, limit)
+    check()
 
 
 @pytest.mark.parametrize('name', [m.name for m in MACHINES])
-@settings(max_examples=8, suppress_health_check=[HealthCheck.too_slow])
-@given(data=st.data())
-def test_braking_from_any_state_it_produced_stays_within_limits(name, data) -> None:
+def test_braking_from_any_state_it_produced_stays_within_limits(name, sweep) -> None:
     """The fallback (given up = 1: braking) from wherever the limiter is: a
     violent prefix, then nothing to follow (NaN) until the platform is at rest.
     """
     s = SETUPS[name]
-    q, qd, qdd = data.draw(violent(s, 100, 800))
     rest = 5000    # > the longest braking (max rate / braking deceleration) and its tail
     nan = np.full((rest, s.dof), math.nan)
-    oq, oqd, oqdd, given_up, limit = run(s.limiter(), np.vstack([q, nan]),
-                                         np.vstack([qd, nan]), np.vstack([qdd, nan]))
-    check_within_limits(s, oq, oqd, oqdd)
-    check_smooth(s, oq, oqd, oqdd)
-    assert (given_up[-rest:] == 1.0).all() and set(limit[-rest:]) == {lm.INPUT}
-    # at rest, held (the last periods' rates decay geometrically, by 2^-1/2 a period)
-    assert (np.abs(oqd[-1]) < 1e-12).all() and (np.abs(oqdd[-1]) < 1e-9).all()
-    assert np.abs(oq[-1] - oq[-2]).max() < 1e-15
+
+    @settings(max_examples=sweep(16), suppress_health_check=[HealthCheck.too_slow])
+    @given(data=st.data())
+    def check(data) -> None:
+        q, qd, qdd = data.draw(violent(s, 100, 800))
+        oq, oqd, oqdd, given_up, limit = run(s.limiter(), np.vstack([q, nan]),
+                                             np.vstack([qd, nan]), np.vstack([qdd, nan]))
+        check_within_limits(s, oq, oqd, oqdd)
+        check_smooth(s, oq, oqd, oqdd)
+        assert (given_up[-rest:] == 1.0).all() and set(limit[-rest:]) == {lm.INPUT}
+        # at rest, held (the last periods' rates decay geometrically, by 2^-1/2 a period)
+        assert (np.abs(oqd[-1]) < 1e-12).all() and (np.abs(oqdd[-1]) < 1e-9).all()
+        assert np.abs(oq[-1] - oq[-2]).max() < 1e-15
+    check()
 
 
 def test_a_huge_sine_on_every_coordinate_stays_within_limits(setup) -> None:

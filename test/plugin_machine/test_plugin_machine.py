@@ -272,8 +272,10 @@ def test_cli_solve(tmp_path):
 
 
 @pytest.mark.ros
-def test_cli_simulate_its_motion(tmp_path):
-    done = cli('simulate', '--params', str(PARAMS), '--motion', 'wobble', '-o', 'sim.csv',
+def test_cli_simulate_follows_a_reference(tmp_path):
+    # the wobble's first second as samples (the Python path: a plugin has no kernel)
+    write_trajectory(tmp_path / 'traj.csv', np.linspace(0.0, 1.0, 101))
+    done = cli('simulate', '--params', str(PARAMS), '--reference', 'traj.csv', '-o', 'sim.csv',
                cwd=tmp_path)
     assert done.returncode == 0, done.stderr + done.stdout
     table = list(csv.DictReader(io.StringIO((tmp_path / 'sim.csv').read_text())))

@@ -276,9 +276,14 @@ def tracking_errors(poses, sequence, t0: int, end: int) -> tuple[np.ndarray, np.
     chosen = [m for m in poses if t0 <= stamp(m) <= end]
     q_sim = np.array([simulated(m) for m in chosen])
     t = np.array([(stamp(m) - t0) * 1e-9 for m in chosen])
+    # the commanded motion on a 1 ms grid, read at each pose's time minus the delay
+    grid = np.arange(0.0, t.max() + 1e-3, 1e-3)
+    q_grid = np.array([sequence.sample(s)[0] for s in grid])
     best = None
     for delay in DELAYS:
-        q_ref = np.array([sequence.sample(max(0.0, s - delay))[0] for s in t])
+        when = np.maximum(0.0, t - delay)
+        q_ref = np.column_stack([np.interp(when, grid, q_grid[:, i])
+                                 for i in range(q_grid.shape[1])])
         error = q_sim - q_ref
         ratio = np.sqrt((error ** 2).mean(axis=0) / (q_ref ** 2).mean(axis=0))
         if best is None or ratio.max() < best[1].max():
