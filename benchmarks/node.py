@@ -1,8 +1,9 @@
 """The node's round trip under a setpoint stream (pose + twist + accel at
 --rate, the machine's ``cueing`` motion, each timed until its
-``actuator_states``): the node with its markers at the file's rate, the node
-without markers (``output.markers_rate:=0``) and a same-traffic rclpy echo (the
-node's three subscriptions and two JointStates, no solve), in rotating order;
+``actuator_states``; the driver subscribes to ``markers`` as a viewer does): the
+node with its markers at the file's rate, the node without markers
+(``output.markers_rate:=0``) and a same-traffic rclpy echo (the node's three
+subscriptions and two JointStates, no solve), in rotating order;
 the ratios to the echo and of markers on to off; then what one markers array
 costs the node's thread and the renderer process.
 
@@ -124,6 +125,7 @@ def drive_main(params: str, rate: float, seconds: float) -> int:
     from rclpy.experimental import EventsExecutor
     from rclpy.serialization import serialize_message
     from sensor_msgs.msg import JointState
+    from visualization_msgs.msg import MarkerArray
 
     import flight_sim_dynamics as fsd
 
@@ -152,6 +154,8 @@ def drive_main(params: str, rate: float, seconds: float) -> int:
             late['n'] += 1
 
     node.create_subscription(JointState, 'actuator_states', on_answer, qos(), raw=True)
+    # a viewer of the markers, as RViz is (the node draws them only for a subscriber)
+    node.create_subscription(MarkerArray, 'markers', lambda data: None, 10, raw=True)
     executor = EventsExecutor()
     executor.add_node(node)
 

@@ -11,6 +11,11 @@ export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$((RANDOM % 100 + 1))}"
 export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST
 echo "[tests] ROS_DOMAIN_ID=$ROS_DOMAIN_ID ROS_AUTOMATIC_DISCOVERY_RANGE=$ROS_AUTOMATIC_DISCOVERY_RANGE"
 
+# bytecode cached (gitignored __pycache__): with PYTHONDONTWRITEBYTECODE set, every
+# worker and every process a test starts compiled the test modules and the
+# source tree again (collection: 6.9 s -> 3.4 s a process)
+unset PYTHONDONTWRITEBYTECODE
+
 # a failed kernel build fails the run (FSD_REQUIRE_KERNEL=0 allows it)
 export FSD_REQUIRE_KERNEL="${FSD_REQUIRE_KERNEL:-1}"
 

@@ -169,10 +169,12 @@ _hypothesis_settings.load_profile(_profile)
                         pytest.param(0.75, id='deep', marks=pytest.mark.slow)])
 def sweep(request) -> Callable[[int], int]:
     """A long property sweep in two parts: ``sweep(n)`` examples are a quarter
-    of ``n`` in the unit tier (``[quick]``) and the other three quarters in the
-    slow tier (``[deep]``), so the full run draws all ``n``. Use:
+    of ``n`` in the unit or ros tier (``[quick]``) and the other three quarters
+    in the slow tier (``[deep]``), so the full run draws all ``n``. Use:
     ``@settings(max_examples=sweep(400)) @given(...) def check(...)``, then
-    ``check()``, inside the test."""
+    ``check()``, inside the test; or ``for i in range(sweep(10))`` for a test
+    that repeats a random stop or start (seeded by the count, so the two parts
+    draw different moments)."""
     return lambda examples: max(1, round(examples * request.param))
 
 

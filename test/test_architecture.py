@@ -5,7 +5,9 @@ edits anywhere in the repository."""
 from __future__ import annotations
 
 import ast
+import functools
 import os
+import re
 from pathlib import Path
 
 import pytest
@@ -49,11 +51,18 @@ def module_name(path: Path) -> str:
     return '.'.join(parts[:-1] if parts[-1] == '__init__' else parts)
 
 
-def imports(path: Path, source: str | None = None) -> list[tuple[str, bool]]:
+@functools.lru_cache(maxsize=None)
+def parsed(path: Path) -> ast.Module:
+    """The syntax tree of ``path``, parsed once for all the checks of a run."""
+    return ast.parse(path.read_text())
+
+
+@functools.lru_cache(maxsize=None)
+def imports(path: Path, source: str | None = None) -> tuple[tuple[str, bool], ...]:
     """(absolute module imported, at module level?) for every import in ``path``
-    (or in ``source``, read as if it were ``path``).
+    (or in ``source``, read as if it were ``path``), read once per run.
     """
-    tree = ast.parse(path.read_text() if source is None else source)
+    tree = parsed(path) if source is None else ast.parse(source)
     here = module_name(path).split('.')
     if path.name != '__init__.py':
         here = here[:-1]
@@ -73,7 +82,7 @@ def imports(path: Path, source: str | None = None) -> list[tuple[str, bool]]:
                 target = node.module or ''
             found.append((target, id(node) in top_level))
             found += [(f'{target}.{alias.name}', id(node) in top_level) for alias in node.names]
-    return found
+    return tuple(found)
 
 
 def subpackage(name: str) -> str | None:
@@ -172,10 +181,17 @@ def python_files(root: Path, skip: set[str]) -> list[Path]:
     return found
 
 
+#: text that any ``sys.path.insert/append/extend`` has (the tree decides; a file
+#: without it is not parsed)
+PATH_EDIT = re.compile(r'path[\s\\)]*\.[\s\\]*(insert|append|extend)\b')
+
+
 def test_no_sys_path_edits_anywhere():
     offenders = []
     for path in python_files(ROOT, skip={'.venv', 'build', 'install', 'log', '.git'}):
-        for node in ast.walk(ast.parse(path.read_text())):
+        if not PATH_EDIT.search(path.read_text()):
+            continue
+        for node in ast.walk(parsed(path)):
             if (isinstance(node, ast.Attribute) and node.attr in {'insert', 'append', 'extend'}
                     and isinstance(node.value, ast.Attribute) and node.value.attr == 'path'
                     and isinstance(node.value.value, ast.Name) and node.value.value.id == 'sys'):

@@ -6,7 +6,9 @@ it to a renderer process (``python -P -m flight_sim_dynamics.ros.marker_publishe
 :class:`~.markers.MarkerBuilder` and rclpy's serialization, the work that holds
 the interpreter lock for a tenth of a millisecond per array) and publishes the
 serialized array it gets back. In the node's process a tick holds the lock for
-the snapshot's pickle and the raw publish only (docs/node.md, "Markers").
+the snapshot's pickle and the raw publish only (docs/node.md, "Markers"). A
+tick with no subscription to ``markers`` draws nothing; the renderer starts at
+the first one that has a subscriber.
 """
 from __future__ import annotations
 
@@ -92,9 +94,9 @@ class MarkerPublisher:
         self._due = math.inf                # monotonic time of the next array
         self._kicked = False                # woken by an offer for it
         self._closed = False
-        self._child = subprocess.Popen(
-            python_module(__name__), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-            env=node_env(), start_new_session=True)   # ends when our end of its pipe closes
+        # started at the first array someone subscribes to: a node nobody views
+        # draws nothing and starts no process
+        self._child: subprocess.Popen | None = None
         self._thread = threading.Thread(target=self._run, name='markers', daemon=True)
         self._thread.start()
 
@@ -139,19 +141,21 @@ class MarkerPublisher:
             self._generation += 1
         self._wake.set()
         self._thread.join(JOIN_TIMEOUT)
-        if self._thread.is_alive():           # the renderer hangs: its pipe ends with it
-            self._child.kill()
-            self._thread.join(JOIN_TIMEOUT)
-        for pipe in (self._child.stdin, self._child.stdout):
+        child = self._child
+        if child is not None:
+            if self._thread.is_alive():       # the renderer hangs: its pipe ends with it
+                child.kill()
+                self._thread.join(JOIN_TIMEOUT)
+            for pipe in (child.stdin, child.stdout):
+                try:
+                    pipe.close()
+                except OSError:
+                    pass
             try:
-                pipe.close()
-            except OSError:
-                pass
-        try:
-            self._child.wait(JOIN_TIMEOUT)
-        except subprocess.TimeoutExpired:
-            self._child.kill()
-            self._child.wait()
+                child.wait(JOIN_TIMEOUT)
+            except subprocess.TimeoutExpired:
+                child.kill()
+                child.wait()
         destroy = getattr(self._node, 'destroy_lifecycle_publisher', self._node.destroy_publisher)
         destroy(self._pub)
 
@@ -191,9 +195,18 @@ class MarkerPublisher:
                                               f'{exc}', throttle_duration_sec=LOG_THROTTLE)
 
     def _tick(self) -> bool:
-        """One array; False: the renderer is gone (logged)."""
-        if not getattr(self._pub, 'is_activated', True):
+        """One array, if anyone subscribes to them; False: the renderer is gone
+        (logged).
+        """
+        if not getattr(self._pub, 'is_activated', True) or not self._pub.get_subscription_count():
             return True
+        if self._child is None:
+            with self._lock:
+                if self._closed:
+                    return False
+                self._child = subprocess.Popen(
+                    python_module(__name__), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                    env=node_env(), start_new_session=True)  # ends when our end of its pipe closes
         generation, latest, model = self._generation, self._latest, self._model
         if latest is None:
             header, snap = self._node.get_clock().now().seconds_nanoseconds(), None

@@ -10,7 +10,8 @@ from pathlib import Path
 
 import pytest
 
-# every benchmark runs as its own process (python -m benchmarks.NAME)
+# every benchmark runs as its own process (python -m benchmarks.NAME); the ones
+# whose quickest form takes 10 s of CPU or more are in the slow tier
 pytestmark = pytest.mark.ros
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -79,6 +80,7 @@ def test_twin_prints_the_real_time_factors_and_writes_the_figure(tmp_path):
     assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
 
 
+@pytest.mark.slow
 def test_node_prints_the_node_with_and_without_markers_next_to_the_echo():
     rows = run('benchmarks.node', '--quick')
     t = {k: v for k, v in table(rows, 'target').items() if not k.startswith(':')}
@@ -99,6 +101,7 @@ def test_node_prints_the_node_with_and_without_markers_next_to_the_echo():
         assert all(v > 0 for v in numbers(costs[part]))
 
 
+@pytest.mark.slow
 def test_cueing_prints_the_check_values_and_the_costs():
     rows = run('benchmarks.cueing', '--quick')
 
@@ -124,6 +127,7 @@ def test_cueing_prints_the_check_values_and_the_costs():
     assert all(v > 0 for cells in offline.values() for v in numbers(cells[1:4]))
 
 
+@pytest.mark.slow
 def test_cueing_limiter_prints_both_rmses_and_every_output_ok():
     rows = run('benchmarks.cueing_limiter', '--quick')
     start = next(i for i, r in enumerate(rows) if r[0] == 'log')

@@ -2,9 +2,11 @@
 while the node answers a stream, stamped like an answered setpoint, in
 ``output.frame_id``, its points the solver's joint positions to 1e-9; the rate,
 the frame and the model can be changed at run time (rate 0: off); deactivate
-clears the view; a renderer that dies is logged and the node keeps answering."""
+clears the view; nothing is drawn before a subscriber comes; a renderer that
+dies is logged and the node keeps answering."""
 from __future__ import annotations
 
+import itertools
 import os
 import signal
 import time
@@ -160,11 +162,17 @@ def test_deactivate_clears_the_view_and_inactive_publishes_none():
 
 
 def test_a_dead_renderer_is_logged_and_the_node_keeps_answering():
+    """Also: nothing is drawn, and no renderer started, before anyone
+    subscribes to the markers."""
     proc = NodeProcess('-r', '__ns:=/dead_renderer', params_file=PARAMS_FILE)
     client = LifecycleClient('/dead_renderer')
-    arrays = listen(client)
     try:
         client.wait_for_node(proc)
+        stamps = itertools.count(time.time_ns() - 900_000_000, 1_000_000)
+        client.round_trip(lambda: next(stamps))     # answered: markers would be due
+        client.spin_until(lambda: False, 0.2)       # several markers periods
+        assert renderer_pids(proc.proc.pid) == []
+        arrays = listen(client)
         assert client.spin_until(lambda: any(a.markers for _, a in arrays), 10.0)
         [pid] = renderer_pids(proc.proc.pid)
         os.kill(pid, signal.SIGKILL)

@@ -417,13 +417,15 @@ print('answered', len(future.result().results), flush=True)
 """
 
 
-@pytest.mark.parametrize('executor', ['events', 'single'])
+@pytest.mark.parametrize('executor', [pytest.param('events', marks=pytest.mark.slow),
+                                      'single'])
 def test_setpoints_are_answered_while_a_huge_request_is_decoded(executor):
     """rclpy decodes a request before any callback sees it: 300,000 parameters
     take seconds. Sent by another process while a 200 Hz stream runs, the
     request is refused whole, and the answers never pause for more than a
     third of the time it took (decoded on the node's own executor, they
-    paused for three quarters of it), with either executor."""
+    paused for three quarters of it), with either executor (the events
+    executor's run in the slow tier: 12 s of CPU each)."""
     count = 300_000
     namespace = f'/huge_{executor}'
     node = NodeProcess('-r', f'__ns:={namespace}', '-p', 'sync.wait:=0.5', params_file=None,

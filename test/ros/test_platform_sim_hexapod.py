@@ -315,6 +315,7 @@ def publish_setpoint(client, poses, stamp_ns: int, q, qd, qdd) -> None:
     client.pose_pub.publish(pose)
 
 
+@pytest.mark.slow          # 7.5 s of motion through two nodes: 20 s of CPU
 def test_hexapod_twin_follows_the_nodes_commands(machine):
     """dynamics_node and platform_sim on config/stewart_6dof.yaml, one remap
     apart (no namespace: the packaged file's section names the node); the
