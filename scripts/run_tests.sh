@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# `python -m pytest -q -n 2 -m "not slow" ARGS` in .venv (created, requirements-test.txt
+# `python -m pytest -q -n 3 -m "not slow" ARGS` in .venv (created, requirements-test.txt
 # and the package installed; FSD_SKIP_INSTALL=1: no pip), e.g. no ARGS: the unit and
 # ros tiers; -m slow: the slow tier (CI runs both); -m "not ros and not slow": the
 # unit tier (setup.cfg); test/core: one folder.
@@ -26,9 +26,11 @@ for arg in "$@"; do
     case "$arg" in -m|-m*) marker=() ;; esac
 done
 
-# two workers (pytest-xdist) by default (FSD_TEST_WORKERS=0: one process): a
-# test file to one worker, so a module's node is started once, each worker in
-# its own ROS domain (test/conftest.py). The node tests check what holds on a
-# busy host (every setpoint answered, a twin following within a delay), not
-# how fast it happens.
-exec python -m pytest -q -n "${FSD_TEST_WORKERS:-2}" --dist loadfile "${marker[@]}" "$@"
+# three workers (pytest-xdist) by default (FSD_TEST_WORKERS=0: one process), on
+# two cores too: the ros tier waits on real time (streams, discovery) about half
+# of its run, so a third worker fills it (beside two busy loops on 2 cores: 6:35
+# on two workers, 5:05 on three). A test file stays on one worker, so a module's
+# node is started once; each worker has its own ROS domain (test/conftest.py).
+# The node tests check what holds on a busy host (every setpoint answered, a
+# twin following within a delay), not how fast it happens.
+exec python -m pytest -q -n "${FSD_TEST_WORKERS:-3}" --dist loadfile "${marker[@]}" "$@"

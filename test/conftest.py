@@ -11,7 +11,7 @@ import pytest
 
 
 # ---------------------------------------------------------------------------
-# Parallel runs (pytest-xdist, scripts/run_tests.sh: -n 2): each worker gets its
+# Parallel runs (pytest-xdist, scripts/run_tests.sh: -n 3): each worker gets its
 # own ROS domain, the run's (ROS_DOMAIN_ID, else one drawn from the run's id)
 # plus the worker's number, set here before anything initialises rclpy, so the
 # nodes and clients of two workers never see each other. The worker's child
