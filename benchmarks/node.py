@@ -248,7 +248,7 @@ def marker_costs(params: Path, n: int) -> list[list[str]]:
     try:
         for k, sol in enumerate(sols):
             t0 = time.perf_counter()
-            message = request(None, 'simulator_base', (k, 0), snapshot(sol))
+            message = request(None, 'simulator_base', (k, 0), snapshot(machine, model, sol))
             t1 = time.perf_counter()
             reply, builder = render(message, builder)
             t2 = time.perf_counter()

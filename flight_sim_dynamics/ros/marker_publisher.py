@@ -211,7 +211,7 @@ class MarkerPublisher:
         if latest is None:
             header, snap = self._node.get_clock().now().seconds_nanoseconds(), None
         else:
-            header, snap = latest[0], snapshot(latest[1])
+            header, snap = latest[0], snapshot(self._machine, model, latest[1])
         # the model once per renderer, and again after a change
         sent = None if model is self._sent_model else model
         try:

@@ -2,9 +2,10 @@
 MarkerArray, one marker per part updated in place: each line part, each plate,
 the joints and a status text, in the setpoints' frame (origin at the
 platform's home position, :attr:`Drawing.origin`: where the poses put it).
-Legs coloured by |force| / max_force (red beyond a limit of the leg, magenta
-near singular); a pose without a drawing redraws the last one grey. No rclpy
-here (the node publishes it: ros/marker_publisher.py).
+Legs coloured by |force| / max_force (red beyond a limit of the leg by the
+machine's limit rule, :attr:`Machine.limit_usage`; magenta near singular); a
+pose without a drawing redraws the last one grey. No rclpy here (the node
+publishes it: ros/marker_publisher.py).
 """
 from __future__ import annotations
 
@@ -43,17 +44,26 @@ class Snapshot(NamedTuple):
     stroke: tuple[float, ...]      # per leg, m
     rate: tuple[float, ...]        # per leg, m/s
     force: tuple[float, ...]       # per leg, N
+    over: tuple[bool, ...]         # per leg: some limit of it exceeded
     status: Status
     detail: str
 
 
-def snapshot(sol: Any) -> Snapshot:
-    """The :class:`Snapshot` of one solution of ``Machine.solve``; ValueError for a batch."""
+def snapshot(machine: Machine, model: Any, sol: Any) -> Snapshot:
+    """The :class:`Snapshot` of one solution of ``machine.solve`` on ``model``
+    (a leg is over when the machine's limit usage of any of its limits, the
+    status rule's, is above 1); ValueError for a batch.
+    """
     if not isinstance(sol.status, Status):
         raise ValueError('markers take one solution of solve, not a batch')
+    usage = machine.limit_usage(model, sol)
+    # a usage's name ends with its leg's label in upper case ('force C', 'u_joint 1')
+    over = {name.rsplit(' ', 1)[-1] for name, used in zip(usage.names, usage.usage.tolist())
+            if used > 1.0}
     return Snapshot(tuple(float(v) for v in sol.pose), tuple(sol.stroke.tolist()),
-                    tuple(sol.rate.tolist()), tuple(sol.force.tolist()), sol.status,
-                    str(sol.detail))
+                    tuple(sol.rate.tolist()), tuple(sol.force.tolist()),
+                    tuple(label.upper() in over for label in machine.leg_labels),
+                    sol.status, str(sol.detail))
 
 
 def force_colour(fraction: float) -> tuple[float, float, float, float]:
@@ -93,10 +103,11 @@ class MarkerBuilder:
 
     def __init__(self, machine: Machine, model: Any, frame_id: str) -> None:
         drawing = machine.drawing(model)
+        self.machine, self.model = machine, model
         self.drawing = drawing
         self.limits = machine.actuator_limits(model)
         zero = (0.0,) * machine.dof
-        self.home = snapshot(machine.solve(model, zero, zero, zero))
+        self.home = snapshot(machine, model, machine.solve(model, zero, zero, zero))
         self._last = drawing.points(zero)
         low = [min(p[k] for p in self._last.values()) for k in range(3)]
         high = [max(p[k] for p in self._last.values()) for k in range(3)]
@@ -193,17 +204,14 @@ class MarkerBuilder:
     def _colour(self, snap: Snapshot) -> None:
         for ns, rgba in self.colours.items():
             _set_colour(self.markers[ns].color, rgba)
-        lim = self.limits
+        max_force = self.limits.max_force
         for leg, parts in enumerate(self.drawing.legs):
-            force = snap.force[leg]
             if snap.status is Status.NEAR_SINGULAR:
                 rgba = MAGENTA
-            elif not (lim.stroke_min[leg] <= snap.stroke[leg] <= lim.stroke_max[leg]
-                      and abs(snap.rate[leg]) <= lim.max_speed
-                      and abs(force) <= lim.max_force):
+            elif snap.over[leg]:
                 rgba = RED
             else:
-                rgba = force_colour(abs(force) / lim.max_force)
+                rgba = force_colour(abs(snap.force[leg]) / max_force)
             for ns in parts:
                 _set_colour(self.markers[ns].color, rgba)
 

@@ -18,6 +18,7 @@ from rclpy.serialization import deserialize_message
 from visualization_msgs.msg import Marker, MarkerArray
 
 import flight_sim_dynamics as fsd
+from flight_sim_dynamics.ros import marker_publisher
 from flight_sim_dynamics.ros.marker_publisher import MarkerPublisher, render
 from flight_sim_dynamics.ros.markers import snapshot
 from node_harness import QOS, stamp_ns
@@ -35,7 +36,8 @@ def solution(model, q0: float = 0.05):
 @pytest.mark.parametrize('model', [MODEL, HEXAPOD], ids=['3dof', 'hexapod'])
 def test_the_renderer_answers_the_serialized_array(model):
     sol = solution(model)
-    reply, builder = render(pickle.dumps((model, 'frame_a', (4, 5), snapshot(sol))), None)
+    snap = snapshot(fsd.machine_of(model), model, sol)
+    reply, builder = render(pickle.dumps((model, 'frame_a', (4, 5), snap)), None)
     assert reply[:1] == b'M'
     array = deserialize_message(reply[1:], MarkerArray)
     assert [m.ns for m in array.markers] == list(builder.namespaces)
@@ -58,7 +60,8 @@ def test_the_renderer_answers_the_serialized_array(model):
 
 def test_the_renderer_tells_errors_and_keeps_its_builder():
     _, builder = render(pickle.dumps((MODEL, 'f', (0, 0), None)), None)
-    bad = snapshot(solution(MODEL))._replace(force=())          # no forces: cannot colour
+    # no forces: cannot colour
+    bad = snapshot(fsd.machine_of(MODEL), MODEL, solution(MODEL))._replace(force=())
     reply, kept = render(pickle.dumps((None, 'f', (1, 0), bad)), builder)
     assert reply[:1] == b'E' and b'IndexError' in reply and kept is builder
     reply, _ = render(b'not a pickle', builder)
@@ -150,17 +153,20 @@ def test_latest_offer_at_the_rate_then_model_frame_rate_changes(ros):
 
 
 @pytest.mark.ros
-def test_errors_are_logged_never_raised_and_the_next_offer_is_drawn(ros):
+def test_errors_are_logged_never_raised_and_the_next_offer_is_drawn(ros, monkeypatch):
     markers = MarkerPublisher(ros.node, fsd.machine_of(HEXAPOD), HEXAPOD, 'base', 50.0)
     try:
         assert ros.spin_until(lambda: bool(ros.arrays), 15.0), ros.log.lines
         batch = fsd.solve_batch(HEXAPOD, np.zeros((2, 6)), np.zeros((2, 6)), np.zeros((2, 6)))
         markers.offer((7, 0), batch)                             # fails in the node's process
         assert ros.spin_until(lambda: any('batch' in t for _, t in ros.log.lines), 5.0)
-        broken = SimpleNamespace(**{f: getattr(solution(HEXAPOD), f) for f in (
-            'pose', 'stroke', 'rate', 'status', 'detail')}, force=np.zeros(2))
-        markers.offer((8, 0), broken)                            # fails in the renderer
+        # a snapshot the renderer cannot colour (no forces): fails in the renderer
+        whole = marker_publisher.snapshot
+        monkeypatch.setattr(marker_publisher, 'snapshot',
+                            lambda *args: whole(*args)._replace(force=()))
+        markers.offer((8, 0), solution(HEXAPOD))
         assert ros.spin_until(lambda: any('not drawn' in t for _, t in ros.log.lines), 5.0)
+        monkeypatch.setattr(marker_publisher, 'snapshot', whole)
         markers.offer((9, 0), solution(HEXAPOD))
         assert ros.spin_until(lambda: stamp_ns(ros.arrays[-1].markers[0]) == 9 * 10**9, 5.0)
         assert all(level == 'error' for level, _ in ros.log.lines)

@@ -35,7 +35,7 @@ def builder(model=MODEL, frame: str = 'simulator_base') -> MarkerBuilder:
 
 
 def update(b: MarkerBuilder, sol, sec: int = 0, nanosec: int = 0) -> MarkerArray:
-    return b.update(snapshot(sol), sec, nanosec)
+    return b.update(snapshot(b.machine, b.model, sol), sec, nanosec)
 
 
 def expected_points(sol: fsd.Solution) -> dict[str, np.ndarray]:
@@ -294,7 +294,7 @@ def test_leg_colours_follow_force_limits_and_status():
     low = replace(MODEL, limits=replace(MODEL.limits, max_force=35.0))
     sol = fsd.solve(low, ZERO, ZERO, ZERO)
     assert sol.status is fsd.Status.LIMIT
-    m = by_ns(MarkerBuilder(machine_of(low), low, 'simulator_base').update(snapshot(sol), 0, 0))
+    m = by_ns(update(MarkerBuilder(machine_of(low), low, 'simulator_base'), sol))
     assert (m['leg_a'].color.r, m['leg_a'].color.g) == (1.0, 0.0)     # 38.6 N > 35 N
     assert m['leg_b'].color.g > 0.0                                   # 33.2 N < 35 N
     assert m['status'].text.startswith('limit')
@@ -365,10 +365,29 @@ def test_same_messages_same_ids_across_updates():
     assert clear.markers[0].header.frame_id == 'elsewhere'
 
 
+def test_a_leg_beyond_its_joint_limit_is_red_by_the_machines_limit_rule():
+    """Red is the machine's limit usage above 1 (the status rule), a joint's
+    too: a hexapod whose universal joints exceed ``u_joint_max_angle`` on some
+    legs and not on others, its strokes, speeds and forces well within theirs."""
+    q = [0.02, -0.03, 0.05, 0.08, -0.05, 0.1]
+    angles = np.abs(fsd.solve(HEXAPOD, q, ZERO6, ZERO6).joints[:, :2]).max(axis=1)
+    low, high = sorted(angles)[2:4]
+    assert high > low
+    tight = replace(HEXAPOD, limits=replace(HEXAPOD.limits, u_joint_max_angle=0.5 * (low + high)))
+    sol = fsd.solve(tight, q, ZERO6, ZERO6)
+    assert sol.status is fsd.Status.LIMIT
+    assert np.abs(sol.force).max() < 0.9 * tight.limits.max_force
+    markers = by_ns(update(builder(tight), sol))
+    for leg, angle in enumerate(angles, start=1):
+        for ns in (f'cylinder_{leg}', f'rod_{leg}'):
+            colour = markers[ns].color
+            assert ((colour.r, colour.g) == (1.0, 0.0)) == (angle > 0.5 * (low + high)), (ns, angle)
+
+
 def test_a_batch_solution_is_refused():
     batch = fsd.solve_batch(MODEL, np.zeros((2, 3)), np.zeros((2, 3)), np.zeros((2, 3)))
     with pytest.raises(ValueError, match='batch'):
-        snapshot(batch)
+        snapshot(machine_of(MODEL), MODEL, batch)
 
 
 def test_the_3dof_namespaces_are_the_documented_ones():
