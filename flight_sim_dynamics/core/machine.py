@@ -14,6 +14,8 @@ Each machine implements the same calls on its own model type, with vectors of
 ``actuator_limits(model)``                         strokes, speed and force allowed
 ``limit_usage(model, solution)``                   how much of each limit it uses
                                                    (:class:`LimitUsage`)
+``tightened(model, stroke, fraction)``             the model within margins of its
+                                                   limits (:func:`narrowed_limits`)
 =================================================  ===============================
 
 The home pose is q = 0 for every machine (poses are measured from it).
@@ -25,7 +27,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 from typing import Any, Callable, Mapping
 
 import numpy as np
@@ -59,6 +61,36 @@ def check_forward_options(tolerance: float, max_iterations: int) -> None:
     if (isinstance(max_iterations, (bool, np.bool_))
             or not isinstance(max_iterations, (int, np.integer)) or max_iterations < 1):
         raise ValueError(f'max_iterations must be an integer >= 1, got {max_iterations!r:.80}')
+
+
+def narrowed_limits(limits: Any, ends: tuple[str, str], scaled: tuple[str, ...],
+                    stroke: float, fraction: float, fixed: tuple[str, ...] = ()) -> Any:
+    """A copy of the limits dataclass ``limits`` within margins of them (a
+    planner's, cueing/limiter.py): the range ``ends`` (the fields of the lowest
+    and highest stroke or length) ``stroke`` inside each end, each field of
+    ``scaled`` (upper bounds: speed, force, conditions, joint angles) times
+    ``1 - fraction``, ``fixed`` and unset (None) fields as they are.
+    ValueError for a field of none of them (a new limit must be given its
+    margin) and for a stroke margin that leaves no travel.
+    """
+    low, high = ends
+    changes: dict[str, float] = {}
+    for f in fields(limits):
+        name, value = f.name, getattr(limits, f.name)
+        if name in fixed or value is None:
+            continue
+        if name == low:
+            changes[name] = value + stroke
+        elif name == high:
+            changes[name] = value - stroke
+        elif name in scaled:
+            changes[name] = value * (1.0 - fraction)
+        else:
+            raise ValueError(f'no margin for the limit {name!r}')
+    if not changes[low] < changes[high]:
+        raise ValueError(f'a stroke margin of {stroke:g} m leaves no travel '
+                         f'({changes[low]:g} >= {changes[high]:g})')
+    return replace(limits, **changes)
 
 
 def quiet_floating_point(function: Callable[..., Any]) -> Callable[..., Any]:
@@ -134,6 +166,10 @@ class Machine:
     # ``limit_usage(model, solution) -> LimitUsage``: one sample or a batch; the
     # rule of its solutions' status ``limit`` (usage > 1), the dynamics node's too
     limit_usage: Callable[[Any, Any], LimitUsage]
+    # ``tightened(model, stroke, fraction) -> model``: the model whose limits keep
+    # a planner's margins free (:func:`narrowed_limits`; the cueing limiter solves
+    # on it); None: no margins, no limiter for the machine
+    tightened: Callable[[Any, float, float], Any] | None = None
     # Its parameter files (a file names its machine, ``machine: <name>``; the
     # default machine's name none): the names they may give (dotted) and the
     # model of a file's nested parameters with a scene's effects,

@@ -25,7 +25,7 @@ planner's, input held) leaves a coordinate's range.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -109,36 +109,6 @@ def advance(q: np.ndarray, qd: np.ndarray, a0: np.ndarray, a1: np.ndarray,
             qd + (0.5 * dt) * (a0 + a1))
 
 
-def tightened(model: Any, stroke: float, fraction: float) -> Any:
-    """A copy of ``model`` whose limits keep the margins free: strokes (or leg
-    lengths) ``stroke`` inside each end, every other limit (speed, force,
-    conditions, joint angles) scaled by ``1 - fraction``. ValueError for a
-    limit this does not know (a new one must be given a margin here) and for a
-    stroke margin that leaves no travel.
-    """
-    limits = model.limits
-    changes: dict[str, float] = {}
-    for f in fields(limits):
-        name, value = f.name, getattr(limits, f.name)
-        if name == 'warn_fraction' or value is None:
-            continue
-        if name in ('stroke_min', 'length_min'):
-            changes[name] = value + stroke
-        elif name in ('stroke_max', 'length_max'):
-            changes[name] = value - stroke
-        elif name in ('max_speed', 'max_force') or name.endswith('_condition') \
-                or name.endswith('_max_angle'):
-            changes[name] = value * (1.0 - fraction)
-        else:
-            raise ValueError(f'the limiter has no margin for the limit {name!r}')
-    low = changes.get('stroke_min', changes.get('length_min'))
-    high = changes.get('stroke_max', changes.get('length_max'))
-    if low is not None and high is not None and not low < high:
-        raise ValueError(f'cueing.margin.stroke {stroke:g} m leaves no travel '
-                         f'({low:g} >= {high:g})')
-    return replace(model, limits=replace(limits, **changes))
-
-
 def _floats(value: Any) -> list[float]:
     """A sample's numbers as a list of floats (the hot path works on them:
     for six numbers Python's floats are quicker than numpy's ufuncs).
@@ -159,8 +129,15 @@ class InverseDynamicsLimiter:
         self.dt = 1.0 / float(rate)
         self._c, self._h = self.dt * self.dt / 6.0, 0.5 * self.dt      # _advance's
         self.stop_margin = STOP_MARGIN * self.dt
-        self.tight = tightened(model, float(settings['margin.stroke']),
-                               float(settings['margin.fraction']))
+        if self.machine.tightened is None:
+            raise ValueError(f'cueing.limiter inverse_dynamics: the machine '
+                             f'{self.machine.name!r} gives no margins of its limits '
+                             '(Machine.tightened); use limiter none')
+        try:
+            self.tight = self.machine.tightened(model, float(settings['margin.stroke']),
+                                                float(settings['margin.fraction']))
+        except ValueError as exc:
+            raise ValueError(f'cueing.margin: {exc}') from None
         linear = [unit == 'm' for unit in self.machine.units]
         braking = [float(v) for v in settings['braking']]
         recovery = [float(v) for v in settings['recovery.acceleration']]

@@ -33,6 +33,7 @@ from flight_sim_dynamics.config.machine_files import load_cueing
 from flight_sim_dynamics.cueing import limiter as lm
 from flight_sim_dynamics.config.cueing import cueing_params, defaults
 from flight_sim_dynamics.config.files import PACKAGED_SECTION
+from flight_sim_dynamics.core.machine import narrowed_limits
 from flight_sim_dynamics.machines import FLIGHT_SIMULATOR, MACHINES, STEWART
 from flight_sim_dynamics.machines.api import machine_of
 
@@ -358,7 +359,7 @@ def test_tightened_limits_keep_the_margins(setup) -> None:
     the tightened model refuses what the model accepts in the margin.
     """
     s = setup
-    tight = lm.tightened(s.model, 0.01, 0.1)
+    tight = s.machine.tightened(s.model, 0.01, 0.1)
     a, b = s.machine.actuator_limits(s.model), s.machine.actuator_limits(tight)
     assert np.allclose(b.stroke_min, a.stroke_min + 0.01)
     assert np.allclose(b.stroke_max, a.stroke_max - 0.01)
@@ -370,13 +371,24 @@ def test_tightened_refuses_an_unknown_limit_and_no_travel(setup) -> None:
     from dataclasses import make_dataclass
     s = setup
     with pytest.raises(ValueError, match='stroke'):
-        lm.tightened(s.model, 10.0, 0.0)
-    odd = make_dataclass('Limits', [('max_temperature', float)])(1.0)
-
-    class Fake:
-        limits = odd
+        s.machine.tightened(s.model, 10.0, 0.0)
+    with pytest.raises(ValueError, match='cueing.margin'):      # named by the limiter
+        lm.InverseDynamicsLimiter(s.model, dict(s.params.limiter_settings,
+                                                **{'margin.stroke': 10.0}), 100.0)
+    odd = make_dataclass('Limits', [('low', float), ('high', float),
+                                    ('max_temperature', float)])(0.0, 1.0, 1.0)
     with pytest.raises(ValueError, match='max_temperature'):
-        lm.tightened(Fake(), 0.0, 0.0)
+        narrowed_limits(odd, ('low', 'high'), ('max_speed',), 0.0, 0.0)
+    assert narrowed_limits(odd, ('low', 'high'), ('max_temperature',), 0.1, 0.5) == \
+        type(odd)(0.1, 0.9, 0.5)
+
+
+def test_a_machine_without_margins_runs_no_inverse_dynamics_limiter(setup, monkeypatch):
+    from dataclasses import replace
+    s = setup
+    monkeypatch.setattr(lm, 'machine_of', lambda model: replace(s.machine, tightened=None))
+    with pytest.raises(ValueError, match='limiter none'):
+        lm.InverseDynamicsLimiter(s.model, s.params.limiter_settings, 100.0)
 
 
 def test_limiter_keys_are_read_from_the_cueing_group() -> None:

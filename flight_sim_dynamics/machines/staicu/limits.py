@@ -6,11 +6,12 @@ once for floats and arrays alike (:func:`.status_rule.sample_status` reads it;
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any, Sequence
 
 import numpy as np
 
-from ...core.machine import LimitUsage, stroke_usage
+from ...core.machine import LimitUsage, narrowed_limits, stroke_usage
 from ...core.vectors import Scalar, backend
 from .model import Limits, Model
 
@@ -53,3 +54,14 @@ def limit_usage(model: Model, solution: Any) -> LimitUsage:
     with np.errstate(all='ignore'):
         columns = leg_usages(model.limits, _ARRAY, stroke, rate, force)
     return LimitUsage(NAMES, np.stack(columns, axis=-1))
+
+
+def tightened(model: Model, stroke: float, fraction: float) -> Model:
+    """``model`` within margins of its limits (:func:`~flight_sim_dynamics.core.
+    machine.narrowed_limits`): strokes ``stroke`` m inside each end, speed,
+    force and both conditions times ``1 - fraction``.
+    """
+    return replace(model, limits=narrowed_limits(
+        model.limits, ('stroke_min', 'stroke_max'),
+        ('max_speed', 'max_force', 'max_kinematic_condition', 'max_jacobian_condition'),
+        stroke, fraction))

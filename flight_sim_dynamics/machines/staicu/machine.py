@@ -9,7 +9,7 @@ from ...core.machine import ActuatorLimits, Machine
 from . import kernel
 from .forward_dynamics import affine_terms, forward_dynamics, require_inertia
 from .forward_kinematics import forward_kinematics
-from .limits import limit_usage
+from .limits import limit_usage, tightened
 from .mechanism import drawing
 from .model import GEOMETRY_KEYS, JOINT_NAMES, LEG_NAMES, Model
 from .motions import MOTIONS, PLANNER_MOTIONS, TEST_MOTIONS
@@ -39,7 +39,7 @@ MACHINE = Machine(
     units=('m', 'm', 'rad'), legs=LEG_NAMES, joints=JOINT_NAMES, solve=solve,
     solve_batch=solve_batch, forward_kinematics=forward_kinematics,
     forward_dynamics=forward_dynamics, actuator_limits=actuator_limits,
-    limit_usage=limit_usage,
+    limit_usage=limit_usage, tightened=tightened,
     # its parameter files (config/flight_sim_dynamics.yaml; they name no machine)
     parameters=PARAMETER_NAMES | {'machine'}, from_params=from_params,
     parameter_files=PARAMETER_FILES,

@@ -6,11 +6,12 @@ the status ``limit``'s rule (a usage above 1; :mod:`.solver` reads it,
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
-from ...core.machine import LimitUsage, stroke_usage
+from ...core.machine import LimitUsage, narrowed_limits, stroke_usage
 from ...core.vectors import backend
 from .model import LEG_NAMES, Limits, StewartModel
 
@@ -94,3 +95,15 @@ def _sample_usages(lim: Limits, solution: Any) -> list[float]:
         if ball is not None:
             out.append(ball[k] / ball_max)
     return out
+
+
+def tightened(model: StewartModel, stroke: float, fraction: float) -> StewartModel:
+    """``model`` within margins of its limits (:func:`~flight_sim_dynamics.core.
+    machine.narrowed_limits`): leg lengths ``stroke`` m inside each end, speed,
+    force, the Jacobian's condition and the joint angles (where set) times
+    ``1 - fraction``; the node's ``warn_fraction`` as it is.
+    """
+    return replace(model, limits=narrowed_limits(
+        model.limits, ('length_min', 'length_max'),
+        ('max_speed', 'max_force', 'max_jacobian_condition', 'u_joint_max_angle',
+         'spherical_joint_max_angle'), stroke, fraction, fixed=('warn_fraction',)))

@@ -10,7 +10,7 @@ from .drawing import drawing
 from .dynamics import has_inertia
 from .forward_dynamics import affine_terms, forward_dynamics
 from .kinematics import forward_kinematics
-from .limits import limit_usage
+from .limits import limit_usage, tightened
 from .model import LEG_NAMES, PARAMETER_NAMES, StewartModel, from_dict
 from .motions import MOTIONS
 from .parameters import PARAMETER_SPECS
@@ -52,7 +52,7 @@ MACHINE = Machine(
     units=('m', 'm', 'm', 'rad', 'rad', 'rad'), legs=LEG_NAMES, joints=JOINT_NAMES,
     solve=solve, solve_batch=solve_batch, forward_kinematics=forward_kinematics,
     forward_dynamics=forward_dynamics, actuator_limits=actuator_limits,
-    limit_usage=limit_usage, parameters=PARAMETER_NAMES, from_params=from_dict,
+    limit_usage=limit_usage, tightened=tightened, parameters=PARAMETER_NAMES, from_params=from_dict,
     parameter_files=('stewart_6dof', 'stewart_tsai2000'),
     title='6-DOF hexapod', leg_labels=tuple(str(i) for i in range(1, len(LEG_NAMES) + 1)),
     sample_fields=('jacobian_condition',), motions=MOTIONS, examples=tuple(MOTIONS),
