@@ -628,8 +628,14 @@ def main(argv: Sequence[str] | None = None) -> int:
             fields = (('solve time mean', 'solve time mean (us)', ' us'),
                       ('rejected', 'rejected total', ''), ('cond(Q)', 'cond(Q) last', ''),
                       ('limit exceeded', 'limit exceeded', ''))
+            # the reasons of the rejected messages, when any (diagnostics keys 'rejected <reason>')
+            reasons = ', '.join(f'{k[9:]} {v}' for k, v in d.items()
+                                if k.startswith('rejected ') and k != 'rejected total'
+                                and v not in ('0', 0))
             print('[demo] node diagnostics: ' + ', '.join(
-                f'{label} {d[key]}{unit}' for label, key, unit in fields if key in d))
+                f'{label} {d[key]}{unit}' + (f' ({reasons})' if key == 'rejected total'
+                                             and reasons else '')
+                for label, key, unit in fields if key in d))
         c = monitor.cueing
         if c:
             limits = ', '.join(f'{k[6:]} {v}' for k, v in c.items()

@@ -17,6 +17,7 @@ from rcl_interfaces.srv import GetParameters
 from flight_sim_dynamics.config.schema import CUEING_NODE_NAME
 from flight_sim_dynamics.config.files import PACKAGED_SECTION
 from flight_sim_dynamics.machines import FLIGHT_SIMULATOR
+from flight_sim_dynamics.ros.messages import LATE, OVERFLOW
 from flight_sim_dynamics.ros.process import CUEING_MODULE, node_command, node_env
 from cueing_harness import dynamics_counts, start_chain, write_vehicle_log
 from node_harness import PARAMS_FILE, ROOT, Client, NodeProcess, stamp_ns
@@ -156,7 +157,10 @@ def test_the_3dof_machine_is_cued_on_its_own_coordinates():
 def test_a_violent_vehicle_through_both_nodes_is_answered_ok(tmp_path, machine_file):
     """The built-in ``violent`` motion (multi-g spikes, a 10 g crash, rates up
     to 3 rad/s; 20 s) through the packaged file's cueing group and limiter at
-    200 Hz: every setpoint answered, none rejected, no actuator limit exceeded."""
+    200 Hz: every setpoint answered, no message rejected for what it holds (a
+    busy host may deliver a twist after its pose was answered: ``late``, or
+    push it out of the pending stamps: ``overflow``), no actuator limit
+    exceeded."""
     png = tmp_path / 'violent.png'
     out = subprocess.run([sys.executable, '-m', 'flight_sim_dynamics.cli.demo', '-o', str(png),
                           '--params', str(machine_file), '--cueing', '--vehicle', 'violent',
@@ -169,4 +173,8 @@ def test_a_violent_vehicle_through_both_nodes_is_answered_ok(tmp_path, machine_f
     assert sent == received > 20 * 200 and missing == 0, out.stdout[-2000:]
     node = next(line for line in out.stdout.splitlines()
                 if line.startswith('[demo] node diagnostics'))
-    assert 'rejected 0,' in node and 'limit exceeded 0' in node, node
+    assert 'limit exceeded 0' in node, node
+    rejected = re.search(r'rejected (\d+)(?: \(([^)]*)\))?,', node)
+    reasons = {part.split()[0] for part in (rejected.group(2) or '').split(', ') if part}
+    assert reasons <= {LATE, OVERFLOW}, node
+    assert (int(rejected.group(1)) == 0) == (not reasons), node
