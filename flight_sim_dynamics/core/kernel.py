@@ -78,6 +78,35 @@ def checked(name: str, module: ModuleType | None, import_error: str | None,
     return module, import_error
 
 
+class Kept:
+    """A field of a kernel solution made on first access and kept in the
+    instance (functools.cached_property without its lock): a view of its result
+    row(s) (``rows[..., part]``, reshaped to ``rows.shape[:-1] + shape`` when a
+    shape is given), or ``compute(solution)``.
+    """
+
+    def __init__(self, compute: Callable[[object], object] | None = None, *,
+                 part: slice | int | None = None, shape: tuple[int, ...] | None = None) -> None:
+        self.compute, self.part, self.shape = compute, part, shape
+        self.name = ''
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    def __get__(self, sol: object | None, owner: type | None = None) -> object:
+        if sol is None:
+            return self
+        if self.compute is None:      # a view, inline: the node reads several a cycle
+            rows = sol.__dict__['_rows']
+            value = rows[..., self.part]
+            if self.shape is not None:
+                value = value.reshape(rows.shape[:-1] + self.shape)
+        else:
+            value = self.compute(sol)
+        sol.__dict__[self.name] = value
+        return value
+
+
 class Glue:
     """What every machine's kernel module does with its built ``_kernel`` (None:
     not built), written once: whether it runs, the model packed once and kept

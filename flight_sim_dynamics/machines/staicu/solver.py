@@ -24,6 +24,7 @@ from typing import Sequence
 import numpy as np
 
 from . import kernel
+from ...core.kernel import Kept
 from ...core.status import BY_SEVERITY, SEVERITY, SINGULAR, Status
 from ...core.vectors import Scalar, backend
 from .dynamics import (actuator_forces, actuator_jacobian, body_states, friction_forces,
@@ -108,33 +109,15 @@ class Solution:
                         0.0, value)
 
 
-class _RowView:
-    """Field of a kernel solution: a view of its result row(s), made on first
-    access and kept (cached_property without its lock).
-    """
-
-    def __init__(self, name: str) -> None:
-        self.name = name
-        self.part = kernel.OUT[name]
-
-    def __get__(self, sol: Solution | None, owner: type | None = None) -> object:
-        if sol is None:
-            return self
-        rows = sol.__dict__['_rows']
-        value = rows[..., self.part]
-        if self.name == 'jacobian':
-            value = value.reshape(rows.shape[:-1] + (3, 3))
-        sol.__dict__[self.name] = value
-        return value
-
-
 class _KernelSolution(Solution):
     """A :class:`Solution` whose array fields are views of the kernel's output."""
 
 
 for _name in kernel.OUT:
     if _name in Solution.__dataclass_fields__:
-        setattr(_KernelSolution, _name, _RowView(_name))
+        _kept = Kept(part=kernel.OUT[_name], shape=(3, 3) if _name == 'jacobian' else None)
+        _kept.__set_name__(_KernelSolution, _name)
+        setattr(_KernelSolution, _name, _kept)
 _KernelSolution.__qualname__ = _KernelSolution.__name__ = 'Solution'
 
 
@@ -266,7 +249,7 @@ def kernel_solution(model: Model, out: np.ndarray, scalars: tuple, inputs: tuple
     """The Solution of one kernel result row and its scalars."""
     code, info, beta, kin, jac = scalars
     status = kernel.STATUS_BY_CODE[code]
-    return _new_solution(   # the array fields are views of `out` (_RowView)
+    return _new_solution(   # the array fields are views of `out` (Kept)
         _rows=out, beta=beta, kinematic_condition=kin, jacobian_condition=jac,
         status=status, detail=_kernel_detail(model, status, info, out, inputs),
         model=model, pose=inputs[0])

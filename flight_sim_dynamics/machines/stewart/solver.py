@@ -19,6 +19,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ...core.kernel import Kept
 from ...core.status import BY_SEVERITY, RESULTS_NOT_FINITE, SEVERITY, Status
 from . import kernel, limits
 from .dynamics import actuator_forces, friction_forces, generalised_wrench, has_inertia
@@ -312,31 +313,21 @@ def sample(batch: StewartSolution, i: int) -> StewartSolution:
 # The kernel's solutions: fields made from its result rows on first access
 # ---------------------------------------------------------------------------
 
-class _Lazy:
-    """A field computed on first access and kept (cached_property without its lock)."""
-
-    def __init__(self, compute) -> None:
-        self.compute = compute
-
-    def __set_name__(self, owner: type, name: str) -> None:
-        self.name = name
-
-    def __get__(self, sol: StewartSolution | None, owner: type | None = None) -> object:
-        if sol is None:
-            return self
-        value = sol.__dict__[self.name] = self.compute(sol)
-        return value
+def _layout(name: str) -> tuple[slice, tuple[int, ...]]:
+    """Where the field ``name`` is in a result row, and its shape."""
+    offset, size = kernel.OUT[name]
+    shape = {'joints': (6, 3), 'joint_rates': (6, 3), 'joint_accelerations': (6, 3),
+             'jacobian': (6, 6), 'twist_jacobian': (6, 6)}.get(name, (size,) if size > 1 else ())
+    return slice(offset, offset + size), shape
 
 
 def _row_view(name: str):
     """The field ``name`` as a view of the result row(s), in its shape."""
-    offset, size = kernel.OUT[name]
-    shape = {'joints': (6, 3), 'joint_rates': (6, 3), 'joint_accelerations': (6, 3),
-             'jacobian': (6, 6), 'twist_jacobian': (6, 6)}.get(name, (size,) if size > 1 else ())
+    part, shape = _layout(name)
 
     def view(sol: StewartSolution) -> np.ndarray:
         rows = sol.__dict__['_rows']
-        return rows[..., offset:offset + size].reshape(rows.shape[:-1] + shape)
+        return rows[..., part].reshape(rows.shape[:-1] + shape)
     return view
 
 
@@ -394,16 +385,17 @@ class _KernelSolution(StewartSolution):
     row(s), made on first access, as are its detail and condition.
     """
 
-    detail = _Lazy(_kernel_detail)
-    jacobian_condition = _Lazy(_kernel_condition)
+    detail = Kept(_kernel_detail)
+    jacobian_condition = Kept(_kernel_condition)
 
 
 if kernel.OUT:
     for _name in set(kernel.ROW_FIELDS) - {'status', 'info', 'jacobian_condition'}:
-        _lazy = _Lazy((_angle_view if _name in ('joints', 'spherical_angles') else _row_view)(
-            _name))
-        _lazy.__set_name__(_KernelSolution, _name)
-        setattr(_KernelSolution, _name, _lazy)
+        _part, _shape = _layout(_name)
+        _kept = (Kept(_angle_view(_name)) if _name in ('joints', 'spherical_angles')
+                 else Kept(part=_part, shape=_shape))
+        _kept.__set_name__(_KernelSolution, _name)
+        setattr(_KernelSolution, _name, _kept)
 _KernelSolution.__qualname__ = _KernelSolution.__name__ = 'StewartSolution'
 _KERNEL_STATUS_ARRAY = np.array(kernel.STATUS_BY_CODE if kernel.OUT else (), dtype=object)
 
