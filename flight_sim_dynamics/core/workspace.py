@@ -238,3 +238,19 @@ def check_finite(values: Sequence[float]) -> None:
     """ValueError unless every value is finite."""
     if not all(np.isfinite(v) for v in values):
         raise ValueError('needs finite numbers, got ' + ' '.join(f'{v:g}' for v in values))
+
+
+def bisect_segments(inside: Callable[[np.ndarray], np.ndarray], q_in: np.ndarray,
+                    q_out: np.ndarray, iterations: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each segment from ``q_in[i]`` (inside a set) to ``q_out[i]`` (outside it)
+    halved ``iterations`` times, all segments at once: the final ends.
+    ``inside(Q) -> (N,) bools`` tells the poses ``Q`` (N, dof) inside the set.
+    """
+    q_in, q_out = np.array(q_in, dtype=float), np.array(q_out, dtype=float)
+    if len(q_in):
+        for _ in range(iterations):
+            mid = 0.5 * (q_in + q_out)
+            ok = np.asarray(inside(mid), dtype=bool)
+            q_in[ok] = mid[ok]
+            q_out[~ok] = mid[~ok]
+    return q_in, q_out

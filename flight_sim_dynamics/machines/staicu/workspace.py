@@ -16,8 +16,8 @@ import numpy as np
 
 from ...core.status import Status
 from ...core.workspace import (INSIDE, Cause, Check, Curve, End, Option, Path, PlaneMap,
-                               Quantity, Range, Survey, angles_check, cell_centres,
-                               check_extent)
+                               Quantity, Range, Survey, angles_check, bisect_segments,
+                               cell_centres, check_extent)
 from .model import Model
 from .solver import Solution, solve_batch
 from .trajectories import PAPER_EXAMPLES, paper_example, sample_times
@@ -157,15 +157,11 @@ def bisect(model: Model, kind: np.ndarray, q_in: np.ndarray, q_out: np.ndarray,
     """Bisect each segment q_in (inside) - q_out of the set ``kind`` (KINDS index):
     the final ends and what each outside end violates.
     """
-    q_in, q_out = np.array(q_in, dtype=float), np.array(q_out, dtype=float)
     if len(q_in) == 0:
-        return q_in, q_out, []
+        return np.array(q_in, dtype=float), np.array(q_out, dtype=float), []
     rows = np.arange(len(q_in))
-    for _ in range(iterations):
-        mid = 0.5 * (q_in + q_out)
-        inside = classify(model, mid)[0][rows, kind]
-        q_in[inside] = mid[inside]
-        q_out[~inside] = mid[~inside]
+    q_in, q_out = bisect_segments(lambda q: classify(model, q)[0][rows, kind], q_in, q_out,
+                                  iterations)
     _, cause = classify(model, q_out)
     return q_in, q_out, [cause(i) for i in range(len(q_out))]
 

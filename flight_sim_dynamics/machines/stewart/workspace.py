@@ -20,7 +20,8 @@ import numpy as np
 
 from ...core.status import Status
 from ...core.workspace import (INSIDE, Cause, End, Option, PlaneMap, Range, Survey,
-                               angles_check, cell_centres, check_extent, check_finite)
+                               angles_check, bisect_segments, cell_centres, check_extent,
+                               check_finite)
 from .model import StewartModel
 from .solver import COORDINATES, StewartSolution, solve_batch
 
@@ -172,15 +173,12 @@ def line_range(model: StewartModel, axis: int, fixed: np.ndarray | None = None,
         if not out.size:
             ends.append(End(float(xs[-1]), 'end of the search'))
             continue
-        lo, hi = xs[out[0] - 1], xs[out[0]]
-        for _ in range(iterations):
-            mid = 0.5 * (lo + hi)
-            if _inside(model, axis, fixed, np.array([mid * scale]))[0][0]:
-                lo = mid
-            else:
-                hi = mid
-        _, code, legs = _inside(model, axis, fixed, np.array([hi * scale]))
-        ends.append(End(float(lo), cause_text(int(code[0]), int(legs[0]))))
+        # the crossing in the coordinate's own units (m, deg), as the search's
+        (lo,), (hi,) = bisect_segments(
+            lambda x: _inside(model, axis, fixed, x[:, 0] * scale)[0],
+            [[xs[out[0] - 1]]], [[xs[out[0]]]], iterations)
+        _, code, legs = _inside(model, axis, fixed, hi * scale)
+        ends.append(End(float(lo[0]), cause_text(int(code[0]), int(legs[0]))))
     return ends[0], ends[1]
 
 
