@@ -26,7 +26,7 @@ from typing import Any
 _API = {'trajectories': '.machines.staicu.trajectories',
         'ForwardDynamics': '.machines.staicu.forward_dynamics',
         'forward_dynamics': '.machines.api',
-        'ForwardSolution': '.machines.staicu.forward_kinematics',
+        'ForwardSolution': '.core.forward',
         'forward_kinematics': '.machines.api', 'machine_of': '.machines.api',
         'Machine': '.core.machine', 'UnreachablePoseError': '.machines.staicu.kinematics',
         'JOINT_NAMES': '.machines.staicu.model', 'LEG_NAMES': '.machines.staicu.model',

@@ -5,11 +5,11 @@ unreachable when J^T r ~ 0, else not_converged after ``max_iterations``.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
 
+from ...core.forward import ForwardSolution, OffWorkspace, safeguarded_newton
 from ...core.machine import check_forward_options, quiet_floating_point
 from ...core.status import Status
 from ...core.vectors import backend
@@ -22,19 +22,9 @@ from .solver import three_numbers
 _XP = backend(False)
 
 
-@dataclass(frozen=True)
-class ForwardSolution:
-    """Result of :func:`forward_kinematics`."""
-
-    pose: np.ndarray         # (surge m, heave m, roll rad); zeros unless status is ok
-    status: Status           # ok, unreachable, not_converged or invalid_input
-    residual: float          # max |L(pose) - L*| at the end, m
-    iterations: int
-    detail: str = ''
-
-
 def _lengths_and_jacobian(model: Model, q: tuple[float, float, float]
                           ) -> tuple[np.ndarray, np.ndarray]:
+    """L(q) and J_L at ``q``; UnreachablePoseError where a loop cannot close."""
     g = inverse_geometry(model, q, _XP)
     f = factorize(model, g)
     K = tuple(solve_connectivity(g, f, P) for P in pose_rate_columns(g))
@@ -109,53 +99,12 @@ def _invalid(detail: str) -> ForwardSolution:
 
 def _newton(model: Model, target: np.ndarray, start: np.ndarray, tolerance: float,
             max_iterations: int) -> ForwardSolution:
-    """Safeguarded Newton iteration L(q) = target from ``start`` (reachable)."""
-    q = start
-    L, J = _lengths_and_jacobian(model, tuple(q))
-    r = L - target
-    norm = float(np.max(np.abs(r)))
-    for iteration in range(1, max_iterations + 1):
-        if norm <= tolerance:
-            return ForwardSolution(q, Status.OK, norm, iteration - 1)
-        gradient = J.T @ r
+    """:func:`~flight_sim_dynamics.core.forward.safeguarded_newton` of L(q) = target
+    from ``start`` (reachable).
+    """
+    def lengths_at(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         try:
-            step = np.linalg.solve(J, -r)
-            if not np.all(np.isfinite(step)) or np.linalg.cond(J) > 1e12:
-                raise np.linalg.LinAlgError
-        except np.linalg.LinAlgError:   # damped least squares near a singularity
-            mu = 1e-6 * float(np.trace(J.T @ J)) + 1e-300
-            step = np.linalg.solve(J.T @ J + mu * np.eye(3), -gradient)
-        alpha = 1.0
-        blocked: UnreachablePoseError | None = None
-        while alpha >= 1e-10:
-            trial = q + alpha * step
-            try:
-                L_new, J_new = _lengths_and_jacobian(model, tuple(trial))
-            except UnreachablePoseError as exc:
-                blocked = exc
-                alpha *= 0.5
-                continue
-            r_new = L_new - target
-            norm_new = float(np.max(np.abs(r_new)))
-            if norm_new < norm or norm_new <= tolerance:
-                q, r, J, norm = trial, r_new, J_new, norm_new
-                break
-            alpha *= 0.5
-        else:
-            # no step reduces the residual: the way leaves the workspace, or a local minimum
-            if blocked is not None:
-                return ForwardSolution(np.zeros(3), Status.UNREACHABLE, norm, iteration,
-                                       f'these leg lengths lie outside the workspace: '
-                                       f'loop {blocked.loop}: {blocked.reason} '
-                                       f'(closest miss {norm:.3g} m)')
-            if float(np.max(np.abs(gradient))) <= 1e-9 * max(1.0, norm):
-                return ForwardSolution(np.zeros(3), Status.UNREACHABLE, norm, iteration,
-                                       'no reachable pose has these leg lengths '
-                                       f'(closest miss {norm:.3g} m)')
-            return ForwardSolution(np.zeros(3), Status.NOT_CONVERGED, norm, iteration,
-                                   'line search failed (workspace boundary or singularity)')
-    if norm <= tolerance:
-        return ForwardSolution(q, Status.OK, norm, max_iterations)
-    return ForwardSolution(np.zeros(3), Status.NOT_CONVERGED, norm, max_iterations,
-                           f'{max_iterations} iterations, residual {norm:.3g} m')
-
+            return _lengths_and_jacobian(model, tuple(q))
+        except UnreachablePoseError as exc:
+            raise OffWorkspace(f'loop {exc.loop}: {exc.reason}') from None
+    return safeguarded_newton(lengths_at, target, start, tolerance, max_iterations)

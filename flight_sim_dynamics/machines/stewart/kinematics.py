@@ -8,13 +8,13 @@ numpy carries IEEE values and the solver's status rule judges them.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
 
 from ...core.euler import euler_rate_matrix, euler_rate_matrix_derivative, rotation
+from ...core.forward import ForwardSolution, OffWorkspace, safeguarded_newton
 from ...core.machine import check_forward_options, quiet_floating_point
 from ...core.status import SINGULAR, Status
 from .model import MIN_LENGTH, U_JOINT_TOLERANCE, StewartModel
@@ -216,17 +216,6 @@ def jacobian_condition(J: np.ndarray) -> np.ndarray:
 # Forward kinematics: the pose from six leg lengths
 # ---------------------------------------------------------------------------
 
-@dataclass(frozen=True)
-class ForwardSolution:
-    """Result of :func:`forward_kinematics`."""
-
-    pose: np.ndarray     # (surge, sway, heave, roll, pitch, yaw); zeros unless ok
-    status: Status       # ok, unreachable, not_converged or invalid_input
-    residual: float      # max |L(pose) - L*| at the end, m
-    iterations: int
-    detail: str = ''
-
-
 def _lengths_and_jacobian(model: StewartModel, q: np.ndarray
                           ) -> tuple[np.ndarray, np.ndarray, bool]:
     q = q[None, :]
@@ -241,7 +230,8 @@ def forward_kinematics(model: StewartModel, lengths: Sequence[float],
                        max_iterations: int = 50) -> ForwardSolution:
     """The pose whose leg lengths are ``lengths`` (m, legs 1-6): Newton's method
     on L(q) = L* with J_L (S22) from ``initial``, each step halved until the
-    residual decreases on a regular pose. ok when max |L - L*| <= tolerance;
+    residual decreases on a regular pose (:func:`~flight_sim_dynamics.core.
+    forward.safeguarded_newton`, the rule of every machine). ok when max |L - L*| <= tolerance;
     unreachable when the iteration stalls at a minimum of |L - L*| > 0
     (J_L^T (L - L*) ~ 0: no pose has these lengths nearby); not_converged
     otherwise (e.g. stalled against a singular or degenerate pose). Never raises for bad
@@ -257,41 +247,17 @@ def forward_kinematics(model: StewartModel, lengths: Sequence[float],
     if np.any(target <= 0.0):
         return ForwardSolution(zero, Status.INVALID_INPUT, float('inf'), 0,
                                f'leg lengths must be positive, got {target.tolist()}')
-    q = start.copy()
-    L, J_L, regular = _lengths_and_jacobian(model, q)
-    if not regular:
+    if not _lengths_and_jacobian(model, start)[2]:
         return ForwardSolution(zero, Status.INVALID_INPUT, float('inf'), 0,
                                'initial pose is degenerate (a leg of zero length or a '
                                'singular U-joint)')
-    r = L - target
-    if np.abs(r).max() <= tolerance:
-        return ForwardSolution(q, Status.OK, float(np.abs(r).max()), 0)
-    for k in range(1, max_iterations + 1):
-        with np.errstate(all='ignore'):
-            step = np.linalg.lstsq(J_L, -r, rcond=1e-12)[0]
-        norm = float(r @ r)
-        t = 1.0
-        while t > 1e-6:
-            trial = q + t * step
-            L_t, J_t, regular = _lengths_and_jacobian(model, trial)
-            r_t = L_t - target
-            if regular and np.all(np.isfinite(r_t)) and float(r_t @ r_t) < norm:
-                break
-            t *= 0.5
-        else:
-            # a minimum of |L - L*| away from zero: J_L^T r ~ 0 relative to |J_L| |r|
-            gradient = float(np.linalg.norm(J_L.T @ r))
-            minimum = gradient <= 1e-8 * float(np.linalg.norm(J_L, 2)) * math.sqrt(norm)
-            status = Status.UNREACHABLE if minimum else Status.NOT_CONVERGED
-            return ForwardSolution(zero, status, float(np.abs(r).max()), k,
-                                   'no pose nearby has these leg lengths' if status is
-                                   Status.UNREACHABLE else 'the line search stalled at a '
-                                   'singular or degenerate pose')
-        q, r, J_L = trial, r_t, J_t
-        if np.abs(r).max() <= tolerance:
-            return ForwardSolution(q, Status.OK, float(np.abs(r).max()), k)
-    return ForwardSolution(zero, Status.NOT_CONVERGED, float(np.abs(r).max()), max_iterations,
-                           f'residual {np.abs(r).max():.3g} m after {max_iterations} iterations')
+
+    def lengths_at(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        L, J_L, regular = _lengths_and_jacobian(model, q)
+        if not regular:
+            raise OffWorkspace('a leg of zero length or a singular U-joint', outside=False)
+        return L, J_L
+    return safeguarded_newton(lengths_at, target, start, tolerance, max_iterations)
 
 
 def six_numbers(name: str, value: object) -> np.ndarray:
