@@ -48,7 +48,8 @@ def safeguarded_newton(lengths_and_jacobian: Callable[[np.ndarray], tuple[np.nda
     |L - L*| > 0 (J_L^T r ~ 0 against |J_L| |r|: no pose nearby has these
     lengths); not_converged otherwise (stalled at a degenerate or singular
     pose, or out of iterations). ``lengths_and_jacobian(q) -> (L, J_L)`` raises
-    :class:`OffWorkspace` for a pose without lengths.
+    :class:`OffWorkspace` for a pose without lengths; for ``start`` itself the
+    error reaches the caller.
     """
     q = np.array(start, dtype=float)
     zero = np.zeros_like(q)

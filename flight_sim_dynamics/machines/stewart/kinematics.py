@@ -247,17 +247,18 @@ def forward_kinematics(model: StewartModel, lengths: Sequence[float],
     if np.any(target <= 0.0):
         return ForwardSolution(zero, Status.INVALID_INPUT, float('inf'), 0,
                                f'leg lengths must be positive, got {target.tolist()}')
-    if not _lengths_and_jacobian(model, start)[2]:
-        return ForwardSolution(zero, Status.INVALID_INPUT, float('inf'), 0,
-                               'initial pose is degenerate (a leg of zero length or a '
-                               'singular U-joint)')
 
     def lengths_at(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         L, J_L, regular = _lengths_and_jacobian(model, q)
         if not regular:
             raise OffWorkspace('a leg of zero length or a singular U-joint', outside=False)
         return L, J_L
-    return safeguarded_newton(lengths_at, target, start, tolerance, max_iterations)
+    try:
+        return safeguarded_newton(lengths_at, target, start, tolerance, max_iterations)
+    except OffWorkspace:        # the initial pose's (the line search takes the trials')
+        return ForwardSolution(zero, Status.INVALID_INPUT, float('inf'), 0,
+                               'initial pose is degenerate (a leg of zero length or a '
+                               'singular U-joint)')
 
 
 def six_numbers(name: str, value: object) -> np.ndarray:

@@ -1,6 +1,8 @@
 """The hexapod's kinematics (S1)-(S14), (S21)-(S22) against finite
 differences of its positions, the check values of stewart.md, and forward
 kinematics (pose from six lengths) round trips."""
+import warnings
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -225,6 +227,18 @@ def test_forward_kinematics_from_a_start_near_the_answer():
     fk = kin.forward_kinematics(model, kin.leg_lengths(model, q)[0], q + 0.01)
     assert fk.status is Status.OK and fk.iterations <= 6
     np.testing.assert_allclose(fk.pose, q, rtol=0, atol=1e-9)
+
+
+def test_forward_kinematics_from_a_degenerate_start_is_invalid_input():
+    """An initial pose with a leg of zero length (platform joint 1 on base
+    joint 1): invalid_input, no pose, no warning."""
+    model = model_of('stewart_6dof')
+    t = model.base_joints[0] - np.asarray(model.home) - model.platform_joints[0]
+    with warnings.catch_warnings():
+        warnings.simplefilter('error')
+        fk = kin.forward_kinematics(model, model.home_lengths, [*t, 0.0, 0.0, 0.0])
+    assert fk.status is Status.INVALID_INPUT and fk.iterations == 0
+    assert np.all(fk.pose == 0.0) and 'initial' in fk.detail
 
 
 @pytest.mark.parametrize('lengths', [[0.05] * 6, [1.0] * 5 + [3.0], [1.0] * 5 + [9.0]])
