@@ -181,7 +181,7 @@ def python_files(root: Path, skip: set[str]) -> list[Path]:
     return found
 
 
-#: text that any ``sys.path.insert/append/extend`` has (the tree decides; a file
+#: text that any edit of the path list (insert, append, extend) has (the tree decides; a file
 #: without it is not parsed)
 PATH_EDIT = re.compile(r'path[\s\\)]*\.[\s\\]*(insert|append|extend)\b')
 
