@@ -78,6 +78,15 @@ def checked(name: str, module: ModuleType | None, import_error: str | None,
     return module, import_error
 
 
+def row_view(rows: np.ndarray, part: slice | int,
+             shape: tuple[int, ...] | None = None) -> np.ndarray:
+    """A field of kernel result row(s): ``rows[..., part]``, reshaped to
+    ``rows.shape[:-1] + shape`` when a shape is given.
+    """
+    value = rows[..., part]
+    return value if shape is None else value.reshape(rows.shape[:-1] + shape)
+
+
 class Kept:
     """A field of a kernel solution made on first access and kept in the
     instance (functools.cached_property without its lock): a view of its result
@@ -96,11 +105,8 @@ class Kept:
     def __get__(self, sol: object | None, owner: type | None = None) -> object:
         if sol is None:
             return self
-        if self.compute is None:      # a view, inline: the node reads several a cycle
-            rows = sol.__dict__['_rows']
-            value = rows[..., self.part]
-            if self.shape is not None:
-                value = value.reshape(rows.shape[:-1] + self.shape)
+        if self.compute is None:
+            value = row_view(sol.__dict__['_rows'], self.part, self.shape)
         else:
             value = self.compute(sol)
         sol.__dict__[self.name] = value

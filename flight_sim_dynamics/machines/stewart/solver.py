@@ -19,7 +19,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ...core.kernel import Kept
+from ...core.kernel import Kept, row_view
 from ...core.status import BY_SEVERITY, RESULTS_NOT_FINITE, SEVERITY, Status
 from . import kernel, limits
 from .dynamics import actuator_forces, friction_forces, generalised_wrench, has_inertia
@@ -326,8 +326,7 @@ def _row_view(name: str):
     part, shape = _layout(name)
 
     def view(sol: StewartSolution) -> np.ndarray:
-        rows = sol.__dict__['_rows']
-        return rows[..., part].reshape(rows.shape[:-1] + shape)
+        return row_view(sol.__dict__['_rows'], part, shape)
     return view
 
 
