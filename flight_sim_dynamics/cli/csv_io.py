@@ -19,7 +19,7 @@ import threading
 import time
 import zipfile
 from dataclasses import dataclass, field
-from typing import IO, Callable, Iterator, Optional, Sequence
+from typing import IO, Any, Callable, Iterator, Optional, Sequence
 
 import numpy as np
 
@@ -573,11 +573,13 @@ RowWriter = Callable[[np.ndarray, Optional[Sequence[str]]], None]
 
 @contextlib.contextmanager
 def table_writer(path: str | os.PathLike[str], names: Sequence[str], text: str | None = None,
-                 *, npz: bool | None = None) -> Iterator[RowWriter]:
+                 *, npz: bool | None = None, parallel: bool = False) -> Iterator[RowWriter]:
     """A table written a block of rows at a time (memory bounded by the block),
     atomically (:func:`atomic_output`: all of it, or nothing if the block
     raises): CSV, or .npz (``npz``; None: by the suffix); ``text`` the name of a
-    last column of words.
+    last column of words. ``parallel``: a CSV's rows formatted and written by a
+    second process (:class:`_FormatterProcess`) while the caller makes the next
+    block, the same bytes.
     """
     if npz is None:
         npz = is_npz(path)
@@ -587,13 +589,25 @@ def table_writer(path: str | os.PathLike[str], names: Sequence[str], text: str |
     with atomic_output(path) as f:
         if not npz:
             f.write((','.join(order) + '\n').encode())
+            # a second process writes through a file descriptor (not an in-memory stream)
+            formatter = _FormatterProcess(f, path) if parallel and _has_fd(f) else None
 
             def write(data: np.ndarray, words: Sequence[str] | None = None) -> None:
                 data, words = _checked(names, data, None if text is None else (text, words))
+                if formatter is not None:
+                    formatter.send(data, words)
+                    return
                 for part in _format_blocks(data, words):     # written as formatted
                     f.write(part)
 
-            yield write
+            if formatter is None:
+                yield write
+                return
+            try:
+                yield write
+                formatter.finish()
+            finally:
+                formatter.close()
             return
         # .npz: each column spilled to its own file beside the output, zipped at the end
         folder = None if os.fspath(path) == '-' else os.path.dirname(os.path.realpath(path))
@@ -621,6 +635,82 @@ def table_writer(path: str | os.PathLike[str], names: Sequence[str], text: str |
             for spilled in (*columns, codes):
                 spilled.close()
             _zip_columns(f, spill, names, text, list(vocabulary), rows, order)
+
+
+def _has_fd(f: IO[bytes]) -> bool:
+    try:
+        f.fileno()
+    except (OSError, ValueError, AttributeError):     # io.UnsupportedOperation included
+        return False
+    return True
+
+
+class _FormatterProcess:
+    """:func:`_format_blocks` of each block sent, written to ``f`` by a forked
+    process, in order (the pipe holds the sender at most about a block ahead);
+    a write error is a :class:`CsvError` naming ``path`` at the next send or at
+    :meth:`finish`.
+    """
+
+    def __init__(self, f: IO[bytes], path: str | os.PathLike[str]) -> None:
+        import multiprocessing      # only for a parallel write
+        f.flush()                   # the child's copy of f must hold no bytes of ours
+        context = multiprocessing.get_context('fork')
+        blocks, self._blocks = context.Pipe(duplex=False)
+        self._status, status = context.Pipe(duplex=False)
+        self._process = context.Process(target=_format_into, args=(f, blocks, status),
+                                        daemon=True)
+        self._process.start()
+        blocks.close()
+        status.close()
+        self._path = os.fspath(path)
+
+    def send(self, data: np.ndarray, words: Sequence[str] | None) -> None:
+        try:
+            self._blocks.send((data, words))
+        except OSError:             # the child has ended: its error
+            self._raise()
+
+    def finish(self) -> None:
+        """Every block written (the child's error, if any, raised)."""
+        self.send(None, None)
+        self._raise()
+
+    def _raise(self) -> None:
+        try:
+            error = self._status.recv()
+        except EOFError:
+            error = f'the writing process ended (exit code {self._process.exitcode})'
+        if error is not None:
+            raise CsvError(f'cannot write: {error}', path=self._path)
+
+    def close(self) -> None:
+        self._blocks.close()        # a child still reading ends at once (EOFError)
+        self._process.join(timeout=5)
+        if self._process.is_alive():
+            self._process.terminate()
+            self._process.join()
+        self._status.close()
+
+
+def _format_into(f: IO[bytes], blocks: Any, status: Any) -> None:
+    """The child of :class:`_FormatterProcess`: format and write each block
+    until ``(None, None)``; then None (or the error's text) on ``status``.
+    """
+    error = None
+    try:
+        while True:
+            data, words = blocks.recv()
+            if data is None:
+                break
+            for part in _format_blocks(data, words):
+                f.write(part)
+        f.flush()
+    except EOFError:                # the parent gave up: nothing to report
+        return
+    except OSError as exc:
+        error = exc.strerror or str(exc)
+    status.send(error)
 
 
 def _zip_columns(f: IO[bytes], spill: str, names: Sequence[str], text: str | None,

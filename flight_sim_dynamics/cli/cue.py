@@ -126,15 +126,20 @@ def run(args: argparse.Namespace) -> int:
     n_out = int(span * params.rate) + 1
     progress = (Progress(n_out, args.output, sys.stderr, 'cue', 'samples').done
                 if n_out >= LONG_RUN else None)
-    try:
-        result = cue_run(model, params, t, f, omega,
-                         progress=None if progress is None else lambda k, n: progress(k))
-    except SampleError as exc:
-        raise CsvError(exc.reason, path=table.path, line=int(table.lines[exc.index]),
-                       name='t') from None
-    write = csv_io.write_npz if csv_io.is_npz(args.output) else csv_io.write_csv
-    write(args.output, trajectory_columns(machine),
-          np.column_stack([result.t, result.q, result.qd, result.qdd]))
+    # a long log on two cores or more: the washout's stage and the CSV's formatting
+    # each in a process of its own beside the limiter (docs/cli.md, cue)
+    parallel = n_out >= LONG_RUN and len(os.sched_getaffinity(0)) > 1
+    with csv_io.table_writer(args.output, trajectory_columns(machine),
+                             parallel=parallel) as write:
+        def block(times: np.ndarray, samples: np.ndarray) -> None:
+            write(np.column_stack([times, samples]))     # written as the run goes
+        try:
+            result = cue_run(model, params, t, f, omega,
+                             progress=None if progress is None else lambda k, n: progress(k),
+                             on_block=block, parallel=parallel)
+        except SampleError as exc:
+            raise CsvError(exc.reason, path=table.path, line=int(table.lines[exc.index]),
+                           name='t') from None
     metrics = None
     if args.report is not None or args.plot is not None:
         metrics = cue_metrics(model, result, params)

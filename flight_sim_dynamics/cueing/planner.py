@@ -11,19 +11,22 @@ channels a machine lacks are dropped (:attr:`Planner.dropped`).
 """
 from __future__ import annotations
 
+import multiprocessing
 from dataclasses import dataclass
-from typing import Any, Callable, NamedTuple
+from typing import Any, Callable, Iterator, NamedTuple
 
 import numpy as np
 
 from ..machines.api import machine_of
 from .limiter import InverseDynamicsLimiter, make_limiter
 from ..config.cueing import G, CueingParams
-from .washout import CHANNELS, Desired, Washout, forecast_matrix
+from .washout import CHANNELS, Washout, forecast_matrix
 
 #: The washout's free response is given to the limiter's look-ahead every this
 #: many steps (it changes slowly; the limiter's gain moves every step).
 AHEAD_EVERY = 3
+#: Samples per block of :func:`run` (its two stages take turns a block at a time).
+BLOCK = 4096
 
 #: :attr:`CueSample.status` values
 OK = 'ok'
@@ -75,29 +78,10 @@ class Planner:
         self._index = self.index.tolist()
         self._count = -1             # steps since the start (the look-ahead's period)
         self.held = 0                 # non-finite input samples replaced by the last finite one
-        #: the washout's q, qd, qdd (18 numbers, six channels each) of the last step
-        self.last_values: list[float] | None = None
-        # the washout's q, qd, qdd in the machine's coordinates (a list) of the last step
-        self._wish: list[float] | None = None
         # the limiter's steps on lists of floats (InverseDynamicsLimiter.step_lists)
         self._step_lists = (self.limiter.step_lists
                             if isinstance(self.limiter, InverseDynamicsLimiter) else None)
         self._last = np.array([0.0, 0.0, G, 0.0, 0.0, 0.0])
-
-    @property
-    def last_wish(self) -> np.ndarray | None:
-        """The washout's q, qd, qdd in the machine's coordinates, one array, of the
-        last step: what the limiter was given.
-        """
-        return None if self._wish is None else np.array(self._wish)
-
-    @property
-    def last_desired(self) -> Desired | None:
-        """The washout's sample (six channels) of the last step."""
-        if self.last_values is None:
-            return None
-        out = np.array(self.last_values).reshape(3, 6)
-        return Desired(out[0], out[1], out[2])
 
     def reset(self) -> None:
         """At rest, at home; the next sample is the new rest reference."""
@@ -105,7 +89,6 @@ class Planner:
         self.limiter.reset()
         self.held = 0
         self._count = -1
-        self.last_values = self._wish = None
         self._last[:] = (0.0, 0.0, G, 0.0, 0.0, 0.0)
 
     def step(self, f: np.ndarray, omega: np.ndarray) -> CueSample:
@@ -122,7 +105,17 @@ class Planner:
     def step_values(self, f: np.ndarray, omega: np.ndarray) -> tuple:
         """:meth:`step` as (q, qd, qdd, given_up, limit, status), q, qd, qdd lists
         of floats with the inverse-dynamics limiter (its state: not to be
-        changed), arrays without (:func:`run`'s loop).
+        changed), arrays without: :meth:`wish`, then :meth:`limit`.
+        """
+        wish, ahead, status = self.wish(f, omega)
+        return (*self.limit(wish, ahead), status)
+
+    def wish(self, f: np.ndarray, omega: np.ndarray) -> tuple[list[float], Any, str]:
+        """The first stage of a step: the washout's sample for the input (f, omega)
+        (held, and counted, when not finite) in the machine's coordinates (q, qd,
+        qdd one list), its free response for the limiter's look-ahead (poses, or
+        None: not this step), and the step's status. It does not depend on the
+        limiter, so a whole log's wishes can be made ahead (:func:`run`).
         """
         washout = self.washout
         status = OK
@@ -133,26 +126,29 @@ class Planner:
             status = INPUT_HELD
             self.held += 1
         values = washout.advance()
-        self.last_values = values
         take = self._take
-        out = values if take is None else [values[i] for i in take]
-        self._wish = out
-        dof = self._dof
+        wish = values if take is None else [values[i] for i in take]
         self._count += 1
         if self._forecast is None or self._count % AHEAD_EVERY:
-            ahead = None
-        else:
-            ahead = washout.ahead(self._forecast, self._horizons)
-            if take is not None:
-                index = self._index
-                ahead = [[pose[i] for i in index] for pose in ahead]
+            return wish, None, status
+        ahead = washout.ahead(self._forecast, self._horizons)
+        if take is not None:
+            index = self._index
+            ahead = [[pose[i] for i in index] for pose in ahead]
+        return wish, ahead, status
+
+    def limit(self, wish: list[float], ahead: Any) -> tuple:
+        """The second stage of a step: the limiter's sample for the washout's
+        ``wish`` and ``ahead`` (:meth:`wish`): (q, qd, qdd, given_up, limit).
+        """
+        dof = self._dof
         step = self._step_lists
         if step is not None:
-            return (*step(out[:dof], out[dof:2 * dof], out[2 * dof:], ahead), status)
-        out = np.array(out)
+            return step(wish[:dof], wish[dof:2 * dof], wish[2 * dof:], ahead)
+        out = np.array(wish)
         lim = (self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:]) if ahead is None
                else self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:], ahead))
-        return lim.q, lim.qd, lim.qdd, lim.given_up, lim.limit, status
+        return lim.q, lim.qd, lim.qdd, lim.given_up, lim.limit
 
 
 class SampleError(ValueError):
@@ -226,11 +222,20 @@ def resample(t: np.ndarray, values: np.ndarray, rate: float
 
 
 def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: np.ndarray,
-        progress: Callable[[int, int], None] | None = None) -> CueRun:
+        progress: Callable[[int, int], None] | None = None, *,
+        on_block: Callable[[np.ndarray, np.ndarray], None] | None = None,
+        parallel: bool = False) -> CueRun:
     """A vehicle log (times ``t`` (N,) s, specific force ``f`` (N, 3), angular
     velocity ``omega`` (N, 3)) through :class:`Planner`, resampled to
     ``params.rate`` (:func:`resample`: ValueError naming the sample of a time
-    going backwards). ``progress(done, total)`` is called now and then.
+    going backwards), :data:`BLOCK` samples at a time: the block's wishes
+    (:meth:`Planner.wish`), then its limited samples (:meth:`Planner.limit`),
+    the steps of :meth:`Planner.step` in another order. ``parallel``: the
+    wishes made in a second process (forked), a block ahead of the limiter, the
+    same numbers bit for bit. ``on_block(t, samples)``: each block's output
+    times and samples (q, qd, qdd side by side) when they are final (to write
+    them out as they come);
+    ``progress(done, total)``: called now and then.
     """
     grid, inputs, repeated = resample(t, np.hstack([np.asarray(f, dtype=float),
                                                     np.asarray(omega, dtype=float)]),
@@ -242,25 +247,93 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     wish = None if params.limiter == 'none' else np.empty((n, 3 * dof))
     given_up = np.empty(n)
     limit = np.empty(n, dtype=object)
+    blocks = [(lo, min(lo + BLOCK, n)) for lo in range(0, n, BLOCK)]
     every = max(1, n // 100)
-    f_in, w_in = inputs[:, :3], inputs[:, 3:]
-    step = planner.step_values
+    made = (_WishProcess(planner, inputs, blocks) if parallel and n > BLOCK
+            else (wishes(planner, inputs[lo:hi]) for lo, hi in blocks))
+    step = planner.limit
     lists = planner._step_lists is not None         # the samples as lists of floats
-    for k in range(n):
-        q, qd, qdd, given_up[k], limit[k], _ = step(f_in[k], w_in[k])
-        if lists:
-            out[k] = q + qd + qdd
-        else:
-            row = out[k]
-            row[:dof], row[dof:2 * dof], row[2 * dof:] = q, qd, qdd
-        if wish is not None:
-            wish[k] = planner._wish
-        if progress is not None and k % every == 0:
-            progress(k, n)
+    held = 0
+    try:
+        for (lo, hi), (wanted, ahead, held_here) in zip(blocks, made):
+            for k, w, a in zip(range(lo, hi), wanted, ahead):
+                q, qd, qdd, given_up[k], limit[k] = step(w, a)
+                if lists:
+                    out[k] = q + qd + qdd
+                else:
+                    row = out[k]
+                    row[:dof], row[dof:2 * dof], row[2 * dof:] = q, qd, qdd
+            if wish is not None:
+                wish[lo:hi] = wanted
+            held += held_here
+            if on_block is not None:
+                on_block(grid[lo:hi], out[lo:hi])
+            if progress is not None and (lo // every != hi // every or lo == 0):
+                progress(lo, n)
+    finally:
+        if isinstance(made, _WishProcess):
+            made.close()
     if progress is not None:
         progress(n, n)
     wish = out if wish is None else wish
     q, qd, qdd = out[:, :dof], out[:, dof:2 * dof], out[:, 2 * dof:]
     return CueRun(grid, q, qd, qdd, given_up, limit, wish[:, :dof], wish[:, dof:2 * dof],
-                  wish[:, 2 * dof:], f_in.copy(), w_in.copy(),
-                  planner.machine.coordinates, planner.dropped, repeated, planner.held)
+                  wish[:, 2 * dof:], inputs[:, :3].copy(), inputs[:, 3:].copy(),
+                  planner.machine.coordinates, planner.dropped, repeated, held)
+
+
+def wishes(planner: Planner, inputs: np.ndarray) -> tuple[list, list, int]:
+    """:meth:`Planner.wish` of each row of ``inputs`` (n, 6: f, omega):
+    (the wishes, the look-aheads, how many inputs were held).
+    """
+    before = planner.held
+    made = [planner.wish(u[:3], u[3:])[:2] for u in inputs]
+    return [m[0] for m in made], [m[1] for m in made], planner.held - before
+
+
+class _WishProcess:
+    """:func:`wishes` of each block in a forked process (its own copy of the
+    planner's washout, which nothing else advances), sent back block by block;
+    the pipe holds the child at most about a block ahead of the limiter.
+    """
+
+    def __init__(self, planner: Planner, inputs: np.ndarray, blocks: list) -> None:
+        context = multiprocessing.get_context('fork')
+        self._receive, send = context.Pipe(duplex=False)
+        self._process = context.Process(target=_send_wishes, daemon=True,
+                                        args=(planner, inputs, blocks, send))
+        self._process.start()
+        send.close()
+        self._blocks = len(blocks)
+
+    def __iter__(self) -> Iterator[tuple[list, list, int]]:
+        for _ in range(self._blocks):
+            try:
+                message = self._receive.recv()
+            except EOFError:
+                raise RuntimeError('the motion-cueing planner\'s washout process ended '
+                                   f'(exit code {self._process.exitcode})') from None
+            if isinstance(message, BaseException):
+                raise message
+            wanted, ahead, held = message
+            yield wanted.tolist(), ahead, held
+
+    def close(self) -> None:
+        self._receive.close()
+        if self._process.is_alive():
+            self._process.terminate()
+        self._process.join()
+
+
+def _send_wishes(planner: Planner, inputs: np.ndarray, blocks: list, send: Any) -> None:
+    """The child of :class:`_WishProcess`: each block's wishes (an array) down the pipe."""
+    try:
+        for lo, hi in blocks:
+            wanted, ahead, held = wishes(planner, inputs[lo:hi])
+            send.send((np.array(wanted), ahead, held))
+    except BrokenPipeError:
+        return                  # the parent stopped reading: nothing to say
+    except BaseException as exc:        # said in the parent
+        send.send(exc)
+    finally:
+        send.close()

@@ -149,3 +149,33 @@ def test_to_standard_output_the_data_alone(braking, capsys):
     out, err = capsys.readouterr()
     assert out.splitlines()[0] == ','.join(trajectory_columns(fsd.machine_of(fsd.load_model())))
     assert len(out.splitlines()) == 14 * 1000 + 2 and err.startswith('cue: -: ')
+
+
+@pytest.mark.parametrize('suffix', ['csv', 'npz'])
+def test_a_long_log_is_cued_in_three_processes_into_the_same_file(braking, tmp_path,
+                                                                  monkeypatch, suffix):
+    """From LONG_RUN samples on (two cores or more) the washout and the CSV's
+    formatting run in processes of their own: the same output."""
+    import multiprocessing
+    import os
+
+    from flight_sim_dynamics.cli import cue
+    alone = tmp_path / f'alone.{suffix}'
+    assert main(['cue', str(braking), '-o', str(alone), '--params', HEXAPOD]) == 0
+    calls = []
+
+    def spy(*args, **kwargs):
+        calls.append(kwargs['parallel'])
+        return run(*args, **kwargs)
+    monkeypatch.setattr(cue, 'LONG_RUN', 5000)
+    monkeypatch.setattr(cue, 'cue_run', spy)
+    monkeypatch.setattr(os, 'sched_getaffinity', lambda pid: {0, 1})
+    together = tmp_path / f'together.{suffix}'
+    assert main(['cue', str(braking), '-o', str(together), '--params', HEXAPOD]) == 0
+    assert calls == [True]
+    if suffix == 'csv':
+        assert together.read_bytes() == alone.read_bytes()
+    else:
+        with np.load(alone) as a, np.load(together) as b:
+            assert a.files == b.files and all(np.array_equal(a[k], b[k]) for k in a.files)
+    assert multiprocessing.active_children() == []

@@ -1,7 +1,8 @@
 """The planner (flight_sim_dynamics/cueing/planner.py): the washout in a
 machine's coordinates, channels it lacks dropped and reported; streaming and
-batch one loop (bit for bit); the input resampled (repeated times dropped and
-counted, a time going backwards named by its sample)."""
+batch one loop (bit for bit), its washout in a second process too; the input
+resampled (repeated times dropped and counted, a time going backwards named by
+its sample)."""
 from __future__ import annotations
 
 import numpy as np
@@ -9,7 +10,8 @@ import pytest
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config.cueing import G, defaults
-from flight_sim_dynamics.cueing.planner import INPUT_HELD, OK, Planner, resample, run
+from flight_sim_dynamics.config.machine_files import load_cueing
+from flight_sim_dynamics.cueing.planner import BLOCK, INPUT_HELD, OK, Planner, resample, run
 from flight_sim_dynamics.cueing.washout import Washout
 
 NONE = defaults().replace(limiter='none')
@@ -108,3 +110,48 @@ def test_reset_forgets_the_reference_and_the_motion(models):
     planner.reset()
     again = [planner.step(f[k], omega[k]).q for k in range(len(t))]
     assert np.array_equal(np.array(first), np.array(again))
+
+
+@pytest.mark.parametrize('name', ['3dof', 'hexapod'])
+def test_the_washout_in_a_second_process_gives_the_same_run_bit_for_bit(models, name):
+    """run(parallel=True): the wishes made in a forked process a block ahead of
+    the limiter; blocks handed to on_block as they are final, in order."""
+    model = models[name]
+    params = load_cueing('config/stewart_6dof.yaml' if name == 'hexapod' else None)
+    assert params.limiter == 'inverse_dynamics'
+    t, f, omega = vehicle(2 * BLOCK + 123, seed=3)
+    f[:, 0] *= 4.0                          # hard enough for the limiter to act
+    blocks = []
+    together = run(model, params, t, f, omega, parallel=True,
+                   on_block=lambda times, samples: blocks.append((times.copy(),
+                                                                 samples.copy())))
+    alone = run(model, params, t, f, omega)
+    assert np.any(alone.given_up > 0)
+    for field in ('t', 'q', 'qd', 'qdd', 'given_up', 'desired_q', 'desired_qd', 'desired_qdd',
+                  'f', 'omega'):
+        assert np.array_equal(getattr(together, field), getattr(alone, field)), field
+    assert list(together.limit) == list(alone.limit)
+    assert [len(b[0]) for b in blocks] == [BLOCK, BLOCK, 123]
+    assert np.array_equal(np.concatenate([b[0] for b in blocks]), alone.t)
+    assert np.array_equal(np.concatenate([b[1] for b in blocks]),
+                          np.hstack([alone.q, alone.qd, alone.qdd]))
+
+
+def test_a_run_in_two_processes_counts_held_inputs_and_leaves_no_process(models):
+    import multiprocessing
+    t, f, omega = vehicle(BLOCK + 500)
+    f[BLOCK + 10:BLOCK + 20, 1] = np.nan
+    together = run(models['hexapod'], NONE, t, f, omega, parallel=True)
+    assert together.held == 10 == run(models['hexapod'], NONE, t, f, omega).held
+    assert multiprocessing.active_children() == []
+
+
+def test_an_error_in_a_block_ends_the_washout_process(models):
+    import multiprocessing
+    t, f, omega = vehicle(3 * BLOCK)
+
+    def stop(times, samples):
+        raise KeyboardInterrupt
+    with pytest.raises(KeyboardInterrupt):
+        run(models['3dof'], NONE, t, f, omega, parallel=True, on_block=stop)
+    assert multiprocessing.active_children() == []
