@@ -252,17 +252,13 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     made = (_WishProcess(planner, inputs, blocks) if parallel and n > BLOCK
             else (wishes(planner, inputs[lo:hi]) for lo, hi in blocks))
     step = planner.limit
-    lists = planner._step_lists is not None         # the samples as lists of floats
     held = 0
     try:
         for (lo, hi), (wanted, ahead, held_here) in zip(blocks, made):
-            for k, w, a in zip(range(lo, hi), wanted, ahead):
-                q, qd, qdd, given_up[k], limit[k] = step(w, a)
-                if lists:
-                    out[k] = q + qd + qdd
-                else:
-                    row = out[k]
-                    row[:dof], row[dof:2 * dof], row[2 * dof:] = q, qd, qdd
+            samples = [step(w, a) for w, a in zip(wanted, ahead)]
+            out[lo:hi] = np.array([s[:3] for s in samples]).reshape(hi - lo, 3 * dof)
+            given_up[lo:hi] = [s[3] for s in samples]
+            limit[lo:hi] = [s[4] for s in samples]
             if wish is not None:
                 wish[lo:hi] = wanted
             held += held_here
