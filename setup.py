@@ -12,7 +12,7 @@ package_name = 'flight_sim_dynamics'
 # solves (same results, slower). -ffp-contract=off: no fused multiply-add, as in Python.
 KERNEL_FLAGS = ['-O2', '-ffp-contract=off', '-fno-math-errno']
 # one per machine, in the machine's own folder: machines/<name>/kernel.c -> machines.<name>._kernel
-# (what the kernels share: core/kernel_support.h, core/kernel_rk4.h)
+# (what the kernels share: core/kernel_support.h, core/kernel_bindings.h)
 kernels = [Extension(f"{package_name}.machines.{source.split('/')[-2]}._kernel", sources=[source],
                      include_dirs=[f'{package_name}/core'],
                      depends=sorted(glob(f'{package_name}/core/kernel_*.h')),

@@ -922,7 +922,8 @@ static int stage(const double *P, int fx, const tabulated_law *law, Py_ssize_t j
 }
 
 #define EFFECT_BITS_MAX ((E_HAS_PAYLOAD << 1) - 1)
-#include "kernel_rk4.h"
+#define SOLVE_ROWS(job, n) solve_rows(job, 0, n)     /* one thread: docs/design/implementations.md */
+#include "kernel_bindings.h"
 
 /* ---- Python bindings ---- */
 
@@ -977,43 +978,12 @@ PyDoc_STRVAR(solve_batch_doc,
 "N samples: q, qd, qdd C-contiguous (N, 3) float64 buffers, out a writable\n"
 "C-contiguous (N, OUT_SIZE) float64 buffer. Releases the GIL while it runs.");
 
-static PyObject *py_solve_batch(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+static void solve_rows(const void *job, Py_ssize_t begin, Py_ssize_t end)
 {
-    if (nargs != 6) {
-        PyErr_SetString(PyExc_TypeError, "solve_batch() takes 6 arguments");
-        return NULL;
-    }
-    long fx = PyLong_AsLong(args[1]);
-    if (fx == -1 && PyErr_Occurred())
-        return NULL;
-    Py_buffer views[5];     /* q (its size gives N), params, qd, qdd, out */
-    int got = 0;
-    PyObject *result = NULL;
-    Py_ssize_t n = get_rows(args[2], &views[0], 3, 0, "q");
-    if (n < 0)
-        return NULL;
-    static const int arg[5] = {2, 0, 3, 4, 5};
-    static const char *const names[5] = {"q", "packed model", "qd", "qdd", "out"};
-    const Py_ssize_t sizes[5] = {3 * n, P_SIZE, 3 * n, 3 * n, OUT_SIZE * n};
-    for (got = 1; got < 5; got++)
-        if (get_doubles(args[arg[got]], &views[got], sizes[got], got == 4, names[got]) < 0)
-            goto done;
-    {
-        const double *P = (const double *)views[1].buf;
-        const double *q = (const double *)views[0].buf, *qd = (const double *)views[2].buf,
-                     *qdd = (const double *)views[3].buf;
-        double *out = (double *)views[4].buf;
-        Py_BEGIN_ALLOW_THREADS
-        for (Py_ssize_t i = 0; i < n; i++)
-            solve_one(P, (int)fx, q + 3 * i, qd + 3 * i, qdd + 3 * i, out + OUT_SIZE * i);
-        Py_END_ALLOW_THREADS
-    }
-    Py_INCREF(Py_None);
-    result = Py_None;
-done:
-    for (int i = 0; i < got; i++)
-        PyBuffer_Release(&views[i]);
-    return result;
+    const batch_job *b = (const batch_job *)job;
+    for (Py_ssize_t i = begin; i < end; i++)
+        solve_one(b->P, b->fx, b->q + 3 * i, b->qd + 3 * i, b->qdd + 3 * i,
+                  b->out + OUT_SIZE * i);
 }
 
 PyDoc_STRVAR(affine_doc,

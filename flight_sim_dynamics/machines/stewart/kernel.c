@@ -817,7 +817,11 @@ static int stage(const double *P, int fx, const tabulated_law *law, Py_ssize_t j
 }
 
 #define EFFECT_BITS_MAX E_ALL
-#include "kernel_rk4.h"
+/* a batch's rows shared out to threads (in_parallel, below) */
+typedef void (*row_job)(const void *job, Py_ssize_t begin, Py_ssize_t end);
+static void in_parallel(row_job run, const void *job, Py_ssize_t n);
+#define SOLVE_ROWS(job, n) in_parallel(solve_rows, job, n)
+#include "kernel_bindings.h"
 
 /* ---- Python bindings ---- */
 
@@ -880,8 +884,6 @@ static PyObject *py_solve(PyObject *self, PyObject *const *args, Py_ssize_t narg
 #define MIN_SAMPLES_PER_THREAD 1024
 #define MAX_THREADS 16
 
-typedef void (*row_job)(const void *job, Py_ssize_t begin, Py_ssize_t end);
-
 typedef struct {
     row_job run;
     const void *job;
@@ -939,12 +941,6 @@ static void in_parallel(row_job run, const void *job, Py_ssize_t n)
     }
 }
 
-typedef struct {
-    const double *P, *q, *qd, *qdd;
-    double *out;
-    int fx;
-} batch_job;
-
 static void solve_rows(const void *job, Py_ssize_t begin, Py_ssize_t end)
 {
     const batch_job *b = (const batch_job *)job;
@@ -960,44 +956,6 @@ PyDoc_STRVAR(solve_batch_doc,
 "angles left NOT_COMPUTED unless a joint-angle limit is set: joint_angles().\n"
 "Releases the GIL and shares the samples out to one thread per usable CPU (at\n"
 "least 1024 each).");
-
-static PyObject *py_solve_batch(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
-{
-    if (nargs != 6) {
-        PyErr_SetString(PyExc_TypeError, "solve_batch() takes 6 arguments");
-        return NULL;
-    }
-    int fx;
-    if (effect_bits(args[1], &fx) < 0)
-        return NULL;
-    Py_buffer views[5];     /* q (its size gives N), params, qd, qdd, out */
-    int got = 0;
-    PyObject *result = NULL;
-    Py_ssize_t n = get_rows(args[2], &views[0], 6, 0, "q");
-    if (n < 0)
-        return NULL;
-    static const int arg[5] = {2, 0, 3, 4, 5};
-    static const char *const names[5] = {"q", "packed model", "qd", "qdd", "out"};
-    const Py_ssize_t sizes[5] = {6 * n, P_SIZE, 6 * n, 6 * n, OUT_SIZE * n};
-    for (got = 1; got < 5; got++)
-        if (get_doubles(args[arg[got]], &views[got], sizes[got], got == 4, names[got]) < 0)
-            goto done;
-    {
-        batch_job job = {(const double *)views[1].buf, (const double *)views[0].buf,
-                         (const double *)views[2].buf, (const double *)views[3].buf,
-                         (double *)views[4].buf, fx};
-        Py_BEGIN_ALLOW_THREADS
-        in_parallel(solve_rows, &job, n);
-        Py_END_ALLOW_THREADS
-    }
-    Py_INCREF(Py_None);
-    result = Py_None;
-done:
-    for (int i = 0; i < got; i++)
-        PyBuffer_Release(&views[i]);
-    return result;
-}
-
 
 PyDoc_STRVAR(conditions_doc,
 "conditions(jacobians, out) -> None\n\n"

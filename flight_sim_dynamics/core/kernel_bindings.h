@@ -1,14 +1,23 @@
-/* The twin's RK4 loop (core.simulation.integrate) and its binding, written once
-   for the machines' kernels: included by machines/<name>/kernel.c after its
-   stage() (one RK4 stage: the accelerations and the delivered forces of a
-   state, 0 when it stops; its force law: kernel_support.h's tabulated_law), DOF
-   (its number of coordinates and legs), P_SIZE and EFFECT_BITS_MAX (the largest
-   effect bit set it takes). Rows k0..steps
-   of Q, QD, QDD, F (DOF numbers each), the same operations in the same order as
-   the Python loop; returns the first row whose step did not complete. */
-#ifndef FSD_KERNEL_RK4_H
-#define FSD_KERNEL_RK4_H
+/* The bindings written once for the machines' kernels, included by
+   machines/<name>/kernel.c after its physics. It defines first:
+   - DOF (its number of coordinates and legs), P_SIZE (packed model doubles),
+     OUT_SIZE (result row doubles), EFFECT_BITS_MAX (the largest effect bit set
+     it takes);
+   - stage(): one RK4 stage of the twin, the accelerations and the delivered
+     forces of a state, 0 when it stops (its force law: kernel_support.h's
+     tabulated_law);
+   - SOLVE_ROWS(job, n): how a batch runs the rows 0..n of a batch_job (below):
+     solve_rows(job, 0, n) in one call, or shared out to threads; the kernel
+     defines solve_rows(job, begin, end) (each row by its one-sample solve) and
+     solve_batch_doc.
+   Here: the twin's RK4 loop (core.simulation.integrate) with its binding
+   integrate(), and the binding solve_batch(). */
+#ifndef FSD_KERNEL_BINDINGS_H
+#define FSD_KERNEL_BINDINGS_H
 
+/* Rows k0..steps of Q, QD, QDD, F (DOF numbers each), the same operations in
+   the same order as the Python loop; returns the first row whose step did not
+   complete. */
 static Py_ssize_t rk4(const double *P, int fx, const tabulated_law *law, double h,
                       Py_ssize_t k0, Py_ssize_t steps, double *Q, double *QD,
                       double *QDD, double *F)
@@ -131,6 +140,53 @@ static PyObject *py_integrate(PyObject *self, PyObject *const *args, Py_ssize_t 
         Py_END_ALLOW_THREADS
         result = PyLong_FromSsize_t(reached);
     }
+done:
+    for (int i = 0; i < got; i++)
+        PyBuffer_Release(&views[i]);
+    return result;
+}
+
+/* A batch: the packed model, the effect bits, N rows of q, qd, qdd (DOF
+   numbers each) and of out (OUT_SIZE numbers each). */
+typedef struct {
+    const double *P, *q, *qd, *qdd;
+    double *out;
+    int fx;
+} batch_job;
+
+static void solve_rows(const void *job, Py_ssize_t begin, Py_ssize_t end);
+
+static PyObject *py_solve_batch(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 6) {
+        PyErr_SetString(PyExc_TypeError, "solve_batch() takes 6 arguments");
+        return NULL;
+    }
+    int fx;
+    if (effect_bits(args[1], &fx) < 0)
+        return NULL;
+    Py_buffer views[5];     /* q (its size gives N), params, qd, qdd, out */
+    int got = 0;
+    PyObject *result = NULL;
+    Py_ssize_t n = get_rows(args[2], &views[0], DOF, 0, "q");
+    if (n < 0)
+        return NULL;
+    static const int arg[5] = {2, 0, 3, 4, 5};
+    static const char *const names[5] = {"q", "packed model", "qd", "qdd", "out"};
+    const Py_ssize_t sizes[5] = {DOF * n, P_SIZE, DOF * n, DOF * n, OUT_SIZE * n};
+    for (got = 1; got < 5; got++)
+        if (get_doubles(args[arg[got]], &views[got], sizes[got], got == 4, names[got]) < 0)
+            goto done;
+    {
+        batch_job job = {(const double *)views[1].buf, (const double *)views[0].buf,
+                         (const double *)views[2].buf, (const double *)views[3].buf,
+                         (double *)views[4].buf, fx};
+        Py_BEGIN_ALLOW_THREADS
+        SOLVE_ROWS(&job, n);
+        Py_END_ALLOW_THREADS
+    }
+    Py_INCREF(Py_None);
+    result = Py_None;
 done:
     for (int i = 0; i < got; i++)
         PyBuffer_Release(&views[i]);
