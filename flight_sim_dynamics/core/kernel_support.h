@@ -79,6 +79,25 @@ static Py_ssize_t get_rows(PyObject *obj, Py_buffer *view, Py_ssize_t row, int w
     return n;
 }
 
+/* DOF numbers of a list or tuple of exactly DOF Python floats (a TypeError
+   otherwise: the machine's solver then checks and converts them) */
+static int dof_floats(PyObject *t, const char *name, double *x)
+{
+    if (!(PyTuple_CheckExact(t) || PyList_CheckExact(t)) || PySequence_Fast_GET_SIZE(t) != DOF) {
+        PyErr_Format(PyExc_TypeError, "%s must be a list or tuple of %d floats", name, DOF);
+        return -1;
+    }
+    PyObject **items = PySequence_Fast_ITEMS(t);
+    for (int i = 0; i < DOF; i++) {
+        if (!PyFloat_CheckExact(items[i])) {
+            PyErr_Format(PyExc_TypeError, "%s must be a list or tuple of %d floats", name, DOF);
+            return -1;
+        }
+        x[i] = PyFloat_AS_DOUBLE(items[i]);
+    }
+    return 0;
+}
+
 /* {name: (offset, size)}, or with bits_only {name: bit} */
 static PyObject *fields_dict(const field *f, size_t n, int bits_only)
 {

@@ -928,35 +928,36 @@ static int stage(const double *P, int fx, const tabulated_law *law, Py_ssize_t j
 /* ---- Python bindings ---- */
 
 /* The arguments of a one-sample binding: exactly `expected` of them, the
-   effects bit set in args[1] and `n` floats from args[first] on; -1 with a
-   Python error set otherwise. */
+   effect bits in args[1] and `n` lists or tuples of DOF floats from
+   args[first] on; -1 with a Python error set otherwise. */
 static int one_sample_args(const char *name, PyObject *const *args, Py_ssize_t nargs,
-                           Py_ssize_t expected, int first, int n, long *fx, double *x)
+                           Py_ssize_t expected, int first, int n, int *fx, double *x)
 {
+    static const char *const names[3] = {"q", "qd", "qdd"};
     if (nargs != expected) {
         PyErr_Format(PyExc_TypeError, "%s() takes %d arguments", name, (int)expected);
         return -1;
     }
-    for (int i = 0; i < n; i++) {
-        x[i] = PyFloat_AsDouble(args[first + i]);
-        if (x[i] == -1.0 && PyErr_Occurred())
+    if (effect_bits(args[1], fx) < 0)
+        return -1;
+    for (int i = 0; i < n; i++)
+        if (dof_floats(args[first + i], names[i], x + DOF * i) < 0)
             return -1;
-    }
-    *fx = PyLong_AsLong(args[1]);
-    return (*fx == -1 && PyErr_Occurred()) ? -1 : 0;
+    return 0;
 }
 
 PyDoc_STRVAR(solve_doc,
-"solve(params, effects, out, q0, q1, q2, qd0, qd1, qd2, qdd0, qdd1, qdd2)\n"
+"solve(params, effects, out, q, qd, qdd)\n"
 "    -> (status, info, beta, kinematic_condition, jacobian_condition)\n\n"
-"One sample: fills the writable buffer `out` (OUT_SIZE doubles) and returns the\n"
-"scalars of the row. params: the packed model (kernel.pack_model); effects: bit set.");
+"One sample: q, qd, qdd lists or tuples of 3 floats; fills the writable buffer\n"
+"`out` (OUT_SIZE doubles) and returns the scalars of the row. params: the packed\n"
+"model (kernel.pack_model); effects: the bit set (EFFECTS).");
 
 static PyObject *py_solve(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     double x[9];
-    long fx;
-    if (one_sample_args("solve", args, nargs, 12, 3, 9, &fx, x) < 0)
+    int fx;
+    if (one_sample_args("solve", args, nargs, 6, 3, 3, &fx, x) < 0)
         return NULL;
     Py_buffer pv, ov;
     if (get_doubles(args[0], &pv, P_SIZE, 0, "packed model") < 0)
@@ -966,7 +967,7 @@ static PyObject *py_solve(PyObject *self, PyObject *const *args, Py_ssize_t narg
         return NULL;
     }
     double *out = (double *)ov.buf;
-    solve_one((const double *)pv.buf, (int)fx, x, x + 3, x + 6, out);
+    solve_one((const double *)pv.buf, fx, x, x + 3, x + 6, out);
     PyBuffer_Release(&pv);
     PyBuffer_Release(&ov);
     return Py_BuildValue("(iiddd)", (int)out[O_STATUS], (int)out[O_INFO], out[O_BETA],
@@ -987,14 +988,14 @@ static void solve_rows(const void *job, Py_ssize_t begin, Py_ssize_t end)
 }
 
 PyDoc_STRVAR(affine_doc,
-"affine(params, effects, out, M, b, q0, q1, q2, qd0, qd1, qd2) -> scalars as solve\n\n"
+"affine(params, effects, out, M, b, q, qd) -> scalars as solve\n\n"
 "The row of solve(q, qd, 0), M (3x3) and b of f = M qdd + b (kernel.affine_row).");
 
 static PyObject *py_affine(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     double x[6];
-    long fx;
-    if (one_sample_args("affine", args, nargs, 11, 5, 6, &fx, x) < 0)
+    int fx;
+    if (one_sample_args("affine", args, nargs, 7, 5, 2, &fx, x) < 0)
         return NULL;
     static const Py_ssize_t sizes[4] = {P_SIZE, OUT_SIZE, 9, 3};
     static const char *const names[4] = {"packed model", "out", "M", "b"};
@@ -1006,7 +1007,7 @@ static PyObject *py_affine(PyObject *self, PyObject *const *args, Py_ssize_t nar
                         names[got]) < 0)
             goto done;
     double *out = (double *)views[1].buf;
-    affine_one((const double *)views[0].buf, (int)fx, x, x + 3, out, (double *)views[2].buf,
+    affine_one((const double *)views[0].buf, fx, x, x + 3, out, (double *)views[2].buf,
                (double *)views[3].buf, 1);
     result = Py_BuildValue("(iiddd)", (int)out[O_STATUS], (int)out[O_INFO], out[O_BETA],
                            out[O_KIN], out[O_JAC]);

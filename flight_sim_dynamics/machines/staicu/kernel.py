@@ -103,7 +103,7 @@ def solve_row(model: Model, q: tuple, qd: tuple, qdd: tuple) -> tuple[np.ndarray
     """
     params, bits = prepared(model)
     out = np.empty(OUT_SIZE)
-    return out, _kernel.solve(params, bits, out, *q, *qd, *qdd)
+    return out, _kernel.solve(params, bits, out, q, qd, qdd)
 
 
 def affine_row(model: Model, q: tuple, qd: tuple
@@ -113,7 +113,7 @@ def affine_row(model: Model, q: tuple, qd: tuple
     """
     params, bits = prepared(model)
     out, M, b = np.empty(OUT_SIZE), np.empty((3, 3)), np.empty(3)
-    return out, M, b, _kernel.affine(params, bits, out, M, b, *q, *qd)
+    return out, M, b, _kernel.affine(params, bits, out, M, b, q, qd)
 
 
 _glue = core_kernel.Glue(_kernel, pack_model, effect_bits)

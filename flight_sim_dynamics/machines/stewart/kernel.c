@@ -826,26 +826,6 @@ static void in_parallel(row_job run, const void *job, Py_ssize_t n);
 /* ---- Python bindings ---- */
 
 
-/* six numbers of a list or tuple of exactly six Python floats (TypeError
-   otherwise: solver.solve then checks and converts them) */
-static int six_floats(PyObject *t, const char *name, double *x)
-{
-    if (!(PyTuple_CheckExact(t) || PyList_CheckExact(t)) || PySequence_Fast_GET_SIZE(t) != 6) {
-        PyErr_Format(PyExc_TypeError, "%s must be a list or tuple of 6 floats", name);
-        return -1;
-    }
-    PyObject **items = PySequence_Fast_ITEMS(t);
-    for (int i = 0; i < 6; i++) {
-        if (!PyFloat_CheckExact(items[i])) {
-            PyErr_Format(PyExc_TypeError, "%s must be a list or tuple of 6 floats", name);
-            return -1;
-        }
-        x[i] = PyFloat_AS_DOUBLE(items[i]);
-    }
-    return 0;
-}
-
-
 PyDoc_STRVAR(solve_doc,
 "solve(params, effects, out, q, qd, qdd) -> (status, info, jacobian_condition)\n\n"
 "One sample: q, qd, qdd lists or tuples of 6 floats; fills the writable buffer `out`\n"
@@ -861,8 +841,8 @@ static PyObject *py_solve(PyObject *self, PyObject *const *args, Py_ssize_t narg
         PyErr_SetString(PyExc_TypeError, "solve() takes 6 arguments");
         return NULL;
     }
-    if (effect_bits(args[1], &fx) < 0 || six_floats(args[3], "q", x) < 0
-            || six_floats(args[4], "qd", x + 6) < 0 || six_floats(args[5], "qdd", x + 12) < 0)
+    if (effect_bits(args[1], &fx) < 0 || dof_floats(args[3], "q", x) < 0
+            || dof_floats(args[4], "qd", x + 6) < 0 || dof_floats(args[5], "qdd", x + 12) < 0)
         return NULL;
     Py_buffer pv, ov;
     if (get_doubles(args[0], &pv, P_SIZE, 0, "packed model") < 0)
