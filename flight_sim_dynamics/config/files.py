@@ -18,6 +18,10 @@ NODE_NAME = 'flight_sim_dynamics'
 PACKAGED_SECTION = '/**/' + NODE_NAME
 PACKAGE_NAME = 'flight_sim_dynamics'
 DEFAULT_PARAMS_FILE = 'flight_sim_dynamics.yaml'
+#: Prefix of rclpy's QoS override parameters (the node's endpoints', read at start-up).
+QOS_OVERRIDES = 'qos_overrides.'
+#: Parameters rclpy declares on every node: a params file may set them; the models ignore them.
+ROS_PARAMETERS = frozenset({'use_sim_time', 'start_type_description_service'})
 
 
 def default_params_path() -> Path:
@@ -55,6 +59,14 @@ def flatten(tree: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
         else:
             flat[name] = value
     return flat
+
+
+def without_ros(flat: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(the parameters of ``flat`` that are no ROS 2 node's own, its
+    ``qos_overrides.*``): :data:`ROS_PARAMETERS` are dropped, for every machine.
+    """
+    qos = {k: v for k, v in flat.items() if k.startswith(QOS_OVERRIDES)}
+    return {k: v for k, v in flat.items() if k not in qos and k not in ROS_PARAMETERS}, qos
 
 
 def check_file_values(flat: Mapping[str, Any], source: str) -> None:

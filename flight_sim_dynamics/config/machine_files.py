@@ -28,16 +28,12 @@ from ..machines import packaged as packaged_machines
 from ..machines.api import absent_effects
 from . import parameters
 from .errors import IgnoredParameterWarning, ParameterError, did_you_mean
-from .files import default_params_path, read_params_sections
+from .files import default_params_path, read_params_sections, without_ros
 from .scenes import DEFAULT_SCENE, Scene, SceneError, load_scene, scenes_dir
 from .schema import NODE_PARAMETERS, specs
 from .validation import check_value, nested
 from .whole_machine import check_home
 
-#: Names a parameter file may give that belong to ROS, not to the model
-#: (rclpy's own parameters, QoS overrides): ignored, as for the 3-DOF files.
-_ROS_NAMES = frozenset({'use_sim_time', 'start_type_description_service'})
-_QOS_OVERRIDES = 'qos_overrides.'
 #: The node's parameters, which a named machine's file may give too.
 NODE_SPECS = {spec.name: spec for spec in NODE_PARAMETERS}
 
@@ -105,8 +101,8 @@ def ignored_note(flat: Mapping[str, Any], source: str, model: Any) -> str | None
         packaged = name if name in packaged_machines() else next(iter(kind.parameter_files),
                                                                 None)
         reference = {} if packaged is None else \
-            _model_names(read_params_sections(packaged_path(packaged)))
-    names = ignored_values(_model_names(flat), reference, model)
+            without_ros(read_params_sections(packaged_path(packaged)))[0]
+    names = ignored_values(without_ros(flat)[0], reference, model)
     return ignored_message(names, model.scene, f'{source}: ') if names else None
 
 
@@ -213,11 +209,6 @@ def launch_params_file(machine: str = '', params_file: str = '') -> Path:
     return packaged_path(machine)
 
 
-def _model_names(flat: Mapping[str, Any]) -> dict[str, Any]:
-    return {k: v for k, v in flat.items()
-            if k not in _ROS_NAMES and not k.startswith(_QOS_OVERRIDES)}
-
-
 def _check_names(values: Mapping[str, Any], machine: Machine, name: str, source: str) -> None:
     """Every name of a file must be one of its machine's parameters."""
     for key in values:
@@ -284,7 +275,7 @@ def _check_unnamed(flat: Mapping[str, Any], source: str) -> None:
     (most of them: that one), saying which and to name it, before the 3-DOF
     machine's checks would refuse some value of them (a hexapod's six numbers).
     """
-    own, _ = split_cueing(_model_names(flat), source)
+    own, _ = split_cueing(without_ros(flat)[0], source)
     known = specs()
     foreign = {key for key in own if key not in known}
     if not foreign:
@@ -325,7 +316,7 @@ def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
     (:func:`node_values`, :func:`.cueing.split_cueing`) and left out.
     """
     source = str(Path(path))
-    own, _ = split_cueing(_model_names(flat), source)     # the motion-cueing planner's
+    own, _ = split_cueing(without_ros(flat)[0], source)     # the motion-cueing planner's
     name = own['machine']
     machine = named_machine(name, source)
     node_values(own, source)
@@ -336,7 +327,7 @@ def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
     values = {}
     if packaged:
         defaults = packaged_path(name)
-        values, _ = split_cueing(_model_names(read_params_sections(defaults)), str(defaults))
+        values, _ = split_cueing(without_ros(read_params_sections(defaults))[0], str(defaults))
         origin = {**{key: str(defaults) for key in values}, **origin}
     values.update(own)
     return model_of_values(machine, values, source, scene, origin)

@@ -23,16 +23,16 @@ from typing import Any, Collection, Mapping, Sequence
 
 from .cueing import split_cueing
 from .errors import ParameterError
-from .files import (DEFAULT_PARAMS_FILE, NODE_NAME, PACKAGE_NAME, check_file_values,
-                    default_params_path, flatten, params_files_in, read_params_file,
-                    read_params_sections)
+from .files import (DEFAULT_PARAMS_FILE, NODE_NAME, PACKAGE_NAME,
+                    check_file_values, default_params_path, flatten, params_files_in,
+                    read_params_file, read_params_sections, without_ros)
 from .scenes import Scene, SceneError, load_scene
 from .schema import LAZY_NAMES, NODE_PARAMETERS, ParamSpec, defaults, specs
 from .validation import build, check_inertia, check_names, check_value, checked_values, validate
 from .whole_machine import check_home
 
 __all__ = ['DEFAULT_PARAMS_FILE', 'NODE_NAME', 'NODE_PARAMETERS', 'NodeConfig', 'PACKAGE_NAME',
-           'ParamSpec', 'ParameterError', 'QOS_OVERRIDES', 'Scene', 'SceneError', 'check_inertia',
+           'ParamSpec', 'ParameterError', 'Scene', 'SceneError', 'check_inertia',
            'check_value', 'checked_values', 'default_params_path', 'defaults', 'flatten',
            'load_model', 'model_from_values', 'read_params', 'read_params_file', 'validate']
 
@@ -44,12 +44,6 @@ def __getattr__(name: str) -> Any:
     if name in LAZY_NAMES:
         return LAZY_NAMES[name]()
     raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
-
-
-#: Prefix of rclpy's QoS override parameters (the node's, set at start-up).
-QOS_OVERRIDES = 'qos_overrides.'
-#: Parameters rclpy declares on every node: a params file may set them; the library ignores them.
-ROS_PARAMETERS = frozenset({'use_sim_time', 'start_type_description_service'})
 
 
 def read_params(path: str | os.PathLike[str], node: str = '/' + NODE_NAME
@@ -72,8 +66,7 @@ def params_of(flat: Mapping[str, Any], path: str | os.PathLike[str]
                              f'file; the node serves the 3-DOF machine) in {path}')
     check_file_values(flat, str(path))
     flat, _ = split_cueing(flat, str(path))     # the motion-cueing planner's group, checked
-    qos = {k: v for k, v in flat.items() if k.startswith(QOS_OVERRIDES)}
-    values = {k: v for k, v in flat.items() if k not in qos and k not in ROS_PARAMETERS}
+    values, qos = without_ros(flat)
     check_names(values, str(path))
     return values, qos
 
