@@ -5,77 +5,28 @@ an integer for a floating-point parameter (``mass: 2``, exact).
 """
 from __future__ import annotations
 
-import math
 from typing import Any, Iterable, Mapping
 
 import numpy as np
 
 from ..core.inertia import inertia_tensor
 from ..core.machine import ModelValueError
+from ..core.parameter_spec import check_value as spec_check
 from ..core.effects import Effects
 from ..machines import default_machine
 from .errors import ParameterError, did_you_mean
 from .schema import ParamSpec, all_parameters, defaults, model_parameters, specs
 
 
-def _number(spec: ParamSpec, value: Any, item: Any, where: str = '') -> float:
-    """One number of ``value`` (``item``), as a finite float within the spec's bounds."""
-    key = spec.name
-    if isinstance(item, bool) or not isinstance(item, (int, float)):
-        raise ParameterError(key, value, f'expected a number{where}, got {type(item).__name__}')
-    try:
-        v = float(item)
-    except OverflowError:       # an int beyond the float range (10**400)
-        raise ParameterError(key, value, f'must be finite{where}') from None
-    if not math.isfinite(v):
-        raise ParameterError(key, value, f'must be finite{where}')
-    unit = f' {spec.unit}' if spec.unit else ''
-    if spec.minimum is not None:
-        if spec.exclusive_minimum and v <= spec.minimum:
-            raise ParameterError(key, value, f'must be > {spec.minimum:g}{unit}{where}')
-        if not spec.exclusive_minimum and v < spec.minimum:
-            raise ParameterError(key, value, f'must be >= {spec.minimum:g}{unit}{where}')
-    if spec.maximum is not None and v > spec.maximum:
-        raise ParameterError(key, value, f'must be <= {spec.maximum:g}{unit}{where}')
-    return v
-
-
 def check_value(spec: ParamSpec, value: Any) -> Any:
-    """Type- and range-check one value against its spec; returns it in its
-    canonical Python type (float, list of floats, int, str, bool).
+    """One value checked against its spec, canonical
+    (:func:`flight_sim_dynamics.core.parameter_spec.check_value`, the one check);
+    a :class:`ParameterError` naming key and value.
     """
-    key = spec.name
-    if spec.kind == 'double':
-        return _number(spec, value, value)
-    if spec.kind == 'double_array':
-        if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple, np.ndarray)):
-            raise ParameterError(key, value, f'expected a list of {spec.length} numbers')
-        if spec.length is not None and len(value) != spec.length:
-            raise ParameterError(key, value, f'expected {spec.length} numbers, got {len(value)}')
-        return [_number(spec, value, v, f' (element {i})') for i, v in enumerate(value)]
-    if spec.kind == 'integer':
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ParameterError(key, value, f'expected an integer, got {type(value).__name__}')
-        if spec.minimum is not None and value < spec.minimum:
-            raise ParameterError(key, value, f'must be >= {spec.minimum:g}')
-        if spec.maximum is not None and value > spec.maximum:
-            raise ParameterError(key, value, f'must be <= {spec.maximum:g}')
-        return value
-    if spec.kind == 'string':
-        if not isinstance(value, str):
-            raise ParameterError(key, value, f'expected a string, got {type(value).__name__}')
-        if spec.max_length is not None and len(value) > spec.max_length:
-            raise ParameterError(key, value, f'longer than {spec.max_length} characters '
-                                             f'({len(value)})')
-        if spec.choices is not None and value not in spec.choices:
-            raise ParameterError(key, value, f"must be one of {', '.join(spec.choices)}"
-                                 + did_you_mean(value, spec.choices))
-        return value
-    if spec.kind == 'bool':
-        if not isinstance(value, bool):
-            raise ParameterError(key, value, f'expected true or false, got {type(value).__name__}')
-        return value
-    raise AssertionError(f'unknown parameter kind {spec.kind}')  # pragma: no cover
+    try:
+        return spec_check(spec, value)
+    except ModelValueError as exc:
+        raise ParameterError(exc.key, value, str(exc)) from None
 
 
 def check_inertia(key: str, value: Iterable[float]) -> np.ndarray:
