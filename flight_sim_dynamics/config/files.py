@@ -8,8 +8,6 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from .errors import ParameterError
-from .schema import specs
-from .validation import check_value
 from .yaml_io import read_yaml
 
 NODE_NAME = 'flight_sim_dynamics'
@@ -69,17 +67,6 @@ def without_ros(flat: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]
     return {k: v for k, v in flat.items() if k not in qos and k not in ROS_PARAMETERS}, qos
 
 
-def check_file_values(flat: Mapping[str, Any], source: str) -> None:
-    """Check each value of a known parameter in ``flat`` (read from ``source``)."""
-    known = specs()
-    for key, value in flat.items():
-        if key in known:
-            try:
-                check_value(known[key], value)
-            except ParameterError as exc:
-                raise ParameterError(exc.key, exc.value, f'{exc.reason} in {source}') from None
-
-
 def section_applies(section: str, node: str) -> bool:
     """Whether a params-file section applies to the node ``node`` (fully
     qualified), as rcl decides: its fully qualified name, a bare name ``foo``
@@ -91,22 +78,12 @@ def section_applies(section: str, node: str) -> bool:
     return re.fullmatch(pattern, node) is not None
 
 
-def read_params_file(path: str | os.PathLike[str],
-                     node: str = '/' + NODE_NAME) -> dict[str, Any]:
-    """The parameters of the node ``node`` in a ROS 2 parameter YAML file, as
-    flat dotted names: the sections that apply, merged in file order, each
-    value of a 3-DOF parameter checked (names are checked by
-    :func:`.parameters.read_params`).
-    """
-    flat = read_params_sections(path, node)
-    check_file_values(flat, str(Path(path)))
-    return flat
-
-
 def read_params_sections(path: str | os.PathLike[str],
                          node: str = '/' + NODE_NAME) -> dict[str, Any]:
-    """As :func:`read_params_file`, no value checked (a file that names its
-    machine is checked by that machine's rules).
+    """The parameters of the node ``node`` in a ROS 2 parameter YAML file, as
+    flat dotted names: the sections that apply, merged in file order, no value
+    checked (the loader checks them by the rules of the file's machine,
+    :mod:`.machine_files`).
     """
     source = str(Path(path))
     doc = read_yaml(path, 'params_file')
