@@ -33,7 +33,7 @@ from rclpy.time import Time
 from sensor_msgs.msg import Imu, JointState
 
 from ..config.machine_files import load_model_noting
-from ..config.parameters import default_params_path
+from ..config.files import default_params_path
 from ..config.schema import CUEING_TASK
 from ..core.machine import Machine
 from ..core.motion import PlannerSequence

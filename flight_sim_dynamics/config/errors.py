@@ -1,9 +1,12 @@
 """The error of a bad parameter, file or scene, and "did you mean"."""
 from __future__ import annotations
 
-import difflib
 import re
-from typing import Any, Iterable
+from typing import Any
+
+from ..core.parameter_spec import did_you_mean
+
+__all__ = ['IgnoredParameterWarning', 'ParameterError', 'did_you_mean', 'shorten']
 
 
 #: Longest word of a message shown whole (a value echoed: a name, a path).
@@ -35,9 +38,3 @@ class IgnoredParameterWarning(UserWarning):
     """Values of a parameter file the model does not use: parameters of an
     effect its scene leaves out (e.g. ``payload.mass`` with the ``full`` scene).
     """
-
-
-def did_you_mean(name: str, known: Iterable[str]) -> str:
-    """``; did you mean 'x'?`` for the closest known name (difflib), else ''."""
-    close = difflib.get_close_matches(str(name), list(known), n=1, cutoff=0.6)
-    return f"; did you mean '{close[0]}'?" if close else ''

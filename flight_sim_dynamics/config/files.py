@@ -8,8 +8,6 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from .errors import ParameterError
-from .schema import specs
-from .validation import check_value
 from .yaml_io import read_yaml
 
 NODE_NAME = 'flight_sim_dynamics'
@@ -18,6 +16,10 @@ NODE_NAME = 'flight_sim_dynamics'
 PACKAGED_SECTION = '/**/' + NODE_NAME
 PACKAGE_NAME = 'flight_sim_dynamics'
 DEFAULT_PARAMS_FILE = 'flight_sim_dynamics.yaml'
+#: Prefix of rclpy's QoS override parameters (the node's endpoints', read at start-up).
+QOS_OVERRIDES = 'qos_overrides.'
+#: Parameters rclpy declares on every node: a params file may set them; the models ignore them.
+ROS_PARAMETERS = frozenset({'use_sim_time', 'start_type_description_service'})
 
 
 def default_params_path() -> Path:
@@ -57,15 +59,12 @@ def flatten(tree: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
     return flat
 
 
-def check_file_values(flat: Mapping[str, Any], source: str) -> None:
-    """Check each value of a known parameter in ``flat`` (read from ``source``)."""
-    known = specs()
-    for key, value in flat.items():
-        if key in known:
-            try:
-                check_value(known[key], value)
-            except ParameterError as exc:
-                raise ParameterError(exc.key, exc.value, f'{exc.reason} in {source}') from None
+def without_ros(flat: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(the parameters of ``flat`` that are no ROS 2 node's own, its
+    ``qos_overrides.*``): :data:`ROS_PARAMETERS` are dropped, for every machine.
+    """
+    qos = {k: v for k, v in flat.items() if k.startswith(QOS_OVERRIDES)}
+    return {k: v for k, v in flat.items() if k not in qos and k not in ROS_PARAMETERS}, qos
 
 
 def section_applies(section: str, node: str) -> bool:
@@ -79,22 +78,12 @@ def section_applies(section: str, node: str) -> bool:
     return re.fullmatch(pattern, node) is not None
 
 
-def read_params_file(path: str | os.PathLike[str],
-                     node: str = '/' + NODE_NAME) -> dict[str, Any]:
-    """The parameters of the node ``node`` in a ROS 2 parameter YAML file, as
-    flat dotted names: the sections that apply, merged in file order, each
-    value of a 3-DOF parameter checked (names are checked by
-    :func:`.parameters.read_params`).
-    """
-    flat = read_params_sections(path, node)
-    check_file_values(flat, str(Path(path)))
-    return flat
-
-
 def read_params_sections(path: str | os.PathLike[str],
                          node: str = '/' + NODE_NAME) -> dict[str, Any]:
-    """As :func:`read_params_file`, no value checked (a file that names its
-    machine is checked by that machine's rules).
+    """The parameters of the node ``node`` in a ROS 2 parameter YAML file, as
+    flat dotted names: the sections that apply, merged in file order, no value
+    checked (the loader checks them by the rules of the file's machine,
+    :mod:`.machine_files`).
     """
     source = str(Path(path))
     doc = read_yaml(path, 'params_file')

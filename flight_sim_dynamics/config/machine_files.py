@@ -1,15 +1,26 @@
-"""The model of any machine's parameter file (:func:`load_model`, the public
-``fsd.load_model``): a file without a ``machine`` line is the 3-DOF
-machine's (:func:`.parameters.load_model`); a file that names its machine
-(``machine: stewart_6dof``) is read here, by the one rule of the 3-DOF files
-(:mod:`.parameters`): a packaged machine's file
-(``config/<machine>.yaml``) gives the defaults a partial file overrides; a
-machine of one's own is named by its machine's kind (:attr:`Machine.name`,
-``machine: stewart``) and given whole; any other name is an error (naming the
-key ``machine``, the known names, "did you mean"); a file without the line
-whose keys are another machine's is an error saying which; a scene (the file's ``scene``
-or the caller's) switches effects and overrides parameters as for the 3-DOF
-machine. The machine's own builder checks the values; every bad file is one
+"""The one loader of parameter files, every machine's (:func:`load_model`,
+the public ``fsd.load_model``; the node's start-up check and schema,
+:mod:`.node_schema`, read by it too).
+
+A file is a ROS 2 parameter file (``flight_sim_dynamics: ros__parameters:
+...``, nested maps as dotted names, :func:`.files.read_params_sections`). Its
+``machine: <name>`` line names its machine (:func:`.machines.machine_named`:
+a packaged file's name, ``stewart_6dof``, or a machine's kind, ``stewart``);
+a file without the line is the default machine's. Every file is read by one
+rule (:func:`load_layers`): the packaged file of its machine
+(``config/<name>.yaml``; the default machine's: ``config/flight_sim_dynamics.yaml``;
+a machine of one's own, named by its kind: none, the file is given whole)
+gives the values a partial file overrides; each name must be one of its
+machine's parameters (:attr:`Machine.parameters`; "did you mean", naming the
+file), a file without the line whose keys are another machine's is an error
+saying which; the node's parameters (:data:`.schema.NODE_PARAMETERS`) and the
+``cueing`` group (the motion-cueing planner's, :func:`.cueing.split_cueing`)
+are checked and left out, ``qos_overrides.*`` and rclpy's own parameters
+ignored (:func:`.files.without_ros`); a scene (the file's ``scene`` or the
+caller's) switches effects and overrides parameters; each value is checked
+against its declaration (:attr:`Machine.parameter_specs`), then the machine's
+builder (:attr:`Machine.from_params`) checks the whole and
+:func:`.whole_machine.check_home` the home pose. Every bad file is one
 :class:`ParameterError` naming the file and the key.
 """
 from __future__ import annotations
@@ -21,35 +32,32 @@ from typing import Any, Collection, Mapping, Sequence
 
 from ..core.effects import EFFECT_NAMES
 from ..core.machine import Machine, ModelValueError
+from ..core.parameter_spec import checked_values
 from .cueing import PREFIX, CueingParams, split_cueing
 from ..machines import (UnknownMachineError, default_machine, known_names, machine_named,
                         machines)
 from ..machines import packaged as packaged_machines
 from ..machines.api import absent_effects
-from . import parameters
 from .errors import IgnoredParameterWarning, ParameterError, did_you_mean
-from .files import default_params_path, read_params_sections
+from .files import default_params_path, read_params_sections, without_ros
 from .scenes import DEFAULT_SCENE, Scene, SceneError, load_scene, scenes_dir
-from .schema import NODE_PARAMETERS, specs
+from .schema import NODE_PARAMETERS
 from .validation import check_value, nested
 from .whole_machine import check_home
 
-#: Names a parameter file may give that belong to ROS, not to the model
-#: (rclpy's own parameters, QoS overrides): ignored, as for the 3-DOF files.
-_ROS_NAMES = frozenset({'use_sim_time', 'start_type_description_service'})
-_QOS_OVERRIDES = 'qos_overrides.'
 #: The node's parameters, which a named machine's file may give too.
 NODE_SPECS = {spec.name: spec for spec in NODE_PARAMETERS}
 
 
 def load_model(path: str | os.PathLike[str] | None = None,
                scene: Scene | str | os.PathLike[str] | None = None) -> Any:
-    """The model of a parameter file (None: the packaged 3-DOF machine; a name:
-    the packaged file of that name, :func:`params_path`) and a scene (a name
-    from config/scenes or a path; None: the file's ``scene`` parameter, else
-    ``full``): the machine the file names (``machine: <name>``), else the 3-DOF
-    machine (:func:`.parameters.load_model`). Raises :class:`ParameterError`
-    for any bad file or value.
+    """The model of a parameter file (None: the default machine's packaged
+    file; a name: the packaged file of that name, :func:`params_path`) and a
+    scene (a name from config/scenes or a path; None: the file's ``scene``
+    parameter, else ``full``), by the rule of the module docstring; what the
+    file gives that the scene leaves out is warned about
+    (:class:`IgnoredParameterWarning`). Raises :class:`ParameterError` for any
+    bad file or value.
     """
     model, notes = load_model_noting(path, scene)
     for note in notes:
@@ -63,15 +71,12 @@ def load_model_noting(path: str | os.PathLike[str] | None = None,
     """:func:`load_model` and its notes (:func:`ignored_note`) returned, not
     warned: for a command that prints them.
     """
-    path = None if path is None else params_path(path)
-    flat = None if path is None else read_params_sections(path)    # read once (a FIFO)
-    if flat is not None and 'machine' in flat:
-        model = load_named_model(flat, path, scene)
-    else:
-        if flat is not None:
-            _check_unnamed(flat, str(Path(path)))
-        model = parameters.model_of_params(flat, path, scene)
-    note = None if flat is None else ignored_note(flat, str(Path(path)), model)
+    if path is None:
+        return load_layers([], scene), []
+    path = params_path(path)
+    flat = read_params_sections(path)        # read once (a FIFO)
+    model = load_layers([(str(Path(path)), flat)], scene)
+    note = ignored_note(flat, str(Path(path)), model)
     return model, [] if note is None else [note]
 
 
@@ -93,20 +98,17 @@ def ignored_values(given: Mapping[str, Any], reference: Mapping[str, Any],
 
 def ignored_note(flat: Mapping[str, Any], source: str, model: Any) -> str | None:
     """What the file ``source`` (its parameters ``flat``) gives that ``model``
-    does not use (:func:`ignored_values`, against
-    the packaged file of its machine: the named one, else the 3-DOF machine's;
-    a machine of one's own: the first packaged file of its kind), or None.
+    does not use (:func:`ignored_values`, against the packaged file of its
+    machine, :func:`packaged_file`; a machine of one's own: the first packaged
+    file of its kind), or None.
     """
     name = flat.get('machine')
-    if name is None:
-        reference = parameters.packaged_values()
-    else:
-        kind = machine_named(name)           # the model was built: a known name
-        packaged = name if name in packaged_machines() else next(iter(kind.parameter_files),
-                                                                None)
-        reference = {} if packaged is None else \
-            _model_names(read_params_sections(packaged_path(packaged)))
-    names = ignored_values(_model_names(flat), reference, model)
+    packaged = packaged_file(name)
+    if packaged is None:                 # a machine of one's own: its kind's first file
+        files = machine_named(name).parameter_files     # the model was built: a known name
+        packaged = packaged_path(files[0]) if files else None
+    reference = {} if packaged is None else without_ros(read_params_sections(packaged))[0]
+    names = ignored_values(without_ros(flat)[0], reference, model)
     return ignored_message(names, model.scene, f'{source}: ') if names else None
 
 
@@ -151,16 +153,14 @@ def params_path(path: str | os.PathLike[str]) -> str | os.PathLike[str]:
 
 def load_node_values(path: str | os.PathLike[str] | None = None) -> dict[str, Any]:
     """The node's parameters (:data:`.schema.NODE_PARAMETERS`: the estimator's,
-    the input checks', ...) of a parameter file of any machine (None: the packaged
-    3-DOF machine's), each checked: the file's over its packaged file's (the named
-    one, else the 3-DOF machine's; a machine of one's own: none) over the declared
-    defaults. What the node would run with, for a command that does as the node does.
+    the input checks', ...) of a parameter file of any machine (None: the default
+    machine's packaged file), each checked: the file's over its packaged file's
+    (:func:`packaged_file`) over the declared defaults. What the node would run
+    with, for a command that does as the node does.
     """
     values = {spec.name: spec.default for spec in NODE_PARAMETERS}
     own = {} if path is None else read_params_sections(params_path(path))
-    name = own.get('machine')
-    packaged = (default_params_path() if name is None
-                else packaged_path(name) if name in packaged_machines() else None)
+    packaged = packaged_file(own.get('machine'))
     if packaged is not None:
         values.update(node_values(read_params_sections(packaged), str(packaged)))
     if path is not None:
@@ -169,15 +169,14 @@ def load_node_values(path: str | os.PathLike[str] | None = None) -> dict[str, An
 
 
 def load_cueing(path: str | os.PathLike[str] | None = None) -> CueingParams:
-    """The ``cueing`` group of a parameter file (None: the packaged 3-DOF
-    machine's) over its packaged file's, as the model's values are (a partial
-    file overrides them; a machine of one's own: the design's defaults).
+    """The ``cueing`` group of a parameter file (None: the default machine's
+    packaged file) over its packaged file's (:func:`packaged_file`), as the
+    model's values are (a partial file overrides them; a machine of one's own:
+    the design's defaults).
     ParameterError naming the key and the file.
     """
     own = {} if path is None else read_params_sections(path)
-    name = own.get('machine')
-    packaged = (default_params_path() if name is None
-                else packaged_path(name) if name in packaged_machines() else None)
+    packaged = packaged_file(own.get('machine'))
     if path is not None:
         split_cueing(own, str(path))              # the file's own group checked, named
     values = {} if packaged is None else {
@@ -189,6 +188,18 @@ def load_cueing(path: str | os.PathLike[str] | None = None) -> CueingParams:
 def packaged_path(name: str) -> Path:
     """The packaged parameter file of the machine ``name`` (config/<name>.yaml)."""
     return default_params_path().parent / f'{name}.yaml'
+
+
+def packaged_file(name: Any) -> Path | None:
+    """The packaged file under a file whose ``machine:`` line gives ``name``
+    (None: no line, the default machine's, :func:`.files.default_params_path`;
+    a packaged file's name: that file; a machine's kind: None, a file of one's
+    own gives every value).
+    """
+    if name is None:
+        return default_params_path()
+    return packaged_path(name) if isinstance(name, str) and name in packaged_machines() \
+        else None
 
 
 def launch_params_file(machine: str = '', params_file: str = '') -> Path:
@@ -213,19 +224,23 @@ def launch_params_file(machine: str = '', params_file: str = '') -> Path:
     return packaged_path(machine)
 
 
-def _model_names(flat: Mapping[str, Any]) -> dict[str, Any]:
-    return {k: v for k, v in flat.items()
-            if k not in _ROS_NAMES and not k.startswith(_QOS_OVERRIDES)}
-
-
-def _check_names(values: Mapping[str, Any], machine: Machine, name: str, source: str) -> None:
-    """Every name of a file must be one of its machine's parameters."""
+def _check_names(values: Mapping[str, Any], machine: Machine, name: str | None,
+                 source: str) -> None:
+    """Every name of a file (its ``machine:`` line ``name``, None: none) must be
+    one of its machine's parameters; "did you mean" the closest.
+    """
+    default = default_machine()
+    known = machine.parameters | NODE_SPECS.keys()      # a file gives the node's too
     for key in values:
-        if key not in machine.parameters:
-            other = ' (a parameter of the 3-DOF machine, whose files name no machine)' \
-                if key in specs() else ''
-            raise ParameterError(key, values[key], f"unknown parameter of machine '{name}'"
-                                 f'{other} in {source}' + did_you_mean(key, machine.parameters))
+        if key in machine.parameters:
+            continue
+        if name is None:
+            raise ParameterError(key, values[key], f'unknown parameter in {source}'
+                                 + did_you_mean(key, known))
+        other = ' (a parameter of the 3-DOF machine, whose files name no machine)' \
+            if machine is not default and key in default.parameters else ''
+        raise ParameterError(key, values[key], f"unknown parameter of machine '{name}'"
+                             f'{other} in {source}' + did_you_mean(key, known))
 
 
 def _scene(scene: Scene | str | os.PathLike[str] | None, values: Mapping[str, Any],
@@ -240,28 +255,33 @@ def _scene(scene: Scene | str | os.PathLike[str] | None, values: Mapping[str, An
         if not isinstance(scene, str) or not scene:
             raise ParameterError('scene', scene, f'expected a scene name or a file path in '
                                                  f'{source}')
+        spec = next((s for s in machine.parameter_specs if s.name == 'scene'), None)
+        if spec is not None:            # its declared bounds (a path's length)
+            try:
+                check_value(spec, scene)
+            except ParameterError as exc:
+                raise ParameterError('scene', scene, f'{exc.reason} in {source}') from None
     return load_scene(scene, names=machine.parameters - {'machine', 'scene'})
 
 
-def _check_specs(machine: Machine, values: Mapping[str, Any]) -> None:
+def _check_specs(machine: Machine, values: Mapping[str, Any]) -> dict[str, Any]:
     """Every value within its declaration (:attr:`Machine.parameter_specs`: type,
-    size, bounds), as the node's descriptors declare it: ModelValueError naming
-    the key (a mass of 1e308 kg is refused by its bound, before any solve).
+    size, bounds; :func:`~flight_sim_dynamics.core.parameter_spec.checked_values`),
+    as the node's descriptors declare it, canonical: ModelValueError naming the
+    key (a mass of 1e308 kg is refused by its bound, before any solve).
     """
-    for spec in machine.parameter_specs:
-        if spec.name in values:
-            try:
-                check_value(spec, values[spec.name])
-            except ParameterError as exc:
-                raise ModelValueError(exc.key, exc.reason) from None
+    return checked_values(machine.parameter_specs, values)
 
 
 def named_machine(name: Any, source: str) -> Machine:
-    """The machine a file's (or a node's) ``machine: <name>`` describes (a
-    packaged file's name or a machine's kind, :func:`.machines.machine_named`); a
-    ParameterError naming the key ``machine`` for no name, an unknown one (the
-    known ones listed) and the 3-DOF machine's (its files name none).
+    """The machine a file's (or a node's) ``machine: <name>`` describes (None:
+    no line, the default machine; a packaged file's name or a machine's kind,
+    :func:`.machines.machine_named`); a ParameterError naming the key
+    ``machine`` for no name, an unknown one (the known ones listed) and the
+    default machine's kind (its files name none).
     """
+    if name is None:
+        return default_machine()
     if not isinstance(name, str) or not name:
         raise ParameterError('machine', name, f'expected the name of a machine in {source}')
     if name == default_machine().name:
@@ -279,13 +299,14 @@ def named_machine(name: Any, source: str) -> Machine:
 
 
 def _check_unnamed(flat: Mapping[str, Any], source: str) -> None:
-    """A file without a ``machine:`` line is the 3-DOF machine's: a ParameterError
-    (key ``machine``) when its keys unknown to that machine are another machine's
-    (most of them: that one), saying which and to name it, before the 3-DOF
-    machine's checks would refuse some value of them (a hexapod's six numbers).
+    """A file without a ``machine:`` line is the default machine's: a
+    ParameterError (key ``machine``) when its keys unknown to that machine are
+    another machine's (most of them: that one), saying which and to name it,
+    before the default machine's checks would refuse some value of them (a
+    hexapod's six numbers).
     """
-    own, _ = split_cueing(_model_names(flat), source)
-    known = specs()
+    own, _ = split_cueing(without_ros(flat)[0], source)
+    known = default_machine().parameters | NODE_SPECS.keys()
     foreign = {key for key in own if key not in known}
     if not foreign:
         return
@@ -304,9 +325,9 @@ def _check_unnamed(flat: Mapping[str, Any], source: str) -> None:
 
 
 def node_values(flat: Mapping[str, Any], source: str) -> dict[str, Any]:
-    """The node's parameters among a named machine's ``flat`` (dotted names),
-    each value checked (one file serves the model and the node, as for the
-    3-DOF machine); ``limits.warn_fraction`` is one of them.
+    """The node's parameters among a file's ``flat`` (dotted names), each value
+    checked (one file serves the model and the node, every machine's);
+    ``limits.warn_fraction`` is one of them.
     """
     out = {}
     for key in flat.keys() & NODE_SPECS.keys():
@@ -317,27 +338,45 @@ def node_values(flat: Mapping[str, Any], source: str) -> dict[str, Any]:
     return out
 
 
-def load_named_model(flat: Mapping[str, Any], path: str | os.PathLike[str],
-                     scene: Scene | str | os.PathLike[str] | None = None) -> Any:
-    """The model of the parameter file ``path`` whose parameters ``flat``
-    (dotted names) name its machine, with ``scene`` (None: the file's); the
-    node's parameters and the ``cueing`` group it gives are checked
-    (:func:`node_values`, :func:`.cueing.split_cueing`) and left out.
+def file_values(flat: Mapping[str, Any], machine: Machine, source: str) -> dict[str, Any]:
+    """The model's values a file (its parameters ``flat``, read from ``source``)
+    gives its machine ``machine``: its ``cueing`` group and the node's
+    parameters checked and left out (:func:`.cueing.split_cueing`,
+    :func:`node_values`), ROS's own ignored, each name one of the machine's.
     """
-    source = str(Path(path))
-    own, _ = split_cueing(_model_names(flat), source)     # the motion-cueing planner's
-    name = own['machine']
-    machine = named_machine(name, source)
+    own, _ = split_cueing(without_ros(flat)[0], source)     # the motion-cueing planner's
     node_values(own, source)
     own = {k: v for k, v in own.items() if k not in NODE_SPECS}
-    _check_names(own, machine, name, source)
-    packaged = name in packaged_machines()
+    _check_names(own, machine, own.get('machine'), source)
+    return own
+
+
+def load_layers(layers: Sequence[tuple[str, Mapping[str, Any]]],
+                scene: Scene | str | os.PathLike[str] | None = None) -> Any:
+    """The model of parameter files ``layers`` ((path, its parameters
+    ``flat``), each over those before, as ROS reads ``--params-file`` files;
+    none: the default machine's packaged file) over the packaged file of their
+    machine (:func:`packaged_file`), with ``scene`` (None: the files'): the
+    rule of the module docstring. A file without a ``machine:`` line whose keys
+    are another machine's is refused (:func:`_check_unnamed`).
+    """
+    merged: dict[str, Any] = {}
+    for _, flat in layers:
+        merged.update(flat)
+    name = merged.get('machine')
+    packaged = packaged_file(name)
+    source = os.pathsep.join(path for path, _ in layers) or str(packaged)
+    if name is None and layers:
+        _check_unnamed(merged, source)
+    machine = named_machine(name, source)
+    own: dict[str, Any] = {}
+    for path, flat in layers:
+        own.update(file_values(flat, machine, path))
+    values: dict[str, Any] = {}
     origin = {key: source for key in own}   # the file each value comes from
-    values = {}
-    if packaged:
-        defaults = packaged_path(name)
-        values, _ = split_cueing(_model_names(read_params_sections(defaults)), str(defaults))
-        origin = {**{key: str(defaults) for key in values}, **origin}
+    if packaged is not None:
+        values = file_values(read_params_sections(packaged), machine, str(packaged))
+        origin = {**{key: str(packaged) for key in values}, **origin}
     values.update(own)
     return model_of_values(machine, values, source, scene, origin)
 
@@ -346,7 +385,7 @@ def model_of_values(machine: Machine, values: Mapping[str, Any], source: str,
                     scene: Scene | str | os.PathLike[str] | None = None,
                     origin: Mapping[str, str] | None = None,
                     changed: Collection[str] | None = None) -> Any:
-    """The model of a named machine's complete ``values`` (dotted names, read
+    """The model of a machine's complete ``values`` (dotted names, read
     from ``source``; ``origin``: the file of each value where others) with
     ``scene`` (None: the values' ``scene``), each value within its declaration,
     built and checked by the machine, its home pose solved
@@ -357,19 +396,20 @@ def model_of_values(machine: Machine, values: Mapping[str, Any], source: str,
         changed = [key for key in values if (origin or {}).get(key, source) == source]
     values = dict(values)
     name = values.get('machine')
-    packaged = name in packaged_machines()
+    packaged = packaged_file(name) is not None
     origin = origin or {}
     chosen = _scene(scene, values, machine, source)
     values.update(chosen.parameters)
     values['scene'] = chosen.name
     try:
-        _check_specs(machine, values)
-        model = machine.from_params(nested(values), effects=chosen.effects)
+        model = machine.from_params(nested(_check_specs(machine, values)),
+                                    effects=chosen.effects)
     except ModelValueError as exc:
         key = exc.key
         if key in chosen.parameters:
             where = chosen.path or scenes_dir() / f'{chosen.name}.yaml'
-            raise SceneError(chosen.name, f"{where}: key '{key}': {exc}") from None
+            raise SceneError(chosen.name, f"{where}: {ParameterError(key, values[key], str(exc))}"
+                             ) from None
         # the packaged file is valid alone: a value of it is refused for the
         # user's file (e.g. a length_max below the file's length_min)
         given = origin.get(key, source)

@@ -1,22 +1,21 @@
 """The parameters the dynamics node declares, for the machine its parameters
-name (``machine: <name>``; none: the default machine, the 3-DOF one): the
+name (``machine: <name>``; none: the default machine): the
 machine's own (:attr:`Machine.parameter_specs`), the node's
 (:data:`.schema.NODE_PARAMETERS`, shared), their start-up values and the model
 of a complete set (:class:`NodeSchema`).
 """
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from typing import Any, Callable, Collection, Mapping, Sequence
 
 from ..core.machine import Machine
 from ..core.parameter_spec import ParamSpec
-from ..machines import default_machine, packaged
-from . import parameters as prm
-from .files import params_files_in, read_params_sections
-from .machine_files import (load_named_model, model_of_values, named_machine, node_values,
-                            packaged_path)
+from .errors import ParameterError
+from .files import NODE_NAME, params_files_in, read_params_sections
+from .machine_files import (load_layers, model_of_values, named_machine, node_values,
+                            packaged_file)
+from .schema import NODE_PARAMETERS
 
 #: The parameter naming the machine (read-only: fixed at start-up).
 MACHINE = 'machine'
@@ -43,7 +42,7 @@ class NodeSchema:
 
     @property
     def specs(self) -> dict[str, ParamSpec]:
-        return {s.name: s for s in self.model_specs + prm.NODE_PARAMETERS}
+        return {s.name: s for s in self.model_specs + NODE_PARAMETERS}
 
     def model(self, values: Mapping[str, Any], changed: Collection[str] | None = None) -> Any:
         """The model of ``values`` (at least every declared model parameter);
@@ -53,51 +52,42 @@ class NodeSchema:
         return self.build(ours, None if changed is None else [k for k in changed if k in ours])
 
 
-def _default() -> NodeSchema:
-    """The default machine's (its files, hence its node, name no machine): its
-    declarations, its packaged file's values over their defaults, its builder by
-    the rule of its files (:func:`.parameters.model_from_values`).
+def node_schema(machine_name: Any = None) -> NodeSchema:
+    """The schema of the machine a node's ``machine`` parameter names (None:
+    none given, the default machine; :func:`.machine_files.named_machine`), by
+    the rule of its files (:mod:`.machine_files`): its declarations (and
+    ``machine``'s, when given), its packaged file's values
+    (:func:`.machine_files.packaged_file`; a machine of one's own: none) over
+    the declared defaults, its model built by
+    :func:`.machine_files.model_of_values`. A ParameterError for a name no
+    machine answers to.
     """
-    machine = default_machine()
-    try:
-        defaults = prm.validate(prm.read_params_file(prm.default_params_path()),
-                                require_all=False)
-    except (prm.ParameterError, FileNotFoundError):
-        defaults = prm.defaults()
-    return NodeSchema(machine, machine.parameter_specs, defaults,
-                      lambda values, changed: prm.model_from_values(values, changed=changed,
-                                                                    source=_SOURCE))
-
-
-def _named(name: Any) -> NodeSchema:
-    machine = named_machine(name, _SOURCE)
-    defaults = {s.name: s.default for s in prm.NODE_PARAMETERS + machine.parameter_specs
+    machine = named_machine(machine_name, _SOURCE)
+    defaults = {s.name: s.default for s in NODE_PARAMETERS + machine.parameter_specs
                 if s.default is not None}
-    if name in packaged():
-        flat = read_params_sections(packaged_path(name))
+    try:
+        packaged = packaged_file(machine_name)
+    except FileNotFoundError:       # an install without config/: the declared defaults
+        packaged = None
+    if packaged is not None:
+        flat = read_params_sections(packaged)
         defaults.update({k: v for k, v in flat.items() if k in machine.parameters})
-        defaults.update(node_values(flat, str(packaged_path(name))))
-    defaults[MACHINE] = name
-    # the node's `machine` parameter is declared whatever the machine's specs say
+        defaults.update(node_values(flat, str(packaged)))
     specs = machine.parameter_specs
-    if all(spec.name != MACHINE for spec in specs):
-        specs = (MACHINE_SPEC,) + specs
+    if machine_name is not None:
+        defaults[MACHINE] = machine_name
+        # the node's `machine` parameter is declared whatever the machine's specs say
+        if all(spec.name != MACHINE for spec in specs):
+            specs = (MACHINE_SPEC,) + specs
     return NodeSchema(machine, specs, defaults,
                       lambda values, changed: model_of_values(
                           machine, values, _SOURCE,
                           changed=values.keys() if changed is None else changed))
 
 
-def node_schema(machine_name: Any = None) -> NodeSchema:
-    """The schema of the machine a node's ``machine`` parameter names (None:
-    the 3-DOF machine); a ParameterError for a name no machine answers to.
-    """
-    return _default() if machine_name is None else _named(machine_name)
-
-
-def _unreached(path: str, node: str, machine: Any) -> prm.ParameterError:
+def _unreached(path: str, node: str, machine: Any) -> ParameterError:
     """The error of a file naming ``machine`` whose section does not reach ``node``."""
-    return prm.ParameterError(MACHINE, machine, (
+    return ParameterError(MACHINE, machine, (
         f'{path} names this machine, but ROS gave the node {node} no parameter of '
         'that file (its section must be the node\'s fully qualified name, or match it: '
         '/**, /**/flight_sim_dynamics, to reach a node in a namespace); the node would '
@@ -111,38 +101,31 @@ def _sections(path: str, node: str) -> dict[str, Any]:
     """
     try:
         return read_params_sections(path, node)
-    except prm.ParameterError:
+    except ParameterError:
         try:
             root = read_params_sections(path)
-        except prm.ParameterError:
+        except ParameterError:
             root = {}
-        if node == '/' + prm.NODE_NAME or MACHINE not in root:
+        if node == '/' + NODE_NAME or MACHINE not in root:
             raise
         raise _unreached(path, node, root[MACHINE]) from None
 
 
-def check_node_params_files(args: Sequence[str], node: str = '/' + prm.NODE_NAME,
+def check_node_params_files(args: Sequence[str], node: str = '/' + NODE_NAME,
                             machine: Any = None) -> None:
     """The one rule on the ``--params-file`` files of a node's command line
     (``node``: its fully qualified name; ``machine``: the ``machine`` parameter
-    it was given, None: none): files naming a machine are checked as
-    ``load_model`` reads them, merged in order; the others as the 3-DOF
-    machine's (:func:`.parameters.check_params_files`). A bad file is one
-    ParameterError, as is a file naming a machine whose section ROS did not
-    give the node (a section named ``flight_sim_dynamics`` reaches only the
+    it was given, None: none): the files, merged in order, are checked as
+    ``load_model`` reads them (:func:`.machine_files.load_layers`). A bad file
+    is one ParameterError, as is a file naming a machine whose section ROS did
+    not give the node (a section named ``flight_sim_dynamics`` reaches only the
     node of that name in the root namespace).
     """
-    paths = params_files_in(args)
-    flats = [(path, _sections(path, node)) for path in paths]
-    named = [(path, flat) for path, flat in flats if MACHINE in flat]
-    if not named:
-        prm.check_params_files(args, node)
+    layers = [(path, _sections(path, node)) for path in params_files_in(args)]
+    if not layers:
         return
-    path, flat = named[-1]
-    if flat[MACHINE] != machine:
+    named = [(path, flat) for path, flat in layers if MACHINE in flat]
+    if named and named[-1][1][MACHINE] != machine:
+        path, flat = named[-1]
         raise _unreached(path, node, flat[MACHINE])
-    merged: dict[str, Any] = {}
-    for _, flat in flats:
-        merged.update(flat)
-    load_named_model(merged, named[-1][0] if len(flats) == 1 else
-                     os.pathsep.join(str(p) for p in paths))
+    load_layers(layers)

@@ -10,8 +10,8 @@ from typing import Any, Collection, Mapping
 
 from ..core.effects import EFFECT_NAMES, Effects
 from .errors import ParameterError, did_you_mean
-from .files import check_file_values, default_params_path, flatten
-from .schema import model_parameters
+from ..machines import default_machine
+from .files import default_params_path, flatten
 from .yaml_io import read_yaml
 
 DEFAULT_SCENE = 'full'
@@ -51,8 +51,9 @@ def load_scene(scene: str | os.PathLike[str] | None = None,
     """Read and validate a scene: a name of the packaged scenes folder or the
     path of a YAML file (None: the ``full`` scene, the paper's model).
     ``names``: the parameters its overrides may name, those of the machine it
-    is for (None: the 3-DOF machine's, each value checked here; else the
-    values are checked when the model is built).
+    is for (None: the default machine's); their values are checked when the
+    model is built (:func:`.machine_files.model_of_values`, a SceneError
+    naming the scene's file and the key).
     """
     text = os.fspath(DEFAULT_SCENE if scene is None else scene)
     path = Path(text) if text.endswith(('.yaml', '.yml')) or os.sep in text else (
@@ -100,16 +101,11 @@ def load_scene(scene: str | os.PathLike[str] | None = None,
     if not isinstance(description, str):
         raise SceneError(name, "'description' must be a string")
     parameters = flatten(overrides)
-    known = frozenset(spec.name for spec in model_parameters()) if names is None else names
+    known = (default_machine().parameters - {'machine', 'scene'}) if names is None else names
     for key in parameters:
         if key not in known:
             raise SceneError(name, f"parameter '{key}' is not a model parameter"
                              + did_you_mean(key, known))
-    if names is None:
-        try:
-            check_file_values(parameters, str(path))
-        except ParameterError as exc:
-            raise SceneError(name, str(exc)) from None
     packaged = path.resolve().parent == scenes_dir().resolve()
     return Scene(name=name, description=description, effects=Effects(**effects),
                  parameters=parameters, path=None if packaged else path)

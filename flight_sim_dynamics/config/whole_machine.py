@@ -1,8 +1,6 @@
 """The check of a whole machine, every machine's, made wherever a model is
-built from parameters (:func:`.parameters.model_from_values`, the 3-DOF
-machine's builder; :func:`.machine_files.model_of_values`, every named
-machine's): a file's ``load_model``, the node's configure and each of its
-runtime parameter sets.
+built from parameters (:func:`.machine_files.model_of_values`): a file's
+``load_model``, the node's configure and each of its runtime parameter sets.
 
 The home pose (q = 0, at rest) must solve ``ok`` or ``limit`` with finite
 numbers. A home that solves ``near_singular`` (joints at one point, collinear,

@@ -35,18 +35,11 @@ import numpy as np
 from .drawing import Drawing
 from .effects import EFFECT_NAMES
 from .motion import Motion
-from .parameter_spec import ParamSpec
+from .parameter_spec import ModelValueError, ParamSpec
 from .workspace import Option, Survey
 
-
-class ModelValueError(ValueError):
-    """A machine's model builder refuses a parameter: ``key`` is its dotted
-    name (``bodies.rod.mass``; an element's index dropped), the message says why.
-    """
-
-    def __init__(self, key: str, message: str) -> None:
-        super().__init__(message)
-        self.key = key
+__all__ = ['ActuatorLimits', 'LimitUsage', 'Machine', 'ModelValueError', 'check_forward_options',
+           'narrowed_limits', 'quiet_floating_point', 'stroke_usage']
 
 
 def check_forward_options(tolerance: float, max_iterations: int) -> None:

@@ -24,6 +24,7 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
 
 from ..config import parameters as prm
+from ..config.files import QOS_OVERRIDES
 from ..config.machine_files import ignored_message, ignored_values
 from ..config.node_schema import MACHINE, NodeSchema, node_schema
 from ..config.cueing import SPECS as CUEING_SPECS
@@ -306,7 +307,7 @@ class DynamicsNode(ManagedNode):
                 qos_overriding_options=options))
         except (InvalidQosOverridesError, RuntimeError, AssertionError, TypeError,
                 ValueError) as exc:
-            raise prm.ParameterError(prm.QOS_OVERRIDES + '*', None,
+            raise prm.ParameterError(QOS_OVERRIDES + '*', None,
                                      f'invalid QoS override: {exc}') from None
         # reports while inactive too
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)

@@ -32,7 +32,7 @@ from sensor_msgs.msg import Imu
 
 from ..config import parameters as prm
 from ..config.errors import did_you_mean
-from ..config.files import NODE_NAME, params_files_in, read_params_sections
+from ..config.files import NODE_NAME, QOS_OVERRIDES, params_files_in, read_params_sections
 from ..config.machine_files import load_model
 from ..config.schema import CUEING_NODE_NAME, CUEING_NODE_PARAMETERS, CUEING_TASK
 from ..config.cueing import PARAMETER_SPECS, PREFIX, CueingParams, cueing_params_flat
@@ -246,7 +246,7 @@ class MotionCueingNode(ManagedNode):
         # for the dynamics node
         for name, param in given.items():
             if name not in self._specs and name not in flat \
-                    and not name.startswith(prm.QOS_OVERRIDES):
+                    and not name.startswith(QOS_OVERRIDES):
                 raise prm.ParameterError(name, plain(param.value), (
                     f'not a parameter of {CUEING_NODE_NAME}' + did_you_mean(name, self._specs)))
         self._refused = self._declare_specs(list(self._specs.values()), defaults, given,
@@ -377,7 +377,7 @@ class MotionCueingNode(ManagedNode):
                                                      imu_qos(), qos_overriding_options=options)
         except (InvalidQosOverridesError, RuntimeError, AssertionError, TypeError,
                 ValueError) as exc:
-            raise prm.ParameterError(prm.QOS_OVERRIDES + '*', None,
+            raise prm.ParameterError(QOS_OVERRIDES + '*', None,
                                      f'invalid QoS override: {exc}') from None
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self._diag_timer = self.create_timer(config.diagnostics_period, self._on_diagnostics,

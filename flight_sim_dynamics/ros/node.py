@@ -22,7 +22,8 @@ from rclpy.experimental import EventsExecutor
 from rclpy.signals import SignalHandlerOptions
 
 from ..config import parameters as prm
-from ..config.files import params_files_in, read_params_file
+from ..config.files import params_files_in, read_params_sections
+from ..config.machine_files import load_layers
 from ..config.node_schema import check_node_params_files
 from .dynamics_node import DynamicsNode
 from .process import ending_spin, stop_on_signals, stop_requested
@@ -79,10 +80,10 @@ def create(node_class: Callable[[], N]) -> N:
 
 
 def _params_file_problem(argv: Sequence[str]) -> str | None:
-    """The package reader's message on the params files (names file and key)."""
+    """The package loader's message on the params files (names file and key)."""
     for path in params_files_in(argv):
         try:
-            read_params_file(path)
+            load_layers([(path, read_params_sections(path))])
         except prm.ParameterError as exc:
             return f'invalid parameters: {exc}'
     return None

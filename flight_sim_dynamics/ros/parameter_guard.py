@@ -23,6 +23,7 @@ from rclpy.exceptions import ParameterException
 from rclpy.parameter import Parameter
 
 from ..config import parameters as prm
+from ..config.files import ROS_PARAMETERS
 from .service_thread import ServiceThread
 
 # bounds of one parameter set request (the node's only thread validates it)
@@ -144,7 +145,7 @@ class GuardedParameters:
         """The start-up values (overrides, all declared by rclpy), undeclared
         again to be declared with their specs (:meth:`_declare_specs`).
         """
-        names = set(self.list_parameters([], 0).names) - prm.ROS_PARAMETERS
+        names = set(self.list_parameters([], 0).names) - ROS_PARAMETERS
         given = {name: self.get_parameter(name) for name in names}
         for name in names:
             self.undeclare_parameter(name)

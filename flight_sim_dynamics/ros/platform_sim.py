@@ -32,7 +32,7 @@ from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 
 from ..config import parameters as prm
-from ..config.files import NODE_NAME, section_applies
+from ..config.files import NODE_NAME, ROS_PARAMETERS, section_applies
 from ..config.machine_files import load_model
 from ..config.schema import SIM_NODE_NAME, SIM_PARAMETERS
 from ..config.yaml_io import read_yaml
@@ -297,7 +297,7 @@ class PlatformSim(Node):
     def __init__(self, params_files: Sequence[str] = (), **kwargs: Any) -> None:
         super().__init__(SIM_NODE_NAME, automatically_declare_parameters_from_overrides=True,
                          **kwargs)
-        given = set(self.list_parameters([], 0).names) - prm.ROS_PARAMETERS
+        given = set(self.list_parameters([], 0).names) - ROS_PARAMETERS
         for name in given:
             self.undeclare_parameter(name)      # re-declared below with our descriptors
         # an empty default (initial: home) declares the type alone: rclpy would take

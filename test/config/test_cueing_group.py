@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.config import parameters as prm
 from flight_sim_dynamics.config.errors import ParameterError
 from flight_sim_dynamics.config.files import read_params_sections
 from flight_sim_dynamics.config.node_schema import check_node_params_files
@@ -79,4 +78,3 @@ def test_the_nodes_rule_on_params_files_accepts_the_group():
     check_node_params_files(['--ros-args', '--params-file', str(HEXAPOD)],
                             machine='stewart_6dof')
     check_node_params_files(['--ros-args', '--params-file', str(THREE_DOF)])
-    prm.check_params_files(['--ros-args', '--params-file', str(THREE_DOF)])

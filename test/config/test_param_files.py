@@ -10,10 +10,15 @@ import pytest
 import yaml
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.config import parameters, schema, yaml_io
+from flight_sim_dynamics.config import schema, yaml_io
+from flight_sim_dynamics.config.cueing import split_cueing
 from flight_sim_dynamics.config.errors import ParameterError
 from flight_sim_dynamics.config.files import (PACKAGED_SECTION, params_files_in,
-                                              read_params_sections, section_applies)
+                                              read_params_sections, section_applies,
+                                              without_ros)
+from flight_sim_dynamics.config.machine_files import load_node_values
+from flight_sim_dynamics.core.inertia import inertia_tensor
+from flight_sim_dynamics.core.parameter_spec import ModelValueError
 from flight_sim_dynamics.config.node_schema import check_node_params_files
 from flight_sim_dynamics.config.scenes import SceneError
 from flight_sim_dynamics.machines.staicu.model import BODY_NAMES
@@ -79,7 +84,7 @@ def test_unknown_name_is_an_error_with_did_you_mean_and_the_file(tmp_path, body,
 def test_qos_overrides_are_the_nodes_and_ignored_by_load_model(tmp_path):
     path = _file(tmp_path, 'qos_overrides:\n  /pose_setpoint:\n    subscription:\n'
                            '      depth: 50\nbodies:\n  rod:\n    mass: 2.0')
-    values, qos = parameters.read_params(path)
+    values, qos = without_ros(read_params_sections(path))
     assert qos == {'qos_overrides./pose_setpoint.subscription.depth': 50}
     assert values == {'bodies.rod.mass': 2.0}
     assert fsd.load_model(path).bodies['rod'].mass == 2.0
@@ -96,10 +101,9 @@ def test_sections_apply_as_rcl_applies_them(tmp_path):
     path = tmp_path / 'ns.yaml'
     path.write_text('/sim/flight_sim_dynamics:\n  ros__parameters:\n    gravity: 9.0\n'
                     'other:\n  ros__parameters:\n    anything: 1\n')
-    values, _ = parameters.read_params(path, '/sim/flight_sim_dynamics')
-    assert values == {'gravity': 9.0}
+    assert read_params_sections(path, '/sim/flight_sim_dynamics') == {'gravity': 9.0}
     with pytest.raises(ParameterError, match='no section for node'):
-        parameters.read_params(path)
+        read_params_sections(path)
 
 
 #: rclpy 7.1.6 (Jazzy), measured: a node named flight_sim_dynamics in namespace
@@ -165,10 +169,11 @@ def test_params_files_in_a_ros_command_line():
 def test_check_params_files_applies_the_rule_to_a_command_line(tmp_path):
     good = _file(tmp_path, 'bodies:\n  rod:\n    mass: 2.0', 'good.yaml')
     bad = _file(tmp_path, 'geometry:\n  d7: 0.4', 'bad.yaml')
-    parameters.check_params_files(['n', '--ros-args', '--params-file', str(good)])
-    with pytest.raises(ParameterError, match="did you mean 'geometry.d5'"):
-        parameters.check_params_files(['n', '--ros-args', '--params-file', str(good),
-                                       '--params-file', str(bad)])
+    check_node_params_files(['n', '--ros-args', '--params-file', str(good)])
+    with pytest.raises(ParameterError, match="did you mean 'geometry.d5'") as info:
+        check_node_params_files(['n', '--ros-args', '--params-file', str(good),
+                                 '--params-file', str(bad)])
+    assert str(bad) in str(info.value)     # the file of the name
 
 
 # -- bad files: one ParameterError naming the file, quickly ------------------------
@@ -217,11 +222,11 @@ def test_huge_or_non_finite_inertia_is_a_parameter_error(tmp_path, inertia):
 
 def test_check_inertia_never_raises_linalg_errors():
     for bad in (-1e308, float('inf'), float('nan')):
-        with pytest.raises(ParameterError):
-            parameters.check_inertia('x', [bad, 0, 0, 0, bad, 0, 0, 0, bad])
+        with pytest.raises(ModelValueError):
+            inertia_tensor('x', [bad, 0, 0, 0, bad, 0, 0, 0, bad])
     # a possible tensor near the float range is checked without overflow (the
     # schema's bound, 1e6 kg m^2, is validation's business)
-    tensor = parameters.check_inertia('x', [1e308, 0, 0, 0, 1e308, 0, 0, 0, 1e308])
+    tensor = inertia_tensor('x', [1e308, 0, 0, 0, 1e308, 0, 0, 0, 1e308])
     assert tensor[0, 0] == 1e308
 
 
@@ -274,7 +279,7 @@ def test_yaml11_only_and_rcl_ambiguous_values_are_refused_naming_the_key(tmp_pat
 @pytest.mark.parametrize('text', ["'yes'", '"0x10"', "'1:30'", "'~'"])
 def test_quoted_values_are_strings(tmp_path, text):
     path = _file(tmp_path, f'output:\n  frame_id: {text}')
-    assert fsd.load_model(path).values['output.frame_id'] == text[1:-1]
+    assert load_node_values(path)['output.frame_id'] == text[1:-1]
 
 
 @pytest.mark.parametrize('text, value', [('1e3', 1000.0), ('2.5e-3', 0.0025), ('1E+1', 10.0),
@@ -370,8 +375,8 @@ def test_misspelt_scene_name_gets_did_you_mean():
 
 
 def test_packaged_files_read_by_the_strict_reader():
-    values, qos = parameters.read_params(CONFIG)
-    assert not qos and set(values) <= set(schema.SPECS)
+    values, qos = without_ros(read_params_sections(CONFIG))
+    assert not qos and set(split_cueing(values, str(CONFIG))[0]) <= set(schema.SPECS)
     assert np.isclose(fsd.load_model().gravity, 9.81)
 
 

@@ -7,8 +7,10 @@ import yaml
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import parameters
-from flight_sim_dynamics.config.files import PACKAGED_SECTION
+from flight_sim_dynamics.config.files import PACKAGED_SECTION, read_params_sections
+from flight_sim_dynamics.config.machine_files import model_of_values
 from flight_sim_dynamics.config.parameters import ParameterError
+from flight_sim_dynamics.machines import default_machine
 
 CONFIG = Path(__file__).resolve().parents[2] / 'config' / 'flight_sim_dynamics.yaml'
 
@@ -24,7 +26,7 @@ def _tree():
 
 
 def test_packaged_file_equals_schema_defaults():
-    values = parameters.read_params_file(CONFIG)
+    values = read_params_sections(CONFIG)
     defaults = parameters.defaults()
     for spec in parameters.MODEL_PARAMETERS:
         expected = defaults[spec.name]
@@ -97,7 +99,7 @@ def test_missing_model_parameter_in_values_names_it():
     values = parameters.defaults()
     del values['geometry.d1']
     with pytest.raises(ParameterError) as info:
-        parameters.model_from_values(values, require_all=True)
+        model_of_values(default_machine(), values, 'values')
     assert info.value.key == 'geometry.d1'
     assert 'missing' in str(info.value)
     assert "'geometry.d1' = " in str(info.value)

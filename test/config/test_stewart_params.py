@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import flight_sim_dynamics as fsd
-from flight_sim_dynamics.config import parameters
+from flight_sim_dynamics.config.node_schema import check_node_params_files
 from flight_sim_dynamics.config.errors import ParameterError
 from flight_sim_dynamics.config.files import PACKAGED_SECTION
 from flight_sim_dynamics.config.scenes import SceneError, load_scene
@@ -276,17 +276,18 @@ def test_a_set_is_refused_in_either_machines_file(tmp_path, body, key):
 
 
 def test_a_hexapod_key_in_a_3dof_file_is_named_as_the_hexapods(tmp_path):
-    """fsd.load_model says whose key it is and which line to add; the 3-DOF
-    loader (the node's) still calls it an unknown parameter."""
+    """fsd.load_model says whose key it is and which line to add; so does the
+    node's --params-file check (one loader: it once called it an unknown
+    parameter)."""
     for body, key in (('geometry:\n  home: [0.0, 0.0, 1.0]', 'geometry.home'),
                       ('limits:\n  length_min: 0.9', 'limits.length_min'),
                       ('bodies:\n  cylinder:\n    com_distance: 0.3',
                        'bodies.cylinder.com_distance')):
         path = _file(tmp_path, body)
         _raises(path, 'machine', key, "machine 'stewart'", "'machine: stewart'")
-        with pytest.raises(ParameterError, match='unknown parameter') as info:
-            parameters.load_model(path)
-        assert info.value.key == key
+        with pytest.raises(ParameterError, match="'machine: stewart'") as info:
+            check_node_params_files(['n', '--ros-args', '--params-file', str(path)])
+        assert info.value.key == 'machine' and key in str(info.value)
 
 
 def test_the_3dof_files_are_read_as_before(tmp_path):
@@ -398,18 +399,17 @@ def test_an_empty_group_names_the_file(tmp_path, first):
     _raises(_file(tmp_path, first + 'bodies:\n  rod: {}'), 'bodies.rod', 'empty group')
 
 
-# -- the node and the twin serve the 3-DOF machine ----------------------------------------
+# -- the node's --params-file check ------------------------------------------------------
 @pytest.mark.parametrize('name', sorted(PACKAGED))
-def test_the_3dof_loader_refuses_a_file_naming_a_machine(tmp_path, name):
-    """config.parameters.load_model (the node's and the twin's) and the node's
-    --params-file check: one ParameterError of 'machine' naming the file."""
+def test_the_nodes_check_refuses_a_file_naming_another_machine(tmp_path, name):
+    """A node not started for the machine a file names: one ParameterError of
+    'machine' naming the file; started for it, the file is read as load_model
+    reads it."""
     path = CONFIG / f'{name}.yaml'
-    for call in (lambda: parameters.load_model(path),
-                 lambda: parameters.check_params_files(['n', '--ros-args', '--params-file',
-                                                        str(path)])):
-        with pytest.raises(ParameterError) as info:
-            call()
-        assert info.value.key == 'machine' and str(path) in str(info.value)
+    with pytest.raises(ParameterError) as info:
+        check_node_params_files(['n', '--ros-args', '--params-file', str(path)])
+    assert info.value.key == 'machine' and str(path) in str(info.value)
+    check_node_params_files(['n', '--ros-args', '--params-file', str(path)], machine=name)
 
 
 # -- values the scene does not use ------------------------------------------------------

@@ -7,7 +7,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from flight_sim_dynamics.config import parameters as prm
+import flight_sim_dynamics as fsd
 from flight_sim_dynamics.core.machine import LimitUsage
 from flight_sim_dynamics.ros.diagnostics import CycleStats, LogThrottle, limit_report
 from flight_sim_dynamics.ros.messages import ERROR, NON_FINITE, OK, WARN
@@ -31,7 +31,7 @@ def test_limits():
 def test_limit_usages_of_the_3dof_machine():
     """A leg's stroke usage is its distance from mid-stroke over half the
     stroke, speed and force their magnitudes over the maxima."""
-    model = prm.load_model()
+    model = fsd.load_model()
     lim = model.limits
     sol = SimpleNamespace(stroke=np.array([lim.stroke_max, lim.stroke_min, 0.5 * (
                               lim.stroke_min + lim.stroke_max)]),

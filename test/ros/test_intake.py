@@ -11,6 +11,8 @@ import pytest
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import parameters as prm
+from flight_sim_dynamics.config.files import read_params_sections
+from flight_sim_dynamics.config.node_schema import node_schema
 from flight_sim_dynamics.config.parameters import NodeConfig
 from flight_sim_dynamics.core.motion import PlannerSequence
 from flight_sim_dynamics.core.status import Status
@@ -41,8 +43,9 @@ def test_node_config_matches_schema_and_checks_relations():
     with pytest.raises(prm.ParameterError, match='not a node parameter'):
         NodeConfig.from_values({'qos.depth': 10})
     assert NodeConfig.from_values({'sync.max_pending': 7}).sync_max_pending == 7
+    schema = node_schema()
     with pytest.raises(prm.ParameterError) as info:   # limits are model parameters now
-        prm.validate({'limits.stroke_min': 0.7}, require_all=False)
+        schema.model({**schema.defaults, 'limits.stroke_min': 0.7})
     assert info.value.key == 'limits.stroke_min'
     with pytest.raises(prm.ParameterError):
         NodeConfig.from_values({'estimator.method': 'magic'})
@@ -51,7 +54,7 @@ def test_node_config_matches_schema_and_checks_relations():
 
 
 def test_node_parameters_in_packaged_yaml():
-    values = prm.read_params_file(prm.default_params_path())
+    values = read_params_sections(prm.default_params_path())
     for spec in prm.NODE_PARAMETERS:
         assert values[spec.name] == spec.default, spec.name
 
@@ -128,7 +131,7 @@ def test_setpoints_stamped_before_an_activation_are_stale_for_a_while(stream_whi
     STALE_WINDOW s after the activation its setpoints stamped before it are
     dropped (counted inactive), later ones answered; with neither, old stamps
     are answered."""
-    intake = SetpointIntake(Runtime(prm.load_model(), NodeConfig.from_values({})))
+    intake = SetpointIntake(Runtime(fsd.load_model(), NodeConfig.from_values({})))
     activation = 1_700_000_000 * 1_000_000_000
     if stream_while_inactive:
         intake.receive(POSE, _stamped(activation - 10 ** 9), 0.0, None, active=False)
@@ -152,7 +155,7 @@ def test_an_answer_goes_out_before_its_checks_and_statistics():
     solved: the intake has not counted it yet (its limit checks and statistics
     come after, off the round trip), and the outcome carries no answers."""
     handed = []
-    intake = SetpointIntake(Runtime(prm.load_model(), NodeConfig.from_values({})),
+    intake = SetpointIntake(Runtime(fsd.load_model(), NodeConfig.from_values({})),
                             publish=lambda a: handed.append((a.header, intake.stats.answered)))
     stamp = 1_700_000_000 * 1_000_000_000
     outcomes = [intake.receive(kind, _stamped(stamp), 0.0, None) for kind in (POSE, TWIST, ACCEL)]
@@ -166,7 +169,7 @@ def test_an_answer_that_cannot_go_out_is_counted_and_logged():
     the outcome carries its ERROR line (the node logs it); the next is tried."""
     def refuse(answer):
         raise RuntimeError('publisher gone')
-    intake = SetpointIntake(Runtime(prm.load_model(), NodeConfig.from_values({})),
+    intake = SetpointIntake(Runtime(fsd.load_model(), NodeConfig.from_values({})),
                             publish=refuse)
     stamp = 1_700_000_000 * 1_000_000_000
     lines = []

@@ -14,6 +14,7 @@ import pytest
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import parameters as prm
+from flight_sim_dynamics.config.node_schema import node_schema
 from flight_sim_dynamics.machines.staicu.trajectories import paper_example
 from flight_sim_dynamics.ros.process import node_env
 from node_harness import ROOT, Client, NodeProcess, stamp_ns
@@ -63,7 +64,7 @@ def test_two_nodes_in_one_process_answer_each_with_its_own_model():
         for k, (namespace, client) in enumerate(clients.items()):
             values = prm.defaults()
             values['bodies.platform.mass'] = MASSES[namespace]
-            expected = fsd.solve(prm.model_from_values(values), Q, QD, QDD).force
+            expected = fsd.solve(node_schema().model(values), Q, QD, QDD).force
             n = len(client.actuator)
             stamp = 1_700_000_000 * 1_000_000_000 + k
             client.send(stamp, Q, QD, QDD)

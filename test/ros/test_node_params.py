@@ -25,6 +25,7 @@ from rcl_interfaces.srv import SetParameters, SetParametersAtomically
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics.config import parameters as prm
+from flight_sim_dynamics.config.node_schema import node_schema
 from flight_sim_dynamics.machines.staicu.model import JOINT_NAMES, LEG_NAMES
 from flight_sim_dynamics.machines.staicu.trajectories import paper_example
 from flight_sim_dynamics.ros.dynamics_node import (MAX_PARAMETERS_PER_REQUEST,
@@ -83,7 +84,7 @@ def answer(client: Client) -> np.ndarray:
 def forces_with(**changes: float) -> np.ndarray:
     values = prm.defaults()
     values.update({k.replace('__', '.'): v for k, v in changes.items()})
-    model = prm.model_from_values(values, require_all=True)
+    model = node_schema().model(values)
     return fsd.solve(model, Q, QD, QDD).force
 
 
@@ -189,7 +190,7 @@ def expected_from_node(client: Client) -> np.ndarray:
     values = dict(zip(names, client.get_params(names)))
     values = {k: (list(v) if not isinstance(v, (str, float, int, bool)) else v)
               for k, v in values.items()}
-    return fsd.solve(prm.model_from_values(values, require_all=True), Q, QD, QDD).force
+    return fsd.solve(node_schema().model(values), Q, QD, QDD).force
 
 
 def test_scene_selection_changes_forces_at_next_cycle(client):
@@ -223,11 +224,10 @@ def test_frame_id_change_applies_to_the_reused_outputs(client):
                                  5.0), 'setpoint not answered'
         return client.actuator[n][1], client.joints[m], stamp
 
-    reference = fsd.solve(prm.model_from_values(
+    reference = fsd.solve(node_schema().model(
         {k: (list(v) if not isinstance(v, (str, float, int, bool)) else v) for k, v in zip(
             [s.name for s in prm.MODEL_PARAMETERS],
-            client.get_params([s.name for s in prm.MODEL_PARAMETERS]))},
-        require_all=True), Q, QD, QDD)
+            client.get_params([s.name for s in prm.MODEL_PARAMETERS]))}), Q, QD, QDD)
     for frame, joint_frame in (('sim/a_much_longer_base_frame', 'j'), ('simulator_base',
                                                                          'simulator_base')):
         [result] = client.set_params({'output.frame_id': frame,

@@ -4,9 +4,10 @@ data, Section 3; geometry of eq. 7-8, mass properties of eq. 18-19, gravity),
 and the model built from values checked against them (:func:`from_values`,
 :func:`from_params`: the checks of the whole, the loops closing at the central
 configuration). Bodies and geometry keys: :data:`.model.BODY_NAMES`,
-:data:`.model.GEOMETRY_KEYS`. The loaders (config/) check each value against
-its declaration; what the builder checks on the whole it checks, raising
-:class:`~flight_sim_dynamics.core.machine.ModelValueError` naming the key.
+:data:`.model.GEOMETRY_KEYS`. The builder checks each value against its
+declaration (the one check, core/parameter_spec.py, the loaders' too) and the
+whole, raising :class:`~flight_sim_dynamics.core.machine.ModelValueError`
+naming the key.
 """
 from __future__ import annotations
 
@@ -17,7 +18,8 @@ import numpy as np
 from ...core.effects import Effects
 from ...core.inertia import inertia_tensor
 from ...core.machine import ModelValueError
-from ...core.parameter_spec import MAX_COM, MAX_INERTIA, MAX_LENGTH, MAX_MASS, ParamSpec
+from ...core.parameter_spec import (MAX_COM, MAX_INERTIA, MAX_LENGTH, MAX_MASS, ParamSpec,
+                                    checked_values)
 from .kinematics import GeometryError, central_configuration
 from .model import BODY_NAMES, GEOMETRY_KEYS, Body, Friction, Geometry, Limits, Model
 
@@ -218,23 +220,22 @@ def _flat(tree: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
 
 def from_params(params: Mapping[str, Any], effects: Effects | None = None) -> Model:
     """The model of a file's nested parameters (``geometry: {d1: ...}``; the
-    shared loader's call, :attr:`~flight_sim_dynamics.core.machine.Machine.from_params`),
-    each within its declaration: the declared defaults of those not given but
-    not required, a ModelValueError for a required one missing, then
+    shared loader's call, :attr:`~flight_sim_dynamics.core.machine.Machine.from_params`):
+    each given value checked against its declaration
+    (:func:`~flight_sim_dynamics.core.parameter_spec.checked_values`), the
+    declared defaults of those not given but not required, a ModelValueError
+    for a required one missing or a value refused, then
     :func:`from_values` (the model's ``values``: every one given, the machine's
     completed).
     """
     given = _flat(params)
-    values: dict[str, Any] = dict(given)    # the others (the node's) kept as given
+    # each value within its declaration, canonical; the others (the node's) as given
+    values = checked_values(PARAMETER_SPECS, given)
     for spec in PARAMETER_SPECS:
         if spec.name in given:
-            value = given[spec.name]
-            values[spec.name] = (float(value) if spec.kind == 'double'
-                                 else [float(v) for v in value]
-                                 if spec.kind == 'double_array' else value)
-        elif spec.required:
+            continue
+        if spec.required:
             raise ModelValueError(spec.name, 'missing (every model parameter must be given)')
-        else:
-            values[spec.name] = list(spec.default) if isinstance(spec.default, list) \
-                else spec.default
+        values[spec.name] = list(spec.default) if isinstance(spec.default, list) \
+            else spec.default
     return from_values(values, effects, str(values.get('scene', 'full')))

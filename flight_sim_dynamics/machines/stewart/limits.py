@@ -101,9 +101,9 @@ def tightened(model: StewartModel, stroke: float, fraction: float) -> StewartMod
     """``model`` within margins of its limits (:func:`~flight_sim_dynamics.core.
     machine.narrowed_limits`): leg lengths ``stroke`` m inside each end, speed,
     force, the Jacobian's condition and the joint angles (where set) times
-    ``1 - fraction``; the node's ``warn_fraction`` as it is.
+    ``1 - fraction``.
     """
     return replace(model, limits=narrowed_limits(
         model.limits, ('length_min', 'length_max'),
         ('max_speed', 'max_force', 'max_jacobian_condition', 'u_joint_max_angle',
-         'spherical_joint_max_angle'), stroke, fraction, fixed=('warn_fraction',)))
+         'spherical_joint_max_angle'), stroke, fraction))

@@ -11,9 +11,9 @@ from .dynamics import has_inertia
 from .forward_dynamics import affine_terms, forward_dynamics
 from .kinematics import forward_kinematics
 from .limits import limit_usage, tightened
-from .model import LEG_NAMES, PARAMETER_NAMES, StewartModel, from_dict
+from .model import LEG_NAMES, StewartModel, from_dict
 from .motions import MOTIONS
-from .parameters import PARAMETER_SPECS
+from .parameters import PARAMETER_NAMES, PARAMETER_SPECS
 from .solver import COORDINATES, solve, solve_batch
 from .workspace import OPTIONS as WORKSPACE_OPTIONS
 from .workspace import survey

@@ -3,20 +3,23 @@
 
 Any 6-UPS hexapod: the joints are explicit coordinates. :func:`from_dict`
 builds a :class:`StewartModel` from the ``ros__parameters`` of a parameter
-file and rejects a bad number with a ValueError
-that names its field (reading the file is the configuration's job).
+file, each value checked against its declaration (.parameters), and rejects
+a bad one with a ModelValueError that names its field (reading the file is
+the configuration's job).
 """
 from __future__ import annotations
 
-import math
-import re
 from dataclasses import dataclass, field, replace
-from typing import Mapping
+from typing import Any, Mapping
 
 import numpy as np
 
 from ...core.effects import Effects
-from ...core.machine import ModelValueError
+from ...core.parameter_spec import ModelValueError, check_value
+from .parameters import MAX_JACOBIAN_CONDITION, PARAMETER_NAMES, PARAMETER_SPECS, SPECS
+
+__all__ = ['LEG_NAMES', 'PARAMETER_NAMES', 'Friction', 'LegBody', 'Limits', 'RigidBody',
+           'StewartModel', 'from_dict', 'u_joint_frames']
 
 #: Legs, in the order of the parameter file's joints.
 LEG_NAMES = tuple(f'leg_{i}' for i in range(1, 7))
@@ -90,11 +93,10 @@ class Limits:
     length_max: float                      # m, longest leg
     max_speed: float                       # m/s, largest |dL/dt|
     max_force: float                       # N, largest |f|
-    max_jacobian_condition: float = 100.0  # 2-norm condition of J (m, rad) (S21)
+    max_jacobian_condition: float = MAX_JACOBIAN_CONDITION  # of J (m, rad) (S21)
     u_joint_max_angle: float | None = None          # rad, largest |theta_1|, |theta_2| (S5)
     spherical_joint_max_angle: float | None = None  # rad, largest angle of u_i from the
     #                                                 platform's z axis
-    warn_fraction: float = 0.9             # node parameter: warn from this fraction on
 
 
 @dataclass(frozen=True)
@@ -134,8 +136,7 @@ class StewartModel:
         """The same hexapod with another payload (inertia about its com, platform frame)."""
         body = _rigid('payload', {'mass': mass, 'com': list(com),
                                   'inertia': [0.0] * 9 if inertia is None
-                                  else np.asarray(inertia, dtype=float).ravel().tolist()},
-                      allow_zero_mass=True)
+                                  else np.asarray(inertia, dtype=float).ravel().tolist()})
         return replace(self, payload=body)
 
 
@@ -153,29 +154,26 @@ def u_joint_frames(axes: np.ndarray) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------
-# From the parameter file's layout (stewart.md, "The parameter file")
+# From the parameter file's layout (stewart.md, "The parameter file"): its
+# sections and keys, and each value's bounds, are the declarations'
+# (.parameters.PARAMETER_SPECS)
 # ---------------------------------------------------------------------------
 
-_TOP = {'machine', 'gravity', 'scene', 'geometry', 'bodies', 'payload', 'friction', 'limits'}
-_GEOMETRY = {'base_joints', 'platform_joints', 'base_axes', 'home'}
-_RIGID = {'mass', 'com', 'inertia'}
-_LEG = {'mass', 'com_distance', 'inertia_across', 'inertia_along'}
-_FRICTION = {'viscous', 'coulomb', 'smoothing_velocity'}
-_LIMITS_REQUIRED = ('length_min', 'length_max', 'max_speed', 'max_force')
-_LIMITS_OPTIONAL = ('max_jacobian_condition', 'u_joint_max_angle',
-                    'spherical_joint_max_angle', 'warn_fraction')
-#: The names a hexapod's parameter file may give, dotted as ROS 2 flattens them.
-PARAMETER_NAMES = frozenset(
-    {'machine', 'gravity', 'scene'} | {f'geometry.{k}' for k in _GEOMETRY}
-    | {f'{body}.{k}' for body in ('bodies.platform', 'payload') for k in _RIGID}
-    | {f'bodies.{leg}.{k}' for leg in ('cylinder', 'rod') for k in _LEG}
-    | {f'friction.{k}' for k in _FRICTION}
-    | {f'limits.{k}' for k in _LIMITS_REQUIRED + _LIMITS_OPTIONAL})
-
-
-def _error(name: str, message: str) -> ModelValueError:
-    """The error of field ``name`` (an element's index dropped from its key)."""
-    return ModelValueError(re.sub(r'\[\d+\]$', '', name), message)
+def _keys(section: str) -> tuple[set[str], set[str]]:
+    """(the keys ``section`` may give, those it must) by the declarations: a key
+    is required if a parameter under it is; a section none of whose keys is
+    required (payload, friction) is given whole.
+    """
+    prefix = '' if section == 'parameters' else section + '.'
+    keys: set[str] = set()
+    required: set[str] = set()
+    for spec in PARAMETER_SPECS:
+        if spec.name.startswith(prefix):
+            key = spec.name[len(prefix):].split('.')[0]
+            keys.add(key)
+            if spec.required:
+                required.add(key)
+    return keys, required or keys
 
 
 def _key(section: str, name: str) -> str:
@@ -183,97 +181,81 @@ def _key(section: str, name: str) -> str:
     return name if section == 'parameters' else f'{section}.{name}'
 
 
-def _section(name: str, value: object, keys: set, required: set | None = None) -> Mapping:
+def _section(name: str, value: object) -> Mapping:
     if not isinstance(value, Mapping):
-        raise _error(name, f'{name} must be a mapping, got {value!r:.100}')
+        raise ModelValueError(name, f'{name} must be a mapping, got {value!r:.100}')
+    keys, required = _keys(name)
     unknown = sorted(map(str, set(value) - keys))
     if unknown:
-        raise _error(_key(name, unknown[0]), f'{name}: unknown key(s) {", ".join(unknown)}')
-    missing = sorted((keys if required is None else required) - set(value))
+        raise ModelValueError(_key(name, unknown[0]),
+                              f'{name}: unknown key(s) {", ".join(unknown)}')
+    missing = sorted(required - set(value))
     if missing:
-        raise _error(_key(name, missing[0]), f'{name}: missing key(s) {", ".join(missing)}')
+        raise ModelValueError(_key(name, missing[0]),
+                              f'{name}: missing key(s) {", ".join(missing)}')
     return value
 
 
-def _number(name: str, value: object, low: float = -math.inf, *, strict: bool = False) -> float:
-    """A finite real number >= low (> low if strict), or ValueError naming the field."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise _error(name, f'{name} must be a number, got {value!r:.100}')
-    x = float(value)
-    if not math.isfinite(x):
-        raise _error(name, f'{name} must be finite, got {x}')
-    if x < low or (strict and x == low):
-        raise _error(name, f'{name} must be {">" if strict else ">="} {low:g}, got {x:g}')
-    return x
+def _value(key: str, value: object) -> Any:
+    """``value`` of the parameter ``key`` within its declaration (the one check,
+    :func:`~flight_sim_dynamics.core.parameter_spec.check_value`), canonical;
+    ModelValueError naming the key.
+    """
+    try:
+        return check_value(SPECS[key], value)
+    except ModelValueError as exc:
+        raise ModelValueError(key, f'{key}: {exc}') from None
 
 
-def _numbers(name: str, value: object, n: int, low: float = -math.inf) -> np.ndarray:
-    if isinstance(value, (str, bytes, Mapping)) or not hasattr(value, '__len__'):
-        raise _error(name, f'{name} must be a list of {n} numbers, got {value!r:.100}')
-    if len(value) != n:
-        raise _error(name, f'{name} must be a list of {n} numbers, got {len(value)}')
-    return np.array([_number(f'{name}[{i}]', v, low) for i, v in enumerate(value)])
+def _array(key: str, value: object) -> np.ndarray:
+    return np.array(_value(key, value), dtype=float)
 
 
-def _rigid(name: str, d: object, allow_zero_mass: bool = False) -> RigidBody:
-    d = _section(name, d, _RIGID)
-    mass = _number(f'{name}.mass', d['mass'], 0.0, strict=not allow_zero_mass)
-    inertia = _numbers(f'{name}.inertia', d['inertia'], 9).reshape(3, 3)
+def _rigid(name: str, d: object) -> RigidBody:
+    d = _section(name, d)
+    mass = _value(f'{name}.mass', d['mass'])
+    inertia = _array(f'{name}.inertia', d['inertia']).reshape(3, 3)
     scale = max(1.0, float(np.abs(inertia).max()))
     if not np.allclose(inertia, inertia.T, rtol=0.0, atol=1e-12 * scale):
-        raise _error(f'{name}.inertia',
-                     f'{name}.inertia must be symmetric, got {inertia.ravel().tolist()}')
+        raise ModelValueError(f'{name}.inertia', f'{name}.inertia must be symmetric, got '
+                              f'{inertia.ravel().tolist()}')
     eig = np.linalg.eigvalsh(inertia)
     if eig[0] < -1e-12 * scale or eig[2] > eig[0] + eig[1] + 1e-9 * scale:
-        raise _error(f'{name}.inertia', f'{name}.inertia is not a body\'s inertia (principal '
-                     f'moments {eig.tolist()}: each must be >= 0 and at most the sum of the '
-                     'others)')
+        raise ModelValueError(f'{name}.inertia', f'{name}.inertia is not a body\'s inertia '
+                              f'(principal moments {eig.tolist()}: each must be >= 0 and at '
+                              'most the sum of the others)')
     if mass == 0.0 and np.any(inertia != 0.0):
-        raise _error(f'{name}.inertia', f'{name}.inertia must be zero for a body of no mass')
-    return RigidBody(mass, _numbers(f'{name}.com', d['com'], 3), inertia)
+        raise ModelValueError(f'{name}.inertia',
+                              f'{name}.inertia must be zero for a body of no mass')
+    return RigidBody(mass, _array(f'{name}.com', d['com']), inertia)
 
 
 def _leg(name: str, d: object) -> LegBody:
-    d = _section(name, d, _LEG)
-    return LegBody(*(_number(f'{name}.{k}', d[k], 0.0) for k in
+    d = _section(name, d)
+    return LegBody(*(_value(f'{name}.{k}', d[k]) for k in
                      ('mass', 'com_distance', 'inertia_across', 'inertia_along')))
 
 
-def _points(name: str, value: object) -> np.ndarray:
-    return _numbers(name, value, 18).reshape(6, 3)
+def _points(key: str, value: object) -> np.ndarray:
+    return _array(key, value).reshape(6, 3)
 
 
 def _limits(d: object) -> Limits:
-    d = _section('limits', d, set(_LIMITS_REQUIRED + _LIMITS_OPTIONAL), set(_LIMITS_REQUIRED))
-    lo = _number('limits.length_min', d['length_min'], 0.0, strict=True)
-    hi = _number('limits.length_max', d['length_max'], lo, strict=True)
-    out = {'length_min': lo, 'length_max': hi,
-           'max_speed': _number('limits.max_speed', d['max_speed'], 0.0, strict=True),
-           'max_force': _number('limits.max_force', d['max_force'], 0.0, strict=True)}
-    if 'max_jacobian_condition' in d:
-        out['max_jacobian_condition'] = _number('limits.max_jacobian_condition',
-                                                d['max_jacobian_condition'], 1.0)
-    for key in ('u_joint_max_angle', 'spherical_joint_max_angle'):
-        if d.get(key) is not None:
-            out[key] = _number(f'limits.{key}', d[key], 0.0, strict=True)
-            if out[key] > math.pi:
-                raise _error(f'limits.{key}',
-                             f'limits.{key} must be <= pi rad, got {out[key]:g}')
-    if 'warn_fraction' in d:
-        out['warn_fraction'] = _number('limits.warn_fraction', d['warn_fraction'], 0.0,
-                                       strict=True)
-        if out['warn_fraction'] > 1.0:
-            raise _error('limits.warn_fraction',
-                         f'limits.warn_fraction must be <= 1, got {out["warn_fraction"]:g}')
+    d = _section('limits', d)
+    # an absent joint-angle limit may be written as null (no limit)
+    out = {k: _value(f'limits.{k}', v) for k, v in d.items()
+           if v is not None or SPECS[f'limits.{k}'].required}
+    if not out['length_max'] > out['length_min']:
+        raise ModelValueError('limits.length_max', 'limits.length_max must be > '
+                              f"{out['length_min']:g} m (limits.length_min), got "
+                              f"{out['length_max']:g}")
     return Limits(**out)
 
 
 def _friction(d: object) -> Friction:
-    d = _section('friction', d, _FRICTION)
-    return Friction(_numbers('friction.viscous', d['viscous'], 6, 0.0),
-                    _numbers('friction.coulomb', d['coulomb'], 6, 0.0),
-                    _number('friction.smoothing_velocity', d['smoothing_velocity'], 0.0,
-                            strict=True))
+    d = _section('friction', d)
+    return Friction(*(_value(f'friction.{k}', d[k]) for k in
+                      ('viscous', 'coulomb', 'smoothing_velocity')))
 
 
 def from_dict(params: Mapping, effects: Effects | None = None) -> StewartModel:
@@ -284,44 +266,44 @@ def from_dict(params: Mapping, effects: Effects | None = None) -> StewartModel:
     resolves the name); left out, they are scene full's, :class:`Effects`'
     defaults, and any other scene name is a ValueError.
     """
-    params = _section('parameters', params, _TOP, _TOP - {'payload', 'friction', 'scene'})
-    name = params['machine']
-    if not isinstance(name, str) or not name:
-        raise _error('machine', f'machine must be a name, got {name!r:.100}')
-    scene = params.get('scene', 'full')
-    if not isinstance(scene, str) or not scene:
-        raise _error('scene', f'scene must be a name, got {scene!r:.100}')
+    params = _section('parameters', params)
+    name = _value('machine', params['machine'])
+    if not name:
+        raise ModelValueError('machine', 'machine must be a name, got an empty string')
+    scene = _value('scene', params.get('scene', 'full'))
+    if not scene:
+        raise ModelValueError('scene', 'scene must be a name, got an empty string')
     if effects is None and scene != 'full':
-        raise _error('scene', f"scene '{scene}': pass its effects (scene full's are the "
-                     'defaults)')
-    geo = _section('geometry', params['geometry'], _GEOMETRY)
+        raise ModelValueError('scene', f"scene '{scene}': pass its effects (scene full's are "
+                              'the defaults)')
+    geo = _section('geometry', params['geometry'])
     base = _points('geometry.base_joints', geo['base_joints'])
     plat = _points('geometry.platform_joints', geo['platform_joints'])
     axes = _points('geometry.base_axes', geo['base_axes'])
-    home = _numbers('geometry.home', geo['home'], 3)
+    home = _array('geometry.home', geo['home'])
     with np.errstate(over='ignore', invalid='ignore'):    # finite numbers whose norms overflow
         norms = np.linalg.norm(axes, axis=1)
         reach = np.linalg.norm(home + plat - base, axis=1)
     if not np.all(np.isfinite(norms)):
-        raise _error('geometry.base_axes', 'geometry.base_axes: too large (the length of an '
-                     'axis is beyond the floating-point range)')
+        raise ModelValueError('geometry.base_axes', 'geometry.base_axes: too large (the length '
+                              'of an axis is beyond the floating-point range)')
     if not np.all(np.isfinite(reach)):
         key = max((('geometry.base_joints', base), ('geometry.platform_joints', plat),
                    ('geometry.home', home)), key=lambda kv: float(np.abs(kv[1]).max()))[0]
-        raise _error(key, f'{key}: too large (a leg\'s length at home is beyond the '
-                     'floating-point range)')
+        raise ModelValueError(key, f'{key}: too large (a leg\'s length at home is beyond '
+                              'the floating-point range)')
     if np.any(norms < 1e-9):
-        raise _error('geometry.base_axes',
-                     f'geometry.base_axes: axis of leg {int(np.argmin(norms)) + 1} is zero')
-    bodies = _section('bodies', params['bodies'], {'platform', 'cylinder', 'rod'})
+        raise ModelValueError('geometry.base_axes', 'geometry.base_axes: axis of leg '
+                              f'{int(np.argmin(norms)) + 1} is zero')
+    bodies = _section('bodies', params['bodies'])
     payload = params.get('payload', {'mass': 0.0, 'com': [0.0] * 3, 'inertia': [0.0] * 9})
     model = StewartModel(
         name=name, base_joints=base, platform_joints=plat, base_axes=axes / norms[:, None],
-        home=home, gravity=_number('gravity', params['gravity'], 0.0),
+        home=home, gravity=_value('gravity', params['gravity']),
         platform=_rigid('bodies.platform', bodies['platform']),
         cylinder=_leg('bodies.cylinder', bodies['cylinder']),
         rod=_leg('bodies.rod', bodies['rod']),
-        payload=_rigid('payload', payload, allow_zero_mass=True),
+        payload=_rigid('payload', payload),
         friction=_friction(params['friction']) if 'friction' in params else Friction(),
         limits=_limits(params['limits']),
         effects=Effects() if effects is None else effects, scene=scene)
@@ -335,9 +317,10 @@ def _check_home(model: StewartModel) -> None:
     L = np.linalg.norm(d, axis=1)
     for i in range(6):
         if L[i] <= MIN_LENGTH:
-            raise _error('geometry.home', f'geometry.home: leg {i + 1} has zero length at home')
+            raise ModelValueError('geometry.home',
+                                  f'geometry.home: leg {i + 1} has zero length at home')
         s2 = float(model.base_axes[i] @ d[i] / L[i])
         if 1.0 - s2 * s2 < U_JOINT_TOLERANCE ** 2:
-            raise _error('geometry.base_axes', f'geometry.base_axes: leg {i + 1} lies along '
-                         'its U-joint\'s first axis at home (singular joint)')
+            raise ModelValueError('geometry.base_axes', f'geometry.base_axes: leg {i + 1} lies '
+                                  'along its U-joint\'s first axis at home (singular joint)')
 

@@ -1,12 +1,15 @@
 """The declarations of a hexapod's parameters (docs/design/stewart.md, "The
-parameter file"): type, unit, meaning and the bounds :func:`.model.from_dict`
-checks, one per name of :data:`.model.PARAMETER_NAMES`. The defaults are the
-packaged file's (config/stewart_6dof.yaml), or the builder's where it has one;
-the joint-angle limits have none (no limit unless given). Every number is
-bounded (core/parameter_spec.py's physical bounds: 100 t, 100 m, ...), so that
-no product of the solver overflows; the loaders check the bounds
-(config/machine_files.py). What the builder checks on the whole (symmetric
-inertia, length_max > length_min, a regular home) it checks.
+parameter file"): type, unit, meaning and bounds, the one place they are
+written: the loaders (config/machine_files.py) and :func:`.model.from_dict`
+check each value against them
+(:func:`~flight_sim_dynamics.core.parameter_spec.check_value`), and the file's
+layout (its sections, the keys each must give) is read from their names. The
+defaults are the packaged file's (config/stewart_6dof.yaml), or the builder's
+where it has one; the joint-angle limits have none (no limit unless given).
+Every number is bounded (core/parameter_spec.py's physical bounds: 100 t,
+100 m, ...), so that no product of the solver overflows. What the builder
+checks on the whole (symmetric inertia, length_max > length_min, a regular
+home) it checks.
 """
 from __future__ import annotations
 
@@ -15,11 +18,12 @@ import math
 from ...core.parameter_spec import (MAX_COM, MAX_CONDITION, MAX_FORCE, MAX_FRICTION,
                                     MAX_GRAVITY, MAX_INERTIA, MAX_LENGTH, MAX_MASS, MAX_SPEED,
                                     ParamSpec)
-from .model import PARAMETER_NAMES, Limits
 
 MAX_PATH = 4096     # characters of a scene file's path
 #: |component| of a U-joint axis: any length is normalised, none overflows
 MAX_AXIS = 1.0e3
+#: The default near-singularity threshold on the 2-norm condition of J (S21).
+MAX_JACOBIAN_CONDITION = 100.0
 
 
 def _xyz(what: str, n: int) -> str:
@@ -57,7 +61,7 @@ def _leg(body: str, end: str) -> list:
               'kg m^2', 0.0, maximum=MAX_INERTIA)]
 
 
-#: Every parameter of a hexapod's file but ``limits.warn_fraction`` (the node's own).
+#: Every parameter of a hexapod's file but the node's own (config/schema.py's NODE_PARAMETERS).
 PARAMETER_SPECS: tuple[ParamSpec, ...] = tuple([
     _spec('machine', 'string', 'the machine the parameter file describes (a packaged one, '
           'e.g. stewart_6dof, or stewart: a hexapod of one\'s own, given whole)'),
@@ -94,7 +98,7 @@ PARAMETER_SPECS: tuple[ParamSpec, ...] = tuple([
           MAX_SPEED),
     _spec('limits.max_force', 'double', 'largest allowed actuator force |f|', 'N', 0.0, True,
           MAX_FORCE),
-    ParamSpec('limits.max_jacobian_condition', 'double', Limits.max_jacobian_condition,
+    ParamSpec('limits.max_jacobian_condition', 'double', MAX_JACOBIAN_CONDITION,
               'status near_singular beyond this 2-norm condition number of J (m, rad); the '
               'home pose must be below it', '1', minimum=1.0, maximum=MAX_CONDITION,
               required=False),
@@ -103,6 +107,7 @@ PARAMETER_SPECS: tuple[ParamSpec, ...] = tuple([
     _spec('limits.spherical_joint_max_angle', 'double', 'largest angle of a leg from the '
           'platform\'s z axis (absent: no limit)', 'rad', 0.0, True, math.pi, required=False),
 ])
-
-if {s.name for s in PARAMETER_SPECS} != PARAMETER_NAMES - {'limits.warn_fraction'}:
-    raise ImportError('stewart PARAMETER_SPECS do not declare model.PARAMETER_NAMES')
+#: Their names (dotted, as ROS 2 flattens a file's sections).
+PARAMETER_NAMES: frozenset[str] = frozenset(spec.name for spec in PARAMETER_SPECS)
+#: The declarations by name.
+SPECS = {spec.name: spec for spec in PARAMETER_SPECS}

@@ -102,7 +102,7 @@ BAD = [
     ('gravity', '9.81', 'gravity'),
     ('gravity', True, 'gravity'),
     ('geometry.base_joints', [0.0] * 17, 'geometry.base_joints'),
-    ('geometry.platform_joints', [0.0] * 17 + [math.inf], r'geometry.platform_joints\[17\]'),
+    ('geometry.platform_joints', [0.0] * 17 + [math.inf], r'geometry.platform_joints.*element 17'),
     ('geometry.base_axes', [0.0] * 18, 'geometry.base_axes'),
     ('geometry.home', [0.0, 0.0], 'geometry.home'),
     ('geometry.home', KeyError, 'geometry: missing key'),
@@ -117,7 +117,7 @@ BAD = [
     ('payload.mass', -1.0, 'payload.mass'),
     ('payload.inertia', [1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0], 'payload.inertia'),
     ('friction.viscous', [1.0] * 5, 'friction.viscous'),
-    ('friction.coulomb', [-1.0] * 6, r'friction.coulomb\[0\]'),
+    ('friction.coulomb', [-1.0] * 6, r'friction.coulomb.*element 0'),
     ('friction.smoothing_velocity', 0.0, 'friction.smoothing_velocity'),
     ('limits.length_min', 0.0, 'limits.length_min'),
     ('limits.length_max', 0.9, 'limits.length_max'),
@@ -128,6 +128,10 @@ BAD = [
     ('machine', '', 'machine'),
     ('scene', 3, 'scene'),
     ('rate', 100, 'parameters: unknown key'),
+    # the declared bounds (machines/stewart/parameters.py), the builder's too
+    ('gravity', 1000.0, 'gravity: must be <= 100'),
+    ('bodies.platform.mass', 1.0e6, 'bodies.platform.mass: must be <= 100000 kg'),
+    ('geometry.home', [0.0, 0.0, 1.0e3], r'geometry.home: must be <= 100 m \(element 2\)'),
 ]
 
 
