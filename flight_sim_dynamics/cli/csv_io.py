@@ -658,8 +658,10 @@ class _FormatterProcess:
         context = multiprocessing.get_context('fork')
         blocks, self._blocks = context.Pipe(duplex=False)
         self._status, status = context.Pipe(duplex=False)
-        self._process = context.Process(target=_format_into, args=(f, blocks, status),
-                                        daemon=True)
+        # the child closes its copies of our ends: the blocks' EOF, when we
+        # give up, reaches it only once no copy of their sending end is open
+        self._process = context.Process(target=_format_into, daemon=True,
+                                        args=(f, blocks, status, (self._blocks, self._status)))
         self._process.start()
         blocks.close()
         status.close()
@@ -693,10 +695,13 @@ class _FormatterProcess:
         self._status.close()
 
 
-def _format_into(f: IO[bytes], blocks: Any, status: Any) -> None:
+def _format_into(f: IO[bytes], blocks: Any, status: Any, parents: Sequence[Any]) -> None:
     """The child of :class:`_FormatterProcess`: format and write each block
-    until ``(None, None)``; then None (or the error's text) on ``status``.
+    until ``(None, None)``; then None (or the error's text) on ``status``
+    (``parents``: the parent's ends of the pipes, closed here).
     """
+    for end in parents:
+        end.close()
     error = None
     try:
         while True:

@@ -9,7 +9,7 @@ import multiprocessing
 import numpy as np
 import pytest
 
-from flight_sim_dynamics.cli.csv_io import CsvError, table_writer
+from flight_sim_dynamics.cli.csv_io import CsvError, _FormatterProcess, table_writer
 
 
 def _blocks(seed=0):
@@ -51,3 +51,15 @@ def test_a_block_that_raises_leaves_no_file_and_no_process(tmp_path):
             raise RuntimeError('the caller fails')
     assert list(tmp_path.iterdir()) == []
     assert multiprocessing.active_children() == []
+
+
+def test_a_writer_given_up_ends_on_its_own(tmp_path):
+    """Closed before its last block, the writing process sees the end of its
+    blocks and exits (exit code 0), not terminated: it holds no copy of the
+    pipe's sending end."""
+    data, words = _blocks()[0]
+    with open(tmp_path / 'out.csv', 'wb') as f:
+        writer = _FormatterProcess(f, tmp_path / 'out.csv')
+        writer.send(data, words)
+        writer.close()
+    assert writer._process.exitcode == 0
