@@ -11,9 +11,10 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import re
+import os
 import statistics
 import time
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -84,6 +85,18 @@ def per_sample_us(hexapod: model.StewartModel, states: tuple, read_all: bool = F
     return (time.perf_counter() - start) / len(states[0]) * 1e6
 
 
+def on_one_cpu(fn: Callable[[], float]) -> float:
+    """``fn()`` with the calling thread on one CPU: the kernel, which counts
+    the calling thread's usable CPUs at each batch, then starts no thread.
+    """
+    cpus = os.sched_getaffinity(0)
+    os.sched_setaffinity(0, {min(cpus)})
+    try:
+        return fn()
+    finally:
+        os.sched_setaffinity(0, cpus)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog='python -m benchmarks.stewart',
                                 description=__doc__.splitlines()[0])
@@ -123,6 +136,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         if on:
             timed[f'solve_batch, every field read ({label}) N={sizes[-1]}'] = (
                 on, lambda: per_sample_us(hexapod, motion(sizes[-1]), read_all=True))
+        if on and len(os.sched_getaffinity(0)) > 1:      # the ledger's threads row, same run
+            timed[f'solve_batch, one thread ({label}) N={sizes[-1]}'] = (
+                on, lambda: on_one_cpu(lambda: per_sample_us(hexapod, motion(sizes[-1]))))
     timed[f'pin.rnea, reference tree (nv = {tree.model.nv})'] = (
         False, lambda: per_call_us(rnea, tree_states, calls * 10))
     timed['reference forces (closure + rnea + J^-T)'] = (
@@ -158,6 +174,13 @@ def main(argv: Sequence[str] | None = None) -> int:
                                                 for name in names)])
         rows.append([f'{label}: solve / this',
                      *(f'{ratio(f"solve ({label})", name):.1f}x' for name in names)])
+        alone = f'solve_batch, one thread ({label}) N={sizes[-1]}'
+        if alone in us:     # the threads' gain: one thread against one per usable CPU
+            rows.append([f'{label}, us/sample, one thread', *([''] * (len(sizes) - 1)),
+                         f'{us[alone]:.3f}'])
+            gain = ratio(f'solve_batch ({label}) N={sizes[-1]}', alone)
+            rows.append([f'{label}: threads save', *([''] * (len(sizes) - 1)),
+                         f'{100 * (1 - gain):.0f} %'])
         read = f'solve_batch, every field read ({label}) N={sizes[-1]}'
         if read in us:      # what the first read of the deferred fields adds
             rows.append([f'{label}, us/sample, then {", ".join(DEFERRED)} read',
