@@ -219,9 +219,15 @@ def launch_params_file(machine: str = '', params_file: str = '') -> Path:
     files = packaged_machines()
     if machine not in files:
         raise ValueError(f'machine {machine!r} is not packaged; choose one of '
-                         f"{', '.join(sorted(files))} (none: the 3-DOF machine, "
-                         f'{default.name})' + did_you_mean(machine, files))
+                         f"{', '.join(sorted(files))} (none: the default machine, "
+                         f'{_title(default_machine())}, {default.name})'
+                         + did_you_mean(machine, files))
     return packaged_path(machine)
+
+
+def _title(machine: Machine) -> str:
+    """A machine's name in messages: its title, else its name."""
+    return machine.title or machine.name
 
 
 def _check_names(values: Mapping[str, Any], machine: Machine, name: str | None,
@@ -237,8 +243,9 @@ def _check_names(values: Mapping[str, Any], machine: Machine, name: str | None,
         if name is None:
             raise ParameterError(key, values[key], f'unknown parameter in {source}'
                                  + did_you_mean(key, known))
-        other = ' (a parameter of the 3-DOF machine, whose files name no machine)' \
-            if machine is not default and key in default.parameters else ''
+        other = (f' (a parameter of the default machine, {_title(default)}, whose files '
+                 'name no machine)') if machine is not default and key in default.parameters \
+            else ''
         raise ParameterError(key, values[key], f"unknown parameter of machine '{name}'"
                              f'{other} in {source}' + did_you_mean(key, known))
 
@@ -312,15 +319,16 @@ def _check_unnamed(flat: Mapping[str, Any], source: str) -> None:
         return
     candidates = [m for m in machines() if m.from_params is not None and foreign & m.parameters]
     if not candidates:
-        return                      # no other machine's: the 3-DOF checks name the key
+        return                      # no other machine's: the default's checks name the key
     best = max(candidates, key=lambda m: len(foreign & m.parameters))    # the first on a tie
     keys = sorted(foreign & best.parameters)
     packaged = (f" or 'machine: {best.parameter_files[0]}' (that packaged file's values "
                 'under yours)') if best.parameter_files else ''
     raise ParameterError('machine', None, (
-        f"{source} names no machine, so it is read as the 3-DOF machine's, but "
+        f"{source} names no machine, so it is read as the default machine's "
+        f"({_title(default_machine())}), but "
         f"{', '.join(keys[:4])}{' ...' if len(keys) > 4 else ''} look like the keys of "
-        f"machine '{best.name}' ({best.title or best.name}): add the line "
+        f"machine '{best.name}' ({_title(best)}): add the line "
         f"'machine: {best.name}' (a whole file){packaged}"))
 
 

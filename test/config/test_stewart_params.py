@@ -20,6 +20,7 @@ from flight_sim_dynamics.config.errors import ParameterError
 from flight_sim_dynamics.config.files import PACKAGED_SECTION
 from flight_sim_dynamics.config.scenes import SceneError, load_scene
 from flight_sim_dynamics.core.effects import Effects
+from flight_sim_dynamics.machines import default_machine
 from flight_sim_dynamics.machines.staicu.model import Model
 from flight_sim_dynamics.machines.stewart.model import PARAMETER_NAMES, StewartModel
 from test_param_files_fuzz import ODD_VALUES, mutated
@@ -215,10 +216,10 @@ def test_a_hexapod_file_without_its_machine_line_says_whose_keys_they_are(tmp_pa
     ('geometry:\n  hom: [0.0, 0.0, 1.0]', 'geometry.hom', ["did you mean 'geometry.home'?"]),
     ('bodies:\n  rod:\n    mas: 5.0', 'bodies.rod.mas', ["did you mean 'bodies.rod.mass'?"]),
     ('gravty: 9.81', 'gravty', ["did you mean 'gravity'?"]),
-    # a 3-DOF key in a hexapod file
-    ('geometry:\n  d1: 0.4', 'geometry.d1', ['3-DOF machine']),
-    ('limits:\n  stroke_max: 0.5', 'limits.stroke_max', ['3-DOF machine']),
-    ('bodies:\n  crank_d:\n    mass: 1.0', 'bodies.crank_d.mass', ['3-DOF machine']),
+    # a 3-DOF key in a hexapod file: named as the default machine's, by its title
+    ('geometry:\n  d1: 0.4', 'geometry.d1', [default_machine().title]),
+    ('limits:\n  stroke_max: 0.5', 'limits.stroke_max', [default_machine().title]),
+    ('bodies:\n  crank_d:\n    mass: 1.0', 'bodies.crank_d.mass', [default_machine().title]),
 ])
 def test_an_unknown_name_in_a_hexapod_file(tmp_path, body, key, words):
     path = _file(tmp_path, 'machine: stewart_6dof\n' + body)
