@@ -271,15 +271,6 @@ def _scene(scene: Scene | str | os.PathLike[str] | None, values: Mapping[str, An
     return load_scene(scene, names=machine.parameters - {'machine', 'scene'})
 
 
-def _check_specs(machine: Machine, values: Mapping[str, Any]) -> dict[str, Any]:
-    """Every value within its declaration (:attr:`Machine.parameter_specs`: type,
-    size, bounds; :func:`~flight_sim_dynamics.core.parameter_spec.checked_values`),
-    as the node's descriptors declare it, canonical: ModelValueError naming the
-    key (a mass of 1e308 kg is refused by its bound, before any solve).
-    """
-    return checked_values(machine.parameter_specs, values)
-
-
 def named_machine(name: Any, source: str) -> Machine:
     """The machine a file's (or a node's) ``machine: <name>`` describes (None:
     no line, the default machine; a packaged file's name or a machine's kind,
@@ -410,7 +401,9 @@ def model_of_values(machine: Machine, values: Mapping[str, Any], source: str,
     values.update(chosen.parameters)
     values['scene'] = chosen.name
     try:
-        model = machine.from_params(nested(_check_specs(machine, values)),
+        # every value within its declaration first (type, size, bounds: a mass of
+        # 1e308 kg is refused by its bound, before any solve), canonical
+        model = machine.from_params(nested(checked_values(machine.parameter_specs, values)),
                                     effects=chosen.effects)
     except ModelValueError as exc:
         key = exc.key
