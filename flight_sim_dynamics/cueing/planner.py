@@ -79,8 +79,9 @@ class Planner:
         self._count = -1             # steps since the start (the look-ahead's period)
         self.held = 0                 # non-finite input samples replaced by the last finite one
         # the limiter's steps on lists of floats (InverseDynamicsLimiter.step_lists)
-        self._step_lists = (self.limiter.step_lists
-                            if isinstance(self.limiter, InverseDynamicsLimiter) else None)
+        governed = isinstance(self.limiter, InverseDynamicsLimiter)
+        self._step_lists = self.limiter.step_lists if governed else None
+        self._fits = self.limiter.fits if governed else None
         self._last = np.array([0.0, 0.0, G, 0.0, 0.0, 0.0])
 
     def reset(self) -> None:
@@ -137,14 +138,26 @@ class Planner:
             ahead = [[pose[i] for i in index] for pose in ahead]
         return wish, ahead, status
 
-    def limit(self, wish: list[float], ahead: Any) -> tuple:
+    def fits(self, wish: list[float]) -> bool | None:
+        """Whether the limiter passes the washout's ``wish`` (:meth:`wish`) on
+        as it is once caught up with it (:meth:`.InverseDynamicsLimiter.fits`:
+        a function of the wish alone; None: no such limiter). The limiter
+        judges it itself when needed; :func:`run` judges a block's ahead.
+        """
+        if self._fits is None:
+            return None
+        dof = self._dof
+        return self._fits(wish[:dof], wish[dof:2 * dof], wish[2 * dof:])
+
+    def limit(self, wish: list[float], ahead: Any, fits: bool | None = None) -> tuple:
         """The second stage of a step: the limiter's sample for the washout's
-        ``wish`` and ``ahead`` (:meth:`wish`): (q, qd, qdd, given_up, limit).
+        ``wish`` and ``ahead`` (:meth:`wish`; ``fits``: :meth:`fits` of it, or
+        None): (q, qd, qdd, given_up, limit).
         """
         dof = self._dof
         step = self._step_lists
         if step is not None:
-            return step(wish[:dof], wish[dof:2 * dof], wish[2 * dof:], ahead)
+            return step(wish[:dof], wish[dof:2 * dof], wish[2 * dof:], ahead, fits)
         out = np.array(wish)
         lim = (self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:]) if ahead is None
                else self.limiter.step(out[:dof], out[dof:2 * dof], out[2 * dof:], ahead))
@@ -231,10 +244,10 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     going backwards), :data:`BLOCK` samples at a time: the block's wishes
     (:meth:`Planner.wish`), then its limited samples (:meth:`Planner.limit`),
     the steps of :meth:`Planner.step` in another order. ``parallel``: the
-    wishes made in a second process (forked), a block ahead of the limiter, the
-    same numbers bit for bit. ``on_block(t, samples)``: each block's output
-    times and samples (q, qd, qdd side by side) when they are final (to write
-    them out as they come);
+    wishes made, and judged (:meth:`Planner.fits`), in a second process
+    (forked), a block ahead of the limiter, the same numbers bit for bit.
+    ``on_block(t, samples)``: each block's output times and samples (q, qd,
+    qdd side by side) when they are final (to write them out as they come);
     ``progress(done, total)``: called now and then.
     """
     grid, inputs, repeated = resample(t, np.hstack([np.asarray(f, dtype=float),
@@ -254,8 +267,9 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     step = planner.limit
     held = 0
     try:
-        for (lo, hi), (wanted, ahead, held_here) in zip(blocks, made):
-            samples = [step(w, a) for w, a in zip(wanted, ahead)]
+        for (lo, hi), (wanted, ahead, fits, held_here) in zip(blocks, made):
+            samples = ([step(w, a) for w, a in zip(wanted, ahead)] if fits is None else
+                       [step(w, a, j) for w, a, j in zip(wanted, ahead, fits)])
             out[lo:hi] = np.array([s[:3] for s in samples]).reshape(hi - lo, 3 * dof)
             given_up[lo:hi] = [s[3] for s in samples]
             limit[lo:hi] = [s[4] for s in samples]
@@ -278,18 +292,23 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
                   planner.machine.coordinates, planner.dropped, repeated, held)
 
 
-def wishes(planner: Planner, inputs: np.ndarray) -> tuple[list, list, int]:
+def wishes(planner: Planner, inputs: np.ndarray, judge: bool = False
+           ) -> tuple[list, list, list | None, int]:
     """:meth:`Planner.wish` of each row of ``inputs`` (n, 6: f, omega):
-    (the wishes, the look-aheads, how many inputs were held).
+    (the wishes, the look-aheads, with ``judge`` :meth:`Planner.fits` of each
+    wish (else None), how many inputs were held).
     """
     before = planner.held
     made = [planner.wish(u[:3], u[3:])[:2] for u in inputs]
-    return [m[0] for m in made], [m[1] for m in made], planner.held - before
+    wanted = [m[0] for m in made]
+    fits = [planner.fits(w) for w in wanted] if judge else None
+    return wanted, [m[1] for m in made], fits, planner.held - before
 
 
 class _WishProcess:
-    """:func:`wishes` of each block in a forked process (its own copy of the
-    planner's washout, which nothing else advances), sent back block by block;
+    """:func:`wishes` of each block, judged, in a forked process (its own copy
+    of the planner's washout, which nothing else advances; the limiter's
+    judgement of a wish does not depend on its state), sent back block by block;
     the pipe holds the child at most about a block ahead of the limiter.
     """
 
@@ -302,7 +321,7 @@ class _WishProcess:
         send.close()
         self._blocks = len(blocks)
 
-    def __iter__(self) -> Iterator[tuple[list, list, int]]:
+    def __iter__(self) -> Iterator[tuple[list, list, list | None, int]]:
         for _ in range(self._blocks):
             try:
                 message = self._receive.recv()
@@ -311,8 +330,8 @@ class _WishProcess:
                                    f'(exit code {self._process.exitcode})') from None
             if isinstance(message, BaseException):
                 raise message
-            wanted, ahead, held = message
-            yield wanted.tolist(), ahead, held
+            wanted, ahead, fits, held = message
+            yield wanted.tolist(), ahead, fits, held
 
     def close(self) -> None:
         self._receive.close()
@@ -325,8 +344,8 @@ def _send_wishes(planner: Planner, inputs: np.ndarray, blocks: list, send: Any) 
     """The child of :class:`_WishProcess`: each block's wishes (an array) down the pipe."""
     try:
         for lo, hi in blocks:
-            wanted, ahead, held = wishes(planner, inputs[lo:hi])
-            send.send((np.array(wanted), ahead, held))
+            wanted, ahead, fits, held = wishes(planner, inputs[lo:hi], judge=True)
+            send.send((np.array(wanted), ahead, fits, held))
     except BrokenPipeError:
         return                  # the parent stopped reading: nothing to say
     except BaseException as exc:        # said in the parent
