@@ -14,8 +14,6 @@ Each machine implements the same calls on its own model type, with vectors of
 ``actuator_limits(model)``                         strokes, speed and force allowed
 ``limit_usage(model, solution)``                   how much of each limit it uses
                                                    (:class:`LimitUsage`)
-``solve_status(model, q, qd, qdd)``                ``solve(...).status`` alone
-                                                   (optional)
 ``tightened(model, stroke, fraction)``             the model within margins of its
                                                    limits (:func:`narrowed_limits`)
 =================================================  ===============================
@@ -161,10 +159,6 @@ class Machine:
     # ``limit_usage(model, solution) -> LimitUsage``: one sample or a batch; the
     # rule of its solutions' status ``limit`` (usage > 1), the dynamics node's too
     limit_usage: Callable[[Any, Any], LimitUsage]
-    # ``solve_status(model, q, qd, qdd) -> Status``: ``solve(...).status`` without
-    # making the solution (the cueing limiter's acceptance test, three a sample);
-    # None: ``solve``'s (:meth:`status_of`)
-    solve_status: Callable[..., Any] | None = None
     # ``tightened(model, stroke, fraction) -> model``: the model whose limits keep
     # a planner's margins free (:func:`narrowed_limits`; the cueing limiter solves
     # on it); None: no margins, no limiter for the machine
@@ -235,15 +229,6 @@ class Machine:
     # when not told (``--example``).
     planner_motions: tuple[str, ...] = ()
     planner_example: str = ''
-
-    def status_of(self) -> Callable[..., Any]:
-        """``(model, q, qd, qdd) -> Status``: :attr:`solve_status`, or the
-        status of :attr:`solve`.
-        """
-        if self.solve_status is not None:
-            return self.solve_status
-        solve = self.solve
-        return lambda model, q, qd, qdd: solve(model, q, qd, qdd).status
 
     @property
     def dof(self) -> int:

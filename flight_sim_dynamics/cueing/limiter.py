@@ -155,7 +155,7 @@ class InverseDynamicsLimiter:
         self.gain_down = float(settings['gain.down']) * self.dt
         self.gain_up = float(settings['gain.up']) * self.dt
         self.gain_min = float(settings['gain.minimum'])
-        self._solve, self._status = self.machine.solve, self.machine.status_of()
+        self._solve = self.machine.solve
         # (L4) the pull-back's reach: each coordinate's range at rest from home
         ranges = [(-self._axis_range(i, -1.0), self._axis_range(i, 1.0))
                   for i in range(self.machine.dof)]
@@ -190,7 +190,7 @@ class InverseDynamicsLimiter:
         def fits(x: float) -> bool:
             q = list(rest)
             q[i] = sign * x
-            return self._status(self.tight, q, rest, rest) is Status.OK
+            return self._solve(self.tight, q, rest, rest).status is Status.OK
 
         step = 0.01 * largest       # out from home first: the range may have islands
         low = 0.0
@@ -246,9 +246,8 @@ class InverseDynamicsLimiter:
 
     def _refused(self, q: list, qd: list, a: list) -> Any:
         """(L2) None when the sample (q, qd, a) and the braking from it are within
-        the tightened limits, else what refuses it: the sample (q, qd, qdd) whose
-        status is not ok, or a limit's name (:meth:`_refusal` names it). Three
-        solves (their status alone, :meth:`Machine.status_of`): the
+        the tightened limits, else what refuses it: the solution that is not
+        ok, or a limit's name (:meth:`_refusal` names it). Three solves: the
         sample's, and both ends of the braking from it (L3): its first step
         ramps from ``a`` to the braking's deceleration (:func:`advance`), to
         (q2, qd2), its fastest point; then it decelerates constantly to rest
@@ -256,9 +255,10 @@ class InverseDynamicsLimiter:
         sample's rate further, with the rate qd2 (the worst of the way); a long
         braking's interior poses too (:data:`INTERIOR_STEP`; too long: refused).
         """
-        tight, status, ok = self.tight, self._status, Status.OK
-        if status(tight, q, qd, a) is not ok:
-            return q, qd, a
+        tight, solve, ok = self.tight, self._solve, Status.OK
+        sol = solve(tight, q, qd, a)
+        if sol.status is not ok:
+            return sol
         # _braking and _advance written out (the same operations in the same order)
         dt, inverse = self.dt, self.inverse_braking
         tau = max([abs(v) * k for v, k in zip(qd, inverse)])
@@ -267,8 +267,9 @@ class InverseDynamicsLimiter:
         c, h = self._c, self._h
         q2 = [x + dt * v + c * (2.0 * u + w) for x, v, u, w in zip(q, qd, a, brake)]
         qd2 = [v + h * (u + w) for v, u, w in zip(qd, a, brake)]
-        if status(tight, q2, qd2, brake) is not ok:
-            return q2, qd2, brake
+        sol = solve(tight, q2, qd2, brake)
+        if sol.status is not ok:
+            return sol
         speeds = [abs(v) for v in qd2]
         tau = max([v * k for v, k in zip(speeds, inverse)])
         scale = -1.0 / (tau if tau > dt else dt)
@@ -280,8 +281,9 @@ class InverseDynamicsLimiter:
         step = STOP_DISTANCE / fastest if fastest > 0.0 else 0.0
         ahead = half + step
         stop = [x + ahead * v + extra * w for x, v, w in zip(q2, qd2, qd)]
-        if status(tight, stop, qd2, brake) is not ok:
-            return stop, qd2, brake
+        sol = solve(tight, stop, qd2, brake)
+        if sol.status is not ok:
+            return sol
         # a long braking (fast): points between its ends too, at most INTERIOR_STEP
         # (m or rad) apart; one longer than INTERIOR_POINTS such steps is refused
         # (the limiter's own speed limit: the workspace need not be convex)
@@ -292,17 +294,16 @@ class InverseDynamicsLimiter:
                 return 'speed'
             for j in range(1, m + 1):
                 f = j / (m + 1.0)
-                between = [x + f * (y - x) for x, y in zip(q2, stop)]
-                if status(tight, between, qd2, brake) is not ok:
-                    return between, qd2, brake
+                sol = solve(tight, [x + f * (y - x) for x, y in zip(q2, stop)], qd2, brake)
+                if sol.status is not ok:
+                    return sol
         return None
 
     def _refusal(self, refused: Any) -> str:
         """The name of the limit a refusal of :meth:`_refused` stands for (a
-        refused sample's solved only for the refusal behind the published sample).
+        solution's found only for the refusal behind the published sample).
         """
-        return (refused if type(refused) is str
-                else self._limit_name(self._solve(self.tight, *refused)))
+        return refused if type(refused) is str else self._limit_name(refused)
 
     def _limit_name(self, sol: Any) -> str:
         """Which limit a solve on the tightened model exceeds."""

@@ -14,7 +14,7 @@ from .mechanism import drawing
 from .model import GEOMETRY_KEYS, JOINT_NAMES, LEG_NAMES, Model
 from .motions import MOTIONS, PLANNER_MOTIONS, TEST_MOTIONS
 from .parameters import PARAMETER_FILES, PARAMETER_NAMES, PARAMETER_SPECS, from_params
-from .solver import Solution, solve, solve_batch, solve_status
+from .solver import Solution, solve, solve_batch
 from .trajectories import PAPER_EXAMPLES
 from .workspace import OPTIONS as WORKSPACE_OPTIONS
 from .workspace import survey
@@ -39,7 +39,7 @@ MACHINE = Machine(
     units=('m', 'm', 'rad'), legs=LEG_NAMES, joints=JOINT_NAMES, solve=solve,
     solve_batch=solve_batch, forward_kinematics=forward_kinematics,
     forward_dynamics=forward_dynamics, actuator_limits=actuator_limits,
-    limit_usage=limit_usage, solve_status=solve_status, tightened=tightened,
+    limit_usage=limit_usage, tightened=tightened,
     # its parameter files (config/flight_sim_dynamics.yaml; they name no machine)
     parameters=PARAMETER_NAMES | {'machine'}, from_params=from_params,
     parameter_files=PARAMETER_FILES,

@@ -245,20 +245,6 @@ def solve(model: Model, q: Sequence[float], qd: Sequence[float],
     return _solve_floats(model, q3, qd3, qdd3)
 
 
-def solve_status(model: Model, q: Sequence[float], qd: Sequence[float],
-                 qdd: Sequence[float]) -> Status:
-    """``solve(model, q, qd, qdd).status`` without making the solution: the
-    kernel's status code alone when it runs and the arguments are lists or
-    tuples of three floats (the cueing limiter's acceptance test, three a sample).
-    """
-    if kernel.enabled():
-        try:
-            return kernel.STATUS_BY_CODE[kernel.solve_row(model, q, qd, qdd)[1][0]]
-        except TypeError:       # anything else: solve's conversions and errors
-            pass
-    return solve(model, q, qd, qdd).status
-
-
 def kernel_solution(model: Model, out: np.ndarray, scalars: tuple, inputs: tuple) -> Solution:
     """The Solution of one kernel result row and its scalars."""
     code, info, beta, kin, jac = scalars

@@ -14,7 +14,7 @@ from .limits import limit_usage, tightened
 from .model import LEG_NAMES, StewartModel, from_dict
 from .motions import MOTIONS
 from .parameters import PARAMETER_NAMES, PARAMETER_SPECS
-from .solver import COORDINATES, solve, solve_batch, solve_status
+from .solver import COORDINATES, solve, solve_batch
 from .workspace import OPTIONS as WORKSPACE_OPTIONS
 from .workspace import survey
 
@@ -52,8 +52,7 @@ MACHINE = Machine(
     units=('m', 'm', 'm', 'rad', 'rad', 'rad'), legs=LEG_NAMES, joints=JOINT_NAMES,
     solve=solve, solve_batch=solve_batch, forward_kinematics=forward_kinematics,
     forward_dynamics=forward_dynamics, actuator_limits=actuator_limits,
-    limit_usage=limit_usage, solve_status=solve_status, tightened=tightened,
-    parameters=PARAMETER_NAMES, from_params=from_dict,
+    limit_usage=limit_usage, tightened=tightened, parameters=PARAMETER_NAMES, from_params=from_dict,
     parameter_files=('stewart_6dof', 'stewart_tsai2000'),
     title='6-DOF hexapod', leg_labels=tuple(str(i) for i in range(1, len(LEG_NAMES) + 1)),
     sample_fields=('jacobian_condition',), motions=MOTIONS, examples=tuple(MOTIONS),

@@ -301,22 +301,6 @@ def solve(model: StewartModel, q, qd, qdd) -> StewartSolution:
     return sample(_solve_arrays(model, *rows), 0)
 
 
-def solve_status(model: StewartModel, q, qd, qdd) -> Status:
-    """``solve(model, q, qd, qdd).status`` without making the solution: the
-    kernel's status code alone when it runs and the arguments are lists or
-    tuples of six floats (the cueing limiter's acceptance test, three a sample).
-    """
-    if kernel.enabled():
-        params, bits = kernel.prepared(model)
-        try:
-            code = kernel.solve_one(params, bits, np.empty(kernel.OUT_SIZE), q, qd, qdd)[0]
-        except TypeError:       # anything else: solve's conversions and errors
-            pass
-        else:
-            return kernel.STATUS_BY_CODE[code]
-    return solve(model, q, qd, qdd).status
-
-
 def sample(batch: StewartSolution, i: int) -> StewartSolution:
     """Sample i of a batch's solution, as :func:`solve` gives it."""
     values = {name: getattr(batch, name)[i] for name in _FIELDS}
