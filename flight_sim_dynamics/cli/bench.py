@@ -103,8 +103,7 @@ def estimated(method: str, rate: float, name: str, twist: bool,
     twists, or poses only; its angles unwrapped).
     """
     t, q, qd, _ = machine.motions[name].sampled(rate)
-    angles = tuple(i for i, unit in enumerate(machine.units) if unit == 'rad')
-    return (q, *estimate_rows(t, q, qd if twist else None, method, angles=angles))
+    return (q, *estimate_rows(t, q, qd if twist else None, method, angles=machine.angles))
 
 
 def estimator_errors(full, name: str | None = None) -> list[tuple[str, str, float, float]]:

@@ -308,8 +308,7 @@ def trajectory_tables(path: str | os.PathLike[str], model: Any, limit: int | Non
         print(f'note: {first.path}: no {what} columns: estimated from the poses as the node '
               f'does ({method} backward differences, causal; the first rows start from '
               'rest)', file=sys.stderr)
-        angles = tuple(j for j, unit in enumerate(machine.units) if unit == 'rad')
-        estimator = DerivativeEstimator(method, gap, angles=angles)
+        estimator = DerivativeEstimator(method, gap, angles=machine.angles)
         restarts, first_restart, last_t = 0, None, None
         for table in itertools.chain([first], tables):
             t, q = table['t'], table.data[:, [table.names.index(n) for n in pose]]

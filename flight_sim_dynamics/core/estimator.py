@@ -1,5 +1,7 @@
 """Estimation of the rates and accelerations a planner does not send: causal
-(backward) finite differences of the setpoint stream (q, qd, qdd of eq. 6).
+(backward) finite differences of the setpoint stream (q, qd, qdd). Which
+coordinates are angles, unwrapped across +-pi, the caller tells (a machine's:
+:attr:`~flight_sim_dynamics.core.machine.Machine.angles`).
 """
 from __future__ import annotations
 
@@ -8,12 +10,9 @@ import math
 import numpy as np
 
 ESTIMATORS = ('backward', 'backward2')
-#: One number per pose coordinate (Vec3: the 3-DOF machine's, as the node takes them).
+#: One number per pose coordinate; Vec3: three numbers (a message's roll, pitch, yaw).
 Vec = tuple[float, ...]
 Vec3 = tuple[float, float, float]
-#: Which coordinates are angles, unwrapped across +-pi: the 3-DOF machine's roll
-#: unless told (a machine's coordinates in ``rad``).
-DEFAULT_ANGLES = (2,)
 
 
 def wrap_angle(angle: float) -> float:
@@ -56,7 +55,7 @@ class DerivativeEstimator:
     """
 
     def __init__(self, method: str = 'backward2', max_gap: float = 0.5,
-                 warm_up: bool = False, angles: tuple[int, ...] = DEFAULT_ANGLES) -> None:
+                 warm_up: bool = False, *, angles: tuple[int, ...]) -> None:
         if method not in ESTIMATORS:
             raise ValueError(f'unknown estimator {method!r}; choose one of {ESTIMATORS}')
         self.order = 1 if method == 'backward' else 2
@@ -141,14 +140,17 @@ class DerivativeEstimator:
 
 def estimate_rows(t: np.ndarray, q: np.ndarray, qd: np.ndarray | None = None,
                   method: str = 'backward2', max_gap: float = 0.5,
-                  angles: tuple[int, ...] = DEFAULT_ANGLES, *,
+                  angles: tuple[int, ...] | None = None, *,
                   estimator: DerivativeEstimator | None = None
                   ) -> tuple[np.ndarray, np.ndarray]:
     """Rates (``qd`` where given) and accelerations of the samples (t, q) as the
     node estimates them, row by row (:meth:`DerivativeEstimator.update`; the
     coordinates ``angles`` unwrapped); ``estimator``: one whose history the rows
-    continue (e.g. the rows before them; its own method, gap and angles).
+    continue (e.g. the rows before them; its own method, gap and angles), else
+    ``angles`` is given (TypeError if not).
     """
+    if estimator is None and angles is None:
+        raise TypeError('estimate_rows needs the angles (or an estimator)')
     est = DerivativeEstimator(method, max_gap, angles=angles) if estimator is None else estimator
     rates, accs = np.empty_like(q), np.empty_like(q)
     for k, (tk, qk) in enumerate(zip(np.asarray(t).tolist(), q.tolist())):

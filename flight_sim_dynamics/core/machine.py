@@ -145,7 +145,7 @@ def stroke_usage(value: Any, low: float, high: float, xp: Any = np) -> Any:
 class Machine:
     """One kind of machine: its names and its calls (module docstring)."""
 
-    name: str                            # the machine's kind, e.g. 'stewart'
+    name: str                            # the machine's kind (its entry point's name)
     model_type: type                     # the model class its calls take
     coordinates: tuple[str, ...]         # pose coordinates, in the order of q
     units: tuple[str, ...]               # their units ('m' or 'rad')
@@ -234,3 +234,10 @@ class Machine:
     def dof(self) -> int:
         """Number of pose coordinates (and of actuated legs)."""
         return len(self.coordinates)
+
+    @property
+    def angles(self) -> tuple[int, ...]:
+        """Positions in q of the angles (the coordinates in ``rad``): unwrapped across
+        +-pi by the rate estimator (core/estimator.py).
+        """
+        return tuple(i for i, unit in enumerate(self.units) if unit == 'rad')

@@ -186,7 +186,7 @@ class PoseMap:
                             for c in COMPONENTS[3:])
         self._identity = self._euler[1] is None and self._euler[2] is None
         #: the coordinates unwrapped across +-pi by the estimator (the angles)
-        self.angles = tuple(i for i, unit in enumerate(self.units) if unit == 'rad')
+        self.angles = machine.angles
         self._linear = tuple(i for i, unit in enumerate(self.units) if unit != 'rad')
 
     def coordinates(self, msg: Motion) -> Vec:

@@ -10,7 +10,11 @@ import pytest
 
 from flight_sim_dynamics.core.estimator import (DerivativeEstimator, backward_derivative,
                                                 estimate_rows, wrap_angle)
+from flight_sim_dynamics.machines import FLIGHT_SIMULATOR, STEWART
 from flight_sim_dynamics.machines.staicu.motions import motion
+
+#: the angles of the 3-DOF machine's pose (surge, heave, roll): its roll
+ROLL = FLIGHT_SIMULATOR.angles
 
 
 def test_backward_derivatives_exact_on_polynomials():
@@ -30,7 +34,7 @@ def test_estimator_convergence_order(method, order):
     for rate in (100.0, 200.0, 400.0):
         t = np.arange(0.0, 3.0, 1.0 / rate)
         q, qd, qdd = motion('general', t)
-        est = DerivativeEstimator(method)
+        est = DerivativeEstimator(method, angles=ROLL)
         worst = 0.0
         for k in range(len(t)):
             qd_e, qdd_e = est.update(t[k], tuple(q[k]), None, None)
@@ -42,7 +46,7 @@ def test_estimator_convergence_order(method, order):
 
 
 def test_estimator_uses_given_values_and_resets():
-    est = DerivativeEstimator('backward2', max_gap=0.5)
+    est = DerivativeEstimator('backward2', max_gap=0.5, angles=ROLL)
     assert est.update(0.0, (0.0, 0.0, 0.0), None, None) == ((0.0,) * 3, (0.0,) * 3)
     est.reset()
     est.update(0.0, (0.0, 0.0, 0.0), (1.0, 2.0, 3.0), None)
@@ -55,10 +59,19 @@ def test_estimator_uses_given_values_and_resets():
 
 
 def test_estimator_unwraps_roll():
-    est = DerivativeEstimator('backward')
+    est = DerivativeEstimator('backward', angles=ROLL)
     est.update(0.0, (0.0, 0.0, math.pi - 0.01), None, None)
     qd, _ = est.update(0.01, (0.0, 0.0, -math.pi + 0.01), None, None)
     assert qd[2] == pytest.approx(2.0)
+
+
+def test_the_angles_are_the_machines_coordinates_in_rad():
+    """What the callers pass (Machine.angles); the estimator has no default."""
+    assert ROLL == (2,) and STEWART.angles == (3, 4, 5)
+    with pytest.raises(TypeError):
+        DerivativeEstimator('backward')
+    with pytest.raises(TypeError, match='angles'):
+        estimate_rows(np.zeros(2), np.zeros((2, 3)))
 
 
 def test_estimator_of_six_coordinates_unwraps_the_angles_it_is_told():
