@@ -3,7 +3,7 @@ and back.
 
 ZYX Euler angles (roll phi, pitch theta, yaw psi; ``R = Rz(psi) Ry(theta)
 Rx(phi)``, REP-103) and a body's angular velocity and acceleration in the base
-frame, as a ROS twist carries them (docs/design/stewart.md, (S2)-(S3)):
+frame, as a ROS twist carries them:
 
     omega = E(theta, psi) phidot,             phidot = E^-1 omega
     eps = E phiddot + Edot phidot,            phiddot = E^-1 (eps - Edot phidot)
@@ -12,7 +12,7 @@ with ``E^-1 omega = ((c_psi w_x + s_psi w_y) / c_theta, -s_psi w_x + c_psi w_y,
 w_z + s_theta phidot_roll)``. Undefined at pitch +-90 deg (det E = c_theta).
 Plain floats: the node converts one setpoint at a time; the batch forms
 (:func:`rotation`, :func:`euler_rate_matrix`, :func:`euler_rate_matrix_derivative`:
-arrays (N, 3, 3) of poses (N, 6)) serve the hexapod's solver and the cue metrics.
+arrays (N, 3, 3) of poses (N, 6)) serve a machine's solver and the cue metrics.
 """
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Forward dynamics from the affine terms of a machine's inverse dynamics:
-f = M(q) qdd + b(q, qd) (3-DOF: eq. 14-23 of the paper; hexapod: (S10)-(S21)
-of docs/design/stewart.md), solved for qdd. Numpy only.
+f = M(q) qdd + b(q, qd) (``Machine.affine_terms``, its equations in the machine's
+own module), solved for qdd. Numpy only.
 """
 from __future__ import annotations
 

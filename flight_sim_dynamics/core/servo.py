@@ -48,8 +48,8 @@ class Servo:
     def for_bandwidth(cls, machine: Machine, model: Any, hz: float = DEFAULT_BANDWIDTH_HZ,
                       damping: float = DEFAULT_DAMPING) -> 'Servo':
         """Gains kp = m_i w^2, kd = 2 damping m_i w (w = 2 pi hz), m_i the diagonal of
-        the leg-space mass matrix M J^-1 at home (J = dL/dq; 3-DOF: eq. 14, 23;
-        hexapod: (S22)).
+        the leg-space mass matrix M J^-1 at home (J = dL/dq; M of the machine's
+        ``affine_terms``).
         """
         if not (math.isfinite(hz) and hz > 0 and math.isfinite(damping) and damping >= 0):
             raise ValueError(f'servo bandwidth must be > 0 Hz and damping >= 0, '

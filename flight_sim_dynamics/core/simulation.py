@@ -1,7 +1,7 @@
 """Simulation, the digital twin of any machine (:class:`.machine.Machine`): the
 plant under its actuator forces, RK4 at a fixed step, each stage solving the
-forward dynamics f = M qdd + b (3-DOF: eq. 14, 18-23 of the paper; hexapod:
-(S10)-(S22) of docs/design/stewart.md; :func:`.forward_dynamics.solve_accelerations`),
+forward dynamics f = M qdd + b (the machine's ``affine_terms``, its equations in
+its own module; :func:`.forward_dynamics.solve_accelerations`),
 in C when the machine's kernel loop is enabled (``Machine.integrate_rows``).
 Open loop (``forces=``, a :class:`ForceHistory`; unstable: for short runs) or
 closed loop (``reference=``): the servo law of :mod:`.servo`, f_ff the

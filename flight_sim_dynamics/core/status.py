@@ -16,7 +16,7 @@ not_converged    forward kinematics only: the iteration did not converge
 ================ ===========================================================
 
 Never a NaN or an infinity. Each machine writes its rule once, for floats and
-arrays alike (the 3-DOF machine's: :mod:`flight_sim_dynamics.machines.staicu.status_rule`),
+arrays alike (in its own package under :mod:`flight_sim_dynamics.machines`),
 and its kernel transcribes it.
 """
 from __future__ import annotations

@@ -1,10 +1,10 @@
 """The digital twin in real time (the ``platform_sim`` node), for any machine
 (:class:`.machine.Machine`): the plant under its actuator servos, the last
 command held, advanced by the RK4 of :func:`.simulation.integrate` (forward
-dynamics M(q) qdd = f - b(q, qd); 3-DOF: eq. 14, 18-23 of the paper; hexapod:
-(S10)-(S22) of docs/design/stewart.md; in C when the machine's kernel loop is
-enabled). A stage state that cannot be simulated stops the stepper
-(:attr:`TwinStepper.outcome`) at the last state reached, at rest: never a NaN.
+dynamics M(q) qdd = f - b(q, qd), the machine's ``affine_terms`` (its equations
+in its own module); in C when the machine's kernel loop is enabled). A stage
+state that cannot be simulated stops the stepper (:attr:`TwinStepper.outcome`)
+at the last state reached, at rest: never a NaN.
 """
 from __future__ import annotations
 
