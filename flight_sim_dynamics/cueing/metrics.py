@@ -10,8 +10,8 @@ q̇_angles`` (S2), the angular acceleration ``E q̈ + Ė q̇`` (S3)
 peak), false cues (the felt deviation from rest and the vehicle's of opposite
 signs and apart by more than :data:`FORCE_THRESHOLDS` / :data:`RATE_THRESHOLD`).
 
-A machine's own motion beyond its coordinates (the 3-DOF machine pitches by
-−β, ``Machine.parasitic``) is part of what the occupant feels: its angle
+A machine's own motion beyond its coordinates (e.g. a pitch it makes by itself,
+``Machine.parasitic``) is part of what the occupant feels: its angle
 from the solution, relative to its value at home (the occupant's neutral),
 its rates by differencing (it is not the planner's).
 """

@@ -5,9 +5,9 @@ resampled to the output rate by linear interpolation (design, "Time").
 
 The machine's coordinates are some of the six setpoint components (surge, sway,
 heave, roll, pitch, yaw; REP-103, the dynamics node's setpoint convention,
-which is also the ``q`` the machines' solvers take: the 3-DOF machine's
-(surge, heave, roll) convert to the paper's frame inside its solver); the
-channels a machine lacks are dropped (:attr:`Planner.dropped`).
+which is also the ``q`` the machines' solvers take: a machine with a frame of
+its own converts inside its solver); the channels a machine lacks are dropped
+(:attr:`Planner.dropped`).
 """
 from __future__ import annotations
 
