@@ -5,9 +5,9 @@ the public ``fsd.load_model``; the node's start-up check and schema,
 A file is a ROS 2 parameter file (``flight_sim_dynamics: ros__parameters:
 ...``, nested maps as dotted names, :func:`.files.read_params_sections`). Its
 ``machine: <name>`` line names its machine (:func:`.machines.machine_named`:
-a packaged file's name, ``stewart_6dof``, or a machine's kind, ``stewart``);
-a file without the line is the default machine's. Every file is read by one
-rule (:func:`load_layers`): the packaged file of its machine
+the name of a packaged file, ``config/<name>.yaml``, or a machine's kind, its
+:attr:`Machine.name`); a file without the line is the default machine's.
+Every file is read by one rule (:func:`load_layers`): the packaged file of its machine
 (``config/<name>.yaml``; the default machine's: ``config/flight_sim_dynamics.yaml``;
 a machine of one's own, named by its kind: none, the file is given whole)
 gives the values a partial file overrides; each name must be one of its
@@ -120,7 +120,7 @@ def ignored_message(names: Sequence[str], scene: str, where: str = '') -> str:
 
 
 def packaged_names() -> list[str]:
-    """The names of the packaged parameter files (config/<name>.yaml): the 3-DOF
+    """The names of the packaged parameter files (config/<name>.yaml): the default
     machine's, then the other machines'.
     """
     default = default_params_path().stem
@@ -130,10 +130,11 @@ def packaged_names() -> list[str]:
 def params_path(path: str | os.PathLike[str]) -> str | os.PathLike[str]:
     """A parameter file given by its path, or by the name of a packaged file
     (a string without a ``.yaml`` / ``.yml`` suffix or a folder, as scenes are
-    named: ``'stewart_6dof'``), found where the packaged 3-DOF file is
-    (:func:`.files.default_params_path`: the installed share directory), so
-    from any folder. Another name is read as a file when one of that name
-    exists, else it is a :class:`ParameterError` listing the packaged names.
+    named: ``'<name>'`` for config/<name>.yaml), found where the default
+    machine's file is (:func:`.files.default_params_path`: the installed share
+    directory), so from any folder. Another name is read as a file when one of
+    that name exists, else it is a :class:`ParameterError` listing the packaged
+    names.
     """
     if not isinstance(path, str) or path.endswith(('.yaml', '.yml')) or os.sep in path \
             or (os.altsep and os.altsep in path):
@@ -205,7 +206,7 @@ def packaged_file(name: Any) -> Path | None:
 def launch_params_file(machine: str = '', params_file: str = '') -> Path:
     """The parameter file of the launch file's ``machine`` and ``params_file``
     arguments: ``params_file`` when given, else the packaged file of ``machine``
-    (``stewart_6dof``: config/stewart_6dof.yaml; empty: the 3-DOF machine's).
+    (``<name>``: config/<name>.yaml; empty: the default machine's).
     ValueError for both given or a machine that is not packaged.
     """
     if params_file and machine:
@@ -300,8 +301,8 @@ def _check_unnamed(flat: Mapping[str, Any], source: str) -> None:
     """A file without a ``machine:`` line is the default machine's: a
     ParameterError (key ``machine``) when its keys unknown to that machine are
     another machine's (most of them: that one), saying which and to name it,
-    before the default machine's checks would refuse some value of them (a
-    hexapod's six numbers).
+    before the default machine's checks would refuse some value of them (e.g. a
+    vector of another length).
     """
     own, _ = split_cueing(without_ros(flat)[0], source)
     known = default_machine().parameters | NODE_SPECS.keys()

@@ -27,8 +27,8 @@ MAX_PATH = 4096             # characters of a file path (PATH_MAX on Linux)
 # (QoS: rclpy's read-only qos_overrides.<topic>.* parameters, declared by the node's endpoints.)
 NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('limits.warn_fraction', 'double', 0.9,
-              "status WARN when a limit of the machine (a stroke, speed, force, a hexapod's "
-              'joint angle) is used to at least this fraction (stroke: of the half-range '
+              'status WARN when a limit of the machine (a stroke, speed, force, a joint '
+              'angle where limited) is used to at least this fraction (stroke: of the half-range '
               'around its middle)', '1',
               minimum=0.0, maximum=1.0),
     ParamSpec('input.max_linear_acceleration', 'double', 50.0,
@@ -45,14 +45,15 @@ NODE_PARAMETERS: tuple[ParamSpec, ...] = (
               'normalised); beyond it the setpoint is rejected', '1',
               minimum=0.0, maximum=0.5),
     ParamSpec('input.position_tolerance', 'double', 1.0e-3,
-              'a position the machine does not follow (the 3-DOF machine\'s sway: position.y, '
-              'and linear.y of twist and acceleration per s, s^2) beyond this is reported as '
-              'motion the machine cannot follow, then ignored', 'm',
+              'a position the machine does not follow (a component of position, and of the '
+              'linear part of twist and acceleration per s, s^2, that is none of its '
+              'coordinates) beyond this is reported as motion the machine cannot follow, then '
+              'ignored', 'm',
               minimum=0.0, maximum=10.0),
     ParamSpec('input.angle_tolerance', 'double', 1.0e-3,
-              'an angle the machine does not follow (the 3-DOF machine\'s yaw, and a pitch '
-              'other than zero or its parasitic pitch) beyond this is reported as motion the '
-              'machine cannot follow, then ignored', 'rad',
+              'an angle the machine does not follow (one that is none of its coordinates, '
+              'other than zero or the value the machine moves it to by itself) beyond this is '
+              'reported as motion the machine cannot follow, then ignored', 'rad',
               minimum=0.0, maximum=3.2),
     ParamSpec('input.max_future', 'double', 1.0,
               'setpoints stamped more than this ahead of the node\'s clock are rejected as '
@@ -150,10 +151,11 @@ def __getattr__(name: str) -> Any:
 SIM_NODE_NAME = 'platform_sim'
 SIM_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('plant.params_file', 'string', '',
-              'parameter file of the simulated plant, either machine, read by the rule of '
+              'parameter file of the simulated plant, any machine, read by the rule of '
               'load_model (partial files override the packaged one of their machine); '
               'empty: the --params-file of the command line with a section for the dynamics '
-              'node (one file for both nodes), else the packaged 3-DOF parameters', '',
+              'node (one file for both nodes), else the default machine\'s packaged '
+              'parameters', '',
               max_length=MAX_PATH),
     ParamSpec('plant.scene', 'string', '',
               'scene of the plant, a name from config/scenes or a file (empty: the file\'s '
@@ -178,12 +180,12 @@ SIM_PARAMETERS: tuple[ParamSpec, ...] = (
               'damping ratio of the actuator servos', '1', minimum=0.0, maximum=100.0),
     ParamSpec('initial', 'double_array', [],
               'pose at which the platform starts, at rest: one number per coordinate of the '
-              'plant (surge m, heave m, roll rad; a hexapod: surge, sway, heave m, roll, '
-              'pitch, yaw rad); empty: home', '', minimum=-10.0, maximum=10.0),
+              'plant, in their order (positions m, angles rad); empty: home', '',
+              minimum=-10.0, maximum=10.0),
     ParamSpec('frame_id', 'string', 'simulator_base',
               'header.frame_id of platform_pose, platform_twist and measured_actuator_states: '
               'the setpoints\' frame (REP-103 simulator base, origin at the platform\'s home '
-              'position: G\'s central position on the 3-DOF machine)', '', max_length=MAX_NAME),
+              'position)', '', max_length=MAX_NAME),
     ParamSpec('diagnostics.period', 'double', 1.0,
               'period of the /diagnostics message', 's', minimum=0.01, maximum=3600.0),
 )
@@ -197,7 +199,7 @@ CUEING_NODE_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('params_file', 'string', '',
               "the machine's parameter file, the dynamics node's (it names the machine; its "
               'cueing group gives the defaults of cueing.*); empty: the --params-file of the '
-              'command line with a section for the dynamics node, else the packaged 3-DOF '
+              'command line with a section for the dynamics node, else the default '
               'machine', '', max_length=MAX_PATH),
     ParamSpec('scene', 'string', '',
               'scene the limiter solves the machine with, a name from config/scenes or a '
