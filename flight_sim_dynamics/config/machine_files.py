@@ -39,7 +39,7 @@ from ..machines import (UnknownMachineError, default_machine, known_names, machi
 from ..machines import packaged as packaged_machines
 from ..machines.api import absent_effects
 from .errors import IgnoredParameterWarning, ParameterError, did_you_mean
-from .files import default_params_path, read_params_sections, without_ros
+from .files import DEFAULT_PARAMS_FILE, default_params_path, read_params_sections, without_ros
 from .scenes import DEFAULT_SCENE, Scene, SceneError, load_scene, scenes_dir
 from .schema import NODE_PARAMETERS
 from .validation import check_value, nested
@@ -125,6 +125,17 @@ def packaged_names() -> list[str]:
     """
     default = default_params_path().stem
     return [default, *sorted(name for name in packaged_machines() if name != default)]
+
+
+def example_params_file() -> str:
+    """The packaged file a help text shows as an example of a file naming its
+    machine (``config/<name>.yaml``): the first by name of a machine other than
+    the default, else the default machine's (the registry's, no file read).
+    """
+    default = default_machine()
+    others = sorted(name for name, m in packaged_machines().items() if m is not default)
+    names = others or list(default.parameter_files) or [Path(DEFAULT_PARAMS_FILE).stem]
+    return f'config/{names[0]}.yaml'
 
 
 def params_path(path: str | os.PathLike[str]) -> str | os.PathLike[str]:

@@ -103,13 +103,13 @@ class DynamicsNode(ManagedNode):
 
     @property
     def machine_name(self) -> str | None:
-        """The ``machine`` parameter it was started with (None: the 3-DOF machine's)."""
+        """The ``machine`` parameter it was started with (None: the default machine's)."""
         return self.get_parameter(MACHINE).value if self.has_parameter(MACHINE) else None
 
     # -- parameters ----------------------------------------------------------------
     def _declare_parameters(self) -> tuple[set[str], dict[str, str]]:
         """Declare the schema of the machine the given ``machine`` names (none:
-        the 3-DOF machine) at the given values, else the defaults (a name with
+        the default machine) at the given values, else the defaults (a name with
         neither is not declared). A refused given value keeps the default and
         fails every configure until set; ``machine`` is read-only.
         """

@@ -82,7 +82,7 @@ def check_not_future(stamp_ns: int, latest_ns: int | None) -> None:
                                           f'accepted {fmt_stamp(latest_ns)})')
 
 
-# -- message checks: q = (surge, heave, roll) -----------------------------------
+# -- message checks: q = the machine's coordinates ------------------------------
 def quaternion_to_rpy(x: float, y: float, z: float, w: float,
                       tolerance: float = 1e-3) -> Vec3:
     """Roll, pitch, yaw of ``Rz(yaw) Ry(pitch) Rx(roll)`` (REP-103) of a finite
@@ -252,7 +252,7 @@ class PoseMap:
                      angle_tolerance: float) -> tuple[str, ...]:
         """The components beyond the machine's coordinates that the setpoint
         gives beyond the tolerances: a value or a rate, or for one the machine
-        moves itself (the 3-DOF machine's pitch), a value neither zero nor the
+        moves itself (:attr:`Machine.parasitic`), a value neither zero nor the
         machine's (its rates are not the planner's to choose).
         """
         out = []

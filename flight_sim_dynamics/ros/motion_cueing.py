@@ -5,11 +5,11 @@ the motion-cueing planner (:class:`..cueing.planner.Planner`: the washout and
 the limiter on the machine). Nothing a client sends takes it down.
 Topics, parameters, behaviour: docs/cueing_node.md.
 
-    motion_cueing --ros-args --params-file config/stewart_6dof.yaml
+    motion_cueing --ros-args --params-file config/<name>.yaml
 
 The machine and the defaults of the ``cueing.*`` parameters come from the
 dynamics node's parameter file (``params_file``, else the ``--params-file``
-with a section for the dynamics node, else the packaged 3-DOF machine).
+with a section for the dynamics node, else the default machine's packaged file).
 """
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ from sensor_msgs.msg import Imu
 from ..config import parameters as prm
 from ..config.errors import did_you_mean
 from ..config.files import NODE_NAME, QOS_OVERRIDES, params_files_in, read_params_sections
-from ..config.machine_files import load_model
+from ..config.machine_files import example_params_file, load_model
 from ..config.schema import CUEING_NODE_NAME, CUEING_NODE_PARAMETERS, CUEING_TASK
 from ..config.cueing import PARAMETER_SPECS, PREFIX, CueingParams, cueing_params_flat
 from ..cueing.planner import Planner
@@ -221,7 +221,7 @@ class MotionCueingNode(ManagedNode):
         path = plain(path_given.value) if path_given is not None else ''
         path = plant_file(path if isinstance(path, str) else '', params_files, self._dynamics,
                           'params_file')
-        source = path or 'the packaged 3-DOF machine'
+        source = path or "the default machine's packaged file"
         scene = plain(given['scene'].value) if 'scene' in given else ''
         scene = scene if isinstance(scene, str) else ''   # another type: refused below
         try:
@@ -642,7 +642,7 @@ def build_parser() -> argparse.ArgumentParser:
         'specific force and angular velocity of the vehicle) in; pose/twist/accel_setpoint '
         'of the platform (for dynamics_node) and /diagnostics out. The machine: the '
         "dynamics node's --params-file (its cueing group gives the defaults). ROS arguments "
-        'go after --ros-args, e.g. --ros-args --params-file config/stewart_6dof.yaml '
+        f'go after --ros-args, e.g. --ros-args --params-file {example_params_file()} '
         '-p cueing.rate:=500.0',
         'See docs/cueing_node.md for topics, parameters and behaviour.')
 

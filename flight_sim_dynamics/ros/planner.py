@@ -1,14 +1,12 @@
 """Demo planner: streams pose, twist and accel setpoints of a machine's
-built-in motions (:attr:`Machine.planner_motions`: the paper's motions and a
-motion-cueing sequence on the 3-DOF machine; a slow tour and a 6-DOF
-motion-cueing sequence on the hexapod), stamped ``start + k / rate`` on the
-node's clock. The pose carries the machine's coordinates as their
+built-in motions (:attr:`Machine.planner_motions`, each machine's own), stamped
+``start + k / rate`` on the node's clock. The pose carries the machine's coordinates as their
 components (:class:`.messages.PoseMap`); twist and accel the rates, and the angular
 velocity and acceleration in the base frame of the Euler-angle rates (S2), (S3).
 
     flight-sim-dynamics demo-planner --example general --rate 200 --loop
     flight-sim-dynamics demo-planner --example cueing --no-accel
-    flight-sim-dynamics demo-planner --params config/stewart_6dof.yaml --example all
+    flight-sim-dynamics demo-planner --params config/<name>.yaml --example all
 """
 from __future__ import annotations
 
@@ -23,7 +21,7 @@ from geometry_msgs.msg import AccelStamped, PoseStamped, TwistStamped
 from rclpy.node import Node
 from rclpy.time import Time
 
-from ..config.machine_files import load_model_noting
+from ..config.machine_files import example_params_file, load_model_noting
 from ..core.machine import Machine
 from ..core.motion import PlannerSequence
 from ..machines import MACHINES
@@ -182,7 +180,7 @@ def build_parser() -> argparse.ArgumentParser:
                     f'motions ({_planner_motions()}). ROS arguments go after --ros-args.')
     parser.add_argument('--params', '--params-file', type=str, default=None, metavar='FILE',
                         help="parameter file naming the machine (the node's, e.g. "
-                             'config/stewart_6dof.yaml; default: the 3-DOF machine)')
+                             f'{example_params_file()}; default: the {MACHINES[0].title})')
     parser.add_argument('--example', default=None, metavar='NAME',
                         help="motion to play, one of the machine's planner motions; all = "
                              'each in turn (default: '
