@@ -178,7 +178,8 @@ def configure(p: argparse.ArgumentParser) -> None:
                    help="output of solve, CSV ('-' for standard input) or .npz; needs t and "
                         'per leg length_* and force_* (and reads status); the pose of each '
                         'frame comes from its leg lengths (forward kinematics) unless the '
-                        'file has the pose coordinates (surge,heave,roll for the 3-DOF machine)')
+                        f"file has the pose coordinates ({','.join(MACHINES[0].coordinates)} "
+                        f'for the {MACHINES[0].title})')
     p.add_argument('--motion', metavar='NAME', default=None,
                    help='instead of a file: a built-in motion of the machine of --params, '
                         f'solved at {MOTION_RATE:g} Hz (e.g. violent)')

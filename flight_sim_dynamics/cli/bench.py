@@ -2,8 +2,8 @@
 scene and single-effect variant of ``full`` (the effects the machine of
 ``--params`` models), the median and p99 time of a cycle against the force
 error relative to ``full`` on the machine's bench motions (``Machine.
-bench_motions``: for the 3-DOF machine eq. 6 and ``violent``), and the error
-when the node's estimator supplies the accelerations.
+bench_motions``), and the error when the node's estimator supplies the
+accelerations.
 """
 from __future__ import annotations
 

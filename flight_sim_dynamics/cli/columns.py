@@ -2,7 +2,7 @@
 (:class:`flight_sim_dynamics.core.machine.Machine`): a trajectory is ``t``, the
 pose coordinates, ``<coordinate>_rate`` and ``<coordinate>_acc``; ``solve``
 writes ``<field>_<leg label>`` per leg, then the machine's scalar fields. The
-module's constants are the default machine's (the 3-DOF flight simulator).
+module's constants are the default machine's (the registry's first).
 """
 from __future__ import annotations
 
@@ -61,7 +61,7 @@ def machine_of_columns(names: Sequence[str], field: str) -> Machine:
     return max(MACHINES, key=lambda m: len(given.intersection(per_leg(m, field))))
 
 
-#: The default machine's (the 3-DOF flight simulator's) columns.
+#: The default machine's columns.
 DEFAULT_MACHINE = MACHINES[0]
 TRAJECTORY_COLUMNS = trajectory_columns(DEFAULT_MACHINE)
 OUTPUT_COLUMNS = output_columns(DEFAULT_MACHINE)

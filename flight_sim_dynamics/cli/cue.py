@@ -6,7 +6,7 @@ on request the cue report (markdown table, :mod:`flight_sim_dynamics.cueing.metr
 and its figure. ``--example NAME`` writes a built-in vehicle log to try it.
 
     flight-sim-dynamics cue --example violent -o violent.csv
-    flight-sim-dynamics cue violent.csv --params config/stewart_6dof.yaml
+    flight-sim-dynamics cue violent.csv --params config/<name>.yaml
         -o platform.csv --report cue.md --plot cue.png
 """
 from __future__ import annotations
@@ -55,7 +55,7 @@ def configure(p: argparse.ArgumentParser) -> None:
                         '--example: the vehicle log')
     p.add_argument('--params', metavar='YAML', default=None,
                    help='parameter file naming the machine, its cueing group the planner '
-                        '(default: the packaged 3-DOF machine and its set)')
+                        f'(default: the packaged {MACHINES[0].title} and its set)')
     p.add_argument('--scene', metavar='NAME_OR_YAML', default=None,
                    help="effects the limiter's inverse dynamics models (default: the file's)")
     p.add_argument('--limiter', choices=LIMITERS, default=None,

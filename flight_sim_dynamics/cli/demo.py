@@ -1,5 +1,5 @@
 """End-to-end demo (``flight-sim-dynamics demo``, about 25 s): the node as a
-process with the packaged parameters or ``--params`` (either machine; its log
+process with the packaged parameters or ``--params`` (any machine; its log
 ``<output>_node.log``), the demo planner in this process playing the
 machine's planner motions, one summary line per second from
 ``actuator_states`` and ``/diagnostics``, then the forces and powers received
@@ -32,7 +32,7 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.time import Time
 from sensor_msgs.msg import Imu, JointState
 
-from ..config.machine_files import load_model_noting
+from ..config.machine_files import example_params_file, load_model_noting
 from ..config.files import default_params_path
 from ..config.schema import CUEING_TASK
 from ..core.machine import Machine
@@ -442,7 +442,8 @@ def build_parser() -> argparse.ArgumentParser:
                                          for m in MACHINES) + '; default: all of them)')
     parser.add_argument('--params', '--params-file', type=Path, default=None, metavar='FILE',
                         help='node parameter file, naming the machine (e.g. '
-                             'config/stewart_6dof.yaml; default: the packaged 3-DOF file)')
+                             f"{example_params_file()}; default: the {MACHINES[0].title}'s "
+                             'packaged file)')
     parser.add_argument('--twin', action='store_true',
                         help='also run the twin node platform_sim on the node\'s actuator_states '
                              'and plot commanded against simulated motion to <output>_twin.png')

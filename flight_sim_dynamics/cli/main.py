@@ -91,8 +91,7 @@ def _params_option(p: argparse.ArgumentParser) -> None:
 
 def _configure_example(p: argparse.ArgumentParser) -> None:
     p.add_argument('name', metavar='MOTION',
-                   help='a built-in motion of the machine of --params: ' + _motions_help()
-                        + " (the 3-DOF machine's: the paper's eq. 6, Figs. 3-4, 5-6, 7-8)")
+                   help='a built-in motion of the machine of --params: ' + _motions_help())
     p.add_argument('--rate', type=float, default=DEFAULT_RATE_HZ, metavar='HZ',
                    help=f'sampling rate in Hz (default {DEFAULT_RATE_HZ:g}); samples '
                         "t = 0, 1/HZ, ... up to the motion's duration")
@@ -147,19 +146,21 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
                    help='effects to simulate: a scene of config/scenes or a scene file '
                         '(default full, the paper\'s model)')
     p.add_argument('--cond', action='store_true',
-                   help='also write cond, the exact condition number of Q (an SVD per row; '
-                        'the 3-DOF machine only: a hexapod\'s one condition figure, '
-                        'jacobian_condition, is always written)')
+                   help='also write the costly fields of the machines that have them (an SVD '
+                        'per row): '
+                        + '; '.join(f"the {m.title}'s {', '.join(m.costly_fields)}"
+                                    for m in MACHINES if m.costly_fields)
+                        + " (another machine's condition figures are always written)")
     p.add_argument('--joints', action='store_true',
-                   help='also write the joint variables (the 3-DOF machine\'s 12 of eq. (13), '
-                        'a hexapod\'s U-joint angles and length per leg), their rates '
-                        '(<name>_rate) and accelerations (<name>_acc)')
+                   help="also write the machine's joint variables ("
+                        + ', '.join(f'{len(m.joints)} for the {m.title}' for m in MACHINES)
+                        + '), their rates (<name>_rate) and accelerations (<name>_acc)')
 
 
 def solve_table(model, table: csv_io.Table, *, joints: bool = False, exact_cond: bool = False,
                 not_ok: NotOk | None = None) -> tuple[tuple[str, ...], np.ndarray, list[str]]:
     """Solve every row of a trajectory table: (column names, data, statuses);
-    ``exact_cond``: the machine's costly fields too (the 3-DOF machine's cond).
+    ``exact_cond``: the machine's costly fields too (:attr:`Machine.costly_fields`).
     The rows that are not ok are counted in ``not_ok`` (None: reported now).
     """
     machine = fsd.machine_of(model)
@@ -301,7 +302,7 @@ def trajectory_tables(path: str | os.PathLike[str], model: Any, limit: int | Non
             yield first
             yield from tables
             return
-        # the file's settings, for any machine (not the 3-DOF model's values alone)
+        # the file's settings, for any machine
         method, gap = estimator_settings(params)
         what = ' and '.join(w for w, given in (('rates', rates),
                                                 ('accelerations', accelerations)) if not given)
@@ -475,8 +476,8 @@ def _lazy(module: str) -> tuple[Callable[[argparse.ArgumentParser], None],
 #: name -> (help, configure(parser), handler(args) -> exit status).
 SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
                              Callable[[argparse.Namespace], int]]] = {
-    'example': ('write a built-in motion of the machine as a trajectory CSV (the 3-DOF '
-                'machine: the paper\'s three examples)', _configure_example, cmd_example),
+    'example': ('write a built-in motion of the machine as a trajectory CSV',
+                _configure_example, cmd_example),
     'solve': ('inverse dynamics of every row of a trajectory CSV',
               _configure_solve, cmd_solve),
     'plot': ('plot actuator forces and powers against time (like the paper\'s Figs. 3-8)',
@@ -487,8 +488,7 @@ SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
               'and the cost of estimating missing accelerations (writes scenes.md, scenes.png)',
               *_lazy('flight_sim_dynamics.cli.bench')),
     'workspace': ('map where the machine (--params) reaches at rest: ranges through home and '
-                  'maps coloured by its condition figure, with what bounds them (the 3-DOF '
-                  'machine: per roll angle, with stroke limits and singular curves)',
+                  'maps coloured by its condition figure, with what bounds them',
                   *_lazy('flight_sim_dynamics.cli.workspace')),
     'animate': ('the mechanism following a solved trajectory (side and front views, actuator '
                 'forces as bars, the status of each frame) as .gif, .mp4 (needs ffmpeg) or a '
@@ -508,9 +508,9 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     """
     parser = _Parser(
         prog=PROG,
-        description='Inverse dynamics of the Staicu-Ocnarescu-Ungureanu (2013) 3-DOF '
-                    'parallel flight simulator and of 6-DOF hexapods (--params names the '
-                    'machine).',
+        description='Inverse dynamics of parallel motion simulators: the '
+                    + ' and the '.join(m.title for m in MACHINES)
+                    + ' (--params names the machine).',
         epilog=f'Example: {PROG} example vertical -o vertical.csv && '
                f'{PROG} solve vertical.csv -o out.csv && {PROG} plot out.csv -o fig.png. '
                'Errors: exit status 2 and one line "error: ..." on standard error.')

@@ -1,7 +1,7 @@
 """``flight-sim-dynamics plot``: force and power plots of the actuators (for
-the 3-DOF machine the paper's Figs. 3-8) from the output of ``solve`` for any
-machine (told by its ``force_<leg>`` columns); matplotlib's object-oriented
-API, no pyplot, no display.
+the default machine's examples the paper's Figs. 3-8) from the output of
+``solve`` for any machine (told by its ``force_<leg>`` columns); matplotlib's
+object-oriented API, no pyplot, no display.
 """
 from __future__ import annotations
 
@@ -23,8 +23,8 @@ LEG_COLOURS = ('tab:blue', 'tab:orange', 'tab:green', 'tab:red', 'tab:purple', '
 
 def leg_style(k: int) -> dict:
     """Line style of leg ``k`` (0-based): every second leg wide and translucent,
-    the one after it dashed on top, so that legs with equal forces (B and C of
-    the vertical example, a hexapod's symmetric pairs) both stay visible.
+    the one after it dashed on top, so that legs with equal forces (symmetric
+    legs) both stay visible.
     """
     colour = LEG_COLOURS[k % len(LEG_COLOURS)]
     if k % 2:
@@ -129,7 +129,9 @@ PAPER_FIGURES = {'vertical': (3, 4), 'rectilinear': (5, 6), 'general': (7, 8)}
 
 
 def default_title(path: str, actuators: tuple[str, ...] = ACTUATORS) -> str:
-    """Title from the file name; the paper's examples (3-DOF) name their figures."""
+    """Title from the file name; the paper's examples (the default machine's) name
+    their figures.
+    """
     stem = os.path.splitext(os.path.basename(path))[0] if path != '-' else 'stdin'
     if stem in PAPER_FIGURES and actuators == ACTUATORS:
         f, p = PAPER_FIGURES[stem]

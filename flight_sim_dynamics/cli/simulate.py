@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from typing import NamedTuple, Sequence
+from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
 
@@ -19,6 +19,7 @@ from ..core.interpolation import ForceHistory, Reference, SampleError
 from ..core.machine import Machine
 from ..core.servo import DEFAULT_BANDWIDTH_HZ, DEFAULT_DAMPING, Servo
 from ..core.simulation import DEFAULT_STEP, step_count
+from ..config.machine_files import example_params_file
 from ..machines import MACHINES
 from ..machines.api import servo_for_bandwidth, simulate
 from .csv_io import CsvError, Table, read_table, write_csv
@@ -51,29 +52,40 @@ def columns(machine: Machine) -> Columns:
 OUTPUT_COLUMNS, ERROR_COLUMNS = columns(MACHINES[0])[2:]
 
 
+def _counts(per: str, size: Callable[[Machine], int], values: list[str]) -> str:
+    """How many numbers an option takes, two per leg or coordinate (``per``,
+    ``size(machine)`` of them): each machine's count, the default machine's
+    ``values`` named.
+    """
+    return f'two per {per}: ' + ', '.join(
+        f'{2 * size(m)} for the {m.title}' + (f" ({' '.join(values)})" if m is MACHINES[0]
+                                              else '')
+        for m in MACHINES)
+
+
 def configure(p: argparse.ArgumentParser) -> None:
-    default = columns(MACHINES[0])
+    default, title = columns(MACHINES[0]), MACHINES[0].title
     source = p.add_mutually_exclusive_group(required=True)
     source.add_argument('--forces', metavar='CSV',
-                        help='open loop: actuator forces, columns t,force_<leg> (3-DOF: '
+                        help=f'open loop: actuator forces, columns t,force_<leg> ({title}: '
                              + ','.join(default.forces) + "; '-' for standard input; solve's "
                              'output, CSV or .npz, will do)')
     source.add_argument('--reference', metavar='CSV',
                         help='closed loop: a reference motion, the trajectory CSV solve reads '
-                             '(3-DOF: ' + ','.join(default.trajectory) + '; missing rates or '
+                             f'({title}: ' + ','.join(default.trajectory) + '; missing rates or '
                              'accelerations estimated as solve does)')
     source.add_argument('--motion', metavar='NAME',
                         help="closed loop: a built-in reference motion of the plant's machine "
-                             f"(3-DOF: {', '.join(MACHINES[0].motions)})")
+                             f"({title}: {', '.join(MACHINES[0].motions)})")
     p.add_argument('-o', '--output', required=True, metavar='CSV',
                    help="simulated motion to write ('-' for standard output): the trajectory, "
                         'length_<leg>, rate_<leg>, force_<leg>, in closed loop '
-                        '<coordinate>_error, length_error_<leg>, then status (3-DOF: '
+                        f'<coordinate>_error, length_error_<leg>, then status ({title}: '
                         + ','.join(OUTPUT_COLUMNS + ERROR_COLUMNS) + ',status)')
     p.add_argument('--params', metavar='YAML', default=None,
                    help="the controller's parameter file, and the plant's unless "
                         '--plant-params (default: the packaged parameters; a file naming its '
-                        'machine, e.g. config/stewart_6dof.yaml, simulates that machine)')
+                        f'machine, e.g. {example_params_file()}, simulates that machine)')
     p.add_argument('--plant-params', metavar='YAML', default=None,
                    help='parameter file of the simulated machine (default: --params)')
     p.add_argument('--plant-scene', metavar='NAME_OR_YAML', default=None,
@@ -88,14 +100,17 @@ def configure(p: argparse.ArgumentParser) -> None:
                             f'(default {DEFAULT_BANDWIDTH_HZ:g} Hz)')
     gains.add_argument('--gains', type=float, nargs='+', default=None, metavar='GAIN',
                        help='closed loop: PD gains per actuator, kp of each leg (N/m) then kd '
-                            'of each leg (N s/m): 6 numbers for the 3-DOF machine '
-                            '(KP_A KP_B KP_C KD_A KD_B KD_C), 12 for a hexapod')
+                            'of each leg (N s/m), ' + _counts('leg', lambda m: len(m.legs), [
+                                f'{k}_{label.upper()}' for k in ('KP', 'KD')
+                                for label in MACHINES[0].leg_labels]))
     p.add_argument('--step', type=float, default=DEFAULT_STEP, metavar='S',
                    help=f'RK4 step, s (default {DEFAULT_STEP:g})')
     p.add_argument('--initial', type=float, nargs='+', default=None, metavar='X',
-                   help='initial state: the pose then its rates (m, rad, m/s, rad/s), 6 numbers '
-                        'for the 3-DOF machine (SURGE HEAVE ROLL SURGE_RATE HEAVE_RATE '
-                        "ROLL_RATE), 12 for a hexapod; default: rest, or the reference's start")
+                   help='initial state: the pose then its rates (m, rad, m/s, rad/s), '
+                        + _counts('coordinate', lambda m: m.dof,
+                                  [f'{c.upper()}{end}' for end in ('', '_RATE')
+                                   for c in MACHINES[0].coordinates])
+                        + "; default: rest, or the reference's start")
 
 
 def _split(option: str, values: list[float] | None, n: int, what: str
