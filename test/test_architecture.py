@@ -6,11 +6,14 @@ from __future__ import annotations
 
 import ast
 import functools
+import importlib
 import os
 import re
 from pathlib import Path
 
 import pytest
+
+from flight_sim_dynamics import machines as registry
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = ROOT / 'flight_sim_dynamics'
@@ -197,3 +200,90 @@ def test_no_sys_path_edits_anywhere():
                     and isinstance(node.value.value, ast.Name) and node.value.value.id == 'sys'):
                 offenders.append(f'{path.relative_to(ROOT)}:{node.lineno}')
     assert not offenders, offenders
+
+
+#: where the plugin machine of test/plugin_machine lives (its module and dist-info)
+PLUGIN_SITE = ROOT / 'test' / 'plugin_machine' / 'site'
+#: a packaged file named after the package (and its node) names no machine
+PACKAGE_NAME = 'flight_sim_dynamics'
+#: a title's count of degrees of freedom ('3-DOF'), in any of its spellings
+DOF = re.compile(r'(\d+)[-_ ]?dof', re.IGNORECASE)
+
+
+def machine_tokens(machine) -> tuple[str, ...]:
+    """What names ``machine`` in text, lower case: its name; its title, the
+    title's words other than its count of degrees of freedom (``hexapod``,
+    ``flight simulator``, also joined by underscores), and that count
+    (``3-DOF``, matched in any spelling by :func:`naming_pattern`); its packaged
+    files' stems (a stem that is the package's name excepted); the package of
+    its modules (``staicu``: ``flight_sim_dynamics.machines.staicu``, a plugin's
+    own top-level module).
+    """
+    tokens = {machine.name}
+    title = machine.title.strip().lower()
+    if title:
+        tokens.add(title)
+        words = ' '.join(DOF.sub(' ', title).split())
+        if words:
+            tokens |= {words, words.replace(' ', '_')}
+        tokens |= {f'{count}-dof' for count in DOF.findall(title + ' ' + machine.name)}
+    tokens |= {stem for stem in machine.parameter_files if stem != PACKAGE_NAME}
+    module = machine.model_type.__module__.split('.')
+    tokens.add(module[2] if module[:2] == [PACKAGE_NAME, 'machines'] else module[0])
+    return tuple(sorted(t.lower() for t in tokens))
+
+
+def naming_pattern(tokens) -> re.Pattern[str]:
+    """Any of ``tokens``, case-insensitively; a count of degrees of freedom
+    (``3-dof``) also as ``3dof``, ``3_dof``, ``3 DOF``, not within a longer number."""
+    parts = []
+    for token in sorted(set(tokens), key=len, reverse=True):
+        count = re.fullmatch(r'(\d+)-dof', token)
+        parts.append(rf'(?<!\d){count.group(1)}[-_ ]?dof' if count else re.escape(token))
+    return re.compile('|'.join(parts), re.IGNORECASE)
+
+
+@pytest.fixture(scope='module')
+def registered_machines():
+    """Every machine of the registry, the plugin machine of test/plugin_machine
+    among them (its folder on the path, the registry read again; after the
+    tests neither)."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.syspath_prepend(str(PLUGIN_SITE))
+        importlib.invalidate_caches()
+        registry.clear_cache()
+        try:
+            found = registry.machines()
+        finally:
+            registry.clear_cache()
+    assert {'tilt_2dof', registry.DEFAULT} <= {m.name for m in found}
+    return found
+
+
+def test_the_naming_rule_tells_a_machine_from_generic_text(registered_machines):
+    pattern = naming_pattern(t for m in registered_machines for t in machine_tokens(m))
+    for named in ('the 3-DOF machine', 'a 3dof pose', 'FLIGHT_SIMULATOR', 'a hexapod',
+                  'config/stewart_6dof.yaml', 'machines.staicu', 'Staicu (2013)',
+                  'the 6 DOF platform', 'tilt_2dof', 'the 2-DOF tilt platform',
+                  'a flight simulator'):
+        assert pattern.search(named), named
+    for generic in ('flight_sim_dynamics', 'config/flight_sim_dynamics.yaml', '13-dof',
+                    'tilt coordination', 'one per coordinate', 'the default machine'):
+        assert not pattern.search(generic), generic
+
+
+@pytest.mark.parametrize('path', [p for sub in MACHINE_BLIND
+                                  for p in sorted((PACKAGE / sub).rglob('*.py'))],
+                         ids=lambda p: str(p.relative_to(PACKAGE)))
+def test_shared_modules_name_no_machine(path, registered_machines):
+    """A machine's name, title, packaged files or modules appear nowhere in the
+    source (code, strings, docstrings, comments) of the shared subpackages: they
+    read a machine's specifics from its Machine (issue 30)."""
+    offenders = []
+    for machine in registered_machines:
+        pattern = naming_pattern(machine_tokens(machine))
+        offenders += [f'{path.relative_to(PACKAGE)}:{number}: {match.group(0)!r} '
+                      f'({machine.name})'
+                      for number, line in enumerate(path.read_text().splitlines(), 1)
+                      for match in pattern.finditer(line)]
+    assert not offenders, '\n'.join(offenders)
