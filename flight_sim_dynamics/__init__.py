@@ -1,7 +1,8 @@
 """flight_sim_dynamics: inverse kinematics and dynamics of the 3-DOF parallel
 flight simulator of Staicu, Ocnarescu and Ungureanu (2013), by the paper's
-recursive matrix method, and of 6-UPS Stewart-Gough hexapods, with a ROS 2
-node around the 3-DOF machine.
+recursive matrix method, and of 6-UPS Stewart-Gough hexapods (machines are
+plugins: the entry-point group ``flight_sim_dynamics.machines``), with a
+motion-cueing planner and ROS 2 nodes for every registered machine.
 
 Python API (model/data style)::
 
