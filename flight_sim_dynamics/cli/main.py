@@ -144,7 +144,8 @@ def _configure_solve(p: argparse.ArgumentParser) -> None:
     _params_option(p)
     p.add_argument('--scene', metavar='NAME_OR_YAML', default=None,
                    help='effects to simulate: a scene of config/scenes or a scene file '
-                        '(default full, the paper\'s model)')
+                        '(default full: every weight, inertia and velocity product; no payload, no '
+                        'friction)')
     p.add_argument('--cond', action='store_true',
                    help='also write the costly fields of the machines that have them (an SVD '
                         'per row): '
@@ -480,7 +481,7 @@ SUBCOMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None],
                 _configure_example, cmd_example),
     'solve': ('inverse dynamics of every row of a trajectory CSV',
               _configure_solve, cmd_solve),
-    'plot': ('plot actuator forces and powers against time (like the paper\'s Figs. 3-8)',
+    'plot': ('plot actuator forces and powers against time',
              *_lazy('flight_sim_dynamics.cli.plotting')),
     'forward': ('forward kinematics: the pose from the leg lengths',
                 _configure_forward, cmd_forward),

@@ -1,5 +1,6 @@
-"""``flight-sim-dynamics plot``: force and power plots of the actuators (for
-the default machine's examples the paper's Figs. 3-8) from the output of
+"""``flight-sim-dynamics plot``: force and power plots of the actuators (a
+machine's examples titled with the published figures they compare with,
+:attr:`Machine.example_figures`) from the output of
 ``solve`` for any machine (told by its ``force_<leg>`` columns); matplotlib's
 object-oriented API, no pyplot, no display.
 """
@@ -124,18 +125,16 @@ def configure(p: argparse.ArgumentParser) -> None:
                    '(default 100)')
 
 
-#: The paper's figures for each example (force figure, power figure).
-PAPER_FIGURES = {'vertical': (3, 4), 'rectilinear': (5, 6), 'general': (7, 8)}
-
-
 def default_title(path: str, actuators: tuple[str, ...] = ACTUATORS) -> str:
-    """Title from the file name; the paper's examples (the default machine's) name
-    their figures.
+    """Title from the file name; a machine's example with published figures
+    (:attr:`Machine.example_figures`; the file named for it, that machine's
+    actuators) names them.
     """
     stem = os.path.splitext(os.path.basename(path))[0] if path != '-' else 'stdin'
-    if stem in PAPER_FIGURES and actuators == ACTUATORS:
-        f, p = PAPER_FIGURES[stem]
-        return f"{stem} example: actuator forces and powers (cf. the paper's Figs. {f} and {p})"
+    for machine in MACHINES:
+        figures = machine.example_figures.get(stem)
+        if figures and actuators == tuple(label.upper() for label in machine.leg_labels):
+            return f'{stem} example: actuator forces and powers (cf. {figures})'
     return f"{stem}: input forces and powers of actuators {', '.join(actuators)}"
 
 

@@ -49,7 +49,7 @@ def available_scenes() -> list[str]:
 def load_scene(scene: str | os.PathLike[str] | None = None,
                names: Collection[str] | None = None) -> Scene:
     """Read and validate a scene: a name of the packaged scenes folder or the
-    path of a YAML file (None: the ``full`` scene, the paper's model).
+    path of a YAML file (None: the ``full`` scene).
     ``names``: the parameters its overrides may name, those of the machine it
     is for (None: the default machine's); their values are checked when the
     model is built (:func:`.machine_files.model_of_values`, a SceneError

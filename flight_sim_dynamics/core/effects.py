@@ -28,8 +28,9 @@ from dataclasses import dataclass, fields, replace
 
 @dataclass(frozen=True)
 class Effects:
-    """Which physical effects the solver computes (defaults: the paper's model);
-    the fields are :data:`EFFECT_NAMES`.
+    """Which physical effects the solver computes (defaults: the ``full``
+    scene's, every weight, inertia and velocity product, no payload, no
+    friction); the fields are :data:`EFFECT_NAMES`.
     """
 
     gravity: bool = True

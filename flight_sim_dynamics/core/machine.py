@@ -184,6 +184,9 @@ class Machine:
     # s; motion.sampled(rate_hz) -> t, q, qd, qdd); the names ``example`` offers.
     motions: Mapping[str, Motion] = field(default_factory=dict, hash=False)
     examples: tuple[str, ...] = ()
+    # The published figures an example's forces and powers compare with (plot's
+    # default title): example name -> e.g. "the paper's Figs. 3 and 4".
+    example_figures: Mapping[str, str] = field(default_factory=dict, hash=False)
     # What a user sees beyond numbers (animate, workspace; RViz markers):
     # ``drawing(model) -> Drawing`` (core/drawing.py); ``workspace(model, *,
     # resolution, **options) -> Survey`` (core/workspace.py: ranges, maps at

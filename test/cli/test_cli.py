@@ -509,6 +509,9 @@ def test_plot_figure_contents():
     assert np.array_equal(ax_p.get_lines()[2].get_ydata(), -3 * t)
     assert 'vertical' in cli_plotting().default_title('out/vertical.csv')
     assert 'Figs. 3 and 4' in cli_plotting().default_title('out/vertical.csv')
+    assert 'Figs. 7 and 8' in cli_plotting().default_title('general.csv')
+    # another machine's actuators: the file is not that example
+    assert 'Figs.' not in cli_plotting().default_title('vertical.csv', tuple('123456'))
 
 
 def cli_plotting():

@@ -46,6 +46,8 @@ MACHINE = Machine(
     title='3-DOF flight simulator', leg_labels=('a', 'b', 'c'),
     sample_fields=('beta', 'kinematic_condition', 'jacobian_condition'),
     costly_fields=('cond',), motions=MOTIONS, examples=tuple(PAPER_EXAMPLES),
+    example_figures={name: f"the paper's Figs. {f} and {f + 1}"
+                     for name, f in zip(PAPER_EXAMPLES, (3, 5, 7))},
     # what a user sees beyond numbers
     drawing=drawing, workspace=survey, workspace_options=WORKSPACE_OPTIONS,
     # what each effect costs
