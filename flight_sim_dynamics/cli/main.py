@@ -507,13 +507,14 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     """The command-line parser; ``only``: configure just that subcommand (no
     import of the others' modules).
     """
+    example = next(iter(MACHINES[0].examples or MACHINES[0].motions), 'MOTION')
     parser = _Parser(
         prog=PROG,
         description='Inverse dynamics of parallel motion simulators: the '
                     + ' and the '.join(m.title for m in MACHINES)
                     + ' (--params names the machine).',
-        epilog=f'Example: {PROG} example vertical -o vertical.csv && '
-               f'{PROG} solve vertical.csv -o out.csv && {PROG} plot out.csv -o fig.png. '
+        epilog=f'Example: {PROG} example {example} -o {example}.csv && '
+               f'{PROG} solve {example}.csv -o out.csv && {PROG} plot out.csv -o fig.png. '
                'Errors: exit status 2 and one line "error: ..." on standard error.')
     parser.add_argument('--version', action='version', version=f'%(prog)s {fsd.__version__}')
     sub = parser.add_subparsers(dest='command', metavar='COMMAND', parser_class=_Parser)
