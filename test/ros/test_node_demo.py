@@ -72,8 +72,9 @@ def test_demo_on_the_hexapod_with_the_twin(tmp_path):
     machine = fsd.machine_of(fsd.load_model(ROOT / 'config' / 'stewart_6dof.yaml'))
     assert set(rms) == set(machine.coordinates), twin
     # each coordinate's RMS error against the RMS of its motion about the start (a
-    # twin that stays there: 100 %; wrong sign: 200 %); measured 0.5-5 % on a quiet
-    # host, up to 23 % (surge) beside the test tiers, where late commands spike the max
+    # twin that stays there: 100 %; wrong sign: 200 %); beside the test tiers up to
+    # 23 % (surge, 12 mm of 52), where late commands spiked the max to 87 mm (a quiet
+    # host: max errors of 1-4 mm or mrad)
     _, q, _, _ = machine.motions['cueing'].sampled(100.0)
     moved = np.sqrt(np.mean((q - q[0]) ** 2, axis=0))
     for name, motion in zip(machine.coordinates, moved):
