@@ -414,7 +414,7 @@ class InverseDynamicsLimiter:
             if all([abs(x - y) <= t for x, y, t in zip(pq, q, tol_q)]) and \
                     all([abs(x - y) <= t for x, y, t in zip(pqd, qd, tol_qd)]):
                 # caught up: the washout's own sample, if it fits (invisible, bit for bit)
-                if self._refused(q, qd, qdd) is None if fits is None else fits:
+                if (self._refused(q, qd, qdd) is None) if fits is None else fits:
                     self._tracking = True
                     self._q, self._qd, self._qdd = q, qd, qdd
                     return q, qd, qdd, 0.0, ''

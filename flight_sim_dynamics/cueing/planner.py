@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import multiprocessing
 from dataclasses import dataclass
+from itertools import repeat
 from typing import Any, Callable, Iterator, NamedTuple
 
 import numpy as np
@@ -268,8 +269,7 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     held = 0
     try:
         for (lo, hi), (wanted, ahead, fits, held_here) in zip(blocks, made):
-            samples = ([step(w, a) for w, a in zip(wanted, ahead)] if fits is None else
-                       [step(w, a, j) for w, a, j in zip(wanted, ahead, fits)])
+            samples = [step(w, a, j) for w, a, j in zip(wanted, ahead, fits or repeat(None))]
             out[lo:hi] = np.array([s[:3] for s in samples]).reshape(hi - lo, 3 * dof)
             given_up[lo:hi] = [s[3] for s in samples]
             limit[lo:hi] = [s[4] for s in samples]
