@@ -41,9 +41,11 @@ def test_a_node_joining_a_running_stream_is_quiet(client, stream, sweep):
             # A twist or accel the loaded host delays (a lost sample holds its
             # reliable stream until repaired) is `late` by design once its pose
             # waited sync.wait or was pushed out by sync.max_pending newer stamps
-            # (seen in CI: 340 ms past 50 ms; 262 ms past 64 stamps = 128 ms), which
-            # is not what this test is about: 0.5 s (as conftest's node), 1 s of stamps
-            node = NodeProcess('-p', 'sync.wait:=0.5', '-p', f'sync.max_pending:={RATE}',
+            # (seen in CI: 340 ms past 50 ms; 262 ms past 64 stamps = 128 ms), and so
+            # is a twist+accel whose pose the host delays as long (seen: 470 ms past
+            # 0.5 s, "no pose with the same stamp"), which is not what this test is
+            # about: 2 s, 2 s of stamps
+            node = NodeProcess('-p', 'sync.wait:=2.0', '-p', f'sync.max_pending:={2 * RATE}',
                                params_file=PARAMS_FILE)
             try:
                 client.watch = node
