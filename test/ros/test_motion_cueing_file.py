@@ -17,7 +17,7 @@ from rcl_interfaces.srv import GetParameters
 from flight_sim_dynamics.config.schema import CUEING_NODE_NAME
 from flight_sim_dynamics.config.files import PACKAGED_SECTION
 from flight_sim_dynamics.machines import FLIGHT_SIMULATOR
-from flight_sim_dynamics.ros.messages import LATE, OVERFLOW
+from flight_sim_dynamics.ros.messages import LATE, OVERFLOW, QUIET_REASONS
 from flight_sim_dynamics.ros.process import CUEING_MODULE, node_command, node_env
 from cueing_harness import dynamics_counts, start_chain, write_vehicle_log
 from node_harness import PARAMS_FILE, ROOT, Client, NodeProcess, stamp_ns
@@ -159,8 +159,10 @@ def test_a_violent_vehicle_through_both_nodes_is_answered_ok(tmp_path, machine_f
     to 3 rad/s; 20 s) through the packaged file's cueing group and limiter at
     200 Hz: every setpoint answered, no message rejected for what it holds (a
     busy host may deliver a twist after its pose was answered: ``late``, or
-    push it out of the pending stamps: ``overflow``), no actuator limit
-    exceeded."""
+    push it out of the pending stamps: ``overflow``; and may match the
+    dynamics node's three subscriptions to the cueing node's publishers at
+    different moments, the first messages then ``joining`` or ``warming_up``,
+    the node's quiet reasons), no actuator limit exceeded."""
     png = tmp_path / 'violent.png'
     out = subprocess.run([sys.executable, '-m', 'flight_sim_dynamics.cli.demo', '-o', str(png),
                           '--params', str(machine_file), '--cueing', '--vehicle', 'violent',
@@ -176,5 +178,5 @@ def test_a_violent_vehicle_through_both_nodes_is_answered_ok(tmp_path, machine_f
     assert 'limit exceeded 0' in node, node
     rejected = re.search(r'rejected (\d+)(?: \(([^)]*)\))?,', node)
     reasons = {part.split()[0] for part in (rejected.group(2) or '').split(', ') if part}
-    assert reasons <= {LATE, OVERFLOW}, node
+    assert reasons <= {LATE, OVERFLOW} | QUIET_REASONS, node
     assert (int(rejected.group(1)) == 0) == (not reasons), node
