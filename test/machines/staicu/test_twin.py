@@ -210,6 +210,11 @@ def test_compiled_steps_equal_python_steps(model, servo, far):
     assert [s[5:] for s in compiled] == [s[5:] for s in python]
     if far:
         assert python[-1][6] is not Status.OK       # it did stop
-    for got, want in zip(compiled, python):
-        for a, b in zip(got[:5], want[:5]):
-            np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
+    # q, qd, lengths, rates, forces, each to 1e-9 of its largest value in the run
+    # too: a force crossing zero near the stop carries the roundoff the stop's
+    # conditioning amplifies (5e-9 N at -3.9 N, with servo gains 2e-15 apart)
+    for field in range(5):
+        scale = max(float(np.abs(s[field]).max()) for s in python)
+        for got, want in zip(compiled, python):
+            np.testing.assert_allclose(got[field], want[field], rtol=1e-9,
+                                       atol=1e-9 * scale + 1e-12)
