@@ -11,8 +11,9 @@ import math
 import tempfile
 import time
 from pathlib import Path
-from typing import Iterator, Sequence
+from typing import Callable, Iterator, Sequence
 
+import numpy as np
 import rclpy
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from sensor_msgs.msg import JointState
@@ -168,3 +169,34 @@ def own_twin(namespace: str, *ros_args: str, params_file: Path | str | None = No
         print(sim_output(log)[-2000:])
         log.close()
         Path(log.name).unlink(missing_ok=True)
+
+
+#: the delays (s) the twin's poses are compared at: a command reaches the twin
+#: late when the host is busy (0.1-0.2 s at load average 4-5 on 2 cores), which
+#: the twin cannot know; following the motion is what is checked
+DELAYS = np.arange(0.0, 0.305, 0.005)
+
+
+def tracking_errors(poses, sequence, t0: int, end: int, coordinates: Callable[[object], list]
+                    ) -> tuple[np.ndarray, np.ndarray, int]:
+    """Per coordinate: max |simulated - commanded| and RMS error / RMS motion of
+    the poses stamped in [t0, end] (``coordinates(msg)``: a platform_pose's, in
+    the sequence's order), against the commands delayed by the one of
+    :data:`DELAYS` that fits best (printed); their count."""
+    chosen = [m for m in poses if t0 <= stamp(m) <= end]
+    q_sim = np.array([coordinates(m) for m in chosen])
+    t = np.array([(stamp(m) - t0) * 1e-9 for m in chosen])
+    # the commanded motion on a 1 ms grid, read at each pose's time minus the delay
+    grid = np.arange(0.0, t.max() + 1e-3, 1e-3)
+    q_grid = np.array([sequence.sample(s)[0] for s in grid])
+    best = None
+    for delay in DELAYS:
+        when = np.maximum(0.0, t - delay)
+        q_ref = np.column_stack([np.interp(when, grid, q_grid[:, i])
+                                 for i in range(q_grid.shape[1])])
+        error = q_sim - q_ref
+        ratio = np.sqrt((error ** 2).mean(axis=0) / (q_ref ** 2).mean(axis=0))
+        if best is None or ratio.max() < best[1].max():
+            best = (np.abs(error).max(axis=0), ratio, delay)
+    print(f'best fit at a delay of {best[2] * 1e3:.0f} ms')
+    return best[0], best[1], len(chosen)

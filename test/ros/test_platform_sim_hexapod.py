@@ -37,7 +37,8 @@ from flight_sim_dynamics.ros.platform_sim import check_command, plant_file, sim_
 from flight_sim_dynamics.ros.messages import (SetpointError, pose_map, quaternion_to_rpy,
                                               rpy_to_quaternion)
 from node_harness import PARAMS_FILE, ROOT
-from sim_harness import command, node_and_twin, own_twin, sim_output, stamp, start_sim
+from sim_harness import (command, node_and_twin, own_twin, sim_output, stamp, start_sim,
+                         tracking_errors)
 
 pytestmark = pytest.mark.ros
 
@@ -181,7 +182,7 @@ def test_hexapod_twin_follows_the_solvers_commands(hexa, model, machine):
                             sol.rate[k], sol.force[k]))
     end = t0 + round((n - 1) * 1e9 / RATE)
     assert client.spin_until(lambda: twin.poses and stamp(twin.poses[-1]) > end, 5.0)
-    peak, ratio, count = tracking_errors(twin.poses[first:], sequence, t0, end)
+    peak, ratio, count = tracking_errors(twin.poses[first:], sequence, t0, end, simulated)
     print(f'hexapod twin over {count} poses: max error per coordinate {peak.round(4)}, '
           f'RMS error / RMS motion {ratio.round(3)}')
     assert count > 0.5 * sequence.period * 100          # one pose per tick (100 Hz)
@@ -281,35 +282,6 @@ def test_bad_hexapod_commands_are_rejected_and_the_held_one_stays(hexa, model, m
     assert twin.all_finite() and sim.poll() is None
 
 
-#: the delays (s) the twin's poses are compared at: a command reaches the twin
-#: late when the host is busy (0.1-0.2 s at load average 4-5 on 2 cores), which
-#: the twin cannot know; following the motion is what is checked
-DELAYS = np.arange(0.0, 0.305, 0.005)
-
-
-def tracking_errors(poses, sequence, t0: int, end: int) -> tuple[np.ndarray, np.ndarray, int]:
-    """Per coordinate: max |simulated - commanded| and RMS error / RMS motion of
-    the poses stamped in [t0, end], against the commands delayed by the one of
-    :data:`DELAYS` that fits best (printed); their count."""
-    chosen = [m for m in poses if t0 <= stamp(m) <= end]
-    q_sim = np.array([simulated(m) for m in chosen])
-    t = np.array([(stamp(m) - t0) * 1e-9 for m in chosen])
-    # the commanded motion on a 1 ms grid, read at each pose's time minus the delay
-    grid = np.arange(0.0, t.max() + 1e-3, 1e-3)
-    q_grid = np.array([sequence.sample(s)[0] for s in grid])
-    best = None
-    for delay in DELAYS:
-        when = np.maximum(0.0, t - delay)
-        q_ref = np.column_stack([np.interp(when, grid, q_grid[:, i])
-                                 for i in range(q_grid.shape[1])])
-        error = q_sim - q_ref
-        ratio = np.sqrt((error ** 2).mean(axis=0) / (q_ref ** 2).mean(axis=0))
-        if best is None or ratio.max() < best[1].max():
-            best = (np.abs(error).max(axis=0), ratio, delay)
-    print(f'best fit at a delay of {best[2] * 1e3:.0f} ms')
-    return best[0], best[1], len(chosen)
-
-
 def publish_setpoint(client, poses, stamp_ns: int, q, qd, qdd) -> None:
     """Twist and acceleration, then the pose that completes the setpoint, as the
     planner sends them (:class:`PoseMap`'s message side)."""
@@ -353,7 +325,8 @@ def test_hexapod_twin_follows_the_nodes_commands(machine):
         assert all(tuple(m.name) == machine.legs for _, m in client.actuator[first:])
         end = t0 + round((n - 1) * 1e9 / RATE)
         assert client.spin_until(lambda: twin.poses and stamp(twin.poses[-1]) > end, 5.0)
-        peak, ratio, count = tracking_errors(twin.poses[first_pose:], sequence, t0, end)
+        peak, ratio, count = tracking_errors(twin.poses[first_pose:], sequence, t0, end,
+                                             simulated)
         print(f'hexapod twin driven by the node over {count} poses: max error per coordinate '
               f'{peak.round(4)}, RMS error / RMS motion {ratio.round(3)}')
         assert count > 0.5 * sequence.period * 100
