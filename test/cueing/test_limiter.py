@@ -270,20 +270,24 @@ def test_limiting_is_reported_with_the_limit_that_made_it(setup) -> None:
     check_reports(given_up, limit)
 
 
-def test_a_desired_step_gives_a_smooth_output(setup) -> None:
+@pytest.mark.parametrize('n', [pytest.param(2000, id='the step'),
+                               pytest.param(20000, id='caught up', marks=pytest.mark.slow)])
+def test_a_desired_step_gives_a_smooth_output(setup, n) -> None:
     """A jump of the desired pose by 5 cm: no jump in the output (the state
     follows it through the pull-back), and it catches up: the output is the
-    input again, bit for bit.
+    input again, bit for bit. The unit tier runs the step's first 2 s (the
+    pull-back followed smoothly, within the limits); the slow tier the whole
+    20 s simulation, caught up (both machines: at 13.6 s).
     """
     s = setup
-    n = 20000
     q, qd, qdd = np.zeros((n, s.dof)), np.zeros((n, s.dof)), np.zeros((n, s.dof))
     q[100:, 0] = 0.05
     oq, oqd, oqdd, given_up, limit = run(s.limiter(), q, qd, qdd)
     check_within_limits(s, oq, oqd, oqdd)
     check_smooth(s, oq, oqd, oqdd)
     assert abs(oq[100, 0] - oq[99, 0]) < 1e-6
-    assert np.array_equal(oq[-100:], q[-100:]) and np.array_equal(oqd[-100:], qd[-100:])
+    if n == 20000:
+        assert np.array_equal(oq[-100:], q[-100:]) and np.array_equal(oqd[-100:], qd[-100:])
     assert (given_up == 0.0).all()
     assert not np.array_equal(oq[100:200], q[100:200])     # it did not jump there
 
@@ -329,16 +333,21 @@ def test_invisible_on_a_gentle_vehicle_log(setup) -> None:
     assert np.abs(pure.q).max() > 0.01       # it moves
 
 
-@pytest.mark.parametrize('vehicle', ['turbulence'])
-def test_invisible_on_a_vehicle_log_the_washout_fits(setup, vehicle) -> None:
+@pytest.mark.parametrize('vehicle, duration', [
+    pytest.param('turbulence', 6.0, id='turbulence-6s'),
+    pytest.param('turbulence', 20.0, id='turbulence-20s', marks=pytest.mark.slow)])
+def test_invisible_on_a_vehicle_log_the_washout_fits(setup, vehicle, duration) -> None:
     """A vehicle log whose pure washout fits the machine (its rate-limited tilt
     steps its rate): limiter inverse_dynamics gives limiter none's samples,
-    bit for bit.
+    bit for bit. The unit tier cues the log's first 6 s (the 2 s onset and 4 s
+    of turbulence: every sample of the 20 s whose tilt is rate-limited, 115 on
+    the 3-DOF machine and 238 on the hexapod, from 3.1 s on), the slow tier the
+    whole 20 s simulation.
     """
     from flight_sim_dynamics.cueing.planner import run as cue
     from flight_sim_dynamics.cueing.vehicles import vehicle_log
     s = setup
-    v = vehicle_log(vehicle, 100.0, 20.0)
+    v = vehicle_log(vehicle, 100.0, duration)
     pure = cue(s.model, s.params.replace(limiter='none'), v.t, v.f, v.omega)
     assert all(str(x) == 'ok' for x in solve_batch(s.model, pure.q, pure.qd, pure.qdd).status)
     limited = cue(s.model, s.params, v.t, v.f, v.omega)
