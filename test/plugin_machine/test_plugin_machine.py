@@ -20,7 +20,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
 
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics import machines as registry
@@ -58,6 +57,8 @@ def reference_params() -> dict:
 
 def rotation(q) -> np.ndarray:
     """R = Rx(roll) Ry(pitch): intrinsic x then y (scipy)."""
+    # (imported here: at module level every xdist worker paid 0.18 s for it at collection)
+    from scipy.spatial.transform import Rotation
     return Rotation.from_euler('XY', q).as_matrix()
 
 
