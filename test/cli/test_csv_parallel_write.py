@@ -11,6 +11,10 @@ import pytest
 
 from flight_sim_dynamics.cli.csv_io import CsvError, _FormatterProcess, table_writer
 
+# every test forks the formatting process (parallel=True, _FormatterProcess): the ros
+# tier's (setup.cfg: starts a process)
+pytestmark = pytest.mark.ros
+
 
 def _blocks(seed=0):
     rng = np.random.default_rng(seed)

@@ -151,6 +151,7 @@ def test_to_standard_output_the_data_alone(braking, capsys):
     assert len(out.splitlines()) == 14 * 1000 + 2 and err.startswith('cue: -: ')
 
 
+@pytest.mark.ros            # forks the washout's and the CSV formatter's processes
 @pytest.mark.parametrize('suffix', ['csv', 'npz'])
 def test_a_long_log_is_cued_in_three_processes_into_the_same_file(braking, tmp_path,
                                                                   monkeypatch, suffix):

@@ -112,6 +112,7 @@ def test_reset_forgets_the_reference_and_the_motion(models):
     assert np.array_equal(np.array(first), np.array(again))
 
 
+@pytest.mark.ros            # run(parallel=True) forks the washout's process
 @pytest.mark.parametrize('name', ['3dof', 'hexapod'])
 def test_the_washout_in_a_second_process_gives_the_same_run_bit_for_bit(models, name):
     """run(parallel=True): the wishes made in a forked process a block ahead of
@@ -139,6 +140,7 @@ def test_the_washout_in_a_second_process_gives_the_same_run_bit_for_bit(models, 
                           np.hstack([alone.q, alone.qd, alone.qdd]))
 
 
+@pytest.mark.ros            # run(parallel=True) forks the washout's process
 def test_a_run_in_two_processes_counts_held_inputs_and_leaves_no_process(models):
     import multiprocessing
     t, f, omega = vehicle(BLOCK + 500)
@@ -148,6 +150,7 @@ def test_a_run_in_two_processes_counts_held_inputs_and_leaves_no_process(models)
     assert multiprocessing.active_children() == []
 
 
+@pytest.mark.ros            # run(parallel=True) forks the washout's process
 def test_an_error_in_a_block_ends_the_washout_process(models):
     import multiprocessing
     t, f, omega = vehicle(3 * BLOCK)
