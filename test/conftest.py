@@ -1,6 +1,7 @@
 """Shared pytest configuration: test tiers, ROS 2 isolation, Hypothesis profiles."""
 from __future__ import annotations
 
+import multiprocessing.process
 import os
 import random
 import shutil
@@ -35,9 +36,10 @@ if os.environ.get('PYTEST_XDIST_WORKER'):
 #         uses DDS (an rclpy context);
 #   slow  long property sweeps and long simulations;
 #   unit  the rest: `bash scripts/run_tests.sh -m "not ros and not slow"`.
-# A test that starts a Python or shell process, or initialises rclpy, without
-# the ros mark fails (the unit tier must stay in-process and fast). Processes
-# started by libraries (e.g. matplotlib's fc-list) are not checked.
+# A test that starts a Python or shell process (subprocess, or a multiprocessing
+# Process: a fork), or initialises rclpy, without the ros mark fails (the unit
+# tier must stay in-process and fast). Other programs started by libraries
+# (e.g. matplotlib's fc-list) are not checked.
 # ---------------------------------------------------------------------------
 _running: list[pytest.Item] = []
 
@@ -79,6 +81,18 @@ def _checked_popen_init(self, args, *rest, **kwargs):
     _popen_init(self, args, *rest, **kwargs)
 
 
+_process_start = multiprocessing.process.BaseProcess.start
+
+
+def _checked_process_start(self):
+    item = _unmarked()
+    if item is not None:
+        pytest.fail(f'{item.nodeid} starts a process ({self!r}) but has no '
+                    '@pytest.mark.ros: mark it (or its module: pytestmark = pytest.mark.ros)',
+                    pytrace=False)
+    _process_start(self)
+
+
 try:
     from rclpy.context import Context as _RclpyContext
 except ImportError:                       # rclpy missing: nothing to check
@@ -96,12 +110,14 @@ else:
 
 def pytest_configure(config: pytest.Config) -> None:
     subprocess.Popen.__init__ = _checked_popen_init
+    multiprocessing.process.BaseProcess.start = _checked_process_start
     if _RclpyContext is not None:
         _RclpyContext.init = _checked_context_init
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
     subprocess.Popen.__init__ = _popen_init
+    multiprocessing.process.BaseProcess.start = _process_start
     if _RclpyContext is not None:
         _RclpyContext.init = _context_init
 
