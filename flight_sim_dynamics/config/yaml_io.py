@@ -9,10 +9,10 @@ anything else (``yes``, ``0x10``, ``010``, a date) is a string, as rcl reads it.
 from __future__ import annotations
 
 import copy
+import functools
 import os
 import re
 import stat
-import threading
 from pathlib import Path
 from typing import Any
 
@@ -31,15 +31,6 @@ try:                # libyaml's parser: events at C speed
     from yaml.cyaml import CParser as _Parser
 except ImportError:  # PyYAML built without libyaml
     from yaml.parser import Parser as _Parser  # type: ignore[assignment]
-
-
-#: Documents already read (text -> document, the last _PARSED_MAX texts): the same
-#: text is the same document, handed out as a deep copy, so the caller owns it. A
-#: process loads the packaged files again and again (each load_model call: 2-3 ms
-#: of parsing a file, ~20x its copy; the test suite's workers spent ~10 CPU-s so).
-_PARSED: dict[str, Any] = {}
-_PARSED_MAX = 32
-_PARSED_LOCK = threading.Lock()
 
 
 class _Resolver(BaseResolver):
@@ -154,19 +145,16 @@ def read_yaml(path: str | os.PathLike[str], key: str = 'params_file') -> Any:
     except UnicodeDecodeError as exc:
         raise ParameterError(key, source, f'not UTF-8 text (byte 0x{data[exc.start]:02x} at '
                                           f'offset {exc.start})') from None
-    with _PARSED_LOCK:
-        if text in _PARSED:
-            return copy.deepcopy(_PARSED[text])
-    document = _parse(text, key, source)
-    with _PARSED_LOCK:
-        if len(_PARSED) >= _PARSED_MAX:
-            _PARSED.pop(next(iter(_PARSED)))
-        _PARSED[text] = copy.deepcopy(document)
-    return document
+    # the caller owns its document: a deep copy of the one parsed (0.1 ms against
+    # 2-3 ms of parsing a packaged file, which a process loads again and again)
+    return copy.deepcopy(_parse(text, key, source))
 
 
+@functools.lru_cache(maxsize=32)
 def _parse(text: str, key: str, source: str) -> Any:
-    """The document of ``text`` (read_yaml's rules); ParameterError as there."""
+    """The document of ``text`` by read_yaml's rules (the last 32 texts' kept; a
+    failure raised again each time); ParameterError as there.
+    """
     loader = _StrictLoader(text)
     try:
         node = loader.get_single_node()
