@@ -2,7 +2,8 @@
 1 kHz, % error), the planner's cost per sample streaming (both machines, both
 limiters), and ``flight-sim-dynamics cue`` offline on a long log at 1 kHz
 (a 10-minute turbulence log, the 1-hour time extrapolated; ``--hour``: the
-3.6 M samples themselves).
+3.6 M samples themselves): the hexapod (its file: the look-ahead), and the
+3-DOF machine (its file: the preview, L8).
 
     python -m benchmarks.cueing [--quick] [--hour] [--samples 20000]
 """
@@ -32,6 +33,7 @@ from flight_sim_dynamics.cueing.washout import Washout
 from ._common import ROOT, header, table
 
 HEXAPOD = str(ROOT / 'config' / 'stewart_6dof.yaml')
+FLIGHT = str(ROOT / 'config' / 'flight_sim_dynamics.yaml')
 RATE = 1000.0
 
 
@@ -167,8 +169,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(table(['check value (limiter none, 1 kHz)', 'design', 'washout', 'error %'], checks))
     print(f'\nlargest error: {worst:.2f} % (target 0.5 %)\n')
     rows = []
-    for label, path in (('3-DOF', str(ROOT / 'config' / 'flight_sim_dynamics.yaml')),
-                        ('hexapod', HEXAPOD)):
+    for label, path in (('3-DOF', FLIGHT), ('hexapod', HEXAPOD)):
         for limiter in ('none', 'inverse_dynamics'):
             median, p99 = streaming_us(path, limiter, samples)
             rows.append([label, limiter, f'{median:.1f}', f'{p99:.1f}'])
@@ -183,18 +184,21 @@ def main(argv: Sequence[str] | None = None) -> int:
         first = Path(tmp) / 'short.csv'
         csv_io.write_csv(first, VEHICLE_COLUMNS,
                          np.column_stack([short.t, short.f, short.omega]))
-        for limiter, suffix in (('none', 'csv'), ('inverse_dynamics', 'csv'),
-                                ('inverse_dynamics', 'npz')):
+        for label, machine, path, limiter, suffix in (
+                ('none', 'hexapod', HEXAPOD, 'none', 'csv'),
+                ('inverse_dynamics', 'hexapod', HEXAPOD, 'inverse_dynamics', 'csv'),
+                ('inverse_dynamics', 'hexapod', HEXAPOD, 'inverse_dynamics', 'npz'),
+                ('inverse_dynamics + preview', '3-DOF', FLIGHT, 'inverse_dynamics', 'npz')):
             out = Path(tmp) / f'platform.{suffix}'
-            wall0, cpu0 = offline(HEXAPOD, limiter, first, out)
-            wall, cpu = offline(HEXAPOD, limiter, src, out)
+            wall0, cpu0 = offline(path, limiter, first, out)
+            wall, cpu = offline(path, limiter, src, out)
             scale = (3.6e6 - len(short.t)) / (n - len(short.t))
-            rows.append([limiter, suffix, f'{n:,}', f'{wall:.1f}', f'{cpu:.1f}',
+            rows.append([label, machine, suffix, f'{n:,}', f'{wall:.1f}', f'{cpu:.1f}',
                          f'{wall0 + (wall - wall0) * scale:.0f}',
                          f'{cpu0 + (cpu - cpu0) * scale:.0f}',
                          'measured' if args.hour else
                          f'start-up + x{scale:.0f} the rest'])
-    print(table(['cue on the hexapod, limiter', 'output', 'samples', 'wall s', 'CPU s',
+    print(table(['cue, limiter', 'machine', 'output', 'samples', 'wall s', 'CPU s',
                  '1-hour log wall s', '1-hour log CPU s', 'how'], rows))
     print(f'\n(flight-sim-dynamics cue, a {minutes:g}-minute turbulence log at 1 kHz, CSV in; '
           'the 1-hour figures: the start-up (a 1-second log) plus the rest scaled; '

@@ -5,12 +5,16 @@ On violent vehicle logs, both machines (their packaged params files):
 (a) the limiter on the design's washout;
 (b) one global gain scale (translation, tilt and rotation gains times s),
     lowered by bisection until the whole log's pure washout (``limiter: none``)
-    fits: every sample's solve ``ok``.
+    fits: every sample's solve ``ok``; also (b') the same at the limiter's
+    margins (the solve on the model the limiter judges with, its limits
+    narrowed by ``cueing.margin.*``), which the usual practice need not keep.
 
 Each against the pure washout at full gain (what the washout asks): the RMSE
 of the felt specific force at the head (:func:`.metrics.felt`: design, "Cue
 metrics"), and their ratio (b) / (a): how many times
-more cue the usual practice gives up. Also: the share of samples the limiter
+more cue the usual practice gives up (and (b') / (a)). With ``preview.slope``
+set in the params file (the 3-DOF machine's), (a) is the offline run's
+preview (L8). Also: the share of samples the limiter
 limited, the outputs whose solve is not ``ok`` (must be 0), and the planner's
 CPU time per sample (washout + limiter, and the pure washout).
 
@@ -34,6 +38,7 @@ from flight_sim_dynamics.cueing.metrics import felt, six
 from flight_sim_dynamics.cueing.planner import CueRun, Planner, run
 from flight_sim_dynamics.cueing.vehicles import vehicle_log
 from flight_sim_dynamics.core.status import Status
+from flight_sim_dynamics.machines.api import machine_of
 
 from ._common import ROOT, header, table
 
@@ -53,6 +58,27 @@ def felt_force(cue: CueRun, head: np.ndarray) -> np.ndarray:
 
 def rmse(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum((a - b) ** 2, axis=1))))
+
+
+def gain_scale(model, params, log, bisections: int, judge=None) -> float:
+    """The largest gain scale (bisection) at which every sample of the log's
+    pure washout solves ``ok`` on ``judge`` (default: ``model``).
+    """
+    judge = model if judge is None else judge
+    if not not_ok(judge, run(model, scaled(params, 1.0), *log)):
+        return 1.0
+    low, high = 0.0, 1.0
+    for _ in range(bisections):
+        s = 0.5 * (low + high)
+        if not_ok(judge, run(model, scaled(params, s), *log)):
+            high = s
+        else:
+            low = s
+    return low
+
+
+def ratio(b: float, a: float) -> str:
+    return f'{b / a:.2f}x' if a > 0 else ('1.00x' if b == 0 else 'inf')
 
 
 def not_ok(model, cue: CueRun) -> int:
@@ -107,6 +133,9 @@ def main(argv: list[str] | None = None) -> None:
     for path in FILES:
         model = fsd.load_model(str(ROOT / path))
         params = load_cueing(ROOT / path).replace(limiter='inverse_dynamics')
+        settings = params.limiter_settings
+        tight = machine_of(model).tightened(model, settings['margin.stroke'],
+                                            settings['margin.fraction'])
         costs.append([Path(path).stem, f'{step_cost(model, params):.1f}',
                       f"{step_cost(model, params.replace(limiter='none')):.1f}"])
         for name in names:
@@ -115,33 +144,28 @@ def main(argv: list[str] | None = None) -> None:
             pure, t_pure = timed_run(model, params.replace(limiter='none'), log)
             wanted = felt_force(pure, params.head)
             limited, t_limited = timed_run(model, params, log)
-            low, high = 0.0, 1.0
-            if not not_ok(model, pure):
-                low = 1.0
-            else:
-                for _ in range(bisections):
-                    s = 0.5 * (low + high)
-                    if not_ok(model, run(model, scaled(params, s), *log)):
-                        high = s
-                    else:
-                        low = s
-            baseline = run(model, scaled(params, low), *log)
+            low = gain_scale(model, params, log, bisections)
+            low_m = gain_scale(model, params, log, bisections, tight)
             a = rmse(felt_force(limited, params.head), wanted)
-            b = rmse(felt_force(baseline, params.head), wanted)
+            b, b_m = (rmse(felt_force(run(model, scaled(params, s), *log), params.head), wanted)
+                      for s in (low, low_m))
             rows.append([name, Path(path).stem, f'{len(limited.t):,}',
                          f'{100.0 * np.mean(limited.given_up > 0):.1f}',
-                         f'{a:.3f}', f'{b:.3f}', f'{low:.3f}',
-                         f'{b / a:.2f}x' if a > 0 else ('1.00x' if b == 0 else 'inf'),
+                         f'{a:.3f}', f'{b:.3f}', f'{low:.3f}', ratio(b, a),
+                         f'{b_m:.3f}', f'{low_m:.3f}', ratio(b_m, a),
                          str(not_ok(model, limited)),
                          f'{t_limited * 1e6:.1f}', f'{t_pure * 1e6:.1f}'])
     print(table(['log', 'params file', 'samples', 'limited %', 'RMSE limiter m/s^2',
-                 'RMSE gain scale m/s^2', 'gain scale', 'ratio', 'limiter outputs not ok',
+                 'RMSE gain scale m/s^2', 'gain scale', 'ratio',
+                 'RMSE gain scale at margins m/s^2', 'gain scale at margins',
+                 'ratio at margins', 'limiter outputs not ok',
                  'us/sample planner', 'us/sample washout only'], rows))
     print()
     print(table(['params file', 'us/step planner, common case', 'us/step washout only'],
                 costs))
     print('\nRMSE: felt specific force at the head against the pure washout at full gain; '
-          'ratio: gain scale / limiter (> 1: the limiter gives up less); us/sample: CPU '
+          'ratio: gain scale / limiter (> 1: the limiter gives up less); at margins: the '
+          "gain scale fitted to the limiter's narrowed limits; us/sample: CPU "
           'time of cueing.planner.run per output sample (washout + limiter; limiter none); '
           'us/step: Planner.step on gentle motion, CPU time, best of 5 runs of 2000 steps.')
 

@@ -135,7 +135,8 @@ def run(args: argparse.Namespace) -> int:
             write(np.column_stack([times, samples]))     # written as the run goes
         try:
             result = cue_run(model, params, t, f, omega,
-                             progress=None if progress is None else lambda k, n: progress(k),
+                             progress=None if progress is None else
+                             lambda k, n, stage: progress(k, stage),
                              on_block=block, parallel=parallel)
         except SampleError as exc:
             raise CsvError(exc.reason, path=table.path, line=int(table.lines[exc.index]),

@@ -119,6 +119,15 @@ LIMITER_SPECS: tuple[ParamSpec, ...] = (
           'lowest gain the look-ahead sets (below it, the governor and the adaptive gain '
           "act when the motion comes): a sustained cue's onset is worth more than its "
           'slow tail', minimum=0.0, maximum=1.0),
+    _spec('preview.slope', 'double', 0.0,
+          'offline runs (the whole log known: ``cue``): how fast the gain on the vehicle\'s '
+          'motion goes down before, and back up after, a moment that needs it lower (the '
+          'preview, planned from the machine\'s own solves of the washout); 0: no preview '
+          '(the look-ahead instead, as when streaming)', '1/s', minimum=0.0, maximum=1000.0),
+    _spec('preview.lead', 'double', 1.0,
+          'how long before such a moment the preview has lowered the gain (the washout\'s '
+          'filters carry the motion before a moment into it)', 's',
+          minimum=0.0, maximum=60.0),
     _spec('gain.minimum', 'double', 0.1, 'lowest gain on the washout', minimum=0.0,
           maximum=1.0),
     _spec('recovery.omega', 'double', 1.0,

@@ -1,7 +1,7 @@
 """The limiter between the washout and the machine: every output sample within
 every limit of the machine by its own inverse dynamics (design:
 /work/shared/design/cueing.md, "What the limiter must guarantee"; method and
-measurements: docs/design/cueing_limiter.md, (L1)-(L7)).
+measurements: docs/design/cueing_limiter.md, (L1)-(L8)).
 
 Contract (:mod:`.planner` calls it): ``make_limiter(model, params) -> limiter``
 with ``reset()`` and ``step(q, qd, qdd) -> Limited`` (one output sample every
@@ -20,7 +20,8 @@ it would stop. Otherwise it blends the acceleration towards braking,
 ``a = (1 - lam) a_brake + lam a_w``, bisecting on ``lam``; ``lam = 0``, the
 braking itself, is the fallback. ``given_up = 1 - lam``. A look-ahead (L7)
 lowers the gain on the washout smoothly before its free response (the
-planner's, input held) leaves a coordinate's range.
+planner's, input held) leaves a coordinate's range; offline, the preview
+(:mod:`.preview`, L8) replaces it, judged by :meth:`InverseDynamicsLimiter.fitting_gain`.
 """
 from __future__ import annotations
 
@@ -37,6 +38,8 @@ from ..machines.api import machine_of
 
 #: Bisection steps on lam when the candidate fails (lam resolution 2^-steps).
 BISECTION_STEPS = 6
+#: Bisection steps of the preview's fitting gain (L8; resolution 2^-steps).
+FIT_BISECTION_STEPS = 8
 #: The state has caught up with the washout when the washout's sample is this
 #: close to the state's continuation (L1): position (m or rad), rate (m/s or rad/s).
 CATCH_UP_POSITION = 1e-6
@@ -381,6 +384,26 @@ class InverseDynamicsLimiter:
         (:func:`.planner.run`).
         """
         return self._refused(q, qd, qdd) is None
+
+    def fitting_gain(self, q: list, qd: list, qdd: list) -> tuple[float, str]:
+        """(L8) The largest gain k in [0, 1] (:data:`FIT_BISECTION_STEPS` of
+        bisection) at which the washout's sample scaled, k (q, qd, qdd), is
+        accepted (L2) once caught up (:meth:`fits`), and the limit that refuses
+        the sample above it ('' when k = 1).
+        """
+        refused = self._refused(q, qd, qdd) if _finite(q + qd + qdd) else 'overflow'
+        if refused is None:
+            return 1.0, ''
+        low, high = 0.0, 1.0
+        for _ in range(FIT_BISECTION_STEPS):
+            k = 0.5 * (low + high)
+            sq, sqd, sqdd = [k * x for x in q], [k * x for x in qd], [k * x for x in qdd]
+            r = self._refused(sq, sqd, sqdd) if _finite(sq + sqd + sqdd) else 'overflow'
+            if r is None:
+                low = k
+            else:
+                high, refused = k, r
+        return low, self._refusal(refused)
 
     def step_lists(self, q: list, qd: list, qdd: list, ahead: Any = None,
                    fits: bool | None = None) -> tuple:

@@ -21,6 +21,7 @@ import numpy as np
 from ..machines.api import machine_of
 from .limiter import InverseDynamicsLimiter, make_limiter
 from ..config.cueing import G, CueingParams
+from .preview import gain_profile, scaled
 from .washout import CHANNELS, Washout, forecast_matrix
 
 #: The washout's free response is given to the limiter's look-ahead every this
@@ -51,10 +52,11 @@ class CueSample(NamedTuple):
 
 class Planner:
     """Washout and limiter of ``params`` for ``model`` (any machine), one sample
-    of period ``1 / params.rate`` per :meth:`step`.
+    of period ``1 / params.rate`` per :meth:`step`; ``look_ahead`` False: the
+    limiter's look-ahead (L7) off (:func:`run`'s preview replaces it).
     """
 
-    def __init__(self, model: Any, params: CueingParams) -> None:
+    def __init__(self, model: Any, params: CueingParams, look_ahead: bool = True) -> None:
         self.model, self.params = model, params
         self.machine = machine_of(model)
         coordinates = self.machine.coordinates
@@ -73,7 +75,8 @@ class Planner:
         self.washout = Washout(params)
         self.limiter = make_limiter(model, params)
         # the limiter's look-ahead (limiter.py, L7): the washout's free response
-        self._horizons: tuple[float, ...] = getattr(self.limiter, 'horizons', ())
+        self._horizons: tuple[float, ...] = (getattr(self.limiter, 'horizons', ())
+                                             if look_ahead else ())
         self._forecast = (forecast_matrix(params, self._horizons) if self._horizons
                           else None)
         self._index = self.index.tolist()
@@ -236,7 +239,7 @@ def resample(t: np.ndarray, values: np.ndarray, rate: float
 
 
 def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: np.ndarray,
-        progress: Callable[[int, int], None] | None = None, *,
+        progress: Callable[[int, int, str], None] | None = None, *,
         on_block: Callable[[np.ndarray, np.ndarray], None] | None = None,
         parallel: bool = False) -> CueRun:
     """A vehicle log (times ``t`` (N,) s, specific force ``f`` (N, 3), angular
@@ -244,21 +247,32 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     ``params.rate`` (:func:`resample`: ValueError naming the sample of a time
     going backwards), :data:`BLOCK` samples at a time: the block's wishes
     (:meth:`Planner.wish`), then its limited samples (:meth:`Planner.limit`),
-    the steps of :meth:`Planner.step` in another order. ``parallel``: the
-    wishes made, and judged (:meth:`Planner.fits`), in a second process
-    (forked), a block ahead of the limiter, the same numbers bit for bit.
+    the steps of :meth:`Planner.step` in another order. With ``preview.slope``
+    set (inverse-dynamics limiter), the vehicle's motion is first scaled by the
+    preview's gain (:func:`_preview`; the look-ahead off), ``given_up`` and
+    ``limit`` count it, and ``desired_*`` stay the full-gain washout's.
+    ``parallel``: the wishes made, and judged (:meth:`Planner.fits`), in a
+    second process (forked), a block ahead of the limiter, the same numbers
+    bit for bit.
     ``on_block(t, samples)``: each block's output times and samples (q, qd,
     qdd side by side) when they are final (to write them out as they come);
-    ``progress(done, total)``: called now and then.
+    ``progress(done, total, stage)``: called now and then (``stage`` '' for
+    the output's samples, ``'preview pass <i>'`` for the preview's passes).
     """
     grid, inputs, repeated = resample(t, np.hstack([np.asarray(f, dtype=float),
                                                     np.asarray(omega, dtype=float)]),
                                       params.rate)
-    planner = Planner(model, params)
+    slope = (params.limiter_settings['preview.slope'] if params.limiter == 'inverse_dynamics'
+             else 0.0)
+    planner = Planner(model, params, look_ahead=slope == 0.0)
     n, dof = len(grid), len(planner.index)
     out = np.empty((n, 3 * dof))         # q, qd, qdd
     # the washout's wish differs from the output only through the limiter
     wish = None if params.limiter == 'none' else np.empty((n, 3 * dof))
+    preview = None
+    if slope > 0.0 and n:
+        preview = _preview(model, params, planner, inputs, wish, progress)
+        source, inputs = inputs, scaled(inputs, preview[0])
     given_up = np.empty(n)
     limit = np.empty(n, dtype=object)
     blocks = [(lo, min(lo + BLOCK, n)) for lo in range(0, n, BLOCK)]
@@ -273,23 +287,55 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
             out[lo:hi] = np.array([s[:3] for s in samples]).reshape(hi - lo, 3 * dof)
             given_up[lo:hi] = [s[3] for s in samples]
             limit[lo:hi] = [s[4] for s in samples]
-            if wish is not None:
+            if wish is not None and preview is None:
                 wish[lo:hi] = wanted
             held += held_here
             if on_block is not None:
                 on_block(grid[lo:hi], out[lo:hi])
             if progress is not None and (lo // every != hi // every or lo == 0):
-                progress(lo, n)
+                progress(lo, n, '')
     finally:
         if isinstance(made, _WishProcess):
             made.close()
     if progress is not None:
-        progress(n, n)
+        progress(n, n, '')
+    if preview is not None:
+        gain, named = preview
+        given_up = 1.0 - gain * (1.0 - given_up)
+        limit = np.where(limit == '', named, limit)
+        inputs = source
     wish = out if wish is None else wish
     q, qd, qdd = out[:, :dof], out[:, dof:2 * dof], out[:, 2 * dof:]
     return CueRun(grid, q, qd, qdd, given_up, limit, wish[:, :dof], wish[:, dof:2 * dof],
                   wish[:, 2 * dof:], inputs[:, :3].copy(), inputs[:, 3:].copy(),
                   planner.machine.coordinates, planner.dropped, repeated, held)
+
+
+def _preview(model: Any, params: CueingParams, planner: Planner, inputs: np.ndarray,
+             wish: np.ndarray, progress: Callable[[int, int, str], None] | None
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """(L8) The preview's gain on ``inputs`` (n, 6) and the limit behind it
+    (:func:`.preview.gain_profile`, judged by ``planner``'s limiter), each pass
+    the washout of a planner of its own; ``wish`` (n, the q, qd, qdd of the
+    machine's coordinates) filled with the first pass's, the full-gain washout.
+    """
+    n, dof = len(inputs), len(planner.index)
+    washout = Planner(model, params.replace(limiter='none'))
+    first = [True]
+
+    def washout_of(rows: np.ndarray) -> Iterator[list]:
+        washout.reset()
+        keep, first[0] = first[0], False
+        for m, u in enumerate(rows):
+            w = washout.wish(u[:3], u[3:])[0]
+            if keep:
+                wish[m] = w
+            yield w
+
+    slope, lead = (params.limiter_settings[k] for k in ('preview.slope', 'preview.lead'))
+    return gain_profile(inputs, washout_of, planner.limiter.fitting_gain, dof, params.rate,
+                        slope, lead, None if progress is None else
+                        lambda i, k: progress(k, n, f'preview pass {i}'))
 
 
 def wishes(planner: Planner, inputs: np.ndarray, judge: bool = False

@@ -116,7 +116,7 @@ def test_cueing_prints_the_check_values_and_the_costs():
         """The table's rows, up to the next table of as many columns."""
         out = {}
         for k, v in table(rows, first).items():
-            if k in ('machine', 'cue on the hexapod, limiter'):
+            if k in ('machine', 'cue, limiter'):
                 break
             if not k.startswith(':'):
                 out[k] = v
@@ -129,9 +129,9 @@ def test_cueing_prints_the_check_values_and_the_costs():
     costs = body('machine')
     assert set(costs) == {'3-DOF', 'hexapod'}
     assert all(v > 0 for cells in costs.values() for v in numbers(cells[1:]))
-    offline = body('cue on the hexapod, limiter')
-    assert set(offline) == {'none', 'inverse_dynamics'}
-    assert all(v > 0 for cells in offline.values() for v in numbers(cells[1:4]))
+    offline = body('cue, limiter')
+    assert set(offline) == {'none', 'inverse_dynamics', 'inverse_dynamics + preview'}
+    assert all(v > 0 for cells in offline.values() for v in numbers(cells[2:5]))
 
 
 @pytest.mark.slow
@@ -141,6 +141,9 @@ def test_cueing_limiter_prints_both_rmses_and_every_output_ok():
     body = [r for r in rows[start + 2:] if len(r) == len(rows[start])]
     assert {r[1] for r in body} == {'flight_sim_dynamics', 'stewart_6dof'}
     for cells in body:
-        limited, a, b, scale, ratio, not_ok, us, us_pure = numbers(cells[3:])
+        limited, a, b, scale, ratio, b_m, scale_m, ratio_m, not_ok, us, us_pure = numbers(
+            cells[3:])
         assert 0 <= limited <= 100 and a >= 0 and b >= 0 and 0 <= scale <= 1
+        # the margins only narrow the limits: the gain scale that fits them is no larger
+        assert b_m >= 0 and 0 <= scale_m <= scale and ratio_m > 0
         assert not_ok == 0 and us > 0 and us_pure > 0 and ratio > 0

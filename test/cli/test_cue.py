@@ -57,10 +57,23 @@ def test_the_output_is_the_planners_run_in_the_machines_trajectory_columns(braki
 
 
 def test_the_three_dof_machine_gets_its_channels_and_solve_reads_them_all_ok(braking, tmp_path,
-                                                                           capsys):
+                                                                           capsys, monkeypatch):
+    """Its params file plans the preview (L8): a long log reports the
+    preview's passes, then the output's samples.
+    """
+    import os
+
+    from flight_sim_dynamics.cli import cue
+    monkeypatch.setattr(cue, 'LONG_RUN', 5000)
+    monkeypatch.setattr(os, 'sched_getaffinity', lambda pid: {0})      # one process
     out, solved = tmp_path / 'platform.csv', tmp_path / 'solved.csv'
     assert main(['cue', str(braking), '-o', str(out)]) == 0
-    assert 'not cued: sway, pitch, yaw' in capsys.readouterr().out
+    captured = capsys.readouterr()
+    assert 'not cued: sway, pitch, yaw' in captured.out
+    lines = captured.err.splitlines()
+    passes = [line for line in lines if ': preview pass ' in line]
+    assert passes and passes[0].startswith(f'cue: {out}: preview pass 1: 0/14001 samples')
+    assert lines[-1].startswith(f'cue: {out}: 14001/14001 samples (100%')
     assert read(out).names == trajectory_columns(fsd.machine_of(fsd.load_model()))
     assert main(['solve', str(out), '-o', str(solved)]) == 0
     assert set(read(solved).text['status']) == {'ok'}

@@ -422,29 +422,154 @@ def test_limiter_keys_are_read_from_the_cueing_group() -> None:
     assert machine_of(limiter.model) is STEWART
 
 
+def takeoff(duration: float):
+    """The first ``duration`` s of the take-off log (t, f, omega) at 100 Hz."""
+    from flight_sim_dynamics.cueing.vehicles import vehicle_log
+    v = vehicle_log('takeoff', 100.0)
+    keep = v.t <= duration
+    return v.t[keep], v.f[keep], v.omega[keep]
+
+
+def settings_of(params, **changed):
+    """``params`` with the limiter's settings ``changed`` (dotted names)."""
+    return params.replace(limiter_settings={**params.limiter_settings, **changed})
+
+
+def felt_rmse(cues, params) -> list[float]:
+    """The RMSE of the felt specific force at the head of each run of
+    ``cues`` but the last, against the last (the pure washout).
+    """
+    from flight_sim_dynamics.cueing.metrics import felt, six
+
+    def force(c):
+        return felt(*(six(c.coordinates, x) for x in (c.q, c.qd, c.qdd)), params.head)[0]
+
+    wanted = force(cues[-1])
+    return [float(np.sqrt(np.mean(np.sum((force(c) - wanted) ** 2, axis=1))))
+            for c in cues[:-1]]
+
+
 def test_the_look_ahead_lowers_the_cue_before_the_limit_and_gives_up_less():
     """(L7) On the 3-DOF machine's take-off (the washout's surge runs past its
     range for a moment): with the look-ahead the gain is lowered before the
     limit comes, every output ok, and less of the felt specific force is given
     up than by the governor alone (gain.ahead 0).
     """
-    from flight_sim_dynamics.cueing.metrics import felt, six
     from flight_sim_dynamics.cueing.planner import run as cue
-    from flight_sim_dynamics.cueing.vehicles import vehicle_log
     s = SETUPS[FLIGHT_SIMULATOR.name]
-    v = vehicle_log('takeoff', 100.0)
-    keep = v.t <= 8.0
-    log = (v.t[keep], v.f[keep], v.omega[keep])
-    alone = s.params.replace(limiter_settings={**s.params.limiter_settings, 'gain.ahead': 0.0})
-    runs = [cue(s.model, p, *log) for p in (s.params, alone, s.params.replace(limiter='none'))]
-
-    def force(c):
-        return felt(*(six(c.coordinates, x) for x in (c.q, c.qd, c.qdd)), s.params.head)[0]
-
-    wanted = force(runs[2])
-    errors = [np.sqrt(np.mean(np.sum((force(c) - wanted) ** 2, axis=1))) for c in runs[:2]]
+    log = takeoff(8.0)
+    causal = settings_of(s.params, **{'preview.slope': 0.0})    # as when streaming
+    alone = settings_of(causal, **{'gain.ahead': 0.0})
+    runs = [cue(s.model, p, *log) for p in (causal, alone, s.params.replace(limiter='none'))]
+    errors = felt_rmse(runs, s.params)
     first = [int(np.argmax(c.given_up > 0)) for c in runs[:2]]
     assert runs[1].given_up.any() and first[0] < first[1]
     assert errors[0] < errors[1]
+    assert all(str(x) == 'ok' for x in solve_batch(s.model, runs[0].q, runs[0].qd,
+                                                    runs[0].qdd).status)
+
+
+# -- the preview of an offline run (L8) -------------------------------------------
+
+def test_the_preview_envelope_is_the_largest_gain_below_k_within_its_slope_and_lead():
+    """envelope(k) against its definition, g[n] = min over m of
+    k[m] + slope d(n, m), d = max(0, m - n - lead) for m ahead of n, n - m
+    behind it, on random gains (brute force).
+    """
+    from flight_sim_dynamics.cueing.preview import envelope
+    rng = np.random.default_rng(3)
+    for lead in (0, 1, 2, 7, 8):
+        k = np.where(rng.random(300) < 0.05, rng.random(300), 1.0)
+        slope = 0.01
+        n = np.arange(len(k))
+        ahead = n[None, :] - n[:, None]             # m - n
+        far = np.where(ahead >= 0, np.maximum(0, ahead - lead), -ahead)
+        want = (k[None, :] + slope * far).min(axis=1)
+        np.testing.assert_allclose(envelope(k, slope, lead), want, rtol=0, atol=1e-12)
+
+
+def test_the_preview_at_a_constant_gain_is_every_washout_gain_times_it():
+    """The vehicle's motion scaled about its rest by g (preview.scaled) gives
+    the washout whose translation, tilt and rotation gains are times g (the
+    usual practice); the samples at g = 1 are left as they are, bit for bit.
+    """
+    from flight_sim_dynamics.cueing.planner import run as cue
+    from flight_sim_dynamics.cueing.preview import scaled
+    s = SETUPS[STEWART.name]
+    t, f, omega = takeoff(4.0)
+    u = np.hstack([f, omega])
+    ones = scaled(u, np.ones(len(t)))
+    assert np.array_equal(ones, u)
+    g = 0.6
+    half = scaled(u, np.full(len(t), g))
+    pure = s.params.replace(limiter='none')
+    lowered = pure.replace(translation_gain=pure.translation_gain * g,
+                           tilt_gain=pure.tilt_gain * g, rotation_gain=pure.rotation_gain * g)
+    a = cue(s.model, pure, t, half[:, :3], half[:, 3:])
+    b = cue(s.model, lowered, t, f, omega)
+    assert np.abs(b.q).max() > 0.05
+    for x, y in ((a.q, b.q), (a.qd, b.qd), (a.qdd, b.qdd)):
+        np.testing.assert_allclose(x, y, rtol=0, atol=1e-9)
+
+
+def vehicle_crash(n_seconds: float = 12.0, rate: float = 100.0):
+    """A vehicle log (t, f, omega) of gusts, a 3 g push, a 10 g crash, NaN
+    samples and a 1e300 spike: what no machine takes at full gain.
+    """
+    t = np.arange(0.0, n_seconds, 1.0 / rate)
+    f = np.tile([0.0, 0.0, G], (len(t), 1))
+    f[:, 0] += 1.5 * np.sin(1.3 * t) + 3.0 * G * ((t > 3.0) & (t < 3.6))
+    f[:, 1] += 2.0 * np.sin(0.7 * t)
+    f[(t > 6.0) & (t < 6.15), 0] -= 10.0 * G
+    f[(t > 6.0) & (t < 6.15), 2] += 4.0 * G
+    omega = np.column_stack([0.3 * np.sin(0.9 * t), 0.2 * np.sin(1.7 * t),
+                             0.1 * np.sin(0.5 * t)])
+    f[(t > 8.0) & (t < 8.1), 1] = math.nan
+    omega[(t > 9.0) & (t < 9.05), 0] = 1e300
+    return t, f, omega
+
+
+def test_the_preview_keeps_every_output_within_limits_and_reports_it(setup) -> None:
+    """An offline run with the preview (preview.slope 1/s) of a log with a
+    crash, NaN and a 1e300 spike: every output ok by the package's solve and
+    within the limits by the independent reference; smooth; every sample that
+    gives up cue names a limit; the full-gain washout kept as the desired one.
+    """
+    from flight_sim_dynamics.cueing.planner import run as cue
+    s = setup
+    params = settings_of(s.params, **{'preview.slope': 1.0, 'preview.lead': 1.0})
+    log = vehicle_crash()
+    stages = []
+    c = cue(s.model, params, *log, progress=lambda k, n, stage: stages.append((stage, k, n)))
+    n = len(c.t)
+    assert ('preview pass 1', n, n) in stages and stages[-1] == ('', n, n)
+    check_within_limits(s, c.q, c.qd, c.qdd)
+    check_smooth(s, c.q, c.qd, c.qdd)
+    check_reports(c.given_up, list(c.limit))
+    pure = cue(s.model, s.params.replace(limiter='none'), *log)
+    assert np.array_equal(c.desired_q, pure.q) and np.array_equal(c.desired_qdd, pure.qdd)
+    assert c.given_up.max() > 0.0 and c.held == pure.held > 0
+
+
+def test_the_preview_lowers_the_cue_ahead_and_gives_up_less_than_the_look_ahead():
+    """(L8) On the 3-DOF machine's take-off: the preview (its params file's)
+    lowers the gain before the first moment the full-gain washout does not
+    fit, every output ok, and gives up less felt specific force than the
+    look-ahead (the same file, preview.slope 0: as when streaming).
+    """
+    from flight_sim_dynamics.cueing.planner import Planner, run as cue
+    s = SETUPS[FLIGHT_SIMULATOR.name]
+    assert s.params.limiter_settings['preview.slope'] > 0.0
+    log = takeoff(8.0)
+    causal = settings_of(s.params, **{'preview.slope': 0.0})
+    runs = [cue(s.model, p, *log) for p in (s.params, causal, s.params.replace(limiter='none'))]
+    errors = felt_rmse(runs, s.params)
+    assert errors[0] < errors[1]
+    limiter = Planner(s.model, s.params).limiter
+    pure = runs[2]
+    misfit = next(k for k in range(len(pure.t)) if not limiter.fits(
+        pure.q[k].tolist(), pure.qd[k].tolist(), pure.qdd[k].tolist()))
+    lowered = int(np.argmax(runs[0].given_up > 0))
+    assert lowered < misfit - int(0.5 * s.params.rate)
     assert all(str(x) == 'ok' for x in solve_batch(s.model, runs[0].q, runs[0].qd,
                                                     runs[0].qdd).status)
