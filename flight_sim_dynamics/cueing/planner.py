@@ -252,8 +252,8 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     preview's gain (:func:`_preview`; the look-ahead off), ``given_up`` and
     ``limit`` count it, and ``desired_*`` stay the full-gain washout's.
     ``parallel``: the wishes made, and judged (:meth:`Planner.fits`), in a
-    second process (forked), a block ahead of the limiter, the same numbers
-    bit for bit.
+    second process (forked), a block ahead of the limiter (the preview's
+    too), the same numbers bit for bit.
     ``on_block(t, samples)``: each block's output times and samples (q, qd,
     qdd side by side) when they are final (to write them out as they come);
     ``progress(done, total, stage)``: called now and then (``stage`` '' for
@@ -269,13 +269,13 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     out = np.empty((n, 3 * dof))         # q, qd, qdd
     # the washout's wish differs from the output only through the limiter
     wish = None if params.limiter == 'none' else np.empty((n, 3 * dof))
+    blocks = [(lo, min(lo + BLOCK, n)) for lo in range(0, n, BLOCK)]
     preview = None
     if slope > 0.0 and n:
-        preview = _preview(model, params, planner, inputs, wish, progress)
+        preview = _preview(model, params, planner, inputs, wish, blocks, parallel, progress)
         source, inputs = inputs, scaled(inputs, preview[0])
     given_up = np.empty(n)
     limit = np.empty(n, dtype=object)
-    blocks = [(lo, min(lo + BLOCK, n)) for lo in range(0, n, BLOCK)]
     every = max(1, n // 100)
     made = (_WishProcess(planner, inputs, blocks) if parallel and n > BLOCK
             else (wishes(planner, inputs[lo:hi]) for lo, hi in blocks))
@@ -312,28 +312,36 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
 
 
 def _preview(model: Any, params: CueingParams, planner: Planner, inputs: np.ndarray,
-             wish: np.ndarray, progress: Callable[[int, int, str], None] | None
+             wish: np.ndarray, blocks: list, parallel: bool,
+             progress: Callable[[int, int, str], None] | None
              ) -> tuple[np.ndarray, np.ndarray]:
     """(L8) The preview's gain on ``inputs`` (n, 6) and the limit behind it
-    (:func:`.preview.gain_profile`, judged by ``planner``'s limiter), each pass
-    the washout of a planner of its own; ``wish`` (n, the q, qd, qdd of the
-    machine's coordinates) filled with the first pass's, the full-gain washout.
+    (:func:`.preview.gain_profile`, judged by ``planner``'s limiter): each pass
+    the washout of a planner of its own from rest, its wishes judged, with
+    ``parallel``, in a second process as :func:`run`'s are; ``wish`` (n, the
+    q, qd, qdd of the machine's coordinates) filled with the first pass's, the
+    full-gain washout.
     """
     n, dof = len(inputs), len(planner.index)
-    washout = Planner(model, params.replace(limiter='none'))
+    judge = Planner(model, params, look_ahead=False)
     first = [True]
 
-    def washout_of(rows: np.ndarray) -> Iterator[list]:
-        washout.reset()
+    def judged(rows: np.ndarray) -> Iterator[tuple[list, bool | None]]:
+        judge.reset()
         keep, first[0] = first[0], False
-        for m, u in enumerate(rows):
-            w = washout.wish(u[:3], u[3:])[0]
-            if keep:
-                wish[m] = w
-            yield w
+        made = (_WishProcess(judge, rows, blocks) if parallel and n > BLOCK
+                else (wishes(judge, rows[lo:hi]) for lo, hi in blocks))
+        try:
+            for (lo, hi), (wanted, _, fits, _) in zip(blocks, made):
+                if keep:
+                    wish[lo:hi] = wanted
+                yield from zip(wanted, fits or repeat(None))
+        finally:
+            if isinstance(made, _WishProcess):
+                made.close()
 
     slope, lead = (params.limiter_settings[k] for k in ('preview.slope', 'preview.lead'))
-    return gain_profile(inputs, washout_of, planner.limiter.fitting_gain, dof, params.rate,
+    return gain_profile(inputs, judged, planner.limiter.fitting_gain, dof, params.rate,
                         slope, lead, None if progress is None else
                         lambda i, k: progress(k, n, f'preview pass {i}'))
 

@@ -61,7 +61,8 @@ def scaled(inputs: np.ndarray, g: np.ndarray) -> np.ndarray:
     return np.where((g == 1.0)[:, None], inputs, rest + g[:, None] * (inputs - rest))
 
 
-def gain_profile(inputs: np.ndarray, wishes: Callable[[np.ndarray], Iterable[list]],
+def gain_profile(inputs: np.ndarray,
+                 wishes: Callable[[np.ndarray], Iterable[tuple[list, bool | None]]],
                  fitting_gain: Callable[[list, list, list], tuple[float, str]],
                  dof: int, rate: float, slope: float, lead: float,
                  progress: Callable[[int, int], None] | None = None
@@ -69,7 +70,8 @@ def gain_profile(inputs: np.ndarray, wishes: Callable[[np.ndarray], Iterable[lis
     """(L8) The preview's gain (N,) on ``inputs`` (N, 6) and the limit that set
     it at each sample ('' where it is 1; else the limit of the nearest sample
     that needed it). ``wishes(inputs)``: the washout's samples (q, qd, qdd one
-    list each), from rest; ``fitting_gain``: the limiter's judge; ``slope`` 1/s,
+    list each), from rest, each with whether the limiter accepts it at gain 1
+    if judged already (else None); ``fitting_gain``: the limiter's judge; ``slope`` 1/s,
     ``lead`` s; ``progress(pass, samples)``: called now and then (passes from 1).
     """
     n = len(inputs)
@@ -80,10 +82,11 @@ def gain_profile(inputs: np.ndarray, wishes: Callable[[np.ndarray], Iterable[lis
     every = max(1, n // 100)
     for i in range(1, PASSES + 1):
         k = np.ones(n)
-        for m, w in enumerate(wishes(current)):
-            k[m], limit = fitting_gain(w[:dof], w[dof:2 * dof], w[2 * dof:])
-            if limit:
-                needed[m], names[m] = True, limit
+        for m, (w, fits) in enumerate(wishes(current)):
+            if not fits:            # fits: k = 1
+                k[m], limit = fitting_gain(w[:dof], w[dof:2 * dof], w[2 * dof:])
+                if limit:
+                    needed[m], names[m] = True, limit
             if progress is not None and m % every == 0:
                 progress(i, m)
         if progress is not None:
