@@ -175,6 +175,15 @@ def _given_up(result: CueRun) -> tuple[float, float, dict[str, int]]:
                                                               counts.tolist())))
 
 
+def _limiter_text(params: CueingParams) -> str:
+    """The limiter's name, and its preview (L8) when the run planned one."""
+    s = params.limiter_settings
+    if params.limiter == 'inverse_dynamics' and s['preview.slope'] > 0:
+        return (f"{params.limiter} with the preview (slope {s['preview.slope']:g}/s, lead "
+                f"{s['preview.lead']:g} s)")
+    return params.limiter
+
+
 def result_line(machine: Any, params: CueingParams, result: CueRun,
                 metrics: CueMetrics | None, output: str) -> str:
     """One line: what was written, what the limiter did, and with the metrics
@@ -183,7 +192,7 @@ def result_line(machine: Any, params: CueingParams, result: CueRun,
     n = len(result.t)
     fraction, peak, limits = _given_up(result)
     parts = [f'cue: {output}: {n} samples at {params.rate:g} Hz ({n / params.rate:.1f} s), '
-             f'{machine.title}, limiter {params.limiter}']
+             f'{machine.title}, limiter {_limiter_text(params)}']
     if params.limiter != 'none':
         parts.append(f'cue given up in {100 * fraction:.1f} % of samples (at most '
                      f'{100 * peak:.0f} %; limits: {_limits_text(limits)})')
@@ -215,8 +224,8 @@ def report(machine: Any, params: CueingParams, result: CueRun, metrics: CueMetri
     lines = [f'# Motion cueing: {args.input} on the {machine.title}', '',
              f'`flight-sim-dynamics cue {" ".join(getattr(args, "argv", []))}`', '',
              f'{m.samples} samples at {params.rate:g} Hz ({m.duration:.2f} s); limiter '
-             f'`{params.limiter}`; head at ({", ".join(f"{v:g}" for v in params.head)}) m in the '
-             'platform frame; '
+             f'{_limiter_text(params)}; head at '
+             f'({", ".join(f"{v:g}" for v in params.head)}) m in the platform frame; '
              f'not cued: {", ".join(result.dropped) or "none"}; repeated input times dropped: '
              f'{result.repeated}.', '']
     if m.felt_samples < m.samples:

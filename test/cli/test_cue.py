@@ -70,6 +70,7 @@ def test_the_three_dof_machine_gets_its_channels_and_solve_reads_them_all_ok(bra
     assert main(['cue', str(braking), '-o', str(out)]) == 0
     captured = capsys.readouterr()
     assert 'not cued: sway, pitch, yaw' in captured.out
+    assert 'preview' in captured.out.splitlines()[0]        # the result line says so
     lines = captured.err.splitlines()
     passes = [line for line in lines if ': preview pass ' in line]
     assert passes and passes[0].startswith(f'cue: {out}: preview pass 1: 0/14001 samples')
