@@ -64,17 +64,21 @@ def test_the_three_dof_machine_gets_its_channels_and_solve_reads_them_all_ok(bra
     import os
 
     from flight_sim_dynamics.cli import cue
-    monkeypatch.setattr(cue, 'LONG_RUN', 5000)
+    monkeypatch.setattr(cue, 'LONG_RUN', 2000)
     monkeypatch.setattr(os, 'sched_getaffinity', lambda pid: {0})      # one process
+    table = read(braking)
+    head = table.data[table['t'] <= 6.0]        # cruise, then braking from 3 s
+    vehicle = tmp_path / 'stop.csv'
+    csv_io.write_csv(vehicle, table.names, head)
     out, solved = tmp_path / 'platform.csv', tmp_path / 'solved.csv'
-    assert main(['cue', str(braking), '-o', str(out)]) == 0
+    assert main(['cue', str(vehicle), '-o', str(out)]) == 0
     captured = capsys.readouterr()
     assert 'not cued: sway, pitch, yaw' in captured.out
     assert 'preview' in captured.out.splitlines()[0]        # the result line says so
     lines = captured.err.splitlines()
     passes = [line for line in lines if ': preview pass ' in line]
-    assert passes and passes[0].startswith(f'cue: {out}: preview pass 1: 0/14001 samples')
-    assert lines[-1].startswith(f'cue: {out}: 14001/14001 samples (100%')
+    assert passes and passes[0].startswith(f'cue: {out}: preview pass 1: 0/6001 samples')
+    assert lines[-1].startswith(f'cue: {out}: 6001/6001 samples (100%')
     assert read(out).names == trajectory_columns(fsd.machine_of(fsd.load_model()))
     assert main(['solve', str(out), '-o', str(solved)]) == 0
     assert set(read(solved).text['status']) == {'ok'}
