@@ -19,6 +19,7 @@ from geometry_msgs.msg import PoseStamped, TwistStamped
 from sensor_msgs.msg import JointState
 
 from flight_sim_dynamics.machines.staicu.model import LEG_NAMES
+from flight_sim_dynamics.config.schema import SIM_PARAMETERS
 from flight_sim_dynamics.ros.platform_sim import SIM_TASK
 from flight_sim_dynamics.ros.process import SIM_MODULE, start_node, stop_node
 from node_harness import PARAMS_FILE, QOS, ROOT, Client, NodeProcess, diagnostic_values
@@ -176,27 +177,83 @@ def own_twin(namespace: str, *ros_args: str, params_file: Path | str | None = No
 #: the twin cannot know; following the motion is what is checked
 DELAYS = np.arange(0.0, 0.305, 0.005)
 
+#: a busy host holds the test back (no command sent for over 2.5 periods) or
+#: the twin (no tick for over 2.5 periods: its poses' stamps jump): the twin ran
+#: its plant on a stale command or froze it (steps dropped, counted in
+#: /diagnostics) and then steps to the newest one; the poses this long after
+#: such a gap are not judged (the default 5 Hz servo settles to 0.1 % of a step
+#: in 0.3 s)
+SETTLE = 0.3
 
-def tracking_errors(poses, sequence, t0: int, end: int, coordinates: Callable[[object], list]
+#: the twin's tick period (s) by default: one pose a tick
+TICK = 1.0 / next(s.default for s in SIM_PARAMETERS if s.name == 'tick_rate')
+
+
+def stream(client: Client, n: int, rate: float, publish: Callable[[int, int], None]
+           ) -> tuple[int, np.ndarray]:
+    """Sample ``k`` of ``n`` published at ``k / rate`` s of wall time, spinning
+    in between: ``publish(k, stamp)`` with ``stamp = t0 + k / rate`` (ROS ns).
+    Returns t0 and the ROS times (ns) the samples were actually sent at (a busy
+    host holds the test process back, and the commands with it)."""
+    clock = client.node.get_clock()
+    t0 = clock.now().nanoseconds
+    wall0 = time.monotonic()
+    sent = np.empty(n, dtype=np.int64)
+    for k in range(n):
+        while (wait := wall0 + k / rate - time.monotonic()) > 0:
+            client.executor.spin_once(timeout_sec=wait)
+        sent[k] = clock.now().nanoseconds
+        publish(k, t0 + round(k * 1e9 / rate))
+    return t0, sent
+
+
+def _after_gaps(t: np.ndarray, times: np.ndarray, period: float) -> np.ndarray:
+    """Which of ``t`` fall within :data:`SETTLE` after a gap in ``times`` of over
+    2.5 ``period``."""
+    resumed = times[1:][np.diff(times) > 2.5 * period]
+    after = np.zeros(len(t), dtype=bool)
+    for t_r in resumed:
+        after |= (t >= t_r) & (t < t_r + SETTLE)
+    return after
+
+
+def tracking_errors(poses, sequence, t0: int, sent: np.ndarray, rate: float,
+                    coordinates: Callable[[object], list], tick: float = TICK
                     ) -> tuple[np.ndarray, np.ndarray, int]:
     """Per coordinate: max |simulated - commanded| and RMS error / RMS motion of
-    the poses stamped in [t0, end] (``coordinates(msg)``: a platform_pose's, in
-    the sequence's order), against the commands delayed by the one of
-    :data:`DELAYS` that fits best (printed); their count."""
+    the poses stamped from t0 to the last sample (``coordinates(msg)``: a
+    platform_pose's, in the sequence's order), against the samples of the
+    sequence (``k / rate``) as they were sent (``sent``: their ROS times, see
+    :func:`stream`; between two sends the motion runs on for at most one
+    sample) and then delayed by the one of :data:`DELAYS` that fits best
+    (printed), but for the poses :data:`SETTLE` after the test or the twin
+    (``tick``: its tick period) was held back; the count of the poses judged."""
+    step = 1.0 / rate
+    scheduled = np.arange(len(sent)) * step
+    end = t0 + round(scheduled[-1] * 1e9)
     chosen = [m for m in poses if t0 <= stamp(m) <= end]
     q_sim = np.array([coordinates(m) for m in chosen])
     t = np.array([(stamp(m) - t0) * 1e-9 for m in chosen])
-    # the commanded motion on a 1 ms grid, read at each pose's time minus the delay
+    twin_held = _after_gaps(t, t, tick)
+    # the commanded motion on a 1 ms grid, read at the sequence time in force
     grid = np.arange(0.0, t.max() + 1e-3, 1e-3)
     q_grid = np.array([sequence.sample(s)[0] for s in grid])
+    sent_s = (sent - t0) * 1e-9
     best = None
     for delay in DELAYS:
-        when = np.maximum(0.0, t - delay)
-        q_ref = np.column_stack([np.interp(when, grid, q_grid[:, i])
+        when = t - delay
+        judged = ~(twin_held | _after_gaps(when, sent_s, step))
+        last = np.clip(np.searchsorted(sent_s, when, side='right') - 1, 0, len(sent) - 1)
+        held = np.minimum(np.interp(when, sent_s, scheduled), scheduled[last] + step)
+        q_ref = np.column_stack([np.interp(held[judged], grid, q_grid[:, i])
                                  for i in range(q_grid.shape[1])])
-        error = q_sim - q_ref
+        error = q_sim[judged] - q_ref
         ratio = np.sqrt((error ** 2).mean(axis=0) / (q_ref ** 2).mean(axis=0))
         if best is None or ratio.max() < best[1].max():
-            best = (np.abs(error).max(axis=0), ratio, delay)
-    print(f'best fit at a delay of {best[2] * 1e3:.0f} ms')
-    return best[0], best[1], len(chosen)
+            best = (np.abs(error).max(axis=0), ratio, delay, judged)
+    judged = best[3]
+    late = np.diff(sent_s - scheduled).max() if len(sent) > 1 else 0.0
+    print(f'best fit at a delay of {best[2] * 1e3:.0f} ms; the longest hold-up of the '
+          f'commands sent: {late * 1e3:.0f} ms; {(~judged).sum()} of {len(t)} poses not '
+          f'judged (after a hold-up of the test or the twin)')
+    return best[0], best[1], int(judged.sum())

@@ -40,7 +40,7 @@ from flight_sim_dynamics.ros.process import SIM_MODULE, stop_node
 from flight_sim_dynamics.ros.messages import NON_FINITE, quaternion_to_rpy
 from node_harness import PARAMS_FILE, QOS, ROOT, Client
 from sim_harness import (SimClient, command, node_and_twin, own_twin, sim_output, stamp,
-                         start_sim, tracking_errors)
+                         start_sim, stream, tracking_errors)
 
 pytestmark = pytest.mark.ros
 
@@ -87,14 +87,10 @@ def test_simulated_pose_follows_the_commanded_one(pipeline):
     client, twin, sim, _ = pipeline
     sequence = PlannerSequence(MOTIONS, ['general'])
     n = int(sequence.period * RATE) + 1
-    t0 = client.node.get_clock().now().nanoseconds
-    wall0 = time.monotonic()
     first_pose, first = len(twin.poses), len(client.actuator)
-    for k in range(n):
-        # paced in real time (the twin runs in real time), by spinning
-        client.spin_until(lambda: time.monotonic() - wall0 >= k / RATE, 1.0)
-        q, qd, qdd, _ = sequence.sample(k / RATE)
-        client.send(t0 + round(k * 1e9 / RATE), q, qd, qdd)
+    # paced in real time (the twin runs in real time)
+    t0, sent = stream(client, n, RATE,
+                      lambda k, at: client.send(at, *sequence.sample(k / RATE)[:3]))
     assert client.wait_actuator(first + n, 10.0), \
         f'{len(client.actuator) - first} of {n} answered' + client.explain()
     end = t0 + round((n - 1) * 1e9 / RATE)
@@ -105,7 +101,7 @@ def test_simulated_pose_follows_the_commanded_one(pipeline):
         """Surge, heave, roll of a platform_pose."""
         o = m.pose.orientation
         return [m.pose.position.x, m.pose.position.z, quaternion_to_rpy(o.x, o.y, o.z, o.w)[0]]
-    peak, ratio, count = tracking_errors(twin.poses[first_pose:], sequence, t0, end,
+    peak, ratio, count = tracking_errors(twin.poses[first_pose:], sequence, t0, sent, RATE,
                                          coordinates)
     print(f'twin tracking over {count} poses: max error surge, heave, roll {peak.round(4)}, '
           f'RMS error / RMS motion {ratio.round(3)}')
