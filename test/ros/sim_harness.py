@@ -18,8 +18,8 @@ import rclpy
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from sensor_msgs.msg import JointState
 
-from flight_sim_dynamics.machines.staicu.model import LEG_NAMES
 from flight_sim_dynamics.config.schema import SIM_PARAMETERS
+from flight_sim_dynamics.machines.staicu.model import LEG_NAMES
 from flight_sim_dynamics.ros.platform_sim import SIM_TASK
 from flight_sim_dynamics.ros.process import SIM_MODULE, start_node, stop_node
 from node_harness import PARAMS_FILE, QOS, ROOT, Client, NodeProcess, diagnostic_values
@@ -218,8 +218,7 @@ def _after_gaps(t: np.ndarray, times: np.ndarray, period: float) -> np.ndarray:
 
 
 def tracking_errors(poses, sequence, t0: int, sent: np.ndarray, rate: float,
-                    coordinates: Callable[[object], list], tick: float = TICK
-                    ) -> tuple[np.ndarray, np.ndarray, int]:
+                    coordinates: Callable[[object], list]) -> tuple[np.ndarray, np.ndarray, int]:
     """Per coordinate: max |simulated - commanded| and RMS error / RMS motion of
     the poses stamped from t0 to the last sample (``coordinates(msg)``: a
     platform_pose's, in the sequence's order), against the samples of the
@@ -227,14 +226,14 @@ def tracking_errors(poses, sequence, t0: int, sent: np.ndarray, rate: float,
     :func:`stream`; between two sends the motion runs on for at most one
     sample) and then delayed by the one of :data:`DELAYS` that fits best
     (printed), but for the poses :data:`SETTLE` after the test or the twin
-    (``tick``: its tick period) was held back; the count of the poses judged."""
+    was held back; the count of the poses judged."""
     step = 1.0 / rate
     scheduled = np.arange(len(sent)) * step
     end = t0 + round(scheduled[-1] * 1e9)
     chosen = [m for m in poses if t0 <= stamp(m) <= end]
     q_sim = np.array([coordinates(m) for m in chosen])
     t = np.array([(stamp(m) - t0) * 1e-9 for m in chosen])
-    twin_held = _after_gaps(t, t, tick)
+    twin_held = _after_gaps(t, t, TICK)
     # the commanded motion on a 1 ms grid, read at the sequence time in force
     grid = np.arange(0.0, t.max() + 1e-3, 1e-3)
     q_grid = np.array([sequence.sample(s)[0] for s in grid])
@@ -252,7 +251,7 @@ def tracking_errors(poses, sequence, t0: int, sent: np.ndarray, rate: float,
         if best is None or ratio.max() < best[1].max():
             best = (np.abs(error).max(axis=0), ratio, delay, judged)
     judged = best[3]
-    late = np.diff(sent_s - scheduled).max() if len(sent) > 1 else 0.0
+    late = np.diff(sent_s - scheduled).max()
     print(f'best fit at a delay of {best[2] * 1e3:.0f} ms; the longest hold-up of the '
           f'commands sent: {late * 1e3:.0f} ms; {(~judged).sum()} of {len(t)} poses not '
           f'judged (after a hold-up of the test or the twin)')

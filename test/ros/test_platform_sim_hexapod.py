@@ -346,9 +346,8 @@ def test_the_tracking_measure_fails_a_twin_that_does_not_follow(machine):
     sent = t0 + np.arange(n) * 10**7
     sent[300:] += 4 * 10**8                  # the test held back 0.4 s at sample 300
 
-    def in_force(s: float) -> float:         # the sequence time the twin was given at s
-        k = np.searchsorted(sent, t0 + s * 1e9, side='right') - 1
-        return max(0.0, min(k / RATE, s - (sent[k] - t0) * 1e-9 + k / RATE))
+    def in_force(s: float) -> float:         # the sequence time of the last command sent by s
+        return (np.searchsorted(sent, t0 + s * 1e9, side='right') - 1) / RATE
 
     def poses(follow):
         made = []
@@ -358,8 +357,9 @@ def test_the_tracking_measure_fails_a_twin_that_does_not_follow(machine):
             made.append(SimpleNamespace(header=header, q=follow(s)))
         return made
     late = lambda s: sequence.sample(max(0.0, in_force(s) - 0.02))[0]     # noqa: E731
-    peak, ratio, count = tracking_errors(poses(late), sequence, t0, sent, RATE, lambda m: m.q)
-    assert ratio.max() < 0.02 and count == len(poses(late)) - 30
+    following = poses(late)
+    _, ratio, count = tracking_errors(following, sequence, t0, sent, RATE, lambda m: m.q)
+    assert ratio.max() < 0.02 and count == len(following) - 30
     _, ratio, _ = tracking_errors(poses(lambda s: np.zeros(6)), sequence, t0, sent, RATE,
                                   lambda m: m.q)
     assert np.all(ratio > 0.95)
