@@ -3,9 +3,13 @@
 limiters), and ``flight-sim-dynamics cue`` offline on a long log at 1 kHz
 (a 10-minute turbulence log, the 1-hour time extrapolated; ``--hour``: the
 3.6 M samples themselves): the hexapod (its file: the look-ahead), and the
-3-DOF machine (its file: the preview, L8).
+3-DOF machine (its file: the preview, L8). ``--judge``: instead, the offline
+run (``cueing.planner.run`` on a turbulence log, as ``cue`` runs it) with its
+block judge (``InverseDynamicsLimiter.fits_rows``) against one ``fits`` per
+sample, interleaved (docs/design/implementations.md).
 
     python -m benchmarks.cueing [--quick] [--hour] [--samples 20000]
+    python -m benchmarks.cueing --judge [--minutes 5] [--repeats 2]
 """
 from __future__ import annotations
 
@@ -26,7 +30,7 @@ from flight_sim_dynamics.cli import csv_io
 from flight_sim_dynamics.cli.cue import VEHICLE_COLUMNS
 from flight_sim_dynamics.config.machine_files import load_cueing
 from flight_sim_dynamics.config.cueing import G
-from flight_sim_dynamics.cueing.planner import Planner
+from flight_sim_dynamics.cueing.planner import Planner, run
 from flight_sim_dynamics.cueing.vehicles import vehicle_log
 from flight_sim_dynamics.cueing.washout import Washout
 
@@ -151,6 +155,49 @@ def offline(params_file: str, limiter: str, src: Path, output: Path) -> tuple[fl
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
+def judge_pair(minutes: float, repeats: int) -> list[list[str]]:
+    """Wall and CPU s of ``run(parallel=True)`` of a ``minutes`` turbulence log
+    per machine, judged by blocks and by one ``fits`` per sample (each median
+    of ``repeats``, interleaved), and the gain.
+    """
+    log = vehicle_log('turbulence', RATE, 60.0 * minutes)
+    rows = []
+    for label, path in (('3-DOF', FLIGHT), ('hexapod', HEXAPOD)):
+        model, params = fsd.load_model(path), load_cueing(path)
+        times: dict[str, list[tuple[float, float]]] = {'block': [], 'sample': []}
+        for _ in range(repeats):
+            for how in times:
+                times[how].append(_timed_run(model, params, log, per_sample=how == 'sample'))
+        (wall, cpu), (wall0, cpu0) = (np.median(times[h], axis=0) for h in ('block', 'sample'))
+        rows.append([label, f'{len(log.t):,}', f'{wall:.1f}', f'{cpu:.1f}', f'{wall0:.1f}',
+                     f'{cpu0:.1f}', f'{100 * (1 - wall / wall0):.0f}'])
+    return rows
+
+
+def _per_sample_judge(planner: Planner, wanted: np.ndarray) -> list[bool]:
+    """``Planner.judge`` by the limiter's ``fits``, one sample at a time."""
+    dof = len(planner.index)
+    return [planner.limiter.fits(w[:dof], w[dof:2 * dof], w[2 * dof:]) for w in wanted.tolist()]
+
+
+def _timed_run(model, params, log, per_sample: bool) -> tuple[float, float]:
+    """Wall and CPU s (this process and the forked one) of one offline run."""
+    block_judge = Planner.judge
+    if per_sample:
+        Planner.judge = _per_sample_judge       # the fork inherits it
+    try:
+        cpu = time.process_time()
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        start = time.perf_counter()
+        run(model, params, log.t, log.f, log.omega, parallel=True)
+        wall = time.perf_counter() - start
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    finally:
+        Planner.judge = block_judge
+    return wall, (time.process_time() - cpu + after.ru_utime - before.ru_utime
+                  + after.ru_stime - before.ru_stime)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog='python -m benchmarks.cueing',
                                 description=__doc__.split('\n\n')[0])
@@ -159,7 +206,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument('--hour', action='store_true', help='offline: the 1-hour log itself')
     p.add_argument('--quick', action='store_true',
                    help='1,000 steps, a 0.05-minute log, the check values as always')
+    p.add_argument('--judge', action='store_true',
+                   help='the offline run judged by blocks against sample by sample')
+    p.add_argument('--repeats', type=int, default=2, help='--judge: runs of each (median)')
     args = p.parse_args(argv)
+    if args.judge:
+        minutes = 5.0 if args.minutes == 10.0 else args.minutes
+        print(header(f'the offline run\'s judge, a {minutes:g}-minute turbulence log at '
+                     f'{RATE:g} Hz, median of {args.repeats}'))
+        print(table(['machine', 'samples', 'by blocks: wall s', 'CPU s',
+                     'sample by sample: wall s', 'CPU s', 'gain % (wall)'],
+                    judge_pair(minutes, args.repeats)))
+        print('\n(cueing.planner.run(parallel=True), as flight-sim-dynamics cue runs a long '
+              'log; InverseDynamicsLimiter.fits_rows against fits)')
+        return 0
     samples, minutes = (1000, 0.05) if args.quick else (args.samples, args.minutes)
     if args.hour:
         minutes = 60.0

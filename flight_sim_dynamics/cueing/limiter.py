@@ -385,6 +385,48 @@ class InverseDynamicsLimiter:
         """
         return self._refused(q, qd, qdd) is None
 
+    def fits_rows(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
+        """:meth:`fits` of each row of q, qd, qdd (N, dof), bit for bit: the
+        sample's solve and both ends of its braking (L2, L3) as three
+        :func:`solve_batch` calls on the rows still accepted, the same
+        operations in the same order as :meth:`_refused` on numpy's columns;
+        a row whose braking is long enough for interior poses goes to
+        :meth:`_refused` itself. A second implementation of the acceptance,
+        kept for ``flight-sim-dynamics cue`` (docs/design/implementations.md).
+        """
+        tight, solve, ok = self.tight, self.machine.solve_batch, Status.OK
+        q, qd, a = (np.asarray(v, dtype=float) for v in (q, qd, qdd))
+        accepted = np.zeros(len(q), dtype=bool)
+        rows = np.flatnonzero(solve(tight, q, qd, a).status == ok) if len(q) else []
+        if len(rows) == 0:
+            return accepted
+        q, qd, a = q[rows], qd[rows], a[rows]
+        dt, inverse = self.dt, np.array(self.inverse_braking)
+        c, h = self._c, self._h
+        tau = np.max(np.abs(qd) * inverse, axis=1)
+        brake = qd * (-1.0 / np.where(tau > dt, tau, dt))[:, None]
+        q2 = q + dt * qd + c * (2.0 * a + brake)
+        qd2 = qd + h * (a + brake)
+        keep = np.flatnonzero(solve(tight, q2, qd2, brake).status == ok)
+        if keep.size == 0:
+            return accepted
+        rows, q, qd, a, q2, qd2 = rows[keep], q[keep], qd[keep], a[keep], q2[keep], qd2[keep]
+        speeds = np.abs(qd2)
+        tau = np.max(speeds * inverse, axis=1)
+        brake = qd2 * (-1.0 / np.where(tau > dt, tau, dt))[:, None]
+        fastest = np.max(speeds, axis=1)
+        with np.errstate(divide='ignore'):
+            step = np.where(fastest > 0.0, STOP_DISTANCE / fastest, 0.0)
+        ahead = 0.5 * tau + step
+        stop = q2 + ahead[:, None] * qd2 + self.stop_margin * qd
+        keep = solve(tight, stop, qd2, brake).status == ok
+        long = np.max(np.abs(stop - q2), axis=1) > INTERIOR_STEP
+        accepted[rows[keep & ~long]] = True
+        for i in np.flatnonzero(keep & long):
+            accepted[rows[i]] = self._refused(q[i].tolist(), qd[i].tolist(),
+                                              a[i].tolist()) is None
+        return accepted
+
     def fitting_gain(self, q: list, qd: list, qdd: list) -> tuple[float, str]:
         """(L8) The largest gain k in [0, 1] (:data:`FIT_BISECTION_STEPS` of
         bisection) at which the washout's sample scaled, k (q, qd, qdd), is

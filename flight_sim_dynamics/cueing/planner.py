@@ -85,7 +85,7 @@ class Planner:
         # the limiter's steps on lists of floats (InverseDynamicsLimiter.step_lists)
         governed = isinstance(self.limiter, InverseDynamicsLimiter)
         self._step_lists = self.limiter.step_lists if governed else None
-        self._fits = self.limiter.fits if governed else None
+        self._fits_rows = self.limiter.fits_rows if governed else None
         self._last = np.array([0.0, 0.0, G, 0.0, 0.0, 0.0])
 
     def reset(self) -> None:
@@ -142,20 +142,22 @@ class Planner:
             ahead = [[pose[i] for i in index] for pose in ahead]
         return wish, ahead, status
 
-    def fits(self, wish: list[float]) -> bool | None:
-        """Whether the limiter passes the washout's ``wish`` (:meth:`wish`) on
-        as it is once caught up with it (:meth:`.InverseDynamicsLimiter.fits`:
-        a function of the wish alone; None: no such limiter). The limiter
-        judges it itself when needed; :func:`run` judges a block's ahead.
+    def judge(self, wanted: np.ndarray) -> list[bool] | None:
+        """Whether the limiter passes each of the washout's wishes (rows of
+        ``wanted``, :meth:`wish`'s lists side by side) on as it is once caught
+        up with it (:meth:`.InverseDynamicsLimiter.fits_rows`: a function of
+        the wish alone; None: no such limiter). The limiter judges a wish
+        itself when needed; :func:`run` judges a block's ahead.
         """
-        if self._fits is None:
+        if self._fits_rows is None:
             return None
         dof = self._dof
-        return self._fits(wish[:dof], wish[dof:2 * dof], wish[2 * dof:])
+        return self._fits_rows(wanted[:, :dof], wanted[:, dof:2 * dof],
+                               wanted[:, 2 * dof:]).tolist()
 
     def limit(self, wish: list[float], ahead: Any, fits: bool | None = None) -> tuple:
         """The second stage of a step: the limiter's sample for the washout's
-        ``wish`` and ``ahead`` (:meth:`wish`; ``fits``: :meth:`fits` of it, or
+        ``wish`` and ``ahead`` (:meth:`wish`; ``fits``: :meth:`judge` of it, or
         None): (q, qd, qdd, given_up, limit).
         """
         dof = self._dof
@@ -251,9 +253,9 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     set (inverse-dynamics limiter), the vehicle's motion is first scaled by the
     preview's gain (:func:`_preview`; the look-ahead off), ``given_up`` and
     ``limit`` count it, and ``desired_*`` stay the full-gain washout's.
-    ``parallel``: the wishes made, and judged (:meth:`Planner.fits`), in a
-    second process (forked), a block ahead of the limiter (the preview's
-    too), the same numbers bit for bit.
+    Each block's wishes are judged at once (:meth:`Planner.judge`);
+    ``parallel``: made and judged in a second process (forked), a block
+    ahead of the limiter (the preview's too), the same numbers bit for bit.
     ``on_block(t, samples)``: each block's output times and samples (q, qd,
     qdd side by side) when they are final (to write them out as they come);
     ``progress(done, total, stage)``: called now and then (``stage`` '' for
@@ -277,13 +279,19 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     given_up = np.empty(n)
     limit = np.empty(n, dtype=object)
     every = max(1, n // 100)
-    made = (_WishProcess(planner, inputs, blocks) if parallel and n > BLOCK
-            else (wishes(planner, inputs[lo:hi]) for lo, hi in blocks))
+    if preview is not None and (preview[0] == 1.0).all():
+        # nothing lowered: the first pass's wishes are these, bit for bit
+        made = ((wish[lo:hi], repeat(None), fits, held)
+                for (lo, hi), (fits, held) in zip(blocks, preview[2]))
+    else:
+        made = (_WishProcess(planner, inputs, blocks) if parallel and n > BLOCK
+                else (wishes(planner, inputs[lo:hi]) for lo, hi in blocks))
     step = planner.limit
     held = 0
     try:
         for (lo, hi), (wanted, ahead, fits, held_here) in zip(blocks, made):
-            samples = [step(w, a, j) for w, a, j in zip(wanted, ahead, fits or repeat(None))]
+            samples = [step(w, a, j) for w, a, j in zip(wanted.tolist(), ahead,
+                                                        fits or repeat(None))]
             out[lo:hi] = np.array([s[:3] for s in samples]).reshape(hi - lo, 3 * dof)
             given_up[lo:hi] = [s[3] for s in samples]
             limit[lo:hi] = [s[4] for s in samples]
@@ -300,7 +308,7 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     if progress is not None:
         progress(n, n, '')
     if preview is not None:
-        gain, named = preview
+        gain, named, _ = preview
         given_up = 1.0 - gain * (1.0 - given_up)
         limit = np.where(limit == '', named, limit)
         inputs = source
@@ -314,10 +322,11 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
 def _preview(model: Any, params: CueingParams, planner: Planner, inputs: np.ndarray,
              wish: np.ndarray, blocks: list, parallel: bool,
              progress: Callable[[int, int, str], None] | None
-             ) -> tuple[np.ndarray, np.ndarray]:
-    """(L8) The preview's gain on ``inputs`` (n, 6) and the limit behind it
-    (:func:`.preview.gain_profile`, judged by ``planner``'s limiter): each pass
-    the washout of a planner of its own from rest, its wishes judged, with
+             ) -> tuple[np.ndarray, np.ndarray, list]:
+    """(L8) The preview's gain on ``inputs`` (n, 6), the limit behind it
+    (:func:`.preview.gain_profile`, judged by ``planner``'s limiter) and the
+    first pass's judgement and held inputs of each block: each pass the
+    washout of a planner of its own from rest, its wishes judged, with
     ``parallel``, in a second process as :func:`run`'s are; ``wish`` (n, the
     q, qd, qdd of the machine's coordinates) filled with the first pass's, the
     full-gain washout.
@@ -325,6 +334,7 @@ def _preview(model: Any, params: CueingParams, planner: Planner, inputs: np.ndar
     n, dof = len(inputs), len(planner.index)
     judge = Planner(model, params, look_ahead=False)
     first = [True]
+    first_pass: list[tuple[list | None, int]] = []
 
     def judged(rows: np.ndarray) -> Iterator[tuple[list, bool | None]]:
         judge.reset()
@@ -332,31 +342,31 @@ def _preview(model: Any, params: CueingParams, planner: Planner, inputs: np.ndar
         made = (_WishProcess(judge, rows, blocks) if parallel and n > BLOCK
                 else (wishes(judge, rows[lo:hi]) for lo, hi in blocks))
         try:
-            for (lo, hi), (wanted, _, fits, _) in zip(blocks, made):
+            for (lo, hi), (wanted, _, fits, held) in zip(blocks, made):
                 if keep:
                     wish[lo:hi] = wanted
-                yield from zip(wanted, fits or repeat(None))
+                    first_pass.append((fits, held))
+                yield from zip(wanted.tolist(), fits or repeat(None))
         finally:
             if isinstance(made, _WishProcess):
                 made.close()
 
     slope, lead = (params.limiter_settings[k] for k in ('preview.slope', 'preview.lead'))
-    return gain_profile(inputs, judged, planner.limiter.fitting_gain, dof, params.rate,
-                        slope, lead, None if progress is None else
-                        lambda i, k: progress(k, n, f'preview pass {i}'))
+    gain, named = gain_profile(inputs, judged, planner.limiter.fitting_gain, dof, params.rate,
+                               slope, lead, None if progress is None else
+                               lambda i, k: progress(k, n, f'preview pass {i}'))
+    return gain, named, first_pass
 
 
-def wishes(planner: Planner, inputs: np.ndarray, judge: bool = False
-           ) -> tuple[list, list, list | None, int]:
+def wishes(planner: Planner, inputs: np.ndarray) -> tuple[np.ndarray, list, list | None, int]:
     """:meth:`Planner.wish` of each row of ``inputs`` (n, 6: f, omega):
-    (the wishes, the look-aheads, with ``judge`` :meth:`Planner.fits` of each
-    wish (else None), how many inputs were held).
+    (the wishes (n, q, qd, qdd side by side), the look-aheads,
+    :meth:`Planner.judge` of the wishes, how many inputs were held).
     """
     before = planner.held
     made = [planner.wish(u[:3], u[3:])[:2] for u in inputs]
-    wanted = [m[0] for m in made]
-    fits = [planner.fits(w) for w in wanted] if judge else None
-    return wanted, [m[1] for m in made], fits, planner.held - before
+    wanted = np.array([m[0] for m in made]).reshape(len(made), 3 * planner._dof)
+    return wanted, [m[1] for m in made], planner.judge(wanted), planner.held - before
 
 
 class _WishProcess:
@@ -384,8 +394,7 @@ class _WishProcess:
                                    f'(exit code {self._process.exitcode})') from None
             if isinstance(message, BaseException):
                 raise message
-            wanted, ahead, fits, held = message
-            yield wanted.tolist(), ahead, fits, held
+            yield message
 
     def close(self) -> None:
         self._receive.close()
@@ -398,8 +407,7 @@ def _send_wishes(planner: Planner, inputs: np.ndarray, blocks: list, send: Any) 
     """The child of :class:`_WishProcess`: each block's wishes (an array) down the pipe."""
     try:
         for lo, hi in blocks:
-            wanted, ahead, fits, held = wishes(planner, inputs[lo:hi], judge=True)
-            send.send((np.array(wanted), ahead, fits, held))
+            send.send(wishes(planner, inputs[lo:hi]))
     except BrokenPipeError:
         return                  # the parent stopped reading: nothing to say
     except BaseException as exc:        # said in the parent

@@ -64,6 +64,32 @@ def test_streaming_equals_batch_bit_for_bit(models, name):
     assert batch.dropped == planner.dropped and batch.repeated == 0 and batch.held == 0
 
 
+@pytest.mark.parametrize('name, scale', [('3dof', 1.0), ('3dof', 4.0), ('hexapod', 4.0)])
+def test_a_limited_run_is_its_planners_steps_bit_for_bit(models, name, scale):
+    """run with the limiter (each block's wishes judged at once) gives
+    Planner.step's samples; on the 3-DOF machine with its file's preview, a
+    log it lowers nothing of (its first pass's wishes are the run's: made
+    once), with held inputs, and one the look-ahead limits (preview off).
+    """
+    model = models[name]
+    params = load_cueing('config/stewart_6dof.yaml' if name == 'hexapod' else None)
+    previewed = scale == 1.0
+    if not previewed:
+        params = params.replace(limiter_settings={**params.limiter_settings,
+                                                  'preview.slope': 0.0})
+    t, f, omega = vehicle(BLOCK + 700, seed=5)
+    f[:, 0] *= scale
+    f[BLOCK - 3:BLOCK + 3, 1] = np.nan
+    batch = run(model, params, t, f, omega)
+    planner = Planner(model, params, look_ahead=not previewed)
+    stream = [planner.step(f[k], omega[k]) for k in range(len(t))]
+    assert (batch.given_up.max() == 0.0) == previewed
+    for field in ('q', 'qd', 'qdd', 'given_up'):
+        assert np.array_equal(getattr(batch, field), np.array([getattr(s, field) for s in stream]))
+    assert list(batch.limit) == [s.limit for s in stream]
+    assert batch.held == planner.held == 6
+
+
 def test_the_input_is_resampled_linearly_to_the_output_rate():
     t = np.array([0.0, 0.0025, 0.0025, 0.004, 0.010])
     x = np.column_stack([t * 2.0, 1.0 - t])

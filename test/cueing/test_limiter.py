@@ -357,6 +357,58 @@ def test_invisible_on_a_vehicle_log_the_washout_fits(setup, vehicle, duration) -
 
 # -- the parts -------------------------------------------------------------------
 
+def test_a_block_is_judged_as_each_of_its_samples_alone(setup) -> None:
+    """``fits_rows`` (the offline run's judge of a block) is ``fits`` of each
+    row, bit for bit: a violent log's washout scaled by random factors, pairs
+    of its samples scaled to either side of the edge of the limits (2^-40
+    apart: any change of the rule's numbers moves some edge), random samples
+    over the coordinates' ranges at up to 1.5 m/s or rad/s (brakings long
+    enough for interior poses), zero, NaN, infinite and 1e300 rows; an empty
+    block.
+    """
+    from flight_sim_dynamics.cueing.planner import run as cue
+    from flight_sim_dynamics.cueing.vehicles import vehicle_log
+    s = setup
+    limiter, dof = s.limiter(), s.dof
+    rng = np.random.default_rng(11)
+    v = vehicle_log('violent', 100.0, 12.0)
+    pure = cue(s.model, s.params.replace(limiter='none'), v.t, v.f, v.omega)
+    k = rng.uniform(0.0, 2.0, (len(pure.t), 1))
+    edges = []
+    for i in rng.choice(len(pure.t), 150, replace=False):
+        sample = [x[i].tolist() for x in (pure.q, pure.qd, pure.qdd)]
+        below, above = 0.0, 4.0
+        if limiter.fits(*([4.0 * v for v in x] for x in sample)):
+            continue
+        for _ in range(40):
+            mid = 0.5 * (below + above)
+            if limiter.fits(*([mid * v for v in x] for x in sample)):
+                below = mid
+            else:
+                above = mid
+        edges += [[below * np.array(x) for x in sample], [above * np.array(x) for x in sample]]
+    n = 1500
+    low, high = np.array(limiter.low), np.array(limiter.high)
+    rows = [np.vstack([k * pure.q, [e[0] for e in edges],
+                       rng.uniform(1.3 * low, 1.3 * high, (n, dof)), np.zeros((4, dof))]),
+            np.vstack([k * pure.qd, [e[1] for e in edges], rng.uniform(-1.5, 1.5, (n, dof)),
+                       np.zeros((4, dof))]),
+            np.vstack([k * pure.qdd, [e[2] for e in edges], rng.normal(0.0, 4.0, (n, dof)),
+                       np.zeros((4, dof))])]
+    for j, bad in enumerate((math.nan, math.inf, 1e300)):
+        rows[j % 3][-1 - j, j % dof] = bad
+    interior = []
+    refused = limiter._refused
+    limiter._refused = lambda *sample: interior.append(1) or refused(*sample)
+    got = limiter.fits_rows(*rows)
+    limiter._refused = refused
+    want = [limiter.fits(*(r[i].tolist() for r in rows)) for i in range(len(rows[0]))]
+    assert got.dtype == bool and got.tolist() == want
+    assert 0.2 < np.mean(want) < 0.8 and want[-4] and not any(want[-3:])
+    assert len(interior) > 10           # rows whose braking has interior poses
+    assert len(edges) > 200
+    assert limiter.fits_rows(*(r[:0] for r in rows)).shape == (0,)
+
 def test_none_passes_the_sample_through(setup) -> None:
     made = lm.make_limiter(setup.model, setup.params.replace(limiter='none'))
     q = np.full(setup.dof, 5.0)
