@@ -252,7 +252,9 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     the steps of :meth:`Planner.step` in another order. With ``preview.slope``
     set (inverse-dynamics limiter), the vehicle's motion is first scaled by the
     preview's gain (:func:`_preview`; the look-ahead off), ``given_up`` and
-    ``limit`` count it, and ``desired_*`` stay the full-gain washout's.
+    ``limit`` count it, and ``desired_*`` stay the full-gain washout's; where
+    it lowers nothing, its first pass's wishes and judgements are the run's
+    (the same numbers: made once).
     Each block's wishes are judged at once (:meth:`Planner.judge`);
     ``parallel``: made and judged in a second process (forked), a block
     ahead of the limiter (the preview's too), the same numbers bit for bit.

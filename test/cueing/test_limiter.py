@@ -355,6 +355,32 @@ def test_invisible_on_a_vehicle_log_the_washout_fits(setup, vehicle, duration) -
     assert np.array_equal(limited.qdd, pure.qdd) and (limited.given_up == 0.0).all()
 
 
+@pytest.mark.slow       # 34 s of cueing at 1 kHz, 7 s of it limited
+def test_after_a_limited_moment_the_washout_is_passed_on_again(setup) -> None:
+    """Turbulence with a 2 g push at 5 s, which the limiter limits: once the
+    washout fits again, its state catches up with the washout (the angles'
+    residue under the pull-back within their catch-up tolerance, L1) and
+    passes the washout's own samples on again, bit for bit, over the last 5 s
+    (from 26 s on the 3-DOF machine, 28 s on the hexapod; with the
+    translations' tolerances for the angles, from 30.4 s and never).
+    """
+    from flight_sim_dynamics.cueing.planner import run as cue
+    from flight_sim_dynamics.cueing.vehicles import vehicle_log
+    s = setup
+    params = settings_of(s.params, **{'preview.slope': 0.0})     # as the node runs
+    v = vehicle_log('turbulence', 100.0, 34.0)
+    f = v.f.copy()
+    f[(v.t > 5.0) & (v.t < 5.5), 0] += 2.0 * G
+    c = cue(s.model, params, v.t, f, v.omega)
+    limited = np.flatnonzero(c.given_up > 0.0)
+    assert c.t[limited[0]] < 5.1 and c.t[limited[-1]] < 20.0
+    last = c.t > c.t[-1] - 5.0
+    assert np.array_equal(c.q[last], c.desired_q[last])
+    assert np.array_equal(c.qd[last], c.desired_qd[last])
+    assert np.array_equal(c.qdd[last], c.desired_qdd[last])
+    assert np.abs(c.desired_q[last]).max() > 1e-3        # it moves
+
+
 # -- the parts -------------------------------------------------------------------
 
 def test_a_block_is_judged_as_each_of_its_samples_alone(setup) -> None:

@@ -192,11 +192,11 @@ def _run_stepper(model, servo, commands, chunk):
 
 
 @pytest.mark.skipif(not kernel.available(), reason='compiled kernel not built')
-@pytest.mark.parametrize('far', [False, True])
+@pytest.mark.parametrize('far', [False, pytest.param(True, marks=pytest.mark.slow)])
 def test_compiled_steps_equal_python_steps(model, servo, far):
     """Several steps per call (as the node ticks) through the kernel equal the
-    Python loop: on a moving reference, and up to the stop and the state held
-    when the commands drive the platform out of the workspace."""
+    Python loop: on a moving reference, and (slow tier) up to the stop and the
+    state held when the commands drive the platform out of the workspace."""
     plant = replace(model, limits=replace(model.limits, max_force=1e6)) if far else model
     motion = motions.get('general')
     # far: until it stops (at 0.39 s), then 0.2 s of the state held

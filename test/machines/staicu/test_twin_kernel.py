@@ -63,28 +63,35 @@ def both(call):
 
 
 @needs_kernel
-@settings(max_examples=examples(0.5), report_multiple_bugs=False)
-@given(batches(), st.sampled_from(sorted(MODELS)))
-def test_affine_terms_kernel_equals_python_over_the_workspace(batch, name):
-    model = MODELS[name]
-    q, qd, _ = batch
-    for i in range(len(q)):
-        (M, b, base), (M_py, b_py, base_py) = both(lambda: fd.affine_terms(model, q[i], qd[i]))
-        where = f'{name}: q={q[i].tolist()} qd={qd[i].tolist()}'
-        assert base.status == base_py.status and base.detail == base_py.detail, where
-        np.testing.assert_array_equal(b, base.force, err_msg=where)
-        assert M.shape == (3, 3) and b.shape == (3,)
-        assert np.all(np.isfinite(M)) and np.all(np.isfinite(b)), where
-        np.testing.assert_allclose(base.length, base_py.length, rtol=RTOL, err_msg=where)
-        np.testing.assert_allclose(base.rate, base_py.rate, rtol=RTOL, atol=1e-15, err_msg=where)
-        if base.status in (Status.UNREACHABLE, Status.INVALID_INPUT):
-            assert np.all(M == 0.0) and np.all(b == 0.0), where
-            continue
-        # rounding of the reference's differences solve(e_j) - b: relative to |b| too
-        factor = tolerance_factor(max(base.kinematic_condition, base.jacobian_condition))
-        scale = max(np.abs(M_py).max(), np.abs(b_py).max(), 1.0)
-        assert np.abs(M - M_py).max() <= RTOL * factor * scale, (where, M, M_py)
-        assert np.abs(b - b_py).max() <= RTOL * factor * scale, (where, b, b_py)
+def test_affine_terms_kernel_equals_python_over_the_workspace(sweep) -> None:
+    """The kernel's M and b (f = M q'' + b) are the Python code's over the
+    workspace and beyond, for each model of MODELS (a quarter of the
+    examples in the unit tier, the rest in the slow tier)."""
+    @settings(max_examples=sweep(examples(0.5)), report_multiple_bugs=False)
+    @given(batches(), st.sampled_from(sorted(MODELS)))
+    def check(batch, name) -> None:
+        model = MODELS[name]
+        q, qd, _ = batch
+        for i in range(len(q)):
+            (M, b, base), (M_py, b_py, base_py) = both(lambda: fd.affine_terms(model, q[i], qd[i]))
+            where = f'{name}: q={q[i].tolist()} qd={qd[i].tolist()}'
+            assert base.status == base_py.status and base.detail == base_py.detail, where
+            np.testing.assert_array_equal(b, base.force, err_msg=where)
+            assert M.shape == (3, 3) and b.shape == (3,)
+            assert np.all(np.isfinite(M)) and np.all(np.isfinite(b)), where
+            np.testing.assert_allclose(base.length, base_py.length, rtol=RTOL, err_msg=where)
+            np.testing.assert_allclose(base.rate, base_py.rate, rtol=RTOL, atol=1e-15,
+                                       err_msg=where)
+            if base.status in (Status.UNREACHABLE, Status.INVALID_INPUT):
+                assert np.all(M == 0.0) and np.all(b == 0.0), where
+                continue
+            # rounding of the reference's differences solve(e_j) - b: relative to |b| too
+            factor = tolerance_factor(max(base.kinematic_condition, base.jacobian_condition))
+            scale = max(np.abs(M_py).max(), np.abs(b_py).max(), 1.0)
+            assert np.abs(M - M_py).max() <= RTOL * factor * scale, (where, M, M_py)
+            assert np.abs(b - b_py).max() <= RTOL * factor * scale, (where, b, b_py)
+
+    check()
 
 
 @needs_kernel
@@ -128,10 +135,11 @@ def assert_same_run(fast: tuple, slow: tuple) -> None:
 
 
 @needs_kernel
-@pytest.mark.parametrize('name, start', [('general', 0.0), ('violent', 1.1)])
+@pytest.mark.parametrize('name, start', [
+    ('general', 0.0), pytest.param('violent', 1.1, marks=pytest.mark.slow)])
 def test_closed_loop_kernel_equals_python(name, start):
     """200 steps of the closed loop (the Python loop is slow) with the full
-    feed-forward and with none."""
+    feed-forward and with none (the violent motion in the slow tier)."""
     reference = replace(Reference.from_motion(motions.get(name)), start=start, end=start + 0.2)
     for feedforward in (MODEL, None):
         fast, slow = both(lambda: simulate(MODEL, reference=reference, feedforward=feedforward))

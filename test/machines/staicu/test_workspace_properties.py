@@ -13,8 +13,9 @@ the central surge/heave) and motions up to 5 m/s, 10 rad/s, 10 g and
 
 About a third of such samples are unreachable and a few percent near a
 singularity. With the ``ci`` Hypothesis profile (test/conftest.py) each test
-checks a few thousand samples per run; ``FSD_HYPOTHESIS_PROFILE=long`` runs
-20x more.
+checks a few thousand samples per run, a quarter of them in the unit tier and
+the rest in the slow tier (the ``sweep`` fixture); ``FSD_HYPOTHESIS_PROFILE=long``
+runs 20x more.
 
 For every sample, whatever its status:
 
@@ -145,83 +146,89 @@ def reference_at(q, qd, qdd) -> dict:
 # ----------------------------------------------------------------------------
 # No non-finite output; statuses consistent with the reference and the numbers
 # ----------------------------------------------------------------------------
-@settings(max_examples=examples(1.0), report_multiple_bugs=False)
-@given(batches())
-def test_every_sample_is_finite_and_its_status_is_consistent(batch):
-    q, qd, qdd = batch
-    sol = fsd.solve_batch(MODEL, q, qd, qdd)
-    assert_all_finite(sol, 'solve_batch')
-    with np.errstate(all='ignore'):
-        surely_in = rm.reachable(PARAMS, q)                  # discriminants > 1e-9
-        surely_out = ~rm.reachable(PARAMS, q, margin=0.0)    # a loop cannot close
-    for i in range(len(q)):
-        status = sol.status[i]
-        where = f'sample {i}: q={q[i].tolist()} qd={qd[i].tolist()} qdd={qdd[i].tolist()}'
-        assert status in SOLVE_STATUSES, where
-        assert status != Status.INVALID_INPUT, f'{where}: {sol.detail[i]}'
-        if surely_in[i]:
-            assert status != Status.UNREACHABLE, f'{where}: {sol.detail[i]}'
-        if surely_out[i]:
-            assert status == Status.UNREACHABLE, f'{where}: {status} {sol.detail[i]}'
-        if status == Status.UNREACHABLE:
-            assert sol.detail[i].startswith('loop '), where
-            for name in ('length', 'force', 'power', 'rate', 'joints', 'jacobian'):
-                assert np.all(np.asarray(getattr(sol, name)[i]) == 0.0), (where, name)
-        else:
-            near = not (sol.kinematic_condition[i] <= LIM.max_kinematic_condition
-                        and sol.jacobian_condition[i] <= LIM.max_jacobian_condition)
-            if near:
-                assert status == Status.NEAR_SINGULAR, where
+def test_every_sample_is_finite_and_its_status_is_consistent(sweep) -> None:
+    @settings(max_examples=sweep(examples(1.0)), report_multiple_bugs=False)
+    @given(batches())
+    def check(batch) -> None:
+        q, qd, qdd = batch
+        sol = fsd.solve_batch(MODEL, q, qd, qdd)
+        assert_all_finite(sol, 'solve_batch')
+        with np.errstate(all='ignore'):
+            surely_in = rm.reachable(PARAMS, q)                  # discriminants > 1e-9
+            surely_out = ~rm.reachable(PARAMS, q, margin=0.0)    # a loop cannot close
+        for i in range(len(q)):
+            status = sol.status[i]
+            where = f'sample {i}: q={q[i].tolist()} qd={qd[i].tolist()} qdd={qdd[i].tolist()}'
+            assert status in SOLVE_STATUSES, where
+            assert status != Status.INVALID_INPUT, f'{where}: {sol.detail[i]}'
+            if surely_in[i]:
+                assert status != Status.UNREACHABLE, f'{where}: {sol.detail[i]}'
+            if surely_out[i]:
+                assert status == Status.UNREACHABLE, f'{where}: {status} {sol.detail[i]}'
+            if status == Status.UNREACHABLE:
+                assert sol.detail[i].startswith('loop '), where
+                for name in ('length', 'force', 'power', 'rate', 'joints', 'jacobian'):
+                    assert np.all(np.asarray(getattr(sol, name)[i]) == 0.0), (where, name)
             else:
-                limit = expected_limit(sol.stroke[i], sol.rate[i], sol.force[i])
-                assert status == (Status.LIMIT if limit else Status.OK), (where, sol.detail[i])
-                assert (sol.detail[i] != '') == limit, where
-        # the per-cycle entry point gives the same status and numbers
-        one = fsd.solve(MODEL, q[i], qd[i], qdd[i])
-        assert_all_finite(one, f'solve, {where}')
-        assert one.status == status, (where, one.detail, sol.detail[i])
-        if status in (Status.OK, Status.LIMIT, Status.NEAR_SINGULAR):
-            rtol = 1e-12 * tolerance_factor(condition(sol, i))
-            for name in ('length', 'rate', 'acceleration', 'force'):
-                a, b = getattr(one, name), getattr(sol, name)[i]
-                scale = max(float(np.max(np.abs(b))), 1.0)
-                assert np.max(np.abs(a - b)) <= rtol * scale, (where, name, a, b)
+                near = not (sol.kinematic_condition[i] <= LIM.max_kinematic_condition
+                            and sol.jacobian_condition[i] <= LIM.max_jacobian_condition)
+                if near:
+                    assert status == Status.NEAR_SINGULAR, where
+                else:
+                    limit = expected_limit(sol.stroke[i], sol.rate[i], sol.force[i])
+                    assert status == (Status.LIMIT if limit else Status.OK), (where, sol.detail[i])
+                    assert (sol.detail[i] != '') == limit, where
+            # the per-cycle entry point gives the same status and numbers
+            one = fsd.solve(MODEL, q[i], qd[i], qdd[i])
+            assert_all_finite(one, f'solve, {where}')
+            assert one.status == status, (where, one.detail, sol.detail[i])
+            if status in (Status.OK, Status.LIMIT, Status.NEAR_SINGULAR):
+                rtol = 1e-12 * tolerance_factor(condition(sol, i))
+                for name in ('length', 'rate', 'acceleration', 'force'):
+                    a, b = getattr(one, name), getattr(sol, name)[i]
+                    scale = max(float(np.max(np.abs(b))), 1.0)
+                    assert np.max(np.abs(a - b)) <= rtol * scale, (where, name, a, b)
+
+    check()
 
 
 # ----------------------------------------------------------------------------
 # Power balance and forces against the independent reference
 # ----------------------------------------------------------------------------
-@settings(max_examples=examples(1.0), report_multiple_bugs=False)
-@given(batches())
-def test_power_balance_and_forces_against_the_reference(batch):
-    q, qd, qdd = batch
-    sol = fsd.solve_batch(MODEL, q, qd, qdd)
-    keep = np.array([s not in VOID for s in sol.status])
-    if not keep.any():
-        return
-    ref = reference_at(q[keep], qd[keep], qdd[keep])
-    power = sol.power[keep]
-    cond = np.maximum(sol.kinematic_condition[keep], sol.jacobian_condition[keep])
-    allowed = RTOL * tolerance_factor(cond)
-    scale = np.maximum(np.maximum(np.abs(ref['dE_dt']), np.abs(power).sum(axis=1)), 1.0)
-    balance = np.abs(power.sum(axis=1) - ref['dE_dt']) / scale
-    force_scale = np.maximum(np.abs(ref['force']).max(axis=1), 1.0)
-    force_error = np.abs(sol.force[keep] - ref['force']).max(axis=1) / force_scale
-    target(float(np.max(balance / allowed)), label='power balance error / tolerance')
-    bad = np.flatnonzero((balance > allowed) | (force_error > allowed))
-    for j in bad[:1]:
-        i = np.flatnonzero(keep)[j]
-        raise AssertionError(
-            f'sample {i} ({sol.status[i]}, condition {cond[j]:.3g}): q={q[i].tolist()} '
-            f'qd={qd[i].tolist()} qdd={qdd[i].tolist()}: sum P = {power[j].sum():.17g}, '
-            f'dE/dt = {ref["dE_dt"][j]:.17g} (relative {balance[j]:.3g}); force '
-            f'{sol.force[i].tolist()} vs reference {ref["force"][j].tolist()} '
-            f'(relative {force_error[j]:.3g}); allowed {allowed[j]:.3g}')
-    # the lengths and rates agree too (pure kinematics, no singularity needed)
-    np.testing.assert_allclose(sol.length[keep], ref['length'], rtol=0, atol=1e-12)
-    rate_scale = np.maximum(np.abs(ref['rate']).max(axis=1, keepdims=True), 1.0)
-    assert np.all(np.abs(sol.rate[keep] - ref['rate']) <= 1e-12 * rate_scale
-                  * tolerance_factor(cond)[:, None])
+def test_power_balance_and_forces_against_the_reference(sweep) -> None:
+    @settings(max_examples=sweep(examples(1.0)), report_multiple_bugs=False)
+    @given(batches())
+    def check(batch) -> None:
+        q, qd, qdd = batch
+        sol = fsd.solve_batch(MODEL, q, qd, qdd)
+        keep = np.array([s not in VOID for s in sol.status])
+        if not keep.any():
+            return
+        ref = reference_at(q[keep], qd[keep], qdd[keep])
+        power = sol.power[keep]
+        cond = np.maximum(sol.kinematic_condition[keep], sol.jacobian_condition[keep])
+        allowed = RTOL * tolerance_factor(cond)
+        scale = np.maximum(np.maximum(np.abs(ref['dE_dt']), np.abs(power).sum(axis=1)), 1.0)
+        balance = np.abs(power.sum(axis=1) - ref['dE_dt']) / scale
+        force_scale = np.maximum(np.abs(ref['force']).max(axis=1), 1.0)
+        force_error = np.abs(sol.force[keep] - ref['force']).max(axis=1) / force_scale
+        target(float(np.max(balance / allowed)), label='power balance error / tolerance')
+        bad = np.flatnonzero((balance > allowed) | (force_error > allowed))
+        for j in bad[:1]:
+            i = np.flatnonzero(keep)[j]
+            raise AssertionError(
+                f'sample {i} ({sol.status[i]}, condition {cond[j]:.3g}): q={q[i].tolist()} '
+                f'qd={qd[i].tolist()} qdd={qdd[i].tolist()}: sum P = {power[j].sum():.17g}, '
+                f'dE/dt = {ref["dE_dt"][j]:.17g} (relative {balance[j]:.3g}); force '
+                f'{sol.force[i].tolist()} vs reference {ref["force"][j].tolist()} '
+                f'(relative {force_error[j]:.3g}); allowed {allowed[j]:.3g}')
+        # the lengths and rates agree too (pure kinematics, no singularity needed)
+        np.testing.assert_allclose(sol.length[keep], ref['length'], rtol=0, atol=1e-12)
+        rate_scale = np.maximum(np.abs(ref['rate']).max(axis=1, keepdims=True), 1.0)
+        assert np.all(np.abs(sol.rate[keep] - ref['rate']) <= 1e-12 * rate_scale
+                      * tolerance_factor(cond)[:, None])
+
+    check()
 
 
 # ----------------------------------------------------------------------------
@@ -232,34 +239,37 @@ def wrapped(a: np.ndarray) -> np.ndarray:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
-@settings(max_examples=examples(2.0), report_multiple_bugs=False)
-@given(st.lists(st.tuples(*[_box(lo, hi) for lo, hi in zip(POSE_LO, POSE_HI)]),
-                min_size=1, max_size=8))
-def test_forward_kinematics_round_trip(poses):
+def test_forward_kinematics_round_trip(sweep) -> None:
     """Leg lengths of any reachable pose give the pose back (this found the
     forward-kinematics bug pinned by test_hard_cases.py::
     test_regression_forward_kinematics_calls_reachable_lengths_unreachable).
     Poses with status limit at rest are included: that status only says a
     stroke is out of its range; the geometry, hence the round trip, is the same."""
-    q = np.array(poses, dtype=float)
-    sol = fsd.solve_batch(MODEL, q, np.zeros_like(q), np.zeros_like(q))
-    for i in range(len(q)):
-        if sol.status[i] not in (Status.OK, Status.LIMIT):
-            continue
-        same_mode = np.sign(np.linalg.det(sol.jacobian[i])) == np.sign(DET_CENTRE)
-        if same_mode:
-            start = (0.0, 0.0, 0.0)
-        else:   # a start within 5e-4 of the pose, if reachable (else the pose itself)
-            start = tuple(np.round(q[i], 3))
-            if fsd.solve(MODEL, start, (0, 0, 0), (0, 0, 0)).status in VOID:
-                start = tuple(q[i])
-        result = fsd.forward_kinematics(MODEL, sol.length[i], start)
-        where = (f'q={q[i].tolist()} ({sol.status[i]}, conditions '
-                 f'{sol.kinematic_condition[i]:.3g}/{sol.jacobian_condition[i]:.3g}), '
-                 f'start {start}')
-        assert result.status == Status.OK, f'{where}: {result.status}: {result.detail}'
-        error = result.pose - q[i]
-        error[2] = wrapped(error[2])
-        assert np.max(np.abs(error)) <= 1e-9, f'{where}: pose {result.pose.tolist()}'
-        assert result.residual <= 1e-12
-        assert np.all(np.isfinite(result.pose))
+    @settings(max_examples=sweep(examples(2.0)), report_multiple_bugs=False)
+    @given(st.lists(st.tuples(*[_box(lo, hi) for lo, hi in zip(POSE_LO, POSE_HI)]),
+                    min_size=1, max_size=8))
+    def check(poses) -> None:
+        q = np.array(poses, dtype=float)
+        sol = fsd.solve_batch(MODEL, q, np.zeros_like(q), np.zeros_like(q))
+        for i in range(len(q)):
+            if sol.status[i] not in (Status.OK, Status.LIMIT):
+                continue
+            same_mode = np.sign(np.linalg.det(sol.jacobian[i])) == np.sign(DET_CENTRE)
+            if same_mode:
+                start = (0.0, 0.0, 0.0)
+            else:   # a start within 5e-4 of the pose, if reachable (else the pose itself)
+                start = tuple(np.round(q[i], 3))
+                if fsd.solve(MODEL, start, (0, 0, 0), (0, 0, 0)).status in VOID:
+                    start = tuple(q[i])
+            result = fsd.forward_kinematics(MODEL, sol.length[i], start)
+            where = (f'q={q[i].tolist()} ({sol.status[i]}, conditions '
+                     f'{sol.kinematic_condition[i]:.3g}/{sol.jacobian_condition[i]:.3g}), '
+                     f'start {start}')
+            assert result.status == Status.OK, f'{where}: {result.status}: {result.detail}'
+            error = result.pose - q[i]
+            error[2] = wrapped(error[2])
+            assert np.max(np.abs(error)) <= 1e-9, f'{where}: pose {result.pose.tolist()}'
+            assert result.residual <= 1e-12
+            assert np.all(np.isfinite(result.pose))
+
+    check()
