@@ -46,9 +46,10 @@ CATCH_UP_POSITION = 1e-6
 CATCH_UP_RATE = 1e-4
 #: The same for an angle (rad, rad/s): the rotation's acceleration (from the
 #: input's slope) and the rate-limited tilt are not quite (L1)'s continuation,
-#: so a state off the washout keeps a residue under the pull-back (about
-#: 1e-5 rad and 2e-4 rad/s on the hexapod's turbulence log, which it then never
-#: left); a catch-up step of 1e-3 rad/s is far below what a rider feels.
+#: so a state off the washout keeps a residue under the pull-back (about 1e-5
+#: rad and 2e-4 rad/s on a turbulence log, which then never caught up:
+#: cueing_limiter.md, L1); a catch-up step of 1e-3 rad/s is far below what a
+#: rider feels.
 CATCH_UP_ANGLE = 1e-5
 CATCH_UP_ANGLE_RATE = 1e-3
 #: How much further than the braking's stop point (L3) the limits must hold,
@@ -158,7 +159,6 @@ class InverseDynamicsLimiter:
         omega = float(settings['recovery.omega'])
         self.kp, self.kd = omega * omega, 2.0 * omega
         # (L1) the catch-up gate, per coordinate: caught up, and passing the washout on
-        n = len(linear)
         self.catch_up = ([CATCH_UP_POSITION if lin else CATCH_UP_ANGLE for lin in linear],
                          [CATCH_UP_RATE if lin else CATCH_UP_ANGLE_RATE for lin in linear])
         self.track = ([CATCH_UP_POSITION if lin else TRACK_ANGLE for lin in linear],
