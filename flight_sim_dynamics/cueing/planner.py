@@ -281,7 +281,7 @@ def run(model: Any, params: CueingParams, t: np.ndarray, f: np.ndarray, omega: n
     given_up = np.empty(n)
     limit = np.empty(n, dtype=object)
     every = max(1, n // 100)
-    if preview is not None and (preview[0] == 1.0).all():
+    if preview is not None and (preview[0] == 1.0).all() and len(preview[2]) == len(blocks):
         # nothing lowered: the first pass's wishes are these, bit for bit
         made = ((wish[lo:hi], repeat(None), fits, held)
                 for (lo, hi), (fits, held) in zip(blocks, preview[2]))
