@@ -185,12 +185,6 @@ DELAYS = np.arange(0.0, 0.305, 0.005)
 #: in 0.3 s)
 SETTLE = 0.3
 
-#: the share of the twin's ticks over the motion that must be judged: a busy
-#: 2-core host holds the twin back often enough that over half of its poses
-#: fall within SETTLE of a hold-up (322 of 617 in one CI run); a quarter of a
-#: 7.5 s motion (1.9 s of poses) still judges the tracking
-JUDGED = 0.25
-
 #: the twin's tick period (s) by default: one pose a tick
 TICK = 1.0 / next(s.default for s in SIM_PARAMETERS if s.name == 'tick_rate')
 

@@ -39,8 +39,8 @@ from flight_sim_dynamics.machines.staicu.motions import MOTIONS
 from flight_sim_dynamics.ros.process import SIM_MODULE, stop_node
 from flight_sim_dynamics.ros.messages import NON_FINITE, quaternion_to_rpy
 from node_harness import PARAMS_FILE, QOS, ROOT, Client
-from sim_harness import (JUDGED, SimClient, command, node_and_twin, own_twin, sim_output,
-                         stamp, start_sim, stream, tracking_errors)
+from sim_harness import (SimClient, command, node_and_twin, own_twin, sim_output, stamp,
+                         start_sim, stream, tracking_errors)
 
 pytestmark = pytest.mark.ros
 
@@ -105,7 +105,7 @@ def test_simulated_pose_follows_the_commanded_one(pipeline):
                                          coordinates)
     print(f'twin tracking over {count} poses: max error surge, heave, roll {peak.round(4)}, '
           f'RMS error / RMS motion {ratio.round(3)}')
-    assert count > JUDGED * sequence.period * tick_rate     # one pose per tick
+    assert count > 0.5 * sequence.period * tick_rate     # one pose per tick
     # at the delay that fits best (a busy host delivers the commands late, up to
     # 0.3 s; offline, commands held at 100 Hz: roll 1.4e-3 rad at its peak): a
     # twin that does not move scores 1, one with a coordinate of the wrong sign 2
