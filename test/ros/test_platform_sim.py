@@ -83,10 +83,6 @@ def test_twin_waits_at_rest_before_the_first_command():
         Path(log.name).unlink(missing_ok=True)
 
 
-# seconds of real time beside the node and the twin: in the slow tier (two
-# workers), as the node-driven one; beside the ros tier's three workers a CI run
-# held the test process up to 1.85 s
-@pytest.mark.slow
 def test_simulated_pose_follows_the_commanded_one(pipeline):
     client, twin, sim, _ = pipeline
     sequence = PlannerSequence(MOTIONS, ['general'])

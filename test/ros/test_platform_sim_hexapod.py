@@ -160,10 +160,6 @@ def test_a_three_number_initial_pose_is_refused_for_the_hexapod():
         Path(log.name).unlink(missing_ok=True)
 
 
-# seconds of real time beside the node and the twin: in the slow tier (two
-# workers), as the node-driven one; beside the ros tier's three workers a CI run
-# held the test process up to 1.85 s
-@pytest.mark.slow
 def test_hexapod_twin_follows_the_solvers_commands(hexa, model, machine):
     """The motion-cueing sequence (7.5 s: surge with tilt coordination, heave,
     a coordinated yaw turn) as the node answers it, streamed in real time at
