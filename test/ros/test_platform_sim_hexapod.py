@@ -165,7 +165,7 @@ def test_hexapod_twin_follows_the_solvers_commands(hexa, model, machine):
     a coordinated yaw turn) as the node answers it, streamed in real time at
     100 Hz: each coordinate's RMS tracking error, against the commands as they
     were sent and at the delay that fits best (the poses just after the host
-    held the test or the twin back not judged: ``sim_harness.SETTLE``), is well
+    held the test or the twin back over ``sim_harness.HOLD_UP`` not judged), is well
     under its commanded RMS (offline, commands held at 100 Hz: 0.3-1.7 %
     of it; a twin that does not move: 100 %, one with a coordinate of the wrong
     sign: 200 %; not shifted: 3-18 % at 50 ms of delay, 6-35 % at 100 ms).
