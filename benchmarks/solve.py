@@ -1,5 +1,7 @@
-"""Solve cost: ``fsd.solve`` per call and ``fsd.solve_batch`` per sample, through
-the compiled kernel and through the Python code (FSD_KERNEL=0), in one run.
+"""Solve cost: ``fsd.solve`` per call, ``fsd.solve_batch`` per sample and
+``fsd.forward_kinematics`` per call (the lengths of the general motion's poses,
+and lengths no pose has), through the compiled kernel and through the Python
+code (FSD_KERNEL=0), in one run.
 
     python -m benchmarks.solve [--repeats 5] [--quick]
 """
@@ -38,6 +40,18 @@ def per_sample_us(model: fsd.Model, batch: tuple) -> float:
     return (time.perf_counter() - start) / len(batch[0]) * 1e6
 
 
+#: lengths no pose has: far too long, and one leg of next to no length
+UNREACHABLE = ([1e6, 1e6, 1e6], [1.2, 1e-9, 1.2])
+
+
+def forward_us(model: fsd.Model, lengths: list) -> float:
+    """``fsd.forward_kinematics`` from the centre, µs per call."""
+    start = time.perf_counter()
+    for L in lengths:
+        fsd.forward_kinematics(model, L)
+    return (time.perf_counter() - start) / len(lengths) * 1e6
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog='python -m benchmarks.solve',
                                 description=__doc__.splitlines()[0])
@@ -50,6 +64,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     model = fsd.load_model()
     paths = [('kernel', True), ('Python', False)] if kernel.available() else [('Python', False)]
     figures: dict[str, list[float]] = {}
+    reachable = [list(L) for L in fsd.solve_batch(model, *states(calls // 20)).length]
     for label, on in paths:
         with core_kernel.use_kernel(on):
             fsd.solve_batch(model, *states(10))                  # warm-up
@@ -58,14 +73,17 @@ def main(argv: Sequence[str] | None = None) -> int:
                 batch = states(n)
                 row.append(statistics.median(per_sample_us(model, batch)
                                              for _ in range(repeats)))
+            row.append(statistics.median(forward_us(model, reachable) for _ in range(repeats)))
+            row.append(statistics.median(forward_us(model, UNREACHABLE) * 1e-3
+                                         for _ in range(repeats)))
         figures[label] = row
     print(header(f'median of {repeats}; {calls} solves per run'))
     rows = [[label] + [f'{v:.2f}' for v in values] for label, values in figures.items()]
     if len(figures) == 2:
         rows.append(['Python / kernel'] + [f'{p / k:.1f}x' for k, p in
                                            zip(figures['kernel'], figures['Python'])])
-    print(table(['path', 'solve us/call'] + [f'solve_batch us/sample N={n:,}' for n in sizes],
-                rows))
+    print(table(['path', 'solve us/call'] + [f'solve_batch us/sample N={n:,}' for n in sizes]
+                + ['forward_kinematics us/call', 'unreachable lengths: ms/call'], rows))
     return 0
 
 

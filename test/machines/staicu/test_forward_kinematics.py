@@ -7,6 +7,8 @@ from hypothesis import given, settings, strategies as st
 import flight_sim_dynamics as fsd
 from flight_sim_dynamics import forward_kinematics
 from flight_sim_dynamics import Status
+from flight_sim_dynamics.core import kernel as core_kernel
+from flight_sim_dynamics.machines.staicu import kernel
 
 MODEL = fsd.load_model()
 
@@ -39,3 +41,27 @@ def test_lengths_outside_the_workspace_are_unreachable(lengths):
 
 def test_status_string_form_is_its_name():
     assert str(Status.NEAR_SINGULAR) == 'near_singular' and Status('limit') is Status.LIMIT
+
+
+@pytest.mark.skipif(not kernel.available(), reason='kernel not built (FSD_REQUIRE_KERNEL=0)')
+def test_the_kernels_lengths_find_the_python_codes_pose():
+    """L(q) and J_L by the solver's kernel (when enabled) or by the Python code:
+    the same status and pose, on lengths of poses across the workspace (one
+    that needs the continuation) and on lengths no pose has (after the seeds)."""
+    rng = np.random.default_rng(7)
+    q = np.column_stack([rng.uniform(-0.3, 0.3, 8), rng.uniform(-0.3, 0.8, 8),
+                         rng.uniform(-1.0, 1.0, 8)])
+    q = np.vstack([q, [(0.2, -0.2, 0.8)]])        # found by the continuation
+    sol = fsd.solve_batch(MODEL, q, np.zeros_like(q), np.zeros_like(q))
+    cases = [list(L) for L in sol.length[sol.status != Status.UNREACHABLE]]
+    cases.append([3.0, 3.0, 3.0])
+    statuses = set()
+    for lengths in cases:
+        with core_kernel.use_kernel(True):
+            fast = forward_kinematics(MODEL, lengths)
+        with core_kernel.use_kernel(False):
+            slow = forward_kinematics(MODEL, lengths)
+        assert fast.status == slow.status, (lengths, fast, slow)
+        np.testing.assert_allclose(fast.pose, slow.pose, atol=1e-10)
+        statuses.add(fast.status)
+    assert {Status.OK, Status.UNREACHABLE} <= statuses
