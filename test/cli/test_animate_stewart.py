@@ -174,11 +174,11 @@ def test_each_movie_frame_is_the_picture_of_a_whole_draw(model, motion):
 
     scene, drawn = _scene(model, motion, slice(0, None, 50))
     scene.start(40)
+    reference, _ = _scene(model, motion, slice(0, None, 50))     # drawn whole, frame by frame
+    reference.fig.set_dpi(40)
+    canvas = FigureCanvasAgg(reference.fig)
     for frame in drawn:
         picture = scene.picture(frame).astype(int)
-        reference, _ = _scene(model, motion, slice(0, None, 50))
-        reference.fig.set_dpi(40)
-        canvas = FigureCanvasAgg(reference.fig)
         reference.draw(frame)
         canvas.draw()
         whole = np.asarray(canvas.buffer_rgba()).astype(int)

@@ -32,6 +32,15 @@ def braking(tmp_path_factory) -> Path:
     return path
 
 
+@pytest.fixture(scope='module')
+def stop(braking, tmp_path_factory) -> Path:
+    """The example's first 6 s: cruise, then braking from 3 s."""
+    table = read(braking)
+    path = tmp_path_factory.mktemp('vehicle') / 'stop.csv'
+    csv_io.write_csv(path, table.names, table.data[table['t'] <= 6.0])
+    return path
+
+
 def test_the_example_writes_a_vehicle_log(braking):
     table = read(braking)
     assert table.names == VEHICLE_COLUMNS
@@ -56,7 +65,7 @@ def test_the_output_is_the_planners_run_in_the_machines_trajectory_columns(braki
     assert np.allclose(np.diff(table['t']), 1.0 / params.rate)
 
 
-def test_the_three_dof_machine_gets_its_channels_and_solve_reads_them_all_ok(braking, tmp_path,
+def test_the_three_dof_machine_gets_its_channels_and_solve_reads_them_all_ok(stop, tmp_path,
                                                                            capsys, monkeypatch):
     """Its params file plans the preview (L8): a long log reports the
     preview's passes, then the output's samples.
@@ -66,12 +75,8 @@ def test_the_three_dof_machine_gets_its_channels_and_solve_reads_them_all_ok(bra
     from flight_sim_dynamics.cli import cue
     monkeypatch.setattr(cue, 'LONG_RUN', 2000)
     monkeypatch.setattr(os, 'sched_getaffinity', lambda pid: {0})      # one process
-    table = read(braking)
-    head = table.data[table['t'] <= 6.0]        # cruise, then braking from 3 s
-    vehicle = tmp_path / 'stop.csv'
-    csv_io.write_csv(vehicle, table.names, head)
     out, solved = tmp_path / 'platform.csv', tmp_path / 'solved.csv'
-    assert main(['cue', str(vehicle), '-o', str(out)]) == 0
+    assert main(['cue', str(stop), '-o', str(out)]) == 0
     captured = capsys.readouterr()
     assert 'not cued: sway, pitch, yaw' in captured.out
     assert 'preview' in captured.out.splitlines()[0]        # the result line says so
@@ -84,9 +89,9 @@ def test_the_three_dof_machine_gets_its_channels_and_solve_reads_them_all_ok(bra
     assert set(read(solved).text['status']) == {'ok'}
 
 
-def test_report_and_figure(braking, tmp_path, capsys):
+def test_report_and_figure(stop, tmp_path, capsys):
     out, md, png = tmp_path / 'p.csv', tmp_path / 'cue.md', tmp_path / 'cue.png'
-    assert main(['cue', str(braking), '-o', str(out), '--params', HEXAPOD, '--report', str(md),
+    assert main(['cue', str(stop), '-o', str(out), '--params', HEXAPOD, '--report', str(md),
                  '--plot', str(png)]) == 0
     line = capsys.readouterr().out
     assert 'felt specific force RMSE' in line and 'solver: ok ' in line

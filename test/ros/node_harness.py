@@ -255,8 +255,9 @@ class Client:
     #: one that changes nothing (a transition no state has: refused), sent until answered
     PROBES = {ChangeState: lambda: ChangeState.Request(transition=Transition(id=255))}
 
-    def call(self, name: str, request: Any, timeout: float = 5.0) -> Any:
-        """``request`` to the service ``name``, its response (``timeout`` s each way).
+    def call(self, name: str, request: Any, timeout: float = 15.0) -> Any:
+        """``request`` to the service ``name``, its response (``timeout`` s each way:
+        a CI host at load 2.8 on 2 cores once answered a planner's set later than 5 s).
 
         A service drops its response to a client whose response reader it has
         not matched yet (rmw_fastrtps waits only its writer's max_blocking_time
