@@ -180,8 +180,8 @@ DELAYS = np.arange(0.0, 0.305, 0.005)
 #: (no tick: its poses' stamps jump): the twin ran its plant on a stale command
 #: or froze it (steps dropped, counted in /diagnostics) and then steps to the
 #: newest one. A hold-up of up to HOLD_UP (s) lags the motion by less than the
-#: fitted delays span, by at most 0.04 of the fastest sequence's 0.375 m/s:
-#: judged (under six busy loops on 2 cores the hexapod twin's worst RMS ratio
+#: fitted delays span (0.1 s at the fastest sequence's 0.375 m/s: 0.04 m at
+#: most) and is judged (under six busy loops on 2 cores the hexapod twin's worst RMS ratio
 #: went from 0.035 to 0.030 and its peak error from 0.005 to 0.008, against
 #: bounds of 0.5 and 0.1, with 221 of 748 poses judged, then all of them)
 HOLD_UP = 0.1
