@@ -127,26 +127,47 @@ def pytest_unconfigure(config: pytest.Config) -> None:
 
 
 # ---------------------------------------------------------------------------
-# The slow tier's node tests run one at a time across the workers: each runs
-# nodes in real time at about a core (dynamics node, twin and client: 50 + 37 +
-# 19 %), and two at once on 2 cores (a 1 kHz stream beside the node-driven
-# hexapod twin) held the twin's commands back 0.3 s. A lock file of the run
-# (pytest-xdist's run id) taken for the test's set-up, call and teardown; the
-# unit tests beside it take a core at most. (pytest-xdist's --dist loadgroup
-# would do it by scheduling, but 3.8 cannot rename pytest 9's node ids: its
-# groups are silently ignored.)
+# Scheduling across the workers, by lock files of the run (pytest-xdist's run
+# id), each taken for a test's set-up, call and teardown:
+#   real_time   a test judged on how closely a process follows real time (a
+#               twin's tracking) runs alone: it waits for the tests running,
+#               and no test starts until it ends. Beside two other workers on
+#               2 cores the hexapod twin got 443 of its 750 ticks out and fell
+#               more than 0.3 s behind its commands.
+#   slow + ros  the slow tier's node tests run one at a time: each runs nodes
+#               in real time at about a core (dynamics node, twin and client:
+#               50 + 37 + 19 %); two at once (a 1 kHz stream beside the
+#               node-driven twin) held the twin's commands back 0.3 s. The
+#               unit tests beside them take a core at most.
+# (pytest-xdist's --dist loadgroup could schedule the second, but 3.8 cannot
+# rename pytest 9's node ids: its groups are silently ignored.)
 # ---------------------------------------------------------------------------
-_ONE_AT_A_TIME = Path(tempfile.gettempdir()) / (
-    f'fsd_real_time_{os.environ.get("PYTEST_XDIST_TESTRUNUID", os.getpid())}.lock')
+_RUN = os.environ.get('PYTEST_XDIST_TESTRUNUID', str(os.getpid()))
+_LOCKS = {name: Path(tempfile.gettempdir()) / f'fsd_tests_{_RUN}_{name}.lock'
+          for name in ('turnstile', 'alone', 'slow_ros')}
 
 
 @contextlib.contextmanager
-def _alone_if_real_time(item: pytest.Item) -> Iterator[None]:
-    if not (item.get_closest_marker('slow') and item.get_closest_marker('ros')):
+def _locked(name: str, mode: int) -> Iterator[None]:
+    with open(_LOCKS[name], 'a') as lock:
+        fcntl.flock(lock, mode)                 # released when the file closes
         yield
-        return
-    with open(_ONE_AT_A_TIME, 'a') as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)        # released when the file closes
+
+
+@contextlib.contextmanager
+def _scheduled(item: pytest.Item) -> Iterator[None]:
+    """Every test holds 'alone' shared, a real_time test exclusive; the
+    turnstile (held by a real_time test while it waits and runs) keeps new
+    tests from starting meanwhile, so it is not starved."""
+    with contextlib.ExitStack() as held:
+        if item.get_closest_marker('real_time') is not None:
+            held.enter_context(_locked('turnstile', fcntl.LOCK_EX))
+            held.enter_context(_locked('alone', fcntl.LOCK_EX))
+        else:
+            with _locked('turnstile', fcntl.LOCK_EX):
+                held.enter_context(_locked('alone', fcntl.LOCK_SH))
+        if item.get_closest_marker('slow') and item.get_closest_marker('ros'):
+            held.enter_context(_locked('slow_ros', fcntl.LOCK_EX))
         yield
 
 
@@ -154,7 +175,7 @@ def _alone_if_real_time(item: pytest.Item) -> Iterator[None]:
 def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None):
     _running.append(item)          # its fixtures' set-up and teardown included
     try:
-        with _alone_if_real_time(item):
+        with _scheduled(item):
             return (yield)
     finally:
         _running.pop()

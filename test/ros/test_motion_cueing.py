@@ -91,7 +91,9 @@ def test_the_platform_washes_back_to_neutral_when_the_input_stops(chain):
     # at once (k_r 0.6 x 0.3 rad/s in one 5 ms sample: 36 rad/s^2 of yaw)
     accels = np.abs([a for _, a in client.accels[start_accel:]]).max(axis=0)
     assert np.all(accels[3:] < 5.0) and np.all(accels[:3] < 5.0), accels
-    values = client.cue_diagnostics(lambda v: True)
+    # a period without problems says the input's state (one with samples late on a
+    # busy host says that instead)
+    values = client.cue_diagnostics(lambda v: v['status'] == 'OK', 15.0)
     assert values['input'] == 'stale' and values['message'].startswith('input stale')
 
 

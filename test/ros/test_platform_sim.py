@@ -83,6 +83,7 @@ def test_twin_waits_at_rest_before_the_first_command():
         Path(log.name).unlink(missing_ok=True)
 
 
+@pytest.mark.real_time
 def test_simulated_pose_follows_the_commanded_one(pipeline):
     client, twin, sim, _ = pipeline
     sequence = PlannerSequence(MOTIONS, ['general'])

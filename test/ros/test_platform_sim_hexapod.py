@@ -160,6 +160,7 @@ def test_a_three_number_initial_pose_is_refused_for_the_hexapod():
         Path(log.name).unlink(missing_ok=True)
 
 
+@pytest.mark.real_time
 def test_hexapod_twin_follows_the_solvers_commands(hexa, model, machine):
     """The motion-cueing sequence (7.5 s: surge with tilt coordination, heave,
     a coordinated yaw turn) as the node answers it, streamed in real time at
@@ -303,6 +304,7 @@ def publish_setpoint(client, poses, stamp_ns: int, q, qd, qdd) -> None:
     client.pose_pub.publish(pose)
 
 
+@pytest.mark.real_time
 @pytest.mark.slow          # 7.5 s of motion through two nodes: 20 s of CPU
 def test_hexapod_twin_follows_the_nodes_commands(machine):
     """dynamics_node and platform_sim on config/stewart_6dof.yaml, one remap
